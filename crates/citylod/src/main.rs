@@ -1,1 +1,49 @@
-fn main() {}
+//! `citylod` — turns a city's buildings into an OGC 3D Tiles 1.1 tileset with measured levels of detail.
+//! Thin glue: flags, wiring of the stages, progress, exit codes (0 ok, 1 check failed, 2 usage or input error).
+
+mod build;
+mod features;
+mod progress;
+mod inspect;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "citylod", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Build a 3D Tiles tileset from building footprints (GeoJSON) or city models (CityJSON, CityJSONSeq).
+    Build(build::BuildArgs),
+    /// Print what a tileset holds: tiles, triangles, bytes and geometric errors per level.
+    Inspect(inspect::InspectArgs),
+}
+
+/// Exit code for usage errors and unreadable or invalid input.
+pub const EXIT_INPUT: u8 = 2;
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let _ = e.print();
+            return if e.use_stderr() { ExitCode::from(EXIT_INPUT) } else { ExitCode::SUCCESS };
+        }
+    };
+    let result = match cli.command {
+        Command::Build(args) => build::run(args),
+        Command::Inspect(args) => inspect::run(args),
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(EXIT_INPUT)
+        }
+    }
+}

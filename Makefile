@@ -1,0 +1,58 @@
+# citylod — the two commands a new user needs are `make demo` and `make test`.
+SHELL := /bin/bash
+.SHELLFLAGS := -eu -o pipefail -c
+CARGO ?= cargo
+BIN := target/release/citylod
+DEMO_IN := examples/nyc-les/les_buildings.geojson
+DEMO_OUT := demo-out/nyc-les
+SHARED := ../shared/data
+
+.PHONY: all setup build demo test test-rust test-browser bench fmt lint clean
+
+all: build
+
+## Installs what the tests and the demo need (apt packages as root, npm ci); idempotent.
+setup:
+	@bash scripts/setup.sh
+
+## Release build of the citylod binary.
+build:
+	$(CARGO) build --release --locked -p citylod
+
+## Builds a tileset of the bundled Lower East Side data and takes a screenshot of it in CesiumJS.
+demo: setup build
+	$(BIN) build $(DEMO_IN) --out $(DEMO_OUT)
+	$(BIN) inspect $(DEMO_OUT)
+	node tools/screenshot.mjs --tileset $(DEMO_OUT) --out $(DEMO_OUT)-cesium.png
+	@echo
+	@echo "Tileset:     $(DEMO_OUT)/tileset.json   (build report: $(DEMO_OUT)/build-report.json)"
+	@echo "Screenshot:  $(DEMO_OUT)-cesium.png"
+	@echo "Look around: node tools/serve.mjs --root $(DEMO_OUT)   then open the printed viewer address"
+
+## Every test: Rust unit, property, integration and end-to-end tests, glTF-Validator, and the two browser clients.
+test: setup test-rust test-browser
+
+test-rust:
+	@if $(CARGO) nextest --version >/dev/null 2>&1; then \
+		$(CARGO) nextest run --workspace --locked --no-fail-fast; \
+	else \
+		$(CARGO) test --workspace --locked --no-fail-fast; \
+	fi
+	$(CARGO) test --workspace --locked --doc
+
+test-browser:
+	node --test --test-concurrency=1 tests/browser/
+
+## Timings and peak memory on real data (needs ../shared/data).
+bench: build
+	$(CARGO) build --release --locked -p citylod-bench
+	target/release/citylod-bench --citylod $(BIN) --data $(SHARED)
+
+fmt:
+	$(CARGO) fmt --all
+
+lint:
+	$(CARGO) clippy --workspace --all-targets -- -D warnings
+
+clean:
+	rm -rf target demo-out node_modules

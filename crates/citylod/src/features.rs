@@ -1,0 +1,134 @@
+//! The `building` metadata class of a build: fixed properties (source id, citylod's building index, height)
+//! followed by every input attribute, its type inferred over all buildings (boolean, number, else string),
+//! and the per-building rows of that table. Property ids are the attribute names made safe for
+//! EXT_structural_metadata (`[A-Za-z_][A-Za-z0-9_]*`); the original name is kept as the property's `name`.
+
+use citylod_model::{AttrValue, Building, Mesh3d};
+use citylod_tiles::{ClassDef, ContentFeature, MetadataSchema, PropValue, PropertyDef, PropertyKind};
+use std::collections::{BTreeMap, BTreeSet};
+
+pub struct BuildingTable {
+    class: ClassDef,
+    /// (attribute name, inferred kind), in the class's property order after the fixed properties.
+    attrs: Vec<(String, PropertyKind)>,
+}
+
+const FIXED: [(&str, PropertyKind, &str); 5] = [
+    ("source_id", PropertyKind::String, "the feature's id in the input"),
+    ("building_index", PropertyKind::UInt32, "citylod's index of the building (input order)"),
+    ("height_m", PropertyKind::Float64, "height above the ground, metres"),
+    ("ground_z_m", PropertyKind::Float64, "ground height in the tileset's local frame, metres"),
+    ("height_source", PropertyKind::String, "which rule gave the height"),
+];
+
+impl BuildingTable {
+    pub fn new(buildings: &[Building]) -> Self {
+        let mut kinds: BTreeMap<&str, Option<PropertyKind>> = BTreeMap::new();
+        for b in buildings {
+            for (k, v) in &b.attributes {
+                let seen = kinds.entry(k.as_str()).or_insert(None);
+                let this = match v {
+                    AttrValue::Null => continue,
+                    AttrValue::Bool(_) => PropertyKind::Boolean,
+                    AttrValue::Int(_) | AttrValue::Float(_) => PropertyKind::Float64,
+                    AttrValue::String(_) => PropertyKind::String,
+                };
+                *seen = Some(match *seen {
+                    None => this,
+                    Some(prev) if prev == this => prev,
+                    Some(_) => PropertyKind::String,
+                });
+            }
+        }
+        let mut used: BTreeSet<String> = FIXED.iter().map(|f| f.0.to_string()).collect();
+        let mut properties: Vec<PropertyDef> = FIXED
+            .iter()
+            .map(|&(id, kind, desc)| PropertyDef {
+                id: id.to_string(),
+                name: None,
+                kind,
+                description: Some(desc.to_string()),
+            })
+            .collect();
+        let mut attrs = Vec::new();
+        for (name, kind) in kinds {
+            // An attribute that is null everywhere still gets a column, so no attribute is dropped.
+            let kind = kind.unwrap_or(PropertyKind::String);
+            let id = unique_id(name, &mut used);
+            properties.push(PropertyDef {
+                name: (id != name).then(|| name.to_string()),
+                id,
+                kind,
+                description: None,
+            });
+            attrs.push((name.to_string(), kind));
+        }
+        Self { class: ClassDef { id: "building".into(), properties }, attrs }
+    }
+
+    pub fn schema(&self) -> MetadataSchema {
+        MetadataSchema { id: "citylod".into(), classes: vec![self.class.clone()] }
+    }
+
+    pub fn feature(&self, b: &Building, mesh: Mesh3d) -> ContentFeature {
+        let mut values = Vec::with_capacity(self.class.properties.len());
+        values.push(PropValue::Str(b.source_id.clone()));
+        values.push(PropValue::Int(b.id.0 as i64));
+        values.push(PropValue::Float(b.height_m));
+        values.push(PropValue::Float(b.base_z_m));
+        values.push(PropValue::Str(
+            serde_json::to_value(b.height_source).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_default(),
+        ));
+        for (name, kind) in &self.attrs {
+            values.push(match (b.attributes.get(name), kind) {
+                (None | Some(AttrValue::Null), _) => PropValue::Null,
+                (Some(AttrValue::Bool(v)), PropertyKind::Boolean) => PropValue::Bool(*v),
+                (Some(AttrValue::Int(v)), PropertyKind::Float64) => PropValue::Float(*v as f64),
+                (Some(AttrValue::Float(v)), PropertyKind::Float64) => PropValue::Float(*v),
+                (Some(v), _) => PropValue::Str(as_text(v)),
+            });
+        }
+        ContentFeature { mesh, class: 0, values }
+    }
+}
+
+fn as_text(v: &AttrValue) -> String {
+    match v {
+        AttrValue::Null => String::new(),
+        AttrValue::Bool(b) => b.to_string(),
+        AttrValue::Int(i) => i.to_string(),
+        AttrValue::Float(f) => f.to_string(),
+        AttrValue::String(s) => s.clone(),
+    }
+}
+
+/// `building:levels` → `building_levels`; a leading digit gets a `_`; clashes get `_2`, `_3`, ….
+fn unique_id(name: &str, used: &mut BTreeSet<String>) -> String {
+    let mut base: String = name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '_' { c } else { '_' }).collect();
+    if base.is_empty() || base.starts_with(|c: char| c.is_ascii_digit()) {
+        base.insert(0, '_');
+    }
+    let mut id = base.clone();
+    let mut k = 2;
+    while used.contains(&id) {
+        id = format!("{base}_{k}");
+        k += 1;
+    }
+    used.insert(id.clone());
+    id
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn property_ids_are_safe_and_unique() {
+        let mut used: BTreeSet<String> = ["height_m".to_string()].into();
+        assert_eq!(unique_id("building:levels", &mut used), "building_levels");
+        assert_eq!(unique_id("building_levels", &mut used), "building_levels_2");
+        assert_eq!(unique_id("3dbag", &mut used), "_3dbag");
+        assert_eq!(unique_id("height_m", &mut used), "height_m_2");
+        assert_eq!(unique_id("", &mut used), "_");
+    }
+}

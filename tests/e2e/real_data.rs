@@ -1,0 +1,208 @@
+//! citylod build on the real data sets: counts add up, nothing is lost, placement on the globe is right,
+//! every glb passes glTF-Validator, every JSON file validates against `schemas/`, output is deterministic.
+
+use crate::common::*;
+use citylod_model::ecef_to_geodetic;
+use citylod_tiles::read::{read_tileset, TilesetData};
+use citylod_tiles::PropValue;
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// Skip reasons a build may give; anything else means a reason was invented without a test.
+const KNOWN_SKIP_REASONS: &[&str] = &[
+    "not_a_polygon",
+    "empty_geometry",
+    "non_finite_coordinate",
+    "too_few_points",
+    "zero_area",
+    "out_of_crs_range",
+    "invalid_geometry",
+    "mesh_failure",
+];
+
+/// Builds `name` into `target/e2e/<name>` and runs every check that does not depend on the input format.
+fn build_and_check(name: &str, inputs: &[&Path], extra: &[&str]) -> (Value, TilesetData) {
+    let out = e2e_dir(name);
+    let report = build(inputs, &out, extra);
+
+    // Counts add up: every feature read is written or skipped with a reason.
+    let c = &report["counts"];
+    let (read, written, skipped) =
+        (c["features_read"].as_u64().unwrap(), c["buildings_written"].as_u64().unwrap(), c["skipped"].as_u64().unwrap());
+    assert!(written > 0);
+    assert_eq!(read, written + skipped, "{name}: features read != written + skipped");
+    let skipped_list: Vec<&Value> = report["ingest"]["skipped"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .chain(report["mesh_skipped"].as_array().unwrap())
+        .collect();
+    assert_eq!(skipped_list.len() as u64, skipped, "{name}: every skip is listed");
+    for s in &skipped_list {
+        let reason = s["reason"].as_str().unwrap();
+        assert!(KNOWN_SKIP_REASONS.contains(&reason), "{name}: unknown skip reason {reason}");
+        assert!(!s["feature_id"].as_str().unwrap().is_empty(), "{name}: skip without a feature id");
+    }
+
+    // JSON files against their schemas.
+    let ts_json = read_json(&out.join("tileset.json"));
+    let errs = schema_errors("tileset.schema.json", &ts_json);
+    assert!(errs.is_empty(), "{name}: tileset.json schema errors:\n{}", errs.join("\n"));
+    let errs = schema_errors("build-report.schema.json", &report);
+    assert!(errs.is_empty(), "{name}: build-report.json schema errors:\n{}", errs.join("\n"));
+
+    // Khronos glTF-Validator: zero errors on every glb.
+    let v = gltf_validator(&out);
+    assert!(v["files"].as_u64().unwrap() > 0, "{name}: validator saw no glb");
+    assert_eq!(v["errors"].as_u64(), Some(0), "{name}: glTF-Validator errors: {:#}", v["messages"]);
+
+    // Nothing lost: every building exactly once in the leaf tiles.
+    let ts = read_tileset(&out.join("tileset.json")).expect("read back the tileset");
+    let mut seen = vec![0u32; written as usize];
+    for tile in ts.tiles.iter().filter(|t| t.children.is_empty()) {
+        let content = tile.content.as_ref().expect("every leaf tile has content");
+        for row in &content.properties {
+            match row.get("building_index") {
+                Some(PropValue::Int(i)) => seen[*i as usize] += 1,
+                Some(PropValue::Float(f)) => seen[*f as usize] += 1,
+                other => panic!("{name}: building_index missing or mistyped: {other:?}"),
+            }
+        }
+    }
+    let missing = seen.iter().filter(|&&n| n == 0).count();
+    let twice = seen.iter().filter(|&&n| n > 1).count();
+    assert_eq!((missing, twice), (0, 0), "{name}: buildings missing / present more than once in the leaves");
+    (report, ts)
+}
+
+/// Largest distance (m) between the lon/lat bounding box of each sampled building read back from the tileset
+/// (root transform × glb positions → ECEF → WGS84) and the bounding box of its input ring coordinates.
+fn placement_error_m(geojson: &Path, ts: &TilesetData, sample_every: usize) -> (f64, usize) {
+    let doc = read_json(geojson);
+    let features = doc["features"].as_array().unwrap();
+    let mut by_id: BTreeMap<String, usize> = BTreeMap::new();
+    for (i, f) in features.iter().enumerate() {
+        if let Some(id) = f.get("id").filter(|v| !v.is_null()) {
+            by_id.insert(id.as_str().map(str::to_string).unwrap_or_else(|| id.to_string()), i);
+        }
+    }
+    let m = ts.root_transform;
+    let mut worst = 0.0f64;
+    let mut checked = 0;
+    for tile in ts.tiles.iter().filter(|t| t.children.is_empty()) {
+        let content = tile.content.as_ref().unwrap();
+        for (fid, row) in content.properties.iter().enumerate() {
+            let Some(PropValue::Str(source_id)) = row.get("source_id") else { panic!("source_id missing") };
+            let Some(PropValue::Int(bi)) = row.get("building_index").cloned().or(Some(PropValue::Int(0))) else {
+                unreachable!()
+            };
+            if bi as usize % sample_every != 0 {
+                continue;
+            }
+            let index = by_id
+                .get(source_id)
+                .copied()
+                .or_else(|| source_id.rsplit('#').next().and_then(|n| n.parse().ok()))
+                .unwrap_or_else(|| panic!("cannot find input feature {source_id}"));
+            let (mut lo, mut hi) = ([f64::MAX; 2], [f64::MIN; 2]);
+            collect_coords(&features[index]["geometry"]["coordinates"], &mut |x, y| {
+                lo = [lo[0].min(x), lo[1].min(y)];
+                hi = [hi[0].max(x), hi[1].max(y)];
+            });
+            let (mut glo, mut ghi) = ([f64::MAX; 2], [f64::MIN; 2]);
+            for (v, p) in content.positions_local.iter().enumerate() {
+                if content.feature_ids[v] as usize != fid {
+                    continue;
+                }
+                let e: [f64; 3] = std::array::from_fn(|r| m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r]);
+                let g = ecef_to_geodetic(e);
+                glo = [glo[0].min(g[0]), glo[1].min(g[1])];
+                ghi = [ghi[0].max(g[0]), ghi[1].max(g[1])];
+            }
+            let lat = (lo[1] + hi[1]).to_radians() / 2.0;
+            let m_per_deg_lat = 111_132.0;
+            let m_per_deg_lon = 111_320.0 * lat.cos();
+            for (a, b) in [(lo, glo), (hi, ghi)] {
+                let d = ((a[0] - b[0]) * m_per_deg_lon).hypot((a[1] - b[1]) * m_per_deg_lat);
+                worst = worst.max(d);
+            }
+            checked += 1;
+        }
+    }
+    (worst, checked)
+}
+
+fn collect_coords(v: &Value, f: &mut impl FnMut(f64, f64)) {
+    match v.as_array() {
+        Some(a) if a.len() >= 2 && a[0].is_number() => f(a[0].as_f64().unwrap(), a[1].as_f64().unwrap()),
+        Some(a) => a.iter().for_each(|c| collect_coords(c, f)),
+        None => {}
+    }
+}
+
+#[test]
+fn nyc_les_tileset_is_valid_complete_and_in_place() {
+    // The bundled copy, so this runs on every clone.
+    let input = repo_root().join("examples/nyc-les/les_buildings.geojson");
+    let (report, ts) = build_and_check("nyc", &[&input], &[]);
+    assert_eq!(report["counts"]["features_read"], 1416);
+    // OSM heights are strings ("28"); most buildings have one.
+    let from_attr = report["ingest"]["height_sources"]["known_attribute"].as_u64().unwrap_or(0);
+    assert!(from_attr >= 1300, "expected string heights to parse, got {from_attr} from attributes");
+    let (err_m, n) = placement_error_m(&input, &ts, 7);
+    assert!(n >= 150, "placement checked on {n} buildings only");
+    assert!(err_m < 0.5, "placement error {err_m:.3} m");
+}
+
+#[test]
+fn boston_tileset_is_valid_complete_and_in_place() {
+    let Some(input) = shared_data("boston/boston_buildings.geojson") else { return };
+    let (report, ts) = build_and_check("boston", &[&input], &["--storey-height", "3.5"]);
+    assert_eq!(report["counts"]["features_read"], 22186);
+    let hs = &report["ingest"]["height_sources"];
+    // 82 % have `stories`; the rest fall back to the default height, and both are counted.
+    let storeys = hs["storeys"].as_u64().unwrap_or(0);
+    let default = hs["default"].as_u64().unwrap_or(0);
+    assert!(storeys > 15_000 && default > 2_000, "height sources: {hs}");
+    let (err_m, n) = placement_error_m(&input, &ts, 97);
+    assert!(n >= 200);
+    assert!(err_m < 0.5, "placement error {err_m:.3} m");
+}
+
+#[test]
+fn delft_cityjsonseq_tileset_is_valid_and_complete() {
+    let Some(input) = shared_data("delft-3dbag/delft.city.jsonl") else { return };
+    let (report, ts) = build_and_check("delft", &[&input], &[]);
+    assert_eq!(report["counts"]["features_read"], 1115);
+    assert!(report["ingest"]["height_sources"]["roof_minus_ground"].as_u64().unwrap_or(0) > 1000);
+    // RD New (EPSG:28992) → WGS84: the tileset's origin lies in south Delft.
+    let o = ecef_to_geodetic([ts.root_transform[12], ts.root_transform[13], ts.root_transform[14]]);
+    assert!((4.33..4.40).contains(&o[0]) && (51.98..52.03).contains(&o[1]), "origin {o:?} is not in Delft");
+}
+
+#[test]
+fn same_input_gives_byte_identical_output() {
+    let input = repo_root().join("examples/nyc-les/les_buildings.geojson");
+    let d = scratch_dir("determinism");
+    let (a, b) = (d.join("a"), d.join("b"));
+    build(&[&input], &a, &[]);
+    build(&[&input], &b, &[]);
+    let (ta, tb) = (tree_bytes(&a), tree_bytes(&b));
+    assert_eq!(ta.len(), tb.len());
+    for ((na, ba), (nb, bb)) in ta.iter().zip(&tb) {
+        assert_eq!(na, nb);
+        if na == "build-report.json" {
+            // The report differs only in its timings.
+            let strip = |bytes: &[u8]| {
+                let mut v: Value = serde_json::from_slice(bytes).unwrap();
+                v.as_object_mut().unwrap().remove("timings_ms");
+                v
+            };
+            assert_eq!(strip(ba), strip(bb));
+        } else {
+            assert!(ba == bb, "{na} differs between two builds of the same input");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
