@@ -60,10 +60,10 @@ fn broken_features_are_skipped_or_repaired_with_reasons() {
             .collect()
     };
     assert_eq!(reason_of("skipped", "two-points"), ["too_few_points"]);
-    assert_eq!(reason_of("skipped", "far-away"), ["out_of_crs_range"]);
+    assert_eq!(reason_of("skipped", "far-away"), ["coordinate_out_of_range"]);
     assert_eq!(reason_of("skipped", "flat"), ["zero_area"]);
-    assert_eq!(reason_of("skipped", "a-point"), ["not_a_polygon"]);
-    assert_eq!(reason_of("skipped", "no-geometry"), ["empty_geometry"]);
+    assert_eq!(reason_of("skipped", "a-point"), ["unsupported_geometry"]);
+    assert_eq!(reason_of("skipped", "no-geometry"), ["no_geometry"]);
     assert!(!reason_of("repaired", "bowtie").is_empty(), "the bowtie is repaired and reported");
     assert!(!reason_of("repaired", "unclosed").is_empty(), "the unclosed ring is closed and reported");
     let hs = &report["ingest"]["height_sources"];

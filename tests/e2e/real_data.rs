@@ -11,14 +11,18 @@ use std::path::Path;
 
 /// Skip reasons a build may give; anything else means a reason was invented without a test.
 const KNOWN_SKIP_REASONS: &[&str] = &[
-    "not_a_polygon",
+    "no_geometry",
+    "unsupported_geometry",
+    "malformed_geometry",
     "empty_geometry",
     "non_finite_coordinate",
+    "coordinate_out_of_range",
+    "transform_failed",
     "too_few_points",
     "zero_area",
-    "out_of_crs_range",
-    "invalid_geometry",
-    "mesh_failure",
+    "no_footprint",
+    "repair_failed",
+    "mesh_failed",
 ];
 
 /// Builds `name` into `target/e2e/<name>` and runs every check that does not depend on the input format.

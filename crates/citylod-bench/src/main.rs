@@ -2,6 +2,8 @@
 //! child process, so the peak resident set size (from `wait4`'s rusage) belongs to that case alone.
 //! Benchmarks are not tests: they print figures against the targets of DESIGN.md §9 and never fail on time.
 
+mod synth;
+
 use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
 use std::process::Command;
