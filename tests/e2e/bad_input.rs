@@ -17,11 +17,20 @@ fn stderr_of(o: &std::process::Output) -> String {
 
 fn assert_no_panic(o: &std::process::Output) {
     let e = stderr_of(o);
-    assert!(!e.contains("panicked") && o.status.code() != Some(101), "citylod panicked:\n{e}");
+    assert!(
+        !e.contains("panicked") && o.status.code() != Some(101),
+        "citylod panicked:\n{e}"
+    );
 }
 
 fn square(lon: f64, lat: f64, d: f64) -> Value {
-    json!([[[lon, lat], [lon + d, lat], [lon + d, lat + d], [lon, lat + d], [lon, lat]]])
+    json!([[
+        [lon, lat],
+        [lon + d, lat],
+        [lon + d, lat + d],
+        [lon, lat + d],
+        [lon, lat]
+    ]])
 }
 
 fn feature(id: &str, props: Value, geometry: Value) -> Value {
@@ -49,7 +58,10 @@ fn broken_features_are_skipped_or_repaired_with_reasons() {
     let report = build(&[&input], &d.join("out"), &[]);
     let c = &report["counts"];
     assert_eq!(c["features_read"], 9);
-    assert_eq!(c["buildings_written"], 4, "good, no-height, bowtie and unclosed are written: {report:#}");
+    assert_eq!(
+        c["buildings_written"], 4,
+        "good, no-height, bowtie and unclosed are written: {report:#}"
+    );
     let reason_of = |list: &str, id: &str| -> Vec<String> {
         report["ingest"][list]
             .as_array()
@@ -60,15 +72,30 @@ fn broken_features_are_skipped_or_repaired_with_reasons() {
             .collect()
     };
     assert_eq!(reason_of("skipped", "two-points"), ["too_few_points"]);
-    assert_eq!(reason_of("skipped", "far-away"), ["coordinate_out_of_range"]);
+    assert_eq!(
+        reason_of("skipped", "far-away"),
+        ["coordinate_out_of_range"]
+    );
     assert_eq!(reason_of("skipped", "flat"), ["zero_area"]);
     assert_eq!(reason_of("skipped", "a-point"), ["unsupported_geometry"]);
     assert_eq!(reason_of("skipped", "no-geometry"), ["no_geometry"]);
-    assert!(!reason_of("repaired", "bowtie").is_empty(), "the bowtie is repaired and reported");
-    assert!(!reason_of("repaired", "unclosed").is_empty(), "the unclosed ring is closed and reported");
+    assert!(
+        !reason_of("repaired", "bowtie").is_empty(),
+        "the bowtie is repaired and reported"
+    );
+    assert!(
+        !reason_of("repaired", "unclosed").is_empty(),
+        "the unclosed ring is closed and reported"
+    );
     let hs = &report["ingest"]["height_sources"];
-    assert_eq!(hs["default"], 1, "the building without height falls back to the default: {hs}");
-    assert_eq!(hs["known_attribute"], 3, "'28 m', 12 and '9' are read from attributes: {hs}");
+    assert_eq!(
+        hs["default"], 1,
+        "the building without height falls back to the default: {hs}"
+    );
+    assert_eq!(
+        hs["known_attribute"], 3,
+        "'28 m', 12 and '9' are read from attributes: {hs}"
+    );
 }
 
 #[test]
@@ -81,7 +108,7 @@ fn unreadable_inputs_exit_2_with_a_clear_message() {
         (vec![d.join("does-not-exist.geojson").display().to_string()], "does-not-exist.geojson"),
         (vec![good.display().to_string(), "--crs".into(), "EPSG:999999".into()], "EPSG:999999"),
         (vec![write(&d, "empty.geojson", r#"{"type":"FeatureCollection","features":[]}"#).display().to_string()], "no building"),
-        (vec![good.display().to_string(), "--storey-height".into(), "-1".into()], "--storey-height"),
+        (vec![good.display().to_string(), "--storey-height=-1".into()], "--storey-height"),
     ];
     for (inputs, expect) in cases {
         let out = d.join("out");
@@ -90,28 +117,60 @@ fn unreadable_inputs_exit_2_with_a_clear_message() {
         args.extend(["--out".into(), out.display().to_string()]);
         let o = citylod(&args.iter().map(String::as_str).collect::<Vec<_>>());
         assert_no_panic(&o);
-        assert_eq!(o.status.code(), Some(2), "{args:?} should exit 2; stderr:\n{}", stderr_of(&o));
-        assert!(stderr_of(&o).contains(expect), "stderr should mention {expect}:\n{}", stderr_of(&o));
-        assert!(!out.exists(), "a failed build must not leave {}", out.display());
+        assert_eq!(
+            o.status.code(),
+            Some(2),
+            "{args:?} should exit 2; stderr:\n{}",
+            stderr_of(&o)
+        );
+        assert!(
+            stderr_of(&o).contains(expect),
+            "stderr should mention {expect}:\n{}",
+            stderr_of(&o)
+        );
+        assert!(
+            !out.exists(),
+            "a failed build must not leave {}",
+            out.display()
+        );
     }
     let o = citylod(&["build"]);
-    assert_eq!(o.status.code(), Some(2), "missing arguments are a usage error");
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "missing arguments are a usage error"
+    );
 }
 
 #[test]
 fn failed_build_leaves_existing_output_untouched() {
     let d = scratch_dir("atomic");
     let out = d.join("tiles");
-    build(&[&repo_root().join("examples/nyc-les/les_buildings.geojson")], &out, &[]);
+    build(
+        &[&repo_root().join("examples/nyc-les/les_buildings.geojson")],
+        &out,
+        &[],
+    );
     let before = tree_bytes(&out);
     let bad = write(&d, "bad.geojson", "{ not json");
-    let o = citylod(&["build", bad.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    let o = citylod(&[
+        "build",
+        bad.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(before == tree_bytes(&out), "the previous tileset must survive a failed build");
+    assert!(
+        before == tree_bytes(&out),
+        "the previous tileset must survive a failed build"
+    );
     let leftovers: Vec<_> = std::fs::read_dir(&d)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .filter(|n| n.contains("tmp"))
         .collect();
-    assert!(leftovers.is_empty(), "temporary folders left behind: {leftovers:?}");
+    assert!(
+        leftovers.is_empty(),
+        "temporary folders left behind: {leftovers:?}"
+    );
 }

@@ -5,7 +5,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 pub fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").canonicalize().expect("repo root")
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .canonicalize()
+        .expect("repo root")
 }
 
 /// `../shared/data/<rel>` if present; `None` (and a printed reason) when a user's clone has no shared data.
@@ -14,25 +17,34 @@ pub fn shared_data(rel: &str) -> Option<PathBuf> {
     if p.exists() {
         Some(p)
     } else {
-        eprintln!("SKIP: {} not found (the shared data folder is not beside this clone)", p.display());
+        eprintln!(
+            "SKIP: {} not found (the shared data folder is not beside this clone)",
+            p.display()
+        );
         None
     }
 }
 
 /// Where a named tileset is kept for the browser tests: `target/e2e/<name>`.
 pub fn e2e_dir(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_TARGET_TMPDIR")).join("../e2e").join(name)
+    Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("../e2e")
+        .join(name)
 }
 
 pub fn scratch_dir(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("e2e-{name}-{}", std::process::id()));
+    let d =
+        Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("e2e-{name}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
 }
 
 pub fn citylod(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_citylod")).args(args).output().expect("run citylod")
+    Command::new(env!("CARGO_BIN_EXE_citylod"))
+        .args(args)
+        .output()
+        .expect("run citylod")
 }
 
 /// Runs `citylod build` and panics with its stderr when it does not exit 0.
@@ -43,7 +55,12 @@ pub fn build(inputs: &[&Path], out: &Path, extra: &[&str]) -> Value {
     args.extend(["--out".into(), out.display().to_string(), "--quiet".into()]);
     let a: Vec<&str> = args.iter().map(String::as_str).collect();
     let o = citylod(&a);
-    assert!(o.status.success(), "citylod build failed ({:?}):\n{}", o.status, String::from_utf8_lossy(&o.stderr));
+    assert!(
+        o.status.success(),
+        "citylod build failed ({:?}):\n{}",
+        o.status,
+        String::from_utf8_lossy(&o.stderr)
+    );
     read_json(&out.join("build-report.json"))
 }
 
@@ -56,7 +73,10 @@ pub fn read_json(p: &Path) -> Value {
 pub fn schema_errors(schema: &str, instance: &Value) -> Vec<String> {
     let schema = read_json(&repo_root().join("schemas").join(schema));
     let validator = jsonschema::validator_for(&schema).expect("schema compiles");
-    validator.iter_errors(instance).map(|e| format!("{}: {}", e.instance_path(), e)).collect()
+    validator
+        .iter_errors(instance)
+        .map(|e| format!("{}: {}", e.instance_path(), e))
+        .collect()
 }
 
 /// Runs the Khronos glTF-Validator (npm `gltf-validator`, installed by `make setup`) on every glb of a tileset.
@@ -66,9 +86,16 @@ pub fn gltf_validator(dir: &Path) -> Value {
         root.join("node_modules/gltf-validator").exists(),
         "node_modules/gltf-validator is missing: run `make setup` (or `make test`, which runs it) first"
     );
-    let o = Command::new("node").arg(root.join("tools/validate-gltf.mjs")).arg(dir).output().expect("run node");
+    let o = Command::new("node")
+        .arg(root.join("tools/validate-gltf.mjs"))
+        .arg(dir)
+        .output()
+        .expect("run node");
     serde_json::from_slice(&o.stdout).unwrap_or_else(|e| {
-        panic!("validator output is not JSON ({e}); stderr:\n{}", String::from_utf8_lossy(&o.stderr))
+        panic!(
+            "validator output is not JSON ({e}); stderr:\n{}",
+            String::from_utf8_lossy(&o.stderr)
+        )
     })
 }
 
@@ -80,7 +107,10 @@ pub fn tree_bytes(dir: &Path) -> Vec<(String, Vec<u8>)> {
             if p.is_dir() {
                 walk(base, &p, out);
             } else {
-                out.push((p.strip_prefix(base).unwrap().display().to_string(), std::fs::read(&p).unwrap()));
+                out.push((
+                    p.strip_prefix(base).unwrap().display().to_string(),
+                    std::fs::read(&p).unwrap(),
+                ));
             }
         }
     }

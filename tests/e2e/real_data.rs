@@ -32,42 +32,75 @@ fn build_and_check(name: &str, inputs: &[&Path], extra: &[&str]) -> (Value, Tile
 
     // Counts add up: every feature read is written or skipped with a reason.
     let c = &report["counts"];
-    let (read, written, skipped) =
-        (c["features_read"].as_u64().unwrap(), c["buildings_written"].as_u64().unwrap(), c["skipped"].as_u64().unwrap());
+    let (read, written, skipped) = (
+        c["features_read"].as_u64().unwrap(),
+        c["buildings_written"].as_u64().unwrap(),
+        c["skipped"].as_u64().unwrap(),
+    );
     assert!(written > 0);
-    assert_eq!(read, written + skipped, "{name}: features read != written + skipped");
+    assert_eq!(
+        read,
+        written + skipped,
+        "{name}: features read != written + skipped"
+    );
     let skipped_list: Vec<&Value> = report["ingest"]["skipped"]
         .as_array()
         .unwrap()
         .iter()
         .chain(report["mesh_skipped"].as_array().unwrap())
         .collect();
-    assert_eq!(skipped_list.len() as u64, skipped, "{name}: every skip is listed");
+    assert_eq!(
+        skipped_list.len() as u64,
+        skipped,
+        "{name}: every skip is listed"
+    );
     for s in &skipped_list {
         let reason = s["reason"].as_str().unwrap();
-        assert!(KNOWN_SKIP_REASONS.contains(&reason), "{name}: unknown skip reason {reason}");
-        assert!(!s["feature_id"].as_str().unwrap().is_empty(), "{name}: skip without a feature id");
+        assert!(
+            KNOWN_SKIP_REASONS.contains(&reason),
+            "{name}: unknown skip reason {reason}"
+        );
+        assert!(
+            !s["feature_id"].as_str().unwrap().is_empty(),
+            "{name}: skip without a feature id"
+        );
     }
 
     // JSON files against their schemas.
     let ts_json = read_json(&out.join("tileset.json"));
     let errs = schema_errors("tileset.schema.json", &ts_json);
-    assert!(errs.is_empty(), "{name}: tileset.json schema errors:\n{}", errs.join("\n"));
+    assert!(
+        errs.is_empty(),
+        "{name}: tileset.json schema errors:\n{}",
+        errs.join("\n")
+    );
     let errs = schema_errors("build-report.schema.json", &report);
-    assert!(errs.is_empty(), "{name}: build-report.json schema errors:\n{}", errs.join("\n"));
+    assert!(
+        errs.is_empty(),
+        "{name}: build-report.json schema errors:\n{}",
+        errs.join("\n")
+    );
 
     // Khronos glTF-Validator: zero errors on every glb.
     let v = gltf_validator(&out);
-    assert!(v["files"].as_u64().unwrap() > 0, "{name}: validator saw no glb");
-    assert_eq!(v["errors"].as_u64(), Some(0), "{name}: glTF-Validator errors: {:#}", v["messages"]);
+    assert!(
+        v["files"].as_u64().unwrap() > 0,
+        "{name}: validator saw no glb"
+    );
+    assert_eq!(
+        v["errors"].as_u64(),
+        Some(0),
+        "{name}: glTF-Validator errors: {:#}",
+        v["messages"]
+    );
 
     // Nothing lost: every building exactly once in the leaf tiles.
     let ts = read_tileset(&out.join("tileset.json")).expect("read back the tileset");
     let mut seen = vec![0u32; written as usize];
     for tile in ts.tiles.iter().filter(|t| t.children.is_empty()) {
         let content = tile.content.as_ref().expect("every leaf tile has content");
-        for row in &content.properties {
-            match row.get("building_index") {
+        for row in &content.features {
+            match row.values.get("building_index") {
                 Some(PropValue::Int(i)) => seen[*i as usize] += 1,
                 Some(PropValue::Float(f)) => seen[*f as usize] += 1,
                 other => panic!("{name}: building_index missing or mistyped: {other:?}"),
@@ -76,7 +109,11 @@ fn build_and_check(name: &str, inputs: &[&Path], extra: &[&str]) -> (Value, Tile
     }
     let missing = seen.iter().filter(|&&n| n == 0).count();
     let twice = seen.iter().filter(|&&n| n > 1).count();
-    assert_eq!((missing, twice), (0, 0), "{name}: buildings missing / present more than once in the leaves");
+    assert_eq!(
+        (missing, twice),
+        (0, 0),
+        "{name}: buildings missing / present more than once in the leaves"
+    );
     (report, ts)
 }
 
@@ -88,7 +125,17 @@ fn placement_error_m(geojson: &Path, ts: &TilesetData, sample_every: usize) -> (
     let mut by_id: BTreeMap<String, usize> = BTreeMap::new();
     for (i, f) in features.iter().enumerate() {
         if let Some(id) = f.get("id").filter(|v| !v.is_null()) {
-            by_id.insert(id.as_str().map(str::to_string).unwrap_or_else(|| id.to_string()), i);
+            by_id.insert(
+                id.as_str()
+                    .map(str::to_string)
+                    .unwrap_or_else(|| id.to_string()),
+                i,
+            );
+        }
+        // OSM extracts carry their id as osm_type + osm_id ("way/110").
+        let p = &f["properties"];
+        if let (Some(t), Some(n)) = (p["osm_type"].as_str(), p["osm_id"].as_i64()) {
+            by_id.insert(format!("{t}/{n}"), i);
         }
     }
     let m = ts.root_transform;
@@ -96,10 +143,12 @@ fn placement_error_m(geojson: &Path, ts: &TilesetData, sample_every: usize) -> (
     let mut checked = 0;
     for tile in ts.tiles.iter().filter(|t| t.children.is_empty()) {
         let content = tile.content.as_ref().unwrap();
-        for (fid, row) in content.properties.iter().enumerate() {
-            let Some(PropValue::Str(source_id)) = row.get("source_id") else { panic!("source_id missing") };
-            let Some(PropValue::Int(bi)) = row.get("building_index").cloned().or(Some(PropValue::Int(0))) else {
-                unreachable!()
+        for (fid, row) in content.features.iter().enumerate() {
+            let Some(PropValue::Str(source_id)) = row.values.get("source_id") else {
+                panic!("source_id missing")
+            };
+            let Some(PropValue::Int(bi)) = row.values.get("building_index").cloned() else {
+                panic!("building_index missing")
             };
             if bi as usize % sample_every != 0 {
                 continue;
@@ -119,7 +168,9 @@ fn placement_error_m(geojson: &Path, ts: &TilesetData, sample_every: usize) -> (
                 if content.feature_ids[v] as usize != fid {
                     continue;
                 }
-                let e: [f64; 3] = std::array::from_fn(|r| m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r]);
+                let e: [f64; 3] = std::array::from_fn(|r| {
+                    m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r]
+                });
                 let g = ecef_to_geodetic(e);
                 glo = [glo[0].min(g[0]), glo[1].min(g[1])];
                 ghi = [ghi[0].max(g[0]), ghi[1].max(g[1])];
@@ -139,7 +190,9 @@ fn placement_error_m(geojson: &Path, ts: &TilesetData, sample_every: usize) -> (
 
 fn collect_coords(v: &Value, f: &mut impl FnMut(f64, f64)) {
     match v.as_array() {
-        Some(a) if a.len() >= 2 && a[0].is_number() => f(a[0].as_f64().unwrap(), a[1].as_f64().unwrap()),
+        Some(a) if a.len() >= 2 && a[0].is_number() => {
+            f(a[0].as_f64().unwrap(), a[1].as_f64().unwrap())
+        }
         Some(a) => a.iter().for_each(|c| collect_coords(c, f)),
         None => {}
     }
@@ -152,8 +205,13 @@ fn nyc_les_tileset_is_valid_complete_and_in_place() {
     let (report, ts) = build_and_check("nyc", &[&input], &[]);
     assert_eq!(report["counts"]["features_read"], 1416);
     // OSM heights are strings ("28"); most buildings have one.
-    let from_attr = report["ingest"]["height_sources"]["known_attribute"].as_u64().unwrap_or(0);
-    assert!(from_attr >= 1300, "expected string heights to parse, got {from_attr} from attributes");
+    let from_attr = report["ingest"]["height_sources"]["known_attribute"]
+        .as_u64()
+        .unwrap_or(0);
+    assert!(
+        from_attr >= 1300,
+        "expected string heights to parse, got {from_attr} from attributes"
+    );
     let (err_m, n) = placement_error_m(&input, &ts, 7);
     assert!(n >= 150, "placement checked on {n} buildings only");
     assert!(err_m < 0.5, "placement error {err_m:.3} m");
@@ -161,7 +219,9 @@ fn nyc_les_tileset_is_valid_complete_and_in_place() {
 
 #[test]
 fn boston_tileset_is_valid_complete_and_in_place() {
-    let Some(input) = shared_data("boston/boston_buildings.geojson") else { return };
+    let Some(input) = shared_data("boston/boston_buildings.geojson") else {
+        return;
+    };
     let (report, ts) = build_and_check("boston", &[&input], &["--storey-height", "3.5"]);
     assert_eq!(report["counts"]["features_read"], 22186);
     let hs = &report["ingest"]["height_sources"];
@@ -176,13 +236,27 @@ fn boston_tileset_is_valid_complete_and_in_place() {
 
 #[test]
 fn delft_cityjsonseq_tileset_is_valid_and_complete() {
-    let Some(input) = shared_data("delft-3dbag/delft.city.jsonl") else { return };
+    let Some(input) = shared_data("delft-3dbag/delft.city.jsonl") else {
+        return;
+    };
     let (report, ts) = build_and_check("delft", &[&input], &[]);
     assert_eq!(report["counts"]["features_read"], 1115);
-    assert!(report["ingest"]["height_sources"]["roof_minus_ground"].as_u64().unwrap_or(0) > 1000);
+    assert!(
+        report["ingest"]["height_sources"]["roof_minus_ground"]
+            .as_u64()
+            .unwrap_or(0)
+            > 1000
+    );
     // RD New (EPSG:28992) → WGS84: the tileset's origin lies in south Delft.
-    let o = ecef_to_geodetic([ts.root_transform[12], ts.root_transform[13], ts.root_transform[14]]);
-    assert!((4.33..4.40).contains(&o[0]) && (51.98..52.03).contains(&o[1]), "origin {o:?} is not in Delft");
+    let o = ecef_to_geodetic([
+        ts.root_transform[12],
+        ts.root_transform[13],
+        ts.root_transform[14],
+    ]);
+    assert!(
+        (4.33..4.40).contains(&o[0]) && (51.98..52.03).contains(&o[1]),
+        "origin {o:?} is not in Delft"
+    );
 }
 
 #[test]
@@ -205,7 +279,10 @@ fn same_input_gives_byte_identical_output() {
             };
             assert_eq!(strip(ba), strip(bb));
         } else {
-            assert!(ba == bb, "{na} differs between two builds of the same input");
+            assert!(
+                ba == bb,
+                "{na} differs between two builds of the same input"
+            );
         }
     }
     let _ = std::fs::remove_dir_all(&d);

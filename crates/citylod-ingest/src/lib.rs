@@ -1,1 +1,528 @@
-//! stub
+//! The ingest stage (DESIGN.md §2): read building files (GeoJSON, CityJSON, CityJSONSeq), convert
+//! their CRS to WGS84 and then to one local east-north-up frame, resolve heights, repair or skip
+//! every feature, and report each skip and repair. Never panics on bad data: a broken feature is
+//! skipped with a reason, a broken file is an [`IngestError`].
+//!
+//! ```no_run
+//! use citylod_ingest::{ingest, IngestOptions};
+//! let out = ingest(&["boston_buildings.geojson".into()], &IngestOptions::default())?;
+//! let r = &out.report;
+//! assert_eq!(r.features_read, r.buildings_written + r.skipped.len());
+//! # Ok::<(), citylod_ingest::IngestError>(())
+//! ```
+
+mod cityjson;
+mod crs;
+mod error;
+mod feature;
+mod geojson;
+mod height;
+mod place;
+mod repair;
+mod report;
+
+pub use crs::{CoordError, Crs, CrsError};
+pub use error::IngestError;
+pub use height::{DEFAULT_STOREY_ATTRS, KNOWN_HEIGHT_ATTRS, MAX_HEIGHT_M};
+pub use place::FRAME_RULE;
+pub use repair::{check_footprint, MIN_AREA_M2};
+pub use report::{FeatureIssue, FileReport, IngestReport, InputFormat, IssueReason};
+
+use citylod_model::{Building, BuildingId, LocalFrame};
+use feature::RawFeature;
+use geo_types::{Coord, MultiPolygon};
+use height::Heights;
+use rayon::prelude::*;
+use repair::Plane;
+use std::path::{Path, PathBuf};
+
+/// How to read the input.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IngestOptions {
+    /// CRS of the input coordinates (`EPSG:28992`, an OGC URN/URL, `CRS84`, `+proj=…`). When set it
+    /// overrides what the files declare; when not set, GeoJSON is RFC 7946 lon/lat and CityJSON
+    /// must declare `metadata.referenceSystem`.
+    pub crs: Option<String>,
+    /// Attribute holding the building height (m), tried before the well-known names.
+    pub height_attr: Option<String>,
+    /// Attribute holding the storey count; default: [`DEFAULT_STOREY_ATTRS`].
+    pub storey_attr: Option<String>,
+    /// Height of one storey (m). Default 3.0.
+    pub storey_height_m: f64,
+    /// Height of a building with no height information (m). Default 10.0.
+    pub default_height_m: f64,
+}
+
+impl Default for IngestOptions {
+    fn default() -> Self {
+        IngestOptions {
+            crs: None,
+            height_attr: None,
+            storey_attr: None,
+            storey_height_m: 3.0,
+            default_height_m: 10.0,
+        }
+    }
+}
+
+/// The ingested buildings, the frame their footprints are in, and the report.
+#[derive(Debug, Clone)]
+pub struct Ingested {
+    /// `BuildingId(0..n)` in input order (files in the given order, features in file order).
+    pub buildings: Vec<Building>,
+    /// See [`FRAME_RULE`]; (0°, 0°, 0 m) when no building was written.
+    pub frame: LocalFrame,
+    pub report: IngestReport,
+}
+
+/// A file read and understood, with the CRS its coordinates are in.
+struct LoadedFile {
+    path: PathBuf,
+    format: InputFormat,
+    crs: Crs,
+    version: Option<String>,
+    non_building_objects: usize,
+    features: Vec<RawFeature>,
+}
+
+/// A feature ready for placement: its footprint in its own plane and its heights.
+struct Prepared {
+    plane: Plane,
+    footprint: MultiPolygon<f64>,
+    heights: Heights,
+    repairs: Vec<(IssueReason, String)>,
+    rings_reoriented: usize,
+    bbox: place::LonLatBox,
+}
+
+type Skip = (IssueReason, String);
+
+/// Reads `paths` in order and returns every building in one local ENU frame.
+///
+/// Errors only for a whole file (unreadable, invalid JSON, unknown format, unknown CRS, CityJSON
+/// without CRS and no `opts.crs`) or an option out of range (heights must be in (0, 1000] m).
+/// Features are repaired or skipped; see [`IngestReport`].
+/// An empty `paths` gives no buildings and the frame (0°, 0°, 0 m).
+pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, IngestError> {
+    for (name, v) in [
+        ("storey_height_m", opts.storey_height_m),
+        ("default_height_m", opts.default_height_m),
+    ] {
+        if !(v.is_finite() && v > 0.0 && v <= MAX_HEIGHT_M) {
+            return Err(IngestError::InvalidOption {
+                name,
+                detail: format!("{v} is not a height in (0, {MAX_HEIGHT_M}] m"),
+            });
+        }
+    }
+    if let Some(c) = &opts.crs {
+        Crs::parse(c).map_err(|e| IngestError::UnknownCrs {
+            origin: "--crs".into(),
+            crs: c.clone(),
+            detail: e.0,
+        })?;
+    }
+    let files: Vec<LoadedFile> = paths
+        .par_iter()
+        .map(|p| load(p, opts))
+        .collect::<Result<_, _>>()?;
+
+    let outcomes: Vec<Vec<Result<Prepared, Skip>>> = files
+        .iter()
+        .map(|f| {
+            f.features
+                .par_iter()
+                .map(|raw| prepare(raw, &f.crs, opts))
+                .collect()
+        })
+        .collect();
+
+    let kept = outcomes.iter().flatten().filter_map(|o| o.as_ref().ok());
+    let (bbox, min_ground) = kept.fold(
+        (None, None),
+        |(b, g): (Option<place::LonLatBox>, Option<f64>), p| {
+            (
+                Some(b.map_or(p.bbox, |b| place::union_box(b, p.bbox))),
+                Some(g.map_or(p.heights.ground_m, |g: f64| g.min(p.heights.ground_m))),
+            )
+        },
+    );
+    let frame = place::frame_for(bbox, min_ground);
+    let enu_map = place::EnuMap::new(&frame);
+
+    let mut report = IngestReport {
+        frame_rule: FRAME_RULE.to_string(),
+        ..Default::default()
+    };
+    let mut buildings = Vec::new();
+    for (file, outs) in files.iter().zip(&outcomes) {
+        let file_label = file.path.display().to_string();
+        let placed: Vec<Result<(&Prepared, citylod_model::Footprint, f64), &Skip>> = outs
+            .par_iter()
+            .map(|o| {
+                o.as_ref().map(|p| {
+                    let base_h_m = p.heights.ground_m + p.heights.base_offset_m;
+                    let (footprint, base_z_m) =
+                        place::to_enu(&enu_map, &p.plane, &p.footprint, base_h_m);
+                    (p, footprint, base_z_m)
+                })
+            })
+            .collect();
+        let mut fr = FileReport {
+            path: file_label.clone(),
+            format: file.format,
+            crs: file.crs.label.clone(),
+            cityjson_version: file.version.clone(),
+            features_read: file.features.len(),
+            buildings_written: 0,
+            skipped: 0,
+            non_building_objects: file.non_building_objects,
+        };
+        for (raw, placed) in file.features.iter().zip(placed) {
+            let issue = |reason: IssueReason, detail: &str| FeatureIssue {
+                file: file_label.clone(),
+                feature_id: raw.source_id.clone(),
+                reason,
+                detail: detail.to_string(),
+            };
+            match placed {
+                Ok((p, footprint, base_z_m)) => {
+                    debug_assert!(footprint.0.iter().all(|q| winding(q.exterior()) > 0.0));
+                    if !p.repairs.is_empty() {
+                        report.features_repaired += 1;
+                    }
+                    for (reason, detail) in &p.repairs {
+                        report.repaired.push(issue(*reason, detail));
+                    }
+                    *report
+                        .height_sources
+                        .entry(height::height_source_key(p.heights.source).into())
+                        .or_default() += 1;
+                    *report
+                        .ground_sources
+                        .entry(p.heights.ground_source.as_str().into())
+                        .or_default() += 1;
+                    for name in &p.heights.rejected {
+                        *report
+                            .height_values_rejected
+                            .entry(name.clone())
+                            .or_default() += 1;
+                    }
+                    report.building_parts += usize::from(raw.is_building_part);
+                    report.min_height_bases += usize::from(p.heights.base_offset_m > 0.0);
+                    report.rings_reoriented += p.rings_reoriented;
+                    buildings.push(Building {
+                        id: BuildingId(buildings.len() as u32),
+                        source_id: raw.source_id.clone(),
+                        footprint,
+                        base_z_m,
+                        height_m: p.heights.height_m,
+                        height_source: p.heights.source,
+                        attributes: raw.attributes.clone(),
+                        mesh: None,
+                    });
+                    fr.buildings_written += 1;
+                }
+                Err((reason, detail)) => {
+                    report.skipped.push(issue(*reason, detail));
+                    fr.skipped += 1;
+                }
+            }
+        }
+        report.features_read += fr.features_read;
+        report.files.push(fr);
+    }
+    report.buildings_written = buildings.len();
+    for i in &report.repaired {
+        *report
+            .repaired_by_reason
+            .entry(i.reason.as_str().into())
+            .or_default() += 1;
+    }
+    for i in &report.skipped {
+        *report
+            .skipped_by_reason
+            .entry(i.reason.as_str().into())
+            .or_default() += 1;
+    }
+    debug_assert_eq!(report.check_invariants(), Ok(()));
+    Ok(Ingested {
+        buildings,
+        frame,
+        report,
+    })
+}
+
+fn winding(r: &geo_types::LineString) -> f64 {
+    r.0.windows(2)
+        .map(|w| w[0].x * w[1].y - w[1].x * w[0].y)
+        .sum()
+}
+
+/// Reads, detects and parses one file, and settles its CRS.
+fn load(path: &Path, opts: &IngestOptions) -> Result<LoadedFile, IngestError> {
+    let text = std::fs::read_to_string(path).map_err(|source| IngestError::Read {
+        path: path.into(),
+        source,
+    })?;
+    let file_name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let unknown = |detail: String| IngestError::UnknownFormat {
+        path: path.into(),
+        detail,
+    };
+    let invalid = |detail: String| IngestError::InvalidCityJson {
+        path: path.into(),
+        detail,
+    };
+
+    let is_jsonl = file_name.ends_with(".jsonl");
+    let mut collection = None;
+    let whole: Option<serde_json::Value> = if is_jsonl {
+        None
+    } else {
+        let parsed = geojson::read_collection_text(&text, &file_name).and_then(|c| match c {
+            Some(doc) => {
+                collection = Some(doc);
+                Ok(serde_json::Value::Null)
+            }
+            None => serde_json::from_str(&text),
+        });
+        match parsed {
+            Ok(v) => Some(v),
+            Err(e) => {
+                // A CityJSONSeq without the .jsonl extension: the first line alone is a CityJSON header.
+                let first = text.lines().next().unwrap_or("");
+                let header: Option<serde_json::Value> = serde_json::from_str(first).ok();
+                if header
+                    .as_ref()
+                    .and_then(|h| h.get("type"))
+                    .and_then(|t| t.as_str())
+                    != Some("CityJSON")
+                {
+                    return Err(IngestError::Json {
+                        path: path.into(),
+                        line: e.line(),
+                        source: e,
+                    });
+                }
+                None
+            }
+        }
+    };
+    let (format, declared, version, non_building_objects, features) = match whole {
+        _ if collection.is_some() => {
+            let doc = collection.take().expect("checked");
+            (
+                InputFormat::GeoJson,
+                doc.declared_crs,
+                None,
+                0,
+                doc.features,
+            )
+        }
+        None => {
+            let doc = cityjson::read_sequence(&text)
+                .map_err(|(line, source)| IngestError::Json {
+                    path: path.into(),
+                    line,
+                    source,
+                })?
+                .map_err(invalid)?;
+            (
+                InputFormat::CityJsonSeq,
+                doc.declared_crs,
+                doc.version,
+                doc.non_building_objects,
+                doc.features,
+            )
+        }
+        Some(v) if v.get("type").and_then(|t| t.as_str()) == Some("CityJSON") => {
+            let doc = cityjson::read_document(&v).map_err(invalid)?;
+            (
+                InputFormat::CityJson,
+                doc.declared_crs,
+                doc.version,
+                doc.non_building_objects,
+                doc.features,
+            )
+        }
+        Some(v) if v.get("type").and_then(|t| t.as_str()) == Some("CityJSONFeature") => {
+            return Err(unknown(
+                "a single CityJSONFeature without the CityJSONSeq header line".into(),
+            ));
+        }
+        Some(v) if v.is_object() => {
+            let doc = geojson::read(&v, &file_name).map_err(unknown)?;
+            (
+                InputFormat::GeoJson,
+                doc.declared_crs,
+                None,
+                0,
+                doc.features,
+            )
+        }
+        Some(_) => return Err(unknown("the top-level JSON value is not an object".into())),
+    };
+    let crs = match (&opts.crs, &declared) {
+        (Some(c), _) => Crs::parse(c).map_err(|e| IngestError::UnknownCrs {
+            origin: "--crs".into(),
+            crs: c.clone(),
+            detail: e.0,
+        })?,
+        (None, Some(d)) => Crs::parse(d).map_err(|e| IngestError::UnknownCrs {
+            origin: path.display().to_string(),
+            crs: d.clone(),
+            detail: e.0,
+        })?,
+        (None, None) if format == InputFormat::GeoJson => Crs::wgs84(),
+        (None, None) => return Err(IngestError::MissingCrs { path: path.into() }),
+    };
+    Ok(LoadedFile {
+        path: path.into(),
+        format,
+        crs,
+        version,
+        non_building_objects,
+        features,
+    })
+}
+
+/// Cleans, converts and repairs one feature and resolves its heights. `Err` = skip with reason.
+fn prepare(raw: &RawFeature, crs: &Crs, opts: &IngestOptions) -> Result<Prepared, Skip> {
+    if let Some(skip) = &raw.skip {
+        return Err(skip.clone());
+    }
+    let mut repairs = raw.repairs.clone();
+    let mut removed = 0;
+    let mut polygons_lon_lat: Vec<Vec<Vec<(f64, f64)>>> = Vec::with_capacity(raw.polygons.len());
+    for poly in &raw.polygons {
+        let mut rings = Vec::with_capacity(poly.len());
+        for ring in poly {
+            let mut ring = ring.clone();
+            if let Some(p) = ring
+                .iter()
+                .find(|p| !(p[0].is_finite() && p[1].is_finite()))
+            {
+                return Err((
+                    IssueReason::NonFiniteCoordinate,
+                    format!("coordinate ({}, {})", p[0], p[1]),
+                ));
+            }
+            removed += repair::drop_repeated_points(&mut ring);
+            let converted = ring
+                .iter()
+                .map(|p| {
+                    crs.to_lon_lat(p[0], p[1]).map_err(|e| {
+                        let reason = match e {
+                            CoordError::NonFinite => IssueReason::NonFiniteCoordinate,
+                            CoordError::OutOfRange => IssueReason::CoordinateOutOfRange,
+                            CoordError::TransformFailed => IssueReason::TransformFailed,
+                        };
+                        (
+                            reason,
+                            format!("coordinate ({}, {}) in {}", p[0], p[1], crs.label),
+                        )
+                    })
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            rings.push(converted);
+        }
+        polygons_lon_lat.push(rings);
+    }
+    if removed > 0 {
+        repairs.push((
+            IssueReason::RepeatedPointsRemoved,
+            format!("{removed} repeated consecutive point(s) removed"),
+        ));
+    }
+    let Some(&(lon0, lat0)) = polygons_lon_lat.iter().flatten().flatten().next() else {
+        return Err((IssueReason::EmptyGeometry, "no coordinates".into()));
+    };
+    let plane = Plane::new(lon0, lat0);
+    let plane_polys: Vec<Vec<Vec<Coord>>> = polygons_lon_lat
+        .into_iter()
+        .map(|rings| {
+            rings
+                .into_iter()
+                .map(|r| {
+                    r.into_iter()
+                        .map(|(lon, lat)| plane.to_xy(lon, lat))
+                        .collect()
+                })
+                .collect()
+        })
+        .collect();
+    let fixed = repair::repair(plane_polys, raw.assemble)?;
+    repairs.extend(fixed.issues);
+    let heights = height::resolve(&raw.attributes, raw.footprint_min_z, raw.top_z, opts);
+    let bbox = place::lon_lat_box(&plane, &fixed.footprint);
+    Ok(Prepared {
+        plane,
+        footprint: fixed.footprint,
+        heights,
+        repairs,
+        rings_reoriented: fixed.rings_reoriented,
+        bbox,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn square(x0: f64, y0: f64, d: f64) -> Vec<[f64; 2]> {
+        vec![[x0, y0], [x0 + d, y0], [x0 + d, y0 + d], [x0, y0 + d]]
+    }
+
+    #[test]
+    fn non_finite_coordinates_are_skipped_not_panicking() {
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            let mut ring = square(4.0, 52.0, 0.001);
+            ring[2][1] = bad;
+            let raw = RawFeature {
+                source_id: "x".into(),
+                polygons: vec![vec![ring]],
+                ..Default::default()
+            };
+            let e = prepare(&raw, &Crs::wgs84(), &IngestOptions::default())
+                .err()
+                .unwrap();
+            assert_eq!(e.0, IssueReason::NonFiniteCoordinate);
+        }
+    }
+
+    #[test]
+    fn projected_coordinates_that_cannot_transform_are_skipped() {
+        let raw = RawFeature {
+            source_id: "x".into(),
+            polygons: vec![vec![square(1e300, 1e300, 1e299)]],
+            ..Default::default()
+        };
+        let e = prepare(
+            &raw,
+            &Crs::parse("EPSG:28992").unwrap(),
+            &IngestOptions::default(),
+        )
+        .err()
+        .unwrap();
+        assert_eq!(e.0, IssueReason::TransformFailed);
+    }
+
+    #[test]
+    fn a_prepared_square_has_metric_area() {
+        // 0.0001° × 0.0001° at 52°N ≈ 6.86 m × 11.13 m.
+        let raw = RawFeature {
+            source_id: "x".into(),
+            polygons: vec![vec![square(4.0, 52.0, 0.0001)]],
+            ..Default::default()
+        };
+        let p = prepare(&raw, &Crs::wgs84(), &IngestOptions::default())
+            .ok()
+            .unwrap();
+        let a = geo::Area::unsigned_area(&p.footprint);
+        assert!((a - 6.86 * 11.13).abs() < 0.5, "{a}");
+    }
+}

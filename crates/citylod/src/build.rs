@@ -2,7 +2,8 @@
 
 use anyhow::{bail, Context, Result};
 use citylod_ingest::{ingest, IngestOptions};
-use citylod_tiles::{tile_spatially, write_tileset, Compression, WriteOptions};
+use citylod_ingest::{FeatureIssue, IssueReason};
+use citylod_tiles::{tile_spatially, write_tileset, Compression, Staging, WriteOptions};
 use clap::{Args, ValueEnum};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -46,7 +47,12 @@ pub struct BuildArgs {
     pub tile_max_features: usize,
 
     /// Most triangles in one leaf tile.
-    #[arg(long, value_name = "N", default_value_t = 200_000, help_heading = "Tiles")]
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 200_000,
+        help_heading = "Tiles"
+    )]
     pub tile_max_triangles: usize,
 
     /// Geometry compression of the glb content.
@@ -78,8 +84,8 @@ struct BuildReport<'a> {
     frame: &'a citylod_model::LocalFrame,
     counts: Counts,
     ingest: &'a citylod_ingest::IngestReport,
-    mesh_skipped: Vec<citylod_ingest::FeatureIssue>,
-    tiles: serde_json::Value,
+    mesh_skipped: Vec<FeatureIssue>,
+    tiles: &'a citylod_tiles::WriteStats,
     timings_ms: Timings,
 }
 
@@ -100,7 +106,10 @@ struct Timings {
 }
 
 pub fn run(args: BuildArgs) -> Result<ExitCode> {
-    for (name, v) in [("--storey-height", args.storey_height), ("--default-height", args.default_height)] {
+    for (name, v) in [
+        ("--storey-height", args.storey_height),
+        ("--default-height", args.default_height),
+    ] {
         if !(v.is_finite() && v > 0.0) {
             bail!("{name} must be a positive number of metres, got {v}");
         }
@@ -136,7 +145,10 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
     let meshed: Vec<_> = ingested
         .buildings
         .par_iter()
-        .map(|b| citylod_mesh::extrude(&b.footprint, b.base_z_m, b.base_z_m + b.height_m).map_err(|e| (b, e)))
+        .map(|b| {
+            citylod_mesh::extrude(&b.footprint, b.base_z_m, b.base_z_m + b.height_m)
+                .map_err(|e| (b, e))
+        })
         .collect();
     let table = crate::features::BuildingTable::new(&ingested.buildings);
     let mut features = Vec::with_capacity(meshed.len());
@@ -144,7 +156,12 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
     for (b, m) in ingested.buildings.iter().zip(meshed) {
         match m {
             Ok(mesh) => features.push(table.feature(b, mesh)),
-            Err((b, e)) => mesh_skipped.push(citylod_ingest::FeatureIssue::mesh_failure(&b.source_id, e.to_string())),
+            Err((b, e)) => mesh_skipped.push(FeatureIssue {
+                file: String::new(),
+                feature_id: b.source_id.clone(),
+                reason: IssueReason::MeshFailed,
+                detail: e.to_string(),
+            }),
         }
     }
     timings.mesh = t.elapsed().as_millis() as u64;
@@ -160,51 +177,59 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         },
         ..Default::default()
     };
-    let inputs: Vec<String> = args.inputs.iter().map(|p| p.display().to_string()).collect();
-    let report_of = |stats: &citylod_tiles::WriteStats, timings: &Timings| -> Result<Vec<u8>> {
-        let r = &ingested.report;
-        let report = BuildReport {
-            citylod_version: env!("CARGO_PKG_VERSION"),
-            inputs: inputs.clone(),
-            options: serde_json::json!({
-                "crs": args.crs, "height_attr": args.height_attr, "storey_attr": args.storey_attr,
-                "storey_height_m": args.storey_height, "default_height_m": args.default_height,
-                "tile_max_features": args.tile_max_features, "tile_max_triangles": args.tile_max_triangles,
-                "compression": format!("{:?}", args.compression).to_lowercase(),
-            }),
-            frame: &ingested.frame,
-            counts: Counts {
-                features_read: r.features_read,
-                buildings_written: written,
-                repaired: r.repaired.len(),
-                skipped: r.skipped.len() + mesh_skipped.len(),
-            },
-            ingest: r,
-            mesh_skipped: mesh_skipped.clone(),
-            tiles: serde_json::to_value(stats)?,
-            timings_ms: Timings { ..*timings },
-        };
-        let mut bytes = serde_json::to_vec_pretty(&report)?;
-        bytes.push(b'\n');
-        Ok(bytes)
-    };
-    let stats = write_tileset(&args.out, &root, &ingested.frame, &table.schema(), &write_opts, |stats| {
-        let mut t2 = Timings { ..timings };
-        t2.tiles = t.elapsed().as_millis() as u64;
-        t2.total = t_all.elapsed().as_millis() as u64;
-        report_of(stats, &t2).map(|b| vec![("build-report.json".to_string(), b)]).map_err(|e| e.to_string())
-    })
+    let staging =
+        Staging::create(&args.out).with_context(|| format!("preparing {}", args.out.display()))?;
+    let stats = write_tileset(
+        &staging,
+        &root,
+        &ingested.frame,
+        &table.schema(),
+        &write_opts,
+    )
     .with_context(|| format!("writing the tileset to {}", args.out.display()))?;
+    timings.tiles = t.elapsed().as_millis() as u64;
+    timings.total = t_all.elapsed().as_millis() as u64;
+    let r = &ingested.report;
+    let report = BuildReport {
+        citylod_version: env!("CARGO_PKG_VERSION"),
+        inputs: args
+            .inputs
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect(),
+        options: serde_json::json!({
+            "crs": args.crs, "height_attr": args.height_attr, "storey_attr": args.storey_attr,
+            "storey_height_m": args.storey_height, "default_height_m": args.default_height,
+            "tile_max_features": args.tile_max_features, "tile_max_triangles": args.tile_max_triangles,
+            "compression": format!("{:?}", args.compression).to_lowercase(),
+        }),
+        frame: &ingested.frame,
+        counts: Counts {
+            features_read: r.features_read,
+            buildings_written: written,
+            repaired: r.repaired.len(),
+            skipped: r.skipped.len() + mesh_skipped.len(),
+        },
+        ingest: r,
+        mesh_skipped,
+        tiles: &stats,
+        timings_ms: timings,
+    };
+    let mut bytes = serde_json::to_vec_pretty(&report)?;
+    bytes.push(b'\n');
+    staging.write_file("build-report.json", &bytes)?;
+    staging
+        .commit()
+        .with_context(|| format!("moving the tileset into {}", args.out.display()))?;
     progress.finish();
 
-    let r = &ingested.report;
     if !args.quiet {
         eprintln!(
             "citylod: {} of {} features written as buildings ({} repaired, {} skipped) into {} tiles, {:.1} MB, in {:.2} s",
             written,
             r.features_read,
             r.repaired.len(),
-            r.skipped.len() + mesh_skipped.len(),
+            report.counts.skipped,
             stats.tiles,
             stats.glb_bytes as f64 / 1e6,
             t_all.elapsed().as_secs_f64()
@@ -213,7 +238,10 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
             eprintln!("  skipped {n:>6} × {reason}");
         }
         eprintln!("  tileset: {}", args.out.join("tileset.json").display());
-        eprintln!("  report:  {}", args.out.join("build-report.json").display());
+        eprintln!(
+            "  report:  {}",
+            args.out.join("build-report.json").display()
+        );
     }
     Ok(ExitCode::SUCCESS)
 }

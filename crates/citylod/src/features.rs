@@ -1,10 +1,13 @@
 //! The `building` metadata class of a build: fixed properties (source id, citylod's building index, height)
 //! followed by every input attribute, its type inferred over all buildings (boolean, number, else string),
 //! and the per-building rows of that table. Property ids are the attribute names made safe for
-//! EXT_structural_metadata (`[A-Za-z_][A-Za-z0-9_]*`); the original name is kept as the property's `name`.
+//! EXT_structural_metadata (`[A-Za-z_][A-Za-z0-9_]*`); a renamed attribute keeps its original name in the
+//! property's description.
 
 use citylod_model::{AttrValue, Building, Mesh3d};
-use citylod_tiles::{ClassDef, ContentFeature, MetadataSchema, PropValue, PropertyDef, PropertyKind};
+use citylod_tiles::{
+    ClassDef, ContentFeature, MetadataSchema, PropValue, PropertyDef, PropertyKind,
+};
 use std::collections::{BTreeMap, BTreeSet};
 
 pub struct BuildingTable {
@@ -14,11 +17,31 @@ pub struct BuildingTable {
 }
 
 const FIXED: [(&str, PropertyKind, &str); 5] = [
-    ("source_id", PropertyKind::String, "the feature's id in the input"),
-    ("building_index", PropertyKind::UInt32, "citylod's index of the building (input order)"),
-    ("height_m", PropertyKind::Float64, "height above the ground, metres"),
-    ("ground_z_m", PropertyKind::Float64, "ground height in the tileset's local frame, metres"),
-    ("height_source", PropertyKind::String, "which rule gave the height"),
+    (
+        "source_id",
+        PropertyKind::String,
+        "the feature's id in the input",
+    ),
+    (
+        "building_index",
+        PropertyKind::UInt32,
+        "citylod's index of the building (input order)",
+    ),
+    (
+        "height_m",
+        PropertyKind::Float64,
+        "height above the ground, metres",
+    ),
+    (
+        "ground_z_m",
+        PropertyKind::Float64,
+        "ground height in the tileset's local frame, metres",
+    ),
+    (
+        "height_source",
+        PropertyKind::String,
+        "which rule gave the height",
+    ),
 ];
 
 impl BuildingTable {
@@ -44,8 +67,7 @@ impl BuildingTable {
         let mut properties: Vec<PropertyDef> = FIXED
             .iter()
             .map(|&(id, kind, desc)| PropertyDef {
-                id: id.to_string(),
-                name: None,
+                name: id.to_string(),
                 kind,
                 description: Some(desc.to_string()),
             })
@@ -55,19 +77,28 @@ impl BuildingTable {
             // An attribute that is null everywhere still gets a column, so no attribute is dropped.
             let kind = kind.unwrap_or(PropertyKind::String);
             let id = unique_id(name, &mut used);
+            let description = (id != name).then(|| format!("input attribute `{name}`"));
             properties.push(PropertyDef {
-                name: (id != name).then(|| name.to_string()),
-                id,
+                name: id,
                 kind,
-                description: None,
+                description,
             });
             attrs.push((name.to_string(), kind));
         }
-        Self { class: ClassDef { id: "building".into(), properties }, attrs }
+        Self {
+            class: ClassDef {
+                id: "building".into(),
+                properties,
+            },
+            attrs,
+        }
     }
 
     pub fn schema(&self) -> MetadataSchema {
-        MetadataSchema { id: "citylod".into(), classes: vec![self.class.clone()] }
+        MetadataSchema {
+            id: "citylod".into(),
+            classes: vec![self.class.clone()],
+        }
     }
 
     pub fn feature(&self, b: &Building, mesh: Mesh3d) -> ContentFeature {
@@ -77,7 +108,10 @@ impl BuildingTable {
         values.push(PropValue::Float(b.height_m));
         values.push(PropValue::Float(b.base_z_m));
         values.push(PropValue::Str(
-            serde_json::to_value(b.height_source).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_default(),
+            serde_json::to_value(b.height_source)
+                .ok()
+                .and_then(|v| v.as_str().map(str::to_string))
+                .unwrap_or_default(),
         ));
         for (name, kind) in &self.attrs {
             values.push(match (b.attributes.get(name), kind) {
@@ -88,7 +122,11 @@ impl BuildingTable {
                 (Some(v), _) => PropValue::Str(as_text(v)),
             });
         }
-        ContentFeature { mesh, class: 0, values }
+        ContentFeature {
+            mesh,
+            class: 0,
+            values,
+        }
     }
 }
 
@@ -104,7 +142,16 @@ fn as_text(v: &AttrValue) -> String {
 
 /// `building:levels` → `building_levels`; a leading digit gets a `_`; clashes get `_2`, `_3`, ….
 fn unique_id(name: &str, used: &mut BTreeSet<String>) -> String {
-    let mut base: String = name.chars().map(|c| if c.is_ascii_alphanumeric() || c == '_' { c } else { '_' }).collect();
+    let mut base: String = name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
     if base.is_empty() || base.starts_with(|c: char| c.is_ascii_digit()) {
         base.insert(0, '_');
     }

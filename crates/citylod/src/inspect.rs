@@ -13,8 +13,14 @@ pub struct InspectArgs {
 }
 
 pub fn run(args: InspectArgs) -> Result<ExitCode> {
-    let path = if args.tileset.is_dir() { args.tileset.join("tileset.json") } else { args.tileset.clone() };
-    let ts = citylod_tiles::read::read_tileset(&path).with_context(|| format!("reading {}", path.display()))?;
+    let path = if args.tileset.is_dir() {
+        args.tileset.join("tileset.json")
+    } else {
+        args.tileset.clone()
+    };
+    let ts = citylod_tiles::read::read_tileset(&path)
+        .with_context(|| format!("reading {}", path.display()))?;
+    let base = path.parent().unwrap_or(std::path::Path::new("."));
     let mut rows: Vec<Row> = Vec::new();
     let mut stack = vec![(0usize, 0usize)];
     while let Some((i, depth)) = stack.pop() {
@@ -24,19 +30,30 @@ pub fn run(args: InspectArgs) -> Result<ExitCode> {
         let tile = &ts.tiles[i];
         let row = &mut rows[depth];
         row.tiles += 1;
-        row.errors.push(tile.geometric_error);
+        row.errors.push(tile.geometric_error_m);
+        if let Some(uri) = &tile.content_uri {
+            row.bytes += std::fs::metadata(base.join(uri))
+                .map(|m| m.len())
+                .unwrap_or(0);
+        }
         if let Some(c) = &tile.content {
             row.with_content += 1;
             row.triangles += c.triangles.len() as u64;
-            row.features += c.properties.len() as u64;
-            row.bytes += c.bytes as u64;
+            row.features += c.features.len() as u64;
         }
         stack.extend(tile.children.iter().map(|&c| (c, depth + 1)));
     }
-    println!("{:>5} {:>7} {:>8} {:>9} {:>11} {:>11}  geometricError min / median / max (m)", "depth", "tiles", "content", "features", "triangles", "bytes");
+    println!(
+        "{:>5} {:>7} {:>8} {:>9} {:>11} {:>11}  geometricError min / median / max (m)",
+        "depth", "tiles", "content", "features", "triangles", "bytes"
+    );
     for (d, r) in rows.iter_mut().enumerate() {
         r.errors.sort_by(f64::total_cmp);
-        let (lo, med, hi) = (r.errors[0], r.errors[r.errors.len() / 2], r.errors[r.errors.len() - 1]);
+        let (lo, med, hi) = (
+            r.errors[0],
+            r.errors[r.errors.len() / 2],
+            r.errors[r.errors.len() - 1],
+        );
         println!(
             "{d:>5} {:>7} {:>8} {:>9} {:>11} {:>11}  {lo:.2} / {med:.2} / {hi:.2}",
             r.tiles, r.with_content, r.features, r.triangles, r.bytes

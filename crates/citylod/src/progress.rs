@@ -13,7 +13,9 @@ impl Progress {
             return Self(None);
         }
         let bar = ProgressBar::new_spinner();
-        bar.set_style(ProgressStyle::with_template("{spinner} {elapsed:>3} {msg}").expect("valid template"));
+        bar.set_style(
+            ProgressStyle::with_template("{spinner} {elapsed:>3} {msg}").expect("valid template"),
+        );
         bar.enable_steady_tick(Duration::from_millis(120));
         Self(Some(bar))
     }

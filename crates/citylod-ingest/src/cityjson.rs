@@ -1,0 +1,604 @@
+//! CityJSON 0.8–2.0 and CityJSONSeq reader. One raw feature per top-level `Building` object: its
+//! LoD0 footprint, else the GroundSurface of its lowest-LoD 3D geometry, else that geometry's
+//! lowest horizontal surfaces; a building whose geometry lives only in `BuildingPart` children gets
+//! the pieces of all parts, to be unioned. Vertices are decoded with `transform` (scale, translate).
+
+use crate::feature::{attributes, RawFeature, RawPolygon};
+use crate::report::IssueReason;
+use serde_json::{Map, Value};
+use std::collections::HashMap;
+
+/// The buildings of a CityJSON document (or sequence) and what its header declares.
+#[derive(Debug)]
+pub(crate) struct CityDoc {
+    pub features: Vec<RawFeature>,
+    pub declared_crs: Option<String>,
+    pub version: Option<String>,
+    pub non_building_objects: usize,
+}
+
+/// Integer-vertex decoding: real = v · scale + translate. Identity when the file has none.
+#[derive(Debug, Clone, Copy)]
+struct Transform {
+    scale: [f64; 3],
+    translate: [f64; 3],
+}
+
+impl Transform {
+    fn of(doc: &Value) -> Result<Self, String> {
+        let Some(t) = doc.get("transform") else {
+            return Ok(Transform {
+                scale: [1.0; 3],
+                translate: [0.0; 3],
+            });
+        };
+        let triple = |k: &str| -> Result<[f64; 3], String> {
+            let a = t
+                .get(k)
+                .and_then(Value::as_array)
+                .ok_or(format!("transform.{k} missing"))?;
+            let v: Vec<f64> = a.iter().filter_map(Value::as_f64).collect();
+            match v.as_slice() {
+                [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([*x, *y, *z]),
+                _ => Err(format!("transform.{k} is not three finite numbers")),
+            }
+        };
+        Ok(Transform {
+            scale: triple("scale")?,
+            translate: triple("translate")?,
+        })
+    }
+
+    fn vertices(&self, v: Option<&Value>) -> Result<Vec<[f64; 3]>, String> {
+        let list = v.and_then(Value::as_array).ok_or("no \"vertices\" array")?;
+        list.iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let c: Vec<f64> = p
+                    .as_array()
+                    .map(|a| a.iter().filter_map(Value::as_f64).collect())
+                    .unwrap_or_default();
+                match c.as_slice() {
+                    [x, y, z] => Ok(std::array::from_fn(|k| {
+                        [*x, *y, *z][k] * self.scale[k] + self.translate[k]
+                    })),
+                    _ => Err(format!("vertex {i} is not three numbers")),
+                }
+            })
+            .collect()
+    }
+}
+
+fn header_crs(doc: &Value) -> Option<String> {
+    doc.pointer("/metadata/referenceSystem")
+        .and_then(Value::as_str)
+        .map(str::to_string)
+}
+
+/// Reads a whole CityJSON document (`"type": "CityJSON"`).
+pub(crate) fn read_document(doc: &Value) -> Result<CityDoc, String> {
+    let transform = Transform::of(doc)?;
+    let vertices = transform.vertices(doc.get("vertices"))?;
+    let objects = doc
+        .get("CityObjects")
+        .and_then(Value::as_object)
+        .ok_or("no \"CityObjects\" object")?;
+    let mut out = CityDoc {
+        features: Vec::new(),
+        declared_crs: header_crs(doc),
+        version: doc
+            .get("version")
+            .and_then(Value::as_str)
+            .map(str::to_string),
+        non_building_objects: 0,
+    };
+    read_objects(objects, Ok(&vertices), &mut out);
+    Ok(out)
+}
+
+/// Reads a CityJSONSeq text: a CityJSON header line, then one `CityJSONFeature` per line.
+/// `Err((line, error))` for a line that is not JSON; `Ok(Err(detail))` for a broken structure.
+pub(crate) fn read_sequence(
+    text: &str,
+) -> Result<Result<CityDoc, String>, (usize, serde_json::Error)> {
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
+    let Some((hl, header)) = lines.next() else {
+        return Ok(Err("empty file".into()));
+    };
+    let header: Value = serde_json::from_str(header).map_err(|e| (hl + 1, e))?;
+    if header.get("type").and_then(Value::as_str) != Some("CityJSON") {
+        return Ok(Err("first line is not a CityJSON header".into()));
+    }
+    let transform = match Transform::of(&header) {
+        Ok(t) => t,
+        Err(e) => return Ok(Err(e)),
+    };
+    let mut out = CityDoc {
+        features: Vec::new(),
+        declared_crs: header_crs(&header),
+        version: header
+            .get("version")
+            .and_then(Value::as_str)
+            .map(str::to_string),
+        non_building_objects: 0,
+    };
+    for (i, line) in lines {
+        let f: Value = serde_json::from_str(line).map_err(|e| (i + 1, e))?;
+        if f.get("type").and_then(Value::as_str) != Some("CityJSONFeature") {
+            return Ok(Err(format!("line {} is not a CityJSONFeature", i + 1)));
+        }
+        let Some(objects) = f.get("CityObjects").and_then(Value::as_object) else {
+            return Ok(Err(format!(
+                "line {}: CityJSONFeature without CityObjects",
+                i + 1
+            )));
+        };
+        let vertices = transform.vertices(f.get("vertices"));
+        read_objects(
+            objects,
+            vertices.as_deref().map_err(|e| e.as_str()),
+            &mut out,
+        );
+    }
+    Ok(Ok(out))
+}
+
+fn parents(o: &Value) -> Vec<&str> {
+    match (o.get("parents"), o.get("parent")) {
+        (Some(Value::Array(a)), _) => a.iter().filter_map(Value::as_str).collect(),
+        (_, Some(Value::String(s))) => vec![s.as_str()],
+        _ => Vec::new(),
+    }
+}
+
+fn read_objects(
+    objects: &Map<String, Value>,
+    vertices: Result<&[[f64; 3]], &str>,
+    out: &mut CityDoc,
+) {
+    // Children listed by the parent, plus those that only name their parent (both spellings).
+    let mut children: HashMap<&str, Vec<&str>> = HashMap::new();
+    for (k, o) in objects {
+        if let Some(list) = o.get("children").and_then(Value::as_array) {
+            children
+                .entry(k.as_str())
+                .or_default()
+                .extend(list.iter().filter_map(Value::as_str));
+        }
+    }
+    for (k, o) in objects {
+        for p in parents(o) {
+            let list = children.entry(p).or_default();
+            if !list.contains(&k.as_str()) {
+                list.push(k.as_str());
+            }
+        }
+    }
+    for (key, o) in objects {
+        if !parents(o).is_empty() {
+            continue;
+        }
+        if o.get("type").and_then(Value::as_str) != Some("Building") {
+            out.non_building_objects += 1;
+            continue;
+        }
+        let mut f = RawFeature {
+            source_id: key.clone(),
+            attributes: attributes(o.get("attributes")),
+            assemble: true,
+            ..Default::default()
+        };
+        match vertices {
+            Err(e) => f.skip = Some((IssueReason::MalformedGeometry, e.to_string())),
+            Ok(v) => fill_building(&mut f, key, objects, &children, v),
+        }
+        out.features.push(f);
+    }
+}
+
+/// A footprint piece with z: rings of (x, y, z), open.
+type Polygon3 = Vec<Vec<[f64; 3]>>;
+
+#[derive(Default)]
+struct ObjectGeometry {
+    footprint: Vec<Polygon3>,
+    top_z: Option<f64>,
+    has_geometry: bool,
+}
+
+fn fill_building(
+    f: &mut RawFeature,
+    key: &str,
+    objects: &Map<String, Value>,
+    children: &HashMap<&str, Vec<&str>>,
+    vertices: &[[f64; 3]],
+) {
+    let mut own = match object_geometry(&objects[key], vertices) {
+        Ok(g) => g,
+        Err(e) => {
+            f.skip = Some((IssueReason::MalformedGeometry, e));
+            return;
+        }
+    };
+    // Descendants (BuildingParts, nested), depth-first in file order; `seen` guards against cycles.
+    let mut stack: Vec<&str> = children
+        .get(key)
+        .map(|c| c.iter().rev().copied().collect())
+        .unwrap_or_default();
+    let mut seen = vec![key];
+    let mut parts_footprint = Vec::new();
+    while let Some(c) = stack.pop() {
+        if seen.contains(&c) {
+            continue;
+        }
+        seen.push(c);
+        let Some(o) = objects.get(c) else { continue };
+        match object_geometry(o, vertices) {
+            Ok(g) => {
+                own.has_geometry |= g.has_geometry;
+                own.top_z = max_opt(own.top_z, g.top_z);
+                parts_footprint.extend(g.footprint);
+            }
+            Err(e) => {
+                f.skip = Some((IssueReason::MalformedGeometry, format!("{c}: {e}")));
+                return;
+            }
+        }
+        if let Some(cc) = children.get(c) {
+            stack.extend(cc.iter().rev().copied());
+        }
+    }
+    let footprint = if own.footprint.is_empty() {
+        parts_footprint
+    } else {
+        own.footprint
+    };
+    if footprint.is_empty() {
+        f.skip = Some(if own.has_geometry {
+            (
+                IssueReason::NoFootprint,
+                "no LoD0 surface, GroundSurface or horizontal base in any geometry".into(),
+            )
+        } else {
+            (
+                IssueReason::NoGeometry,
+                "the building and its parts have no geometry".into(),
+            )
+        });
+        return;
+    }
+    f.top_z = own.top_z;
+    f.footprint_min_z = footprint
+        .iter()
+        .flatten()
+        .flatten()
+        .map(|p| p[2])
+        .reduce(f64::min);
+    f.polygons = footprint
+        .into_iter()
+        .map(|poly| {
+            poly.into_iter()
+                .map(|r| r.into_iter().map(|p| [p[0], p[1]]).collect())
+                .collect::<RawPolygon>()
+        })
+        .collect();
+}
+
+fn max_opt(a: Option<f64>, b: Option<f64>) -> Option<f64> {
+    match (a, b) {
+        (Some(a), Some(b)) => Some(a.max(b)),
+        (a, b) => a.or(b),
+    }
+}
+
+fn lod_of(g: &Value) -> f64 {
+    match g.get("lod") {
+        Some(Value::Number(n)) => n.as_f64().unwrap_or(f64::INFINITY),
+        Some(Value::String(s)) => s.trim().parse().unwrap_or(f64::INFINITY),
+        _ => f64::INFINITY,
+    }
+}
+
+/// One surface of a geometry: rings of vertex indices and its semantic type.
+struct Surface<'a> {
+    rings: &'a [Value],
+    semantic: Option<&'a str>,
+}
+
+/// The surfaces of any CityJSON geometry type, with semantic surface types where given.
+fn surfaces(g: &Value) -> Result<Vec<Surface<'_>>, String> {
+    let depth = match g.get("type").and_then(Value::as_str) {
+        Some("MultiSurface" | "CompositeSurface") => 0,
+        Some("Solid") => 1,
+        Some("MultiSolid" | "CompositeSolid") => 2,
+        _ => return Ok(Vec::new()), // points, lines, templates: no surfaces
+    };
+    let kinds: Vec<Option<&str>> = g
+        .pointer("/semantics/surfaces")
+        .and_then(Value::as_array)
+        .map(|a| {
+            a.iter()
+                .map(|s| s.get("type").and_then(Value::as_str))
+                .collect()
+        })
+        .unwrap_or_default();
+    let mut out = Vec::new();
+    walk(
+        g.get("boundaries"),
+        g.pointer("/semantics/values"),
+        depth,
+        &kinds,
+        &mut out,
+    )?;
+    Ok(out)
+}
+
+fn walk<'a>(
+    b: Option<&'a Value>,
+    sem: Option<&'a Value>,
+    depth: usize,
+    kinds: &[Option<&'a str>],
+    out: &mut Vec<Surface<'a>>,
+) -> Result<(), String> {
+    let list = b
+        .and_then(Value::as_array)
+        .ok_or("boundaries are not nested arrays")?;
+    for (i, item) in list.iter().enumerate() {
+        let s = sem.and_then(|s| s.as_array()).and_then(|a| a.get(i));
+        if depth == 0 {
+            let rings = item.as_array().ok_or("surface is not an array of rings")?;
+            let semantic = s
+                .and_then(Value::as_u64)
+                .and_then(|k| kinds.get(k as usize).copied().flatten());
+            out.push(Surface { rings, semantic });
+        } else {
+            walk(Some(item), s, depth - 1, kinds, out)?;
+        }
+    }
+    Ok(())
+}
+
+fn polygon3(s: &Surface, vertices: &[[f64; 3]]) -> Result<Polygon3, String> {
+    s.rings
+        .iter()
+        .map(|r| {
+            let idx = r.as_array().ok_or("ring is not an array of indices")?;
+            let mut ring: Vec<[f64; 3]> = idx
+                .iter()
+                .map(|i| {
+                    i.as_u64()
+                        .and_then(|i| vertices.get(i as usize).copied())
+                        .ok_or_else(|| format!("vertex index {i} out of range"))
+                })
+                .collect::<Result<_, _>>()?;
+            if ring.len() >= 2 && ring.first() == ring.last() {
+                ring.pop();
+            }
+            Ok(ring)
+        })
+        .collect()
+}
+
+/// Newell normal's vertical share: 1 for a horizontal ring, 0 for a vertical one.
+fn horizontality(ring: &[[f64; 3]]) -> f64 {
+    let mut n = [0.0; 3];
+    for (i, a) in ring.iter().enumerate() {
+        let b = ring[(i + 1) % ring.len()];
+        n[0] += (a[1] - b[1]) * (a[2] + b[2]);
+        n[1] += (a[2] - b[2]) * (a[0] + b[0]);
+        n[2] += (a[0] - b[0]) * (a[1] + b[1]);
+    }
+    let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+    if len > 0.0 {
+        n[2].abs() / len
+    } else {
+        0.0
+    }
+}
+
+/// Footprint pieces and top height of one city object's own geometry.
+fn object_geometry(o: &Value, vertices: &[[f64; 3]]) -> Result<ObjectGeometry, String> {
+    let geoms: &[Value] = o
+        .get("geometry")
+        .and_then(Value::as_array)
+        .map(Vec::as_slice)
+        .unwrap_or(&[]);
+    let mut g = ObjectGeometry {
+        has_geometry: !geoms.is_empty(),
+        ..Default::default()
+    };
+    for lod0 in geoms.iter().filter(|x| lod_of(x) == 0.0) {
+        for s in surfaces(lod0)? {
+            g.footprint.push(polygon3(&s, vertices)?);
+        }
+    }
+    // The lowest LoD above 0 with surfaces gives the top height and, without LoD0, the footprint.
+    let mut best: Option<(f64, Vec<Surface>)> = None;
+    for x in geoms.iter().filter(|x| lod_of(x) != 0.0) {
+        let l = lod_of(x);
+        let s = surfaces(x)?;
+        if !s.is_empty() && best.as_ref().is_none_or(|(bl, _)| l < *bl) {
+            best = Some((l, s));
+        }
+    }
+    let Some((_, surfs)) = best else { return Ok(g) };
+    let polys: Vec<(Polygon3, Option<&str>)> = surfs
+        .iter()
+        .map(|s| polygon3(s, vertices).map(|p| (p, s.semantic)))
+        .collect::<Result<_, _>>()?;
+    g.top_z = polys
+        .iter()
+        .flat_map(|(p, _)| p.iter().flatten())
+        .map(|v| v[2])
+        .reduce(f64::max);
+    if !g.footprint.is_empty() {
+        return Ok(g);
+    }
+    let ground: Vec<&Polygon3> = polys
+        .iter()
+        .filter(|(_, s)| *s == Some("GroundSurface"))
+        .map(|(p, _)| p)
+        .collect();
+    if !ground.is_empty() {
+        g.footprint = ground.into_iter().cloned().collect();
+        return Ok(g);
+    }
+    // No semantics: the horizontal surfaces (within ~10°) at the lowest mean height (5 cm band).
+    let mean_z = |p: &Polygon3| {
+        let r = &p[0];
+        r.iter().map(|v| v[2]).sum::<f64>() / r.len().max(1) as f64
+    };
+    let horizontal: Vec<(&Polygon3, f64)> = polys
+        .iter()
+        .filter(|(p, _)| {
+            p.first()
+                .is_some_and(|r| r.len() >= 3 && horizontality(r) > 0.985)
+        })
+        .map(|(p, _)| (p, mean_z(p)))
+        .collect();
+    if let Some(low) = horizontal.iter().map(|(_, z)| *z).reduce(f64::min) {
+        g.footprint = horizontal
+            .into_iter()
+            .filter(|(_, z)| *z <= low + 0.05)
+            .map(|(p, _)| p.clone())
+            .collect();
+    }
+    Ok(g)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn cube(ground_semantics: bool) -> Value {
+        // Unit cube with ground at z=0 (index 0..3) and roof at z=5 (4..7).
+        let mut g = json!({"type": "Solid", "lod": "1.2", "boundaries": [[
+            [[0, 3, 2, 1]], [[4, 5, 6, 7]], [[0, 1, 5, 4]], [[1, 2, 6, 5]], [[2, 3, 7, 6]], [[3, 0, 4, 7]]
+        ]]});
+        if ground_semantics {
+            g["semantics"] = json!({"surfaces": [{"type": "GroundSurface"}, {"type": "RoofSurface"},
+                {"type": "WallSurface"}], "values": [[0, 1, 2, 2, 2, 2]]});
+        }
+        g
+    }
+
+    fn doc(building: Value, extra: Value) -> Value {
+        let mut objects = json!({"B1": building});
+        if let Value::Object(m) = extra {
+            objects.as_object_mut().unwrap().extend(m);
+        }
+        json!({"type": "CityJSON", "version": "2.0",
+            "transform": {"scale": [0.001, 0.001, 0.001], "translate": [1000.0, 2000.0, 0.0]},
+            "metadata": {"referenceSystem": "https://www.opengis.net/def/crs/EPSG/0/7415"},
+            "CityObjects": objects,
+            "vertices": [[0,0,0],[4000,0,0],[4000,3000,0],[0,3000,0],[0,0,5000],[4000,0,5000],[4000,3000,5000],[0,3000,5000]]})
+    }
+
+    #[test]
+    fn ground_surface_gives_the_footprint_and_vertices_are_decoded() {
+        let d = read_document(&doc(
+            json!({"type": "Building", "geometry": [cube(true)]}),
+            json!({}),
+        ))
+        .unwrap();
+        let f = &d.features[0];
+        assert!(f.skip.is_none(), "{:?}", f.skip);
+        assert_eq!(f.polygons.len(), 1);
+        let r = &f.polygons[0][0];
+        assert_eq!(r.len(), 4);
+        assert!(r
+            .iter()
+            .all(|p| (1000.0..=1004.0).contains(&p[0]) && (2000.0..=2003.0).contains(&p[1])));
+        assert_eq!(f.footprint_min_z, Some(0.0));
+        assert_eq!(f.top_z, Some(5.0));
+        assert_eq!(
+            d.declared_crs.as_deref(),
+            Some("https://www.opengis.net/def/crs/EPSG/0/7415")
+        );
+    }
+
+    #[test]
+    fn without_semantics_the_lowest_horizontal_surface_is_the_footprint() {
+        let d = read_document(&doc(
+            json!({"type": "Building", "geometry": [cube(false)]}),
+            json!({}),
+        ))
+        .unwrap();
+        let f = &d.features[0];
+        assert_eq!(f.polygons.len(), 1);
+        assert_eq!(f.footprint_min_z, Some(0.0));
+    }
+
+    #[test]
+    fn parts_only_buildings_collect_all_part_footprints() {
+        let b = json!({"type": "Building", "children": ["P1", "P2"]});
+        let parts = json!({
+            "P1": {"type": "BuildingPart", "parents": ["B1"], "geometry": [cube(true)]},
+            "P2": {"type": "BuildingPart", "parent": "B1", "geometry": [cube(false)]},
+            "T": {"type": "TINRelief", "geometry": []}
+        });
+        let d = read_document(&doc(b, parts)).unwrap();
+        assert_eq!(d.features.len(), 1, "parts are not buildings");
+        assert_eq!(d.features[0].polygons.len(), 2);
+        assert!(d.features[0].assemble);
+        assert_eq!(d.non_building_objects, 1);
+    }
+
+    #[test]
+    fn bad_vertex_index_skips_the_building_not_the_file() {
+        let mut g = cube(true);
+        g["boundaries"][0][0][0][0] = json!(99);
+        let d = read_document(&doc(
+            json!({"type": "Building", "geometry": [g]}),
+            json!({}),
+        ))
+        .unwrap();
+        assert_eq!(
+            d.features[0].skip.as_ref().unwrap().0,
+            IssueReason::MalformedGeometry
+        );
+    }
+
+    #[test]
+    fn sequence_features_use_the_header_transform_and_their_own_vertices() {
+        let text = concat!(
+            r#"{"type":"CityJSON","version":"2.0","transform":{"scale":[0.5,0.5,0.5],"translate":[100,200,0]},"#,
+            r#""metadata":{"referenceSystem":"https://www.opengis.net/def/crs/EPSG/0/7415"},"CityObjects":{},"vertices":[]}"#,
+            "\n\n",
+            r#"{"type":"CityJSONFeature","id":"A","CityObjects":{"A":{"type":"Building","attributes":{"b3_h_maaiveld":1.5},"#,
+            r#""geometry":[{"type":"MultiSurface","lod":"0","boundaries":[[[0,1,2,3]]]}],"children":["A-0"]},"#,
+            r#""A-0":{"type":"BuildingPart","parents":["A"],"geometry":[]}},"vertices":[[0,0,2],[8,0,2],[8,6,2],[0,6,2]]}"#,
+            "\n"
+        );
+        let d = read_sequence(text).unwrap().unwrap();
+        assert_eq!(d.features.len(), 1);
+        let f = &d.features[0];
+        assert_eq!(f.source_id, "A");
+        assert_eq!(
+            f.polygons[0][0],
+            vec![
+                [100.0, 200.0],
+                [104.0, 200.0],
+                [104.0, 203.0],
+                [100.0, 203.0]
+            ]
+        );
+        assert_eq!(f.footprint_min_z, Some(1.0));
+        assert_eq!(d.version.as_deref(), Some("2.0"));
+        let e = read_sequence("{\"type\":\"CityJSON\"}\n{broken").unwrap_err();
+        assert_eq!(e.0, 2);
+    }
+
+    #[test]
+    fn building_without_geometry_is_skipped_with_a_reason() {
+        let d = read_document(&doc(json!({"type": "Building"}), json!({}))).unwrap();
+        assert_eq!(
+            d.features[0].skip.as_ref().unwrap().0,
+            IssueReason::NoGeometry
+        );
+    }
+}

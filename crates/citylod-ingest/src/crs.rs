@@ -1,0 +1,257 @@
+//! Coordinate reference systems: parse a CRS name (EPSG code, OGC URN/URL, CRS84, proj string) and
+//! convert source x/y to WGS84 lon/lat degrees with proj4rs and the offline crs-definitions table.
+//! Heights are not transformed: a vertical datum (NAP, …) is used as ellipsoidal height as it is —
+//! no geoid model is applied. Compound CRSs use their horizontal part (EPSG:7415 → EPSG:28992).
+
+use proj4rs::Proj;
+
+/// A source CRS able to give WGS84 lon/lat degrees.
+pub struct Crs {
+    /// Human label for reports, e.g. `EPSG:28992`.
+    pub label: String,
+    kind: Kind,
+}
+
+enum Kind {
+    /// x = lon°, y = lat° on WGS84 already (RFC 7946 GeoJSON, EPSG:4326, CRS84).
+    Wgs84,
+    Proj {
+        src: Box<Proj>,
+        dst: Box<Proj>,
+        src_is_latlong: bool,
+    },
+}
+
+/// Why a CRS name was not accepted.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CrsError(pub String);
+
+/// Compound EPSG codes whose horizontal part is used (the vertical part is kept as it is).
+const COMPOUND_TO_HORIZONTAL: &[(u32, u32)] = &[
+    (7415, 28992), // Amersfoort / RD New + NAP height
+];
+
+impl Crs {
+    /// WGS84 longitude/latitude in degrees (RFC 7946).
+    pub fn wgs84() -> Self {
+        Crs {
+            label: "WGS84 lon/lat".into(),
+            kind: Kind::Wgs84,
+        }
+    }
+
+    /// Parses `EPSG:28992`, `urn:ogc:def:crs:EPSG::28992`, `https://www.opengis.net/def/crs/EPSG/0/7415`,
+    /// `CRS84`, `WGS84` or a `+proj=…` string. EPSG codes must be in the offline table.
+    pub fn parse(name: &str) -> Result<Self, CrsError> {
+        let s = name.trim();
+        let upper = s.to_ascii_uppercase();
+        if upper == "WGS84" || upper.ends_with("CRS84") || upper.ends_with("CRS:84") {
+            return Ok(Self::wgs84());
+        }
+        if s.starts_with('+') {
+            let src = Proj::from_proj_string(s)
+                .map_err(|e| CrsError(format!("proj string rejected: {e}")))?;
+            return Self::from_proj(s.to_string(), src);
+        }
+        let code = epsg_code(&upper).ok_or_else(|| {
+            CrsError("expected EPSG:NNNN, an OGC CRS URN or URL, CRS84 or a +proj string".into())
+        })?;
+        Self::from_epsg(code)
+    }
+
+    /// The CRS of an EPSG code; geographic WGS84 codes (4326, 4979) need no transformation.
+    pub fn from_epsg(code: u32) -> Result<Self, CrsError> {
+        if code == 4326 || code == 4979 {
+            return Ok(Crs {
+                label: format!("EPSG:{code}"),
+                kind: Kind::Wgs84,
+            });
+        }
+        let horizontal = COMPOUND_TO_HORIZONTAL
+            .iter()
+            .find(|(c, _)| *c == code)
+            .map(|&(_, h)| h)
+            .unwrap_or(code);
+        let small = u16::try_from(horizontal)
+            .map_err(|_| CrsError(format!("EPSG:{code} is not in the offline EPSG table")))?;
+        let src = Proj::from_epsg_code(small).map_err(|e| {
+            CrsError(format!(
+                "EPSG:{code} is not in the offline EPSG table ({e})"
+            ))
+        })?;
+        let label = if horizontal == code {
+            format!("EPSG:{code}")
+        } else {
+            format!("EPSG:{code} (horizontal EPSG:{horizontal})")
+        };
+        Self::from_proj(label, src)
+    }
+
+    fn from_proj(label: String, src: Proj) -> Result<Self, CrsError> {
+        let dst = Proj::from_proj_string("+proj=longlat +datum=WGS84 +no_defs")
+            .map_err(|e| CrsError(format!("WGS84 definition rejected: {e}")))?;
+        let src_is_latlong = src.is_latlong();
+        Ok(Crs {
+            label,
+            kind: Kind::Proj {
+                src: Box::new(src),
+                dst: Box::new(dst),
+                src_is_latlong,
+            },
+        })
+    }
+
+    /// True when the source coordinates are already WGS84 lon/lat degrees.
+    pub fn is_wgs84(&self) -> bool {
+        matches!(self.kind, Kind::Wgs84)
+    }
+
+    /// Source (x, y) → WGS84 (lon°, lat°). Geographic sources are in degrees (x = lon). The datum
+    /// shift is computed at height 0: its horizontal effect for building heights is far below 1 mm.
+    pub fn to_lon_lat(&self, x: f64, y: f64) -> Result<(f64, f64), CoordError> {
+        if !(x.is_finite() && y.is_finite()) {
+            return Err(CoordError::NonFinite);
+        }
+        let (lon, lat) = match &self.kind {
+            Kind::Wgs84 => (x, y),
+            Kind::Proj {
+                src,
+                dst,
+                src_is_latlong,
+            } => {
+                if *src_is_latlong && !lon_lat_in_range(x, y) {
+                    return Err(CoordError::OutOfRange);
+                }
+                let mut p = if *src_is_latlong {
+                    (x.to_radians(), y.to_radians(), 0.0)
+                } else {
+                    (x, y, 0.0)
+                };
+                proj4rs::transform::transform(src, dst, &mut p)
+                    .map_err(|_| CoordError::TransformFailed)?;
+                if !(p.0.is_finite() && p.1.is_finite()) {
+                    return Err(CoordError::TransformFailed);
+                }
+                // Far outside a projection's domain the inverse can return a finite but wrong
+                // position; a forward round trip exposes it.
+                let mut back = p;
+                proj4rs::transform::transform(dst, src, &mut back)
+                    .map_err(|_| CoordError::TransformFailed)?;
+                let (bx, by) = if *src_is_latlong {
+                    (back.0.to_degrees(), back.1.to_degrees())
+                } else {
+                    (back.0, back.1)
+                };
+                let tol = if *src_is_latlong { 1e-7 } else { 1e-2 };
+                if !((bx - x).abs() <= tol && (by - y).abs() <= tol) {
+                    return Err(CoordError::TransformFailed);
+                }
+                (p.0.to_degrees(), p.1.to_degrees())
+            }
+        };
+        if !lon_lat_in_range(lon, lat) {
+            return Err(if self.is_wgs84() {
+                CoordError::OutOfRange
+            } else {
+                CoordError::TransformFailed
+            });
+        }
+        Ok((lon, lat))
+    }
+}
+
+/// Why one coordinate could not be converted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CoordError {
+    NonFinite,
+    OutOfRange,
+    TransformFailed,
+}
+
+fn lon_lat_in_range(lon: f64, lat: f64) -> bool {
+    lon.abs() <= 180.0 && lat.abs() <= 90.0
+}
+
+/// The EPSG code in an upper-cased CRS name: `EPSG:N`, `EPSG::N`, `…/EPSG/0/N`, `URN:OGC:DEF:CRS:EPSG:6.3:N`.
+fn epsg_code(upper: &str) -> Option<u32> {
+    let at = upper.rfind("EPSG")?;
+    let tail = &upper[at + 4..];
+    let digits: String = tail
+        .chars()
+        .rev()
+        .take_while(|c| c.is_ascii_digit())
+        .collect();
+    if digits.is_empty() {
+        return None;
+    }
+    let sep = &tail[..tail.len() - digits.len()];
+    if !sep
+        .chars()
+        .all(|c| matches!(c, ':' | '/' | '.' | '0'..='9'))
+    {
+        return None;
+    }
+    digits.chars().rev().collect::<String>().parse().ok()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn crs_names_in_all_usual_spellings_parse() {
+        for s in [
+            "EPSG:28992",
+            "epsg:28992",
+            "urn:ogc:def:crs:EPSG::28992",
+            "https://www.opengis.net/def/crs/EPSG/0/28992",
+        ] {
+            assert_eq!(Crs::parse(s).unwrap().label, "EPSG:28992", "{s}");
+        }
+        assert!(Crs::parse("urn:ogc:def:crs:OGC:1.3:CRS84")
+            .unwrap()
+            .is_wgs84());
+        assert!(Crs::parse("EPSG:4326").unwrap().is_wgs84());
+        assert!(Crs::parse("EPSG:7415").unwrap().label.contains("28992"));
+    }
+
+    #[test]
+    fn unknown_epsg_codes_are_rejected() {
+        assert!(Crs::parse("EPSG:999999").is_err());
+        assert!(Crs::parse("EPSG:1").is_err());
+        assert!(Crs::parse("not a crs").is_err());
+    }
+
+    /// Reference: the RD origin (x 155000, y 463000, the Onze Lieve Vrouwetoren in Amersfoort) is
+    /// φ = 52.15517440°, λ = 5.38720621° in ETRS89/WGS84, the reference point of Schreutelkamp and
+    /// Strang van Hees, "Benaderingsformules voor de transformatie tussen RD- en WGS84-kaartcoördinaten"
+    /// (NCG, 2001). proj4rs uses the 7-parameter towgs84 approximation (≈ 1 m), so allow 2 m.
+    #[test]
+    fn rd_origin_lands_at_its_published_wgs84_position() {
+        let crs = Crs::parse("EPSG:28992").unwrap();
+        let (lon, lat) = crs.to_lon_lat(155_000.0, 463_000.0).unwrap();
+        let dn_m = (lat - 52.155_174_40) * 111_250.0;
+        let de_m = (lon - 5.387_206_21) * 111_250.0 * 52.155_f64.to_radians().cos();
+        assert!(
+            dn_m.abs() < 2.0 && de_m.abs() < 2.0,
+            "off by {de_m:.2} m E, {dn_m:.2} m N"
+        );
+        // The compound RD + NAP code gives the same horizontal position.
+        let (lon2, lat2) = Crs::parse("EPSG:7415")
+            .unwrap()
+            .to_lon_lat(155_000.0, 463_000.0)
+            .unwrap();
+        assert!((lon2 - lon).abs() < 1e-12 && (lat2 - lat).abs() < 1e-12);
+    }
+
+    #[test]
+    fn non_finite_and_out_of_range_coordinates_are_reported() {
+        let w = Crs::wgs84();
+        assert_eq!(w.to_lon_lat(f64::NAN, 1.0), Err(CoordError::NonFinite));
+        assert_eq!(w.to_lon_lat(f64::INFINITY, 1.0), Err(CoordError::NonFinite));
+        assert_eq!(w.to_lon_lat(181.0, 1.0), Err(CoordError::OutOfRange));
+        assert_eq!(w.to_lon_lat(1.0, -90.5), Err(CoordError::OutOfRange));
+        let rd = Crs::parse("EPSG:28992").unwrap();
+        assert!(rd.to_lon_lat(1e300, 1e300).is_err());
+    }
+}

@@ -1,0 +1,44 @@
+//! File-level ingest errors: a file that cannot be read or understood at all. Problems with single
+//! features are never errors; they are repaired or skipped and listed in the `IngestReport`.
+
+use std::path::PathBuf;
+
+/// Why a whole input could not be ingested. Every variant names the file (or the option) at fault.
+#[derive(Debug, thiserror::Error)]
+pub enum IngestError {
+    /// The file could not be read (missing, unreadable, not UTF-8).
+    #[error("{path}: cannot read file: {source}")]
+    Read {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file (or one line of a CityJSONSeq file, 1-based `line`) is not valid JSON, e.g. truncated.
+    #[error("{path}: line {line}: invalid JSON: {source}")]
+    Json {
+        path: PathBuf,
+        line: usize,
+        #[source]
+        source: serde_json::Error,
+    },
+    /// Valid JSON, but neither GeoJSON nor CityJSON / CityJSONSeq.
+    #[error("{path}: unknown input format: {detail}")]
+    UnknownFormat { path: PathBuf, detail: String },
+    /// A CityJSON document whose structure is broken beyond single objects (e.g. no `vertices`).
+    #[error("{path}: invalid CityJSON: {detail}")]
+    InvalidCityJson { path: PathBuf, detail: String },
+    /// A CRS name that is not understood or not in the offline EPSG table. `origin` is the file
+    /// that declared it, or `--crs`.
+    #[error("{origin}: unknown CRS {crs:?}: {detail}")]
+    UnknownCrs {
+        origin: String,
+        crs: String,
+        detail: String,
+    },
+    /// An ingest option out of its range (e.g. a non-positive default height).
+    #[error("option {name}: {detail}")]
+    InvalidOption { name: &'static str, detail: String },
+    /// A CityJSON file that declares no `referenceSystem`, and no CRS was given by the user.
+    #[error("{path}: the file declares no CRS (no metadata.referenceSystem); pass one with --crs, e.g. --crs EPSG:28992")]
+    MissingCrs { path: PathBuf },
+}

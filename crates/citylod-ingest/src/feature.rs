@@ -1,0 +1,72 @@
+//! A feature as a reader hands it over, before CRS conversion and repair: source id, attributes and
+//! polygon rings in source CRS coordinates (open rings: the closing point is not repeated).
+//! Readers never fail on one bad feature: they mark it with a skip reason instead.
+
+use crate::report::IssueReason;
+use citylod_model::{AttrValue, Attributes};
+
+/// Rings of one polygon: `[exterior, hole, …]`, each an open ring of source (x, y).
+pub(crate) type RawPolygon = Vec<Vec<[f64; 2]>>;
+
+/// One building as read from a file.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct RawFeature {
+    pub source_id: String,
+    pub attributes: Attributes,
+    pub polygons: Vec<RawPolygon>,
+    /// Repairs the reader already made (e.g. ring closed), with details.
+    pub repairs: Vec<(IssueReason, String)>,
+    /// The polygons are pieces of one outline to be unioned (CityJSON ground surfaces, building
+    /// parts): merging them is assembly, not a repair.
+    pub assemble: bool,
+    /// Lowest z of the footprint vertices (CityJSON), in source height units (m).
+    pub footprint_min_z: Option<f64>,
+    /// Highest z of the building's 3D geometry (CityJSON), m.
+    pub top_z: Option<f64>,
+    /// Set when the feature cannot become a building.
+    pub skip: Option<(IssueReason, String)>,
+    /// OSM `building:part` tag present.
+    pub is_building_part: bool,
+}
+
+/// JSON value → attribute value; nested objects and arrays become compact JSON text.
+pub(crate) fn attr_value(v: &serde_json::Value) -> AttrValue {
+    use serde_json::Value;
+    match v {
+        Value::Null => AttrValue::Null,
+        Value::Bool(b) => AttrValue::Bool(*b),
+        Value::Number(n) => match n.as_i64() {
+            Some(i) => AttrValue::Int(i),
+            None => AttrValue::Float(n.as_f64().unwrap_or(f64::NAN)),
+        },
+        Value::String(s) => AttrValue::String(s.clone()),
+        other => AttrValue::String(other.to_string()),
+    }
+}
+
+/// A JSON object's members as attributes (sorted by name).
+pub(crate) fn attributes(v: Option<&serde_json::Value>) -> Attributes {
+    v.and_then(|v| v.as_object())
+        .map(|m| m.iter().map(|(k, v)| (k.clone(), attr_value(v))).collect())
+        .unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nested_values_become_compact_json_strings() {
+        let v: serde_json::Value = serde_json::json!({
+            "a": 1, "b": 2.5, "c": "x", "d": null, "e": true, "f": {"g": [1, 2]}, "h": [1, "two"]
+        });
+        let a = attributes(Some(&v));
+        assert_eq!(a["a"], AttrValue::Int(1));
+        assert_eq!(a["b"], AttrValue::Float(2.5));
+        assert_eq!(a["c"], AttrValue::String("x".into()));
+        assert_eq!(a["d"], AttrValue::Null);
+        assert_eq!(a["e"], AttrValue::Bool(true));
+        assert_eq!(a["f"], AttrValue::String(r#"{"g":[1,2]}"#.into()));
+        assert_eq!(a["h"], AttrValue::String(r#"[1,"two"]"#.into()));
+    }
+}

@@ -1,0 +1,371 @@
+//! GeoJSON reader (RFC 7946): a FeatureCollection, a single Feature or a bare geometry. Polygon,
+//! MultiPolygon and the polygons of a GeometryCollection become raw footprints in source
+//! coordinates; other geometries are marked as skipped. Properties become attributes.
+
+use crate::feature::{attributes, RawFeature, RawPolygon};
+use crate::report::IssueReason;
+use rayon::prelude::*;
+use serde_json::value::RawValue;
+use serde_json::Value;
+
+/// The features of a GeoJSON document and the CRS it declares (legacy `crs` member), if any.
+pub(crate) struct GeoJsonDoc {
+    pub features: Vec<RawFeature>,
+    pub declared_crs: Option<String>,
+}
+
+/// Reads a parsed GeoJSON document; `Err` (a detail) when it is not GeoJSON at all.
+pub(crate) fn read(doc: &Value, file_name: &str) -> Result<GeoJsonDoc, String> {
+    let declared_crs = doc
+        .pointer("/crs/properties/name")
+        .and_then(Value::as_str)
+        .map(str::to_string);
+    let kind = doc.get("type").and_then(Value::as_str).unwrap_or("");
+    let features: Vec<RawFeature> = match kind {
+        "FeatureCollection" => {
+            let list = doc
+                .get("features")
+                .and_then(Value::as_array)
+                .ok_or("a FeatureCollection without a \"features\" array")?;
+            list.iter()
+                .enumerate()
+                .map(|(i, f)| read_feature(f, file_name, i))
+                .collect()
+        }
+        "Feature" => vec![read_feature(doc, file_name, 0)],
+        "Polygon" | "MultiPolygon" | "GeometryCollection" => {
+            let mut f = RawFeature {
+                source_id: format!("{file_name}#0"),
+                ..Default::default()
+            };
+            fill_geometry(&mut f, Some(doc));
+            vec![f]
+        }
+        "" => return Err("no top-level \"type\" member".into()),
+        other => {
+            return Err(format!(
+                "top-level type {other:?} is neither GeoJSON nor CityJSON"
+            ))
+        }
+    };
+    Ok(GeoJsonDoc {
+        features,
+        declared_crs,
+    })
+}
+
+/// The outline of a FeatureCollection, with its features still as unparsed JSON text.
+#[derive(serde::Deserialize)]
+struct Collection<'a> {
+    #[serde(rename = "type")]
+    kind: Option<String>,
+    #[serde(borrow)]
+    features: Option<Vec<&'a RawValue>>,
+    crs: Option<Value>,
+}
+
+/// Fast path for a FeatureCollection text: one scan for the outline, then the features are parsed
+/// in parallel (in order). `Ok(None)` when the text is valid JSON but not a FeatureCollection with
+/// a features array; `Err` when it is not valid JSON.
+pub(crate) fn read_collection_text(
+    text: &str,
+    file_name: &str,
+) -> Result<Option<GeoJsonDoc>, serde_json::Error> {
+    let c: Collection = match serde_json::from_str(text) {
+        Ok(c) => c,
+        Err(e) if e.classify() == serde_json::error::Category::Data => return Ok(None),
+        Err(e) => return Err(e),
+    };
+    let (Some("FeatureCollection"), Some(raw)) = (c.kind.as_deref(), c.features) else {
+        return Ok(None);
+    };
+    let declared_crs = c
+        .crs
+        .as_ref()
+        .and_then(|v| v.pointer("/properties/name"))
+        .and_then(Value::as_str)
+        .map(str::to_string);
+    let features = raw
+        .par_iter()
+        .enumerate()
+        .map(|(i, r)| match serde_json::from_str::<Value>(r.get()) {
+            Ok(v) => read_feature(&v, file_name, i),
+            // The outline scan does not convert numbers: 1e999 (beyond f64) surfaces only here.
+            Err(e) => {
+                let reason = if e.to_string().contains("number out of range") {
+                    IssueReason::NonFiniteCoordinate
+                } else {
+                    IssueReason::MalformedGeometry
+                };
+                let skip = Some((reason, format!("feature JSON rejected: {e}")));
+                RawFeature {
+                    source_id: format!("{file_name}#{i}"),
+                    skip,
+                    ..Default::default()
+                }
+            }
+        })
+        .collect();
+    Ok(Some(GeoJsonDoc {
+        features,
+        declared_crs,
+    }))
+}
+
+fn read_feature(f: &Value, file_name: &str, index: usize) -> RawFeature {
+    let props = f.get("properties");
+    let mut out = RawFeature {
+        source_id: source_id(f, file_name, index),
+        attributes: attributes(props),
+        ..Default::default()
+    };
+    out.is_building_part = props
+        .and_then(|p| p.get("building:part"))
+        .is_some_and(|v| !v.is_null() && v != "no");
+    if f.get("type").and_then(Value::as_str) != Some("Feature") {
+        out.skip = Some((
+            IssueReason::MalformedGeometry,
+            "member of \"features\" is not a Feature".into(),
+        ));
+        return out;
+    }
+    fill_geometry(&mut out, f.get("geometry"));
+    out
+}
+
+/// GeoJSON `id`, else `properties.id` / `properties["@id"]`, else OSM `osm_type/osm_id`, else `FILE#INDEX`.
+fn source_id(f: &Value, file_name: &str, index: usize) -> String {
+    fn text(v: Option<&Value>) -> Option<String> {
+        match v? {
+            Value::String(s) if !s.is_empty() => Some(s.clone()),
+            Value::Number(n) => Some(n.to_string()),
+            _ => None,
+        }
+    }
+    let props = f.get("properties");
+    text(f.get("id"))
+        .or_else(|| text(props.and_then(|p| p.get("id"))))
+        .or_else(|| text(props.and_then(|p| p.get("@id"))))
+        .or_else(|| {
+            let t = text(props.and_then(|p| p.get("osm_type")))?;
+            let i = text(props.and_then(|p| p.get("osm_id")))?;
+            Some(format!("{t}/{i}"))
+        })
+        .unwrap_or_else(|| format!("{file_name}#{index}"))
+}
+
+fn fill_geometry(out: &mut RawFeature, geometry: Option<&Value>) {
+    let geometry = match geometry {
+        None | Some(Value::Null) => {
+            out.skip = Some((IssueReason::NoGeometry, "geometry is null".into()));
+            return;
+        }
+        Some(g) => g,
+    };
+    let mut polygons = Vec::new();
+    if let Err(skip) = collect_polygons(geometry, &mut polygons, &mut out.repairs) {
+        out.skip = Some(skip);
+        return;
+    }
+    if polygons.iter().flatten().all(|r| r.is_empty()) {
+        out.skip = Some((
+            IssueReason::EmptyGeometry,
+            "polygonal geometry without coordinates".into(),
+        ));
+    }
+    out.polygons = polygons;
+}
+
+type Skip = (IssueReason, String);
+
+fn collect_polygons(
+    g: &Value,
+    polygons: &mut Vec<RawPolygon>,
+    repairs: &mut Vec<(IssueReason, String)>,
+) -> Result<(), Skip> {
+    let kind = g.get("type").and_then(Value::as_str).unwrap_or("(none)");
+    let coords = || {
+        g.get("coordinates")
+            .and_then(Value::as_array)
+            .ok_or_else(|| {
+                (
+                    IssueReason::MalformedGeometry,
+                    format!("{kind} without a coordinates array"),
+                )
+            })
+    };
+    match kind {
+        "Polygon" => polygons.push(polygon(coords()?, repairs)?),
+        "MultiPolygon" => {
+            for p in coords()? {
+                let rings = p.as_array().ok_or_else(|| {
+                    (
+                        IssueReason::MalformedGeometry,
+                        "MultiPolygon member is not an array".into(),
+                    )
+                })?;
+                polygons.push(polygon(rings, repairs)?);
+            }
+        }
+        "GeometryCollection" => {
+            let members = g
+                .get("geometries")
+                .and_then(Value::as_array)
+                .ok_or_else(|| {
+                    (
+                        IssueReason::MalformedGeometry,
+                        "GeometryCollection without geometries".to_string(),
+                    )
+                })?;
+            let before = polygons.len();
+            for m in members {
+                let t = m.get("type").and_then(Value::as_str).unwrap_or("");
+                if matches!(t, "Polygon" | "MultiPolygon" | "GeometryCollection") {
+                    collect_polygons(m, polygons, repairs)?;
+                }
+            }
+            if polygons.len() == before {
+                return Err((
+                    IssueReason::UnsupportedGeometry,
+                    "GeometryCollection without polygons".into(),
+                ));
+            }
+        }
+        other => {
+            return Err((
+                IssueReason::UnsupportedGeometry,
+                format!("{other} geometry is not a footprint"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn polygon(rings: &[Value], repairs: &mut Vec<(IssueReason, String)>) -> Result<RawPolygon, Skip> {
+    rings
+        .iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let (ring, was_closed) = ring(r)?;
+            if !was_closed && ring.len() >= 3 {
+                let what = if i == 0 {
+                    "exterior ring".to_string()
+                } else {
+                    format!("hole {i}")
+                };
+                repairs.push((
+                    IssueReason::RingClosed,
+                    format!("{what} was not closed; closed it"),
+                ));
+            }
+            Ok(ring)
+        })
+        .collect()
+}
+
+/// A ring as an open list of (x, y); `true` when the input repeated the first point at the end.
+fn ring(r: &Value) -> Result<(Vec<[f64; 2]>, bool), Skip> {
+    let bad = |what: &str| (IssueReason::MalformedGeometry, what.to_string());
+    let pts = r
+        .as_array()
+        .ok_or_else(|| bad("ring is not an array of positions"))?;
+    let mut out = Vec::with_capacity(pts.len());
+    for p in pts {
+        let p = p
+            .as_array()
+            .ok_or_else(|| bad("position is not an array"))?;
+        let (Some(x), Some(y)) = (
+            p.first().and_then(Value::as_f64),
+            p.get(1).and_then(Value::as_f64),
+        ) else {
+            return Err(bad("position without two numbers"));
+        };
+        out.push([x, y]);
+    }
+    let closed = out.len() >= 2 && out.first() == out.last();
+    if closed {
+        out.pop();
+    }
+    Ok((out, closed))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn non_polygon_and_null_geometries_are_marked_skipped() {
+        let doc = json!({"type": "FeatureCollection", "features": [
+            {"type": "Feature", "properties": {}, "geometry": {"type": "Point", "coordinates": [1, 2]}},
+            {"type": "Feature", "properties": {}, "geometry": null},
+            {"type": "Feature", "properties": {}, "geometry": {"type": "LineString", "coordinates": [[1, 2], [3, 4]]}},
+            {"type": "Feature", "properties": {}, "geometry": {"type": "Polygon", "coordinates": []}},
+            {"type": "Feature", "properties": {}, "geometry": {"type": "Polygon", "coordinates": [[[0, "a"]]]}},
+        ]});
+        let d = read(&doc, "f.json").unwrap();
+        let reasons: Vec<_> = d
+            .features
+            .iter()
+            .map(|f| f.skip.as_ref().map(|s| s.0))
+            .collect();
+        assert_eq!(
+            reasons,
+            vec![
+                Some(IssueReason::UnsupportedGeometry),
+                Some(IssueReason::NoGeometry),
+                Some(IssueReason::UnsupportedGeometry),
+                Some(IssueReason::EmptyGeometry),
+                Some(IssueReason::MalformedGeometry)
+            ]
+        );
+        assert_eq!(d.features[1].source_id, "f.json#1");
+    }
+
+    #[test]
+    fn collection_fast_path_matches_the_value_reader() {
+        let text = r#"{"type": "FeatureCollection", "crs": {"properties": {"name": "EPSG:2249"}}, "features": [
+            {"type": "Feature", "id": "a", "properties": {"h": 3}, "geometry": {"type": "Polygon", "coordinates": [[[0,0],[1,0],[1,1],[0,0]]]}},
+            {"type": "Feature", "properties": null, "geometry": {"type": "Point", "coordinates": [0, 0]}}]}"#;
+        let fast = read_collection_text(text, "f").unwrap().unwrap();
+        let slow = read(&serde_json::from_str(text).unwrap(), "f").unwrap();
+        assert_eq!(fast.declared_crs.as_deref(), Some("EPSG:2249"));
+        assert_eq!(fast.declared_crs, slow.declared_crs);
+        assert_eq!(fast.features.len(), 2);
+        for (a, b) in fast.features.iter().zip(&slow.features) {
+            assert_eq!(
+                (&a.source_id, &a.polygons, &a.skip, &a.attributes),
+                (&b.source_id, &b.polygons, &b.skip, &b.attributes)
+            );
+        }
+        assert!(read_collection_text("[1, 2]", "f").unwrap().is_none());
+        assert!(read_collection_text(r#"{"type": "CityJSON"}"#, "f")
+            .unwrap()
+            .is_none());
+        assert!(
+            read_collection_text(r#"{"type": "FeatureCollection", "features": [{"#, "f").is_err()
+        );
+    }
+
+    #[test]
+    fn unclosed_rings_are_closed_and_reported() {
+        let doc = json!({"type": "Feature", "id": 7, "properties": {"osm_id": 3},
+            "geometry": {"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1]]]}});
+        let d = read(&doc, "f.json").unwrap();
+        let f = &d.features[0];
+        assert_eq!(f.source_id, "7");
+        assert_eq!(f.polygons[0][0].len(), 3);
+        assert_eq!(f.repairs[0].0, IssueReason::RingClosed);
+    }
+
+    #[test]
+    fn ids_fall_back_to_properties_and_osm_tags() {
+        let doc = json!({"type": "FeatureCollection", "features": [
+            {"type": "Feature", "properties": {"@id": "way/5"}, "geometry": null},
+            {"type": "Feature", "properties": {"osm_type": "relation", "osm_id": 9}, "geometry": null},
+        ]});
+        let d = read(&doc, "f.json").unwrap();
+        assert_eq!(d.features[0].source_id, "way/5");
+        assert_eq!(d.features[1].source_id, "relation/9");
+    }
+}

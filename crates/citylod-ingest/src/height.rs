@@ -1,0 +1,268 @@
+//! Height resolution (DESIGN.md §2): the ground height under a building and its height above that
+//! base, each from the first rule that gives a plausible value, with the rule recorded.
+//! Metres; ground heights are in the data's vertical datum (NAP, …) and used as they are.
+//! Invariant: the resolved height is finite, > 0 and ≤ `MAX_HEIGHT_M`.
+
+use crate::IngestOptions;
+use citylod_model::{AttrValue, Attributes, HeightSource};
+
+/// Heights above this are treated as data errors and fall through to the next rule (m).
+pub const MAX_HEIGHT_M: f64 = 1000.0;
+
+/// Well-known building height attributes (total height above ground), tried in this order.
+pub const KNOWN_HEIGHT_ATTRS: &[&str] = &[
+    "height",
+    "building:height",
+    "measuredHeight",
+    "measured_height",
+    "Height",
+    "HEIGHT",
+    "bldg_height",
+];
+
+/// Storey-count attributes tried when no storey attribute is named.
+pub const DEFAULT_STOREY_ATTRS: &[&str] = &[
+    "stories",
+    "storeys",
+    "building:levels",
+    "b3_bouwlagen",
+    "num_floors",
+];
+
+/// 3DBAG ground height and roof height (70th percentile) attributes.
+const GROUND_ATTR: &str = "b3_h_maaiveld";
+const ROOF_ATTR: &str = "b3_h_dak_70p";
+/// OSM base of a building part above the ground (m).
+const MIN_HEIGHT_ATTR: &str = "min_height";
+
+/// Where a building's ground height came from (report key).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum GroundSource {
+    Attribute,
+    Geometry,
+    Zero,
+}
+
+impl GroundSource {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            GroundSource::Attribute => GROUND_ATTR,
+            GroundSource::Geometry => "geometry",
+            GroundSource::Zero => "zero",
+        }
+    }
+}
+
+/// The resolved heights of one building.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Heights {
+    /// Ground height in the data's vertical datum (m).
+    pub ground_m: f64,
+    pub ground_source: GroundSource,
+    /// OSM `min_height`: the building's base above its ground (m), else 0.
+    pub base_offset_m: f64,
+    /// Height of the building above its base (m).
+    pub height_m: f64,
+    pub source: HeightSource,
+    /// Attributes that were present but gave no plausible value.
+    pub rejected: Vec<String>,
+}
+
+fn plausible(h: f64) -> bool {
+    h.is_finite() && h > 0.0 && h <= MAX_HEIGHT_M
+}
+
+fn number(attrs: &Attributes, name: &str) -> Option<f64> {
+    attrs.get(name).and_then(AttrValue::as_number)
+}
+
+/// Resolves ground and height. Ground: `b3_h_maaiveld`, else the lowest footprint vertex z
+/// (CityJSON), else 0; an OSM `min_height` raises the base above that ground. Height: the named
+/// attribute, known names, 3DBAG roof − ground, the 3D geometry's top − ground, storeys × storey
+/// height, else the default. Attribute heights count from the ground, so `min_height` is
+/// subtracted from them. A value ≤ 0 or > 1000 m falls through to the next rule.
+pub(crate) fn resolve(
+    attrs: &Attributes,
+    footprint_min_z: Option<f64>,
+    top_z: Option<f64>,
+    opts: &IngestOptions,
+) -> Heights {
+    let mut rejected = Vec::new();
+    let (ground_m, ground_source) = match (number(attrs, GROUND_ATTR), footprint_min_z) {
+        (Some(g), _) if g.abs() < 10_000.0 => (g, GroundSource::Attribute),
+        (_, Some(z)) if z.is_finite() => (z, GroundSource::Geometry),
+        _ => (0.0, GroundSource::Zero),
+    };
+    let base_offset_m = number(attrs, MIN_HEIGHT_ATTR)
+        .filter(|m| *m > 0.0 && *m < MAX_HEIGHT_M)
+        .unwrap_or(0.0);
+
+    let try_attr =
+        |name: &str, scale: f64, offset: f64, rejected: &mut Vec<String>| -> Option<f64> {
+            let v = attrs.get(name)?;
+            if matches!(v, AttrValue::Null) {
+                return None;
+            }
+            let h = v.as_number().map(|x| x * scale - offset);
+            match h {
+                Some(h) if plausible(h) => Some(h),
+                _ => {
+                    rejected.push(name.to_string());
+                    None
+                }
+            }
+        };
+    let mut found = None;
+    if let Some(name) = &opts.height_attr {
+        found = try_attr(name, 1.0, base_offset_m, &mut rejected)
+            .map(|h| (h, HeightSource::NamedAttribute));
+    }
+    if found.is_none() {
+        found = KNOWN_HEIGHT_ATTRS
+            .iter()
+            .find_map(|n| try_attr(n, 1.0, base_offset_m, &mut rejected))
+            .map(|h| (h, HeightSource::KnownAttribute));
+    }
+    if found.is_none() {
+        if let (Some(roof), Some(g)) = (number(attrs, ROOF_ATTR), number(attrs, GROUND_ATTR)) {
+            found = Some(roof - g)
+                .filter(|h| plausible(*h))
+                .map(|h| (h, HeightSource::RoofMinusGround));
+        }
+    }
+    if found.is_none() {
+        found = top_z
+            .map(|t| t - ground_m - base_offset_m)
+            .filter(|h| plausible(*h))
+            .map(|h| (h, HeightSource::Geometry));
+    }
+    if found.is_none() {
+        let s = opts.storey_height_m;
+        found = match &opts.storey_attr {
+            Some(name) => try_attr(name, s, 0.0, &mut rejected),
+            None => DEFAULT_STOREY_ATTRS
+                .iter()
+                .find_map(|n| try_attr(n, s, 0.0, &mut rejected)),
+        }
+        .map(|h| (h, HeightSource::Storeys));
+    }
+    let (height_m, source) = found.unwrap_or((opts.default_height_m, HeightSource::Default));
+    Heights {
+        ground_m,
+        ground_source,
+        base_offset_m,
+        height_m,
+        source,
+        rejected,
+    }
+}
+
+/// The report key of a height source (its snake_case serde name).
+pub(crate) fn height_source_key(s: HeightSource) -> &'static str {
+    match s {
+        HeightSource::NamedAttribute => "named_attribute",
+        HeightSource::KnownAttribute => "known_attribute",
+        HeightSource::RoofMinusGround => "roof_minus_ground",
+        HeightSource::Storeys => "storeys",
+        HeightSource::Geometry => "geometry",
+        HeightSource::Default => "default",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn attrs(pairs: &[(&str, AttrValue)]) -> Attributes {
+        pairs
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.clone()))
+            .collect()
+    }
+
+    #[test]
+    fn rules_apply_in_documented_order() {
+        let o = IngestOptions {
+            height_attr: Some("h".into()),
+            ..Default::default()
+        };
+        let a = attrs(&[
+            ("h", AttrValue::Int(20)),
+            ("height", AttrValue::Int(30)),
+            ("stories", AttrValue::Int(4)),
+        ]);
+        assert_eq!(
+            resolve(&a, None, None, &o).source,
+            HeightSource::NamedAttribute
+        );
+        let d = IngestOptions::default();
+        let h = resolve(&a, None, None, &d);
+        assert_eq!((h.height_m, h.source), (30.0, HeightSource::KnownAttribute));
+        let a = attrs(&[("stories", AttrValue::Float(2.5))]);
+        let h = resolve(&a, None, None, &d);
+        assert_eq!((h.height_m, h.source), (7.5, HeightSource::Storeys));
+        let h = resolve(&Attributes::new(), None, None, &d);
+        assert_eq!((h.height_m, h.source), (10.0, HeightSource::Default));
+    }
+
+    #[test]
+    fn string_heights_with_units_parse() {
+        let a = attrs(&[("height", AttrValue::String("28 m".into()))]);
+        let h = resolve(&a, None, None, &IngestOptions::default());
+        assert_eq!((h.height_m, h.source), (28.0, HeightSource::KnownAttribute));
+    }
+
+    #[test]
+    fn absurd_and_non_positive_heights_fall_through_and_are_counted() {
+        let a = attrs(&[
+            ("height", AttrValue::Int(5000)),
+            ("building:height", AttrValue::Int(0)),
+            ("Height", AttrValue::String("tall".into())),
+            ("building:levels", AttrValue::String("3".into())),
+        ]);
+        let h = resolve(&a, None, None, &IngestOptions::default());
+        assert_eq!((h.height_m, h.source), (9.0, HeightSource::Storeys));
+        assert_eq!(h.rejected, vec!["height", "building:height", "Height"]);
+    }
+
+    #[test]
+    fn three_dbag_roof_minus_ground_and_ground_attribute() {
+        let a = attrs(&[
+            ("b3_h_maaiveld", AttrValue::Float(-1.5)),
+            ("b3_h_dak_70p", AttrValue::Float(10.5)),
+        ]);
+        let h = resolve(&a, Some(0.2), Some(12.0), &IngestOptions::default());
+        assert_eq!(
+            (h.height_m, h.source),
+            (12.0, HeightSource::RoofMinusGround)
+        );
+        assert_eq!(
+            (h.ground_m, h.ground_source),
+            (-1.5, GroundSource::Attribute)
+        );
+    }
+
+    #[test]
+    fn geometry_top_gives_height_above_footprint_ground() {
+        let h = resolve(
+            &Attributes::new(),
+            Some(2.0),
+            Some(14.5),
+            &IngestOptions::default(),
+        );
+        assert_eq!(
+            (h.height_m, h.source, h.ground_m),
+            (12.5, HeightSource::Geometry, 2.0)
+        );
+    }
+
+    #[test]
+    fn osm_min_height_raises_the_base_and_shortens_the_part() {
+        let a = attrs(&[
+            ("height", AttrValue::String("30".into())),
+            ("min_height", AttrValue::String("12".into())),
+        ]);
+        let h = resolve(&a, None, None, &IngestOptions::default());
+        assert_eq!((h.base_offset_m, h.height_m), (12.0, 18.0));
+    }
+}

@@ -1,0 +1,169 @@
+//! Placement: choose the local ENU frame for the ingested buildings and map footprints into it.
+//! Rule: the origin is the centre of the lon/lat bounding box of all written buildings, at the
+//! lowest ground height among them. Data heights (NAP, …) are taken as ellipsoidal heights as they
+//! are: no geoid model is applied, so the whole city sits offset by the local geoid height.
+
+use citylod_model::LocalFrame;
+use geo_types::{Coord, LineString, MultiPolygon, Polygon};
+
+use crate::repair::Plane;
+
+/// The frame rule in words, for the report.
+pub const FRAME_RULE: &str = "origin = centre of the lon/lat bounding box of all written buildings, at the lowest \
+     ground height among them; data heights are used as ellipsoidal heights (no geoid model applied)";
+
+/// A lon/lat bounding box in degrees, `[min_lon, min_lat, max_lon, max_lat]`.
+pub(crate) type LonLatBox = [f64; 4];
+
+pub(crate) fn union_box(a: LonLatBox, b: LonLatBox) -> LonLatBox {
+    [
+        a[0].min(b[0]),
+        a[1].min(b[1]),
+        a[2].max(b[2]),
+        a[3].max(b[3]),
+    ]
+}
+
+/// The bounding box of a plane footprint, in lon/lat degrees.
+pub(crate) fn lon_lat_box(plane: &Plane, fp: &MultiPolygon<f64>) -> LonLatBox {
+    let mut b = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    for p in &fp.0 {
+        for c in &p.exterior().0 {
+            let (lon, lat) = plane.to_lon_lat(*c);
+            b = union_box(b, [lon, lat, lon, lat]);
+        }
+    }
+    b
+}
+
+/// The frame for buildings with the given total lon/lat box and lowest ground height (m).
+/// With no buildings the frame is at (0°, 0°, 0 m). Boxes across the antimeridian are not handled.
+pub(crate) fn frame_for(bbox: Option<LonLatBox>, min_ground_m: Option<f64>) -> LocalFrame {
+    match bbox {
+        Some(b) => LocalFrame::new(
+            (b[0] + b[2]) / 2.0,
+            (b[1] + b[3]) / 2.0,
+            min_ground_m.unwrap_or(0.0),
+        ),
+        None => LocalFrame::new(0.0, 0.0, 0.0),
+    }
+}
+
+/// `LocalFrame::geodetic_to_enu` with the frame's axes and origin computed once (same result).
+pub(crate) struct EnuMap {
+    /// Columns of the ENU→ECEF rotation: east, north, up unit vectors in ECEF.
+    axes: [[f64; 3]; 3],
+    origin_ecef: [f64; 3],
+}
+
+impl EnuMap {
+    pub fn new(frame: &LocalFrame) -> Self {
+        let m = frame.enu_to_ecef_column_major();
+        EnuMap {
+            axes: [[m[0], m[1], m[2]], [m[4], m[5], m[6]], [m[8], m[9], m[10]]],
+            origin_ecef: [m[12], m[13], m[14]],
+        }
+    }
+
+    pub fn geodetic_to_enu(&self, lon_deg: f64, lat_deg: f64, h_m: f64) -> [f64; 3] {
+        let q = citylod_model::geodetic_to_ecef(lon_deg, lat_deg, h_m);
+        let d = [
+            q[0] - self.origin_ecef[0],
+            q[1] - self.origin_ecef[1],
+            q[2] - self.origin_ecef[2],
+        ];
+        self.axes.map(|a| a[0] * d[0] + a[1] * d[1] + a[2] * d[2])
+    }
+}
+
+/// Maps a plane footprint to ENU metres (x east, y north) at ellipsoidal height `base_h_m`, and
+/// returns it with the ENU up coordinate of its centre at that height (which includes the Earth's
+/// curvature drop away from the origin).
+pub(crate) fn to_enu(
+    frame: &EnuMap,
+    plane: &Plane,
+    fp: &MultiPolygon<f64>,
+    base_h_m: f64,
+) -> (MultiPolygon<f64>, f64) {
+    let map_ring = |r: &LineString| -> LineString {
+        r.0.iter()
+            .map(|c| {
+                let (lon, lat) = plane.to_lon_lat(*c);
+                let e = frame.geodetic_to_enu(lon, lat, base_h_m);
+                Coord { x: e[0], y: e[1] }
+            })
+            .collect()
+    };
+    let out = MultiPolygon(
+        fp.0.iter()
+            .map(|p| {
+                Polygon::new(
+                    map_ring(p.exterior()),
+                    p.interiors().iter().map(map_ring).collect(),
+                )
+            })
+            .collect(),
+    );
+    let b = lon_lat_box(plane, fp);
+    let base_z_m = frame.geodetic_to_enu((b[0] + b[2]) / 2.0, (b[1] + b[3]) / 2.0, base_h_m)[2];
+    (out, base_z_m)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cached_enu_map_matches_the_model_frame() {
+        let f = LocalFrame::new(-71.06, 42.35, 12.0);
+        let m = EnuMap::new(&f);
+        let (a, b) = (
+            m.geodetic_to_enu(-71.07, 42.36, 30.0),
+            f.geodetic_to_enu(-71.07, 42.36, 30.0),
+        );
+        assert!((0..3).all(|i| (a[i] - b[i]).abs() < 1e-6), "{a:?} {b:?}");
+    }
+
+    #[test]
+    fn frame_origin_is_box_centre_at_lowest_ground() {
+        let f = frame_for(Some([4.0, 52.0, 4.2, 52.1]), Some(-2.5));
+        assert!((f.origin_lon_deg - 4.1).abs() < 1e-12 && (f.origin_lat_deg - 52.05).abs() < 1e-12);
+        assert_eq!(f.origin_h_m, -2.5);
+    }
+
+    #[test]
+    fn enu_mapping_keeps_winding_and_drops_with_curvature() {
+        let plane = Plane::new(4.0, 52.0);
+        let sq = MultiPolygon(vec![Polygon::new(
+            LineString::from(vec![
+                (0.0, 0.0),
+                (10.0, 0.0),
+                (10.0, 10.0),
+                (0.0, 10.0),
+                (0.0, 0.0),
+            ]),
+            vec![],
+        )]);
+        // A frame 5 km east: the square lies 5 km west, and ≈ 5000²/(2·6.38e6) ≈ 2 m below the plane.
+        let (lon5, _) = plane.to_lon_lat(Coord { x: 5000.0, y: 0.0 });
+        let frame = LocalFrame::new(lon5, 52.0, 0.0);
+        let (enu, base_z) = to_enu(&EnuMap::new(&frame), &plane, &sq, 0.0);
+        let r = &enu.0[0].exterior().0;
+        let twice_area: f64 = r
+            .windows(2)
+            .map(|w| w[0].x * w[1].y - w[1].x * w[0].y)
+            .sum();
+        assert!(
+            (twice_area / 2.0 - 100.0).abs() < 0.1,
+            "area {}",
+            twice_area / 2.0
+        );
+        assert!((r[0].x + 5000.0).abs() < 5.0);
+        assert!((base_z + 1.96).abs() < 0.1, "{base_z}");
+    }
+}

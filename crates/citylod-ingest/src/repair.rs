@@ -1,0 +1,424 @@
+//! Footprint repair, done per feature in a local metric plane (an affine image of lon/lat, so
+//! validity and winding are the same as on the globe): drop repeated points and degenerate rings,
+//! drop holes outside their shell, rebuild self-intersecting rings (geo's `MakeValid`), union
+//! overlapping or assembled pieces, drop parts under 0.01 m², and wind exteriors CCW, holes CW.
+
+use crate::report::IssueReason;
+use geo::{Area, BooleanOps, MakeValid, Validation};
+use geo_types::{Coord, LineString, MultiPolygon, Polygon};
+
+/// Footprints (and parts, holes) smaller than this are degenerate (m²).
+pub const MIN_AREA_M2: f64 = 0.01;
+
+/// An equirectangular plane around (lon0, lat0) with WGS84 radii of curvature: x east, y north in
+/// metres. Exactly invertible; scale error < 1e-3 within a few km, far below what repair needs.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Plane {
+    lon0: f64,
+    lat0: f64,
+    m_per_deg_lon: f64,
+    m_per_deg_lat: f64,
+}
+
+impl Plane {
+    pub fn new(lon0: f64, lat0: f64) -> Self {
+        use citylod_model::{WGS84_A_M, WGS84_F};
+        let e2 = WGS84_F * (2.0 - WGS84_F);
+        let s = lat0.to_radians().sin();
+        let w = (1.0 - e2 * s * s).sqrt();
+        let n = WGS84_A_M / w;
+        let m = WGS84_A_M * (1.0 - e2) / (w * w * w);
+        Plane {
+            lon0,
+            lat0,
+            m_per_deg_lon: n * lat0.to_radians().cos() * std::f64::consts::PI / 180.0,
+            m_per_deg_lat: m * std::f64::consts::PI / 180.0,
+        }
+    }
+
+    pub fn to_xy(self, lon: f64, lat: f64) -> Coord {
+        Coord {
+            x: (lon - self.lon0) * self.m_per_deg_lon,
+            y: (lat - self.lat0) * self.m_per_deg_lat,
+        }
+    }
+
+    pub fn to_lon_lat(self, c: Coord) -> (f64, f64) {
+        (
+            self.lon0 + c.x / self.m_per_deg_lon,
+            self.lat0 + c.y / self.m_per_deg_lat,
+        )
+    }
+}
+
+/// Removes consecutive repeated points of an open ring, including last == first; returns how many.
+pub(crate) fn drop_repeated_points(ring: &mut Vec<[f64; 2]>) -> usize {
+    let before = ring.len();
+    ring.dedup();
+    while ring.len() > 1 && ring.first() == ring.last() {
+        ring.pop();
+    }
+    before - ring.len()
+}
+
+fn distinct_points(ring: &[Coord]) -> usize {
+    let mut keys: Vec<(u64, u64)> = ring
+        .iter()
+        .map(|c| (c.x.to_bits(), c.y.to_bits()))
+        .collect();
+    keys.sort_unstable();
+    keys.dedup();
+    keys.len()
+}
+
+fn signed_area(ring: &LineString) -> f64 {
+    ring.0
+        .windows(2)
+        .map(|w| w[0].x * w[1].y - w[1].x * w[0].y)
+        .sum::<f64>()
+        / 2.0
+}
+
+/// A repaired footprint in the plane, the repairs made, and how many rings were rewound.
+#[derive(Debug)]
+pub(crate) struct Repaired {
+    pub footprint: MultiPolygon<f64>,
+    pub issues: Vec<(IssueReason, String)>,
+    pub rings_reoriented: usize,
+}
+
+type Skip = (IssueReason, String);
+
+/// Repairs polygons given as open rings (`[exterior, holes…]`) in plane metres. `assemble`: the
+/// polygons are pieces of one outline (always unioned, not reported). `Err` = skip with reason.
+pub(crate) fn repair(polygons: Vec<Vec<Vec<Coord>>>, assemble: bool) -> Result<Repaired, Skip> {
+    let mut issues = Vec::new();
+    let n_in = polygons.len();
+    let mut polys: Vec<Polygon> = Vec::with_capacity(n_in);
+    for (pi, mut rings) in polygons.into_iter().enumerate() {
+        if rings.is_empty() || distinct_points(&rings[0]) < 3 {
+            if n_in > 1 && !assemble {
+                issues.push((
+                    IssueReason::DegeneratePartDropped,
+                    format!("part {pi} has fewer than 3 distinct points"),
+                ));
+            }
+            continue;
+        }
+        let exterior = LineString::from(rings.remove(0));
+        let mut holes = Vec::with_capacity(rings.len());
+        for (hi, h) in rings.into_iter().enumerate() {
+            if distinct_points(&h) < 3 {
+                issues.push((
+                    IssueReason::DegenerateHoleDropped,
+                    format!("hole {} has fewer than 3 distinct points", hi + 1),
+                ));
+            } else {
+                holes.push(LineString::from(h));
+            }
+        }
+        polys.push(Polygon::new(exterior, holes));
+    }
+    if polys.is_empty() {
+        return Err((
+            IssueReason::TooFewPoints,
+            "no ring has 3 distinct points".into(),
+        ));
+    }
+
+    let mut rebuilt = false;
+    let mut parts: Vec<Polygon> = Vec::with_capacity(polys.len());
+    for p in polys {
+        if p.is_valid() {
+            parts.push(p);
+            continue;
+        }
+        let p = drop_holes_outside_shell(p, &mut issues);
+        match p.check_validation() {
+            Ok(()) => parts.push(p),
+            Err(why) => {
+                let area_before = p.unsigned_area();
+                let fixed = p.make_valid().map_err(|e| {
+                    (
+                        IssueReason::RepairFailed,
+                        format!("{why}; repair failed: {e}"),
+                    )
+                })?;
+                issues.push((
+                    IssueReason::SelfIntersection,
+                    format!(
+                        "{why}; rebuilt as {} polygon(s), area {:.2} → {:.2} m²",
+                        fixed.0.len(),
+                        area_before,
+                        fixed.unsigned_area()
+                    ),
+                ));
+                rebuilt = true;
+                parts.extend(fixed.0);
+            }
+        }
+    }
+
+    let mut footprint = MultiPolygon(parts);
+    if footprint.0.len() > 1 && (assemble || !footprint.is_valid()) {
+        let n = footprint.0.len();
+        let merged = geo::unary_union(footprint.0.iter());
+        if !assemble {
+            issues.push((
+                IssueReason::OverlappingPartsMerged,
+                format!(
+                    "{n} overlapping or edge-sharing polygons merged into {}",
+                    merged.0.len()
+                ),
+            ));
+        }
+        footprint = merged;
+        rebuilt = true;
+    }
+
+    // make_valid snaps and union splits; re-check what they built and give up cleanly if needed.
+    if rebuilt && !footprint.is_valid() {
+        footprint = geo::unary_union(footprint.0.iter());
+        if let Err(e) = footprint.check_validation() {
+            return Err((
+                IssueReason::RepairFailed,
+                format!("repaired footprint still invalid: {e}"),
+            ));
+        }
+    }
+
+    let n_parts = footprint.0.len();
+    let mut kept = Vec::with_capacity(n_parts);
+    for (i, mut p) in footprint.0.into_iter().enumerate() {
+        let a = p.unsigned_area();
+        if a < MIN_AREA_M2 {
+            if n_parts > 1 && !rebuilt {
+                issues.push((
+                    IssueReason::DegeneratePartDropped,
+                    format!("part {i} has area {a:.4} m²"),
+                ));
+            }
+            continue;
+        }
+        let small_holes = p
+            .interiors()
+            .iter()
+            .filter(|h| signed_area(h).abs() < MIN_AREA_M2)
+            .count();
+        if small_holes > 0 {
+            let (ext, mut holes) = p.into_inner();
+            holes.retain(|h| signed_area(h).abs() >= MIN_AREA_M2);
+            p = Polygon::new(ext, holes);
+            issues.push((
+                IssueReason::DegenerateHoleDropped,
+                format!("{small_holes} hole(s) under {MIN_AREA_M2} m²"),
+            ));
+        }
+        kept.push(p);
+    }
+    if kept.is_empty() {
+        return Err((
+            IssueReason::ZeroArea,
+            format!("footprint area below {MIN_AREA_M2} m²"),
+        ));
+    }
+    let mut rings_reoriented = 0;
+    for p in &mut kept {
+        rings_reoriented += orient(p);
+    }
+    if rebuilt {
+        rings_reoriented = 0; // rebuilt rings have no input winding to compare with
+    }
+    Ok(Repaired {
+        footprint: MultiPolygon(kept),
+        issues,
+        rings_reoriented,
+    })
+}
+
+/// Drops holes that do not overlap their shell (recording each); other holes are kept.
+fn drop_holes_outside_shell(p: Polygon, issues: &mut Vec<(IssueReason, String)>) -> Polygon {
+    if p.interiors().is_empty() {
+        return p;
+    }
+    let (exterior, holes) = p.into_inner();
+    let shell = Polygon::new(exterior, vec![]);
+    let mut kept = Vec::with_capacity(holes.len());
+    for (i, h) in holes.into_iter().enumerate() {
+        let hp = Polygon::new(h, vec![]);
+        let overlap_m2 = shell.intersection(&hp).unsigned_area();
+        if overlap_m2 < MIN_AREA_M2 {
+            issues.push((
+                IssueReason::HoleOutsideShell,
+                format!("hole {} lies outside the exterior ring; dropped", i + 1),
+            ));
+        } else {
+            kept.push(hp.into_inner().0);
+        }
+    }
+    Polygon::new(shell.into_inner().0, kept)
+}
+
+/// Winds the exterior CCW and the holes CW; returns the number of rings reversed.
+fn orient(p: &mut Polygon) -> usize {
+    let mut n = 0;
+    p.exterior_mut(|r| {
+        if signed_area(r) < 0.0 {
+            r.0.reverse();
+            n += 1;
+        }
+    });
+    p.interiors_mut(|hs| {
+        for h in hs {
+            if signed_area(h) > 0.0 {
+                h.0.reverse();
+                n += 1;
+            }
+        }
+    });
+    n
+}
+
+/// Checks the footprint invariant of `citylod_model::Footprint`: valid, closed, CCW exteriors,
+/// CW holes, every part at least `MIN_AREA_M2`. Tests call it.
+pub fn check_footprint(fp: &MultiPolygon<f64>) -> Result<(), String> {
+    if fp.0.is_empty() {
+        return Err("empty footprint".into());
+    }
+    for (i, p) in fp.0.iter().enumerate() {
+        if let Err(e) = p.check_validation() {
+            return Err(format!("part {i}: {e}"));
+        }
+        if signed_area(p.exterior()) <= 0.0 || p.interiors().iter().any(|h| signed_area(h) >= 0.0) {
+            return Err(format!("part {i}: wrong winding"));
+        }
+        if p.unsigned_area() < MIN_AREA_M2 {
+            return Err(format!("part {i}: area below {MIN_AREA_M2} m²"));
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ring(pts: &[(f64, f64)]) -> Vec<Coord> {
+        pts.iter().map(|&(x, y)| Coord { x, y }).collect()
+    }
+
+    #[test]
+    fn bowtie_becomes_two_triangles_reported_as_repaired() {
+        let bowtie = ring(&[(0.0, 0.0), (10.0, 10.0), (10.0, 0.0), (0.0, 10.0)]);
+        let r = repair(vec![vec![bowtie]], false).unwrap();
+        assert_eq!(r.footprint.0.len(), 2);
+        assert!((r.footprint.unsigned_area() - 50.0).abs() < 1e-6);
+        assert_eq!(r.issues[0].0, IssueReason::SelfIntersection);
+        check_footprint(&r.footprint).unwrap();
+    }
+
+    #[test]
+    fn clockwise_exterior_and_ccw_hole_are_rewound() {
+        let ext = ring(&[(0.0, 0.0), (0.0, 10.0), (10.0, 10.0), (10.0, 0.0)]);
+        let hole = ring(&[(2.0, 2.0), (4.0, 2.0), (4.0, 4.0), (2.0, 4.0)]);
+        let r = repair(vec![vec![ext, hole]], false).unwrap();
+        assert_eq!(r.rings_reoriented, 2);
+        assert!(r.issues.is_empty());
+        check_footprint(&r.footprint).unwrap();
+        assert!((r.footprint.unsigned_area() - 96.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn hole_outside_shell_is_dropped() {
+        let ext = ring(&[(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)]);
+        let hole = ring(&[(20.0, 20.0), (22.0, 20.0), (22.0, 22.0), (20.0, 22.0)]);
+        let r = repair(vec![vec![ext, hole]], false).unwrap();
+        assert_eq!(r.issues[0].0, IssueReason::HoleOutsideShell);
+        assert!(r.footprint.0[0].interiors().is_empty());
+        assert!((r.footprint.unsigned_area() - 100.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn degenerate_inputs_are_skipped_with_the_right_reason() {
+        let two = ring(&[(0.0, 0.0), (1.0, 1.0)]);
+        assert_eq!(
+            repair(vec![vec![two]], false).unwrap_err().0,
+            IssueReason::TooFewPoints
+        );
+        let collinear = ring(&[(0.0, 0.0), (1.0, 1.0), (2.0, 2.0)]);
+        assert_eq!(
+            repair(vec![vec![collinear]], false).unwrap_err().0,
+            IssueReason::ZeroArea
+        );
+        let tiny = ring(&[(0.0, 0.0), (0.05, 0.0), (0.05, 0.05), (0.0, 0.05)]);
+        assert_eq!(
+            repair(vec![vec![tiny]], false).unwrap_err().0,
+            IssueReason::ZeroArea
+        );
+    }
+
+    #[test]
+    fn assembled_pieces_are_unioned_without_a_repair_entry() {
+        let a = ring(&[(0.0, 0.0), (5.0, 0.0), (5.0, 5.0), (0.0, 5.0)]);
+        let b = ring(&[(5.0, 0.0), (10.0, 0.0), (10.0, 5.0), (5.0, 5.0)]);
+        let r = repair(vec![vec![a.clone()], vec![b.clone()]], true).unwrap();
+        assert_eq!(r.footprint.0.len(), 1);
+        assert!(r.issues.is_empty());
+        let r = repair(vec![vec![a], vec![b]], false).unwrap();
+        assert_eq!(r.issues[0].0, IssueReason::OverlappingPartsMerged);
+        assert!((r.footprint.unsigned_area() - 50.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn repeated_points_are_dropped_including_the_wrap() {
+        let mut r = vec![
+            [0.0, 0.0],
+            [0.0, 0.0],
+            [1.0, 0.0],
+            [1.0, 1.0],
+            [1.0, 1.0],
+            [0.0, 0.0],
+        ];
+        assert_eq!(drop_repeated_points(&mut r), 3);
+        assert_eq!(r, vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]]);
+    }
+
+    proptest::proptest! {
+        /// Any ring of small integer points either repairs into a valid CCW footprint or is
+        /// skipped with a reason; never a panic, never an invalid footprint.
+        #[test]
+        fn random_rings_repair_to_valid_footprints_or_skip(
+            pts in proptest::collection::vec((0i32..8, 0i32..8), 0..12),
+            hole in proptest::collection::vec((0i32..8, 0i32..8), 0..6),
+            assemble in proptest::bool::ANY,
+        ) {
+            let r: Vec<Coord> = pts.iter().map(|&(x, y)| Coord { x: x as f64, y: y as f64 }).collect();
+            let h: Vec<Coord> = hole.iter().map(|&(x, y)| Coord { x: x as f64 + 0.5, y: y as f64 + 0.25 }).collect();
+            let rings = if h.is_empty() { vec![r] } else { vec![r, h] };
+            match repair(vec![rings], assemble) {
+                Ok(out) => {
+                    if let Err(e) = check_footprint(&out.footprint) {
+                        panic!("{e}: {:?} from {pts:?} / {hole:?}", out.footprint);
+                    }
+                }
+                Err((reason, _)) => proptest::prop_assert!(matches!(
+                    reason,
+                    IssueReason::TooFewPoints | IssueReason::ZeroArea | IssueReason::RepairFailed
+                )),
+            }
+        }
+    }
+
+    #[test]
+    fn plane_round_trips_exactly_and_has_metric_scale() {
+        let p = Plane::new(-71.06, 42.35);
+        let c = p.to_xy(-71.05, 42.36);
+        let (lon, lat) = p.to_lon_lat(c);
+        assert!((lon + 71.05).abs() < 1e-12 && (lat - 42.36).abs() < 1e-12);
+        // 0.01° of latitude ≈ 1111 m; 0.01° of longitude at 42.35° ≈ 823 m.
+        assert!(
+            (c.y - 1111.0).abs() < 3.0 && (c.x - 823.0).abs() < 3.0,
+            "{c:?}"
+        );
+    }
+}

@@ -1,0 +1,183 @@
+//! The ingest report: every file read, every feature skipped or repaired (file, feature id, a
+//! machine-readable reason and a human detail), and counts of height and ground sources.
+//! Invariant: `features_read == buildings_written + skipped.len()`; a repaired feature is written.
+
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// Machine-readable reason of a skip or a repair (serialized in snake_case).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum IssueReason {
+    // --- skips ---
+    /// The feature has no geometry (`"geometry": null`, or a CityJSON building without any).
+    NoGeometry,
+    /// The geometry is not polygonal (Point, LineString, …).
+    UnsupportedGeometry,
+    /// The geometry JSON is malformed (coordinates not arrays of numbers, vertex index out of range).
+    MalformedGeometry,
+    /// A polygonal geometry with no coordinates.
+    EmptyGeometry,
+    /// A coordinate is NaN or infinite.
+    NonFiniteCoordinate,
+    /// A coordinate is outside the valid range of its CRS (|lon| > 180 or |lat| > 90).
+    CoordinateOutOfRange,
+    /// The CRS transformation failed or gave a non-finite result.
+    TransformFailed,
+    /// No ring has at least 3 distinct points.
+    TooFewPoints,
+    /// The footprint area is below 0.01 m².
+    ZeroArea,
+    /// A CityJSON building whose geometry gives no footprint (no LoD0, ground surface or horizontal base).
+    NoFootprint,
+    /// Repairing an invalid polygon failed.
+    RepairFailed,
+    /// The footprint could not be turned into a mesh (reported by the mesh stage, after ingest).
+    MeshFailed,
+    // --- repairs ---
+    /// A GeoJSON ring whose last point did not repeat the first was closed.
+    RingClosed,
+    /// Consecutive repeated points were removed.
+    RepeatedPointsRemoved,
+    /// A hole with fewer than 3 distinct points or no area was dropped.
+    DegenerateHoleDropped,
+    /// One polygon of a multi-polygon was degenerate (< 3 points or < 0.01 m²) and dropped.
+    DegeneratePartDropped,
+    /// A hole lying outside its shell was dropped.
+    HoleOutsideShell,
+    /// A self-touching or self-intersecting polygon was rebuilt into valid polygons.
+    SelfIntersection,
+    /// Overlapping or edge-sharing polygons of one multi-polygon were merged by union.
+    OverlappingPartsMerged,
+}
+
+impl IssueReason {
+    /// The snake_case name used in the report maps.
+    pub fn as_str(self) -> &'static str {
+        use IssueReason::*;
+        match self {
+            NoGeometry => "no_geometry",
+            UnsupportedGeometry => "unsupported_geometry",
+            MalformedGeometry => "malformed_geometry",
+            EmptyGeometry => "empty_geometry",
+            NonFiniteCoordinate => "non_finite_coordinate",
+            CoordinateOutOfRange => "coordinate_out_of_range",
+            TransformFailed => "transform_failed",
+            TooFewPoints => "too_few_points",
+            ZeroArea => "zero_area",
+            NoFootprint => "no_footprint",
+            RepairFailed => "repair_failed",
+            MeshFailed => "mesh_failed",
+            RingClosed => "ring_closed",
+            RepeatedPointsRemoved => "repeated_points_removed",
+            DegenerateHoleDropped => "degenerate_hole_dropped",
+            DegeneratePartDropped => "degenerate_part_dropped",
+            HoleOutsideShell => "hole_outside_shell",
+            SelfIntersection => "self_intersection",
+            OverlappingPartsMerged => "overlapping_parts_merged",
+        }
+    }
+}
+
+/// One skipped or repaired feature.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FeatureIssue {
+    /// The input file as given.
+    pub file: String,
+    /// The feature's source id (see `Building::source_id`).
+    pub feature_id: String,
+    pub reason: IssueReason,
+    /// What was wrong or what was done, for a human.
+    pub detail: String,
+}
+
+/// Input formats the ingest stage reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum InputFormat {
+    GeoJson,
+    CityJson,
+    CityJsonSeq,
+}
+
+/// What happened to one input file.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FileReport {
+    pub path: String,
+    pub format: InputFormat,
+    /// The CRS the coordinates were read in, e.g. `EPSG:28992` or `WGS84 lon/lat`.
+    pub crs: String,
+    /// Version string of a CityJSON file.
+    pub cityjson_version: Option<String>,
+    pub features_read: usize,
+    pub buildings_written: usize,
+    pub skipped: usize,
+    /// CityJSON city objects that are not buildings (e.g. TINRelief), ignored.
+    pub non_building_objects: usize,
+}
+
+/// Everything the ingest stage did, for the build report.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct IngestReport {
+    pub files: Vec<FileReport>,
+    /// Buildings (GeoJSON features, CityJSON Building objects) found in all files.
+    pub features_read: usize,
+    pub buildings_written: usize,
+    /// Number of distinct written features that had at least one repair.
+    pub features_repaired: usize,
+    /// One entry per (feature, repair); a feature may have several.
+    pub repaired: Vec<FeatureIssue>,
+    /// One entry per skipped feature.
+    pub skipped: Vec<FeatureIssue>,
+    pub repaired_by_reason: BTreeMap<String, usize>,
+    pub skipped_by_reason: BTreeMap<String, usize>,
+    /// Written buildings per `HeightSource` (snake_case).
+    pub height_sources: BTreeMap<String, usize>,
+    /// Written buildings per ground-height source: `b3_h_maaiveld`, `geometry`, `zero`.
+    pub ground_sources: BTreeMap<String, usize>,
+    /// Height attribute values present but unusable (unparseable, ≤ 0 or > 1000 m), by attribute name.
+    pub height_values_rejected: BTreeMap<String, usize>,
+    /// Written GeoJSON features tagged `building:part` (OSM); kept as buildings of their own.
+    pub building_parts: usize,
+    /// Written buildings whose base was raised by an OSM `min_height`.
+    pub min_height_bases: usize,
+    /// Rings whose winding was flipped to the ENU convention. Not a defect: RFC 7946 readers must
+    /// accept either winding, and CityJSON ground surfaces face down.
+    pub rings_reoriented: usize,
+    /// How the local frame origin was chosen.
+    pub frame_rule: String,
+}
+
+impl IngestReport {
+    /// Checks the report's own invariants; tests call it.
+    pub fn check_invariants(&self) -> Result<(), String> {
+        if self.features_read != self.buildings_written + self.skipped.len() {
+            return Err(format!(
+                "features_read {} != buildings_written {} + skipped {}",
+                self.features_read,
+                self.buildings_written,
+                self.skipped.len()
+            ));
+        }
+        let per_file: usize = self.files.iter().map(|f| f.features_read).sum();
+        if per_file != self.features_read {
+            return Err(format!(
+                "files sum to {per_file} features, total says {}",
+                self.features_read
+            ));
+        }
+        let skip_sum: usize = self.skipped_by_reason.values().sum();
+        let rep_sum: usize = self.repaired_by_reason.values().sum();
+        if skip_sum != self.skipped.len() || rep_sum != self.repaired.len() {
+            return Err("by-reason counts disagree with the issue lists".into());
+        }
+        let h: usize = self.height_sources.values().sum();
+        if h != self.buildings_written {
+            return Err(format!(
+                "height sources count {h} buildings, {} written",
+                self.buildings_written
+            ));
+        }
+        Ok(())
+    }
+}

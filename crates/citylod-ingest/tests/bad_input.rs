@@ -1,0 +1,335 @@
+//! Bad and edge-case inputs, written to a temporary directory: every file-level problem is an
+//! `IngestError`, every feature-level problem a skip or repair with the right reason, no panics.
+
+use citylod_ingest::{ingest, IngestError, IngestOptions, IssueReason};
+use citylod_model::HeightSource;
+use std::path::PathBuf;
+
+fn write(dir: &tempfile::TempDir, name: &str, text: &str) -> PathBuf {
+    let p = dir.path().join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn feature(id: &str, props: &str, coords: &str) -> String {
+    format!(
+        r#"{{"type":"Feature","id":"{id}","properties":{props},"geometry":{{"type":"Polygon","coordinates":{coords}}}}}"#
+    )
+}
+
+fn collection(features: &[String]) -> String {
+    format!(
+        r#"{{"type":"FeatureCollection","features":[{}]}}"#,
+        features.join(",")
+    )
+}
+
+/// A 0.0001° square near Delft (≈ 7 m × 11 m).
+const SQUARE: &str = "[[[4.36,52.0],[4.3601,52.0],[4.3601,52.0001],[4.36,52.0001],[4.36,52.0]]]";
+
+fn reason_of(out: &citylod_ingest::Ingested, id: &str) -> Option<IssueReason> {
+    out.report
+        .skipped
+        .iter()
+        .find(|s| s.feature_id == id)
+        .map(|s| s.reason)
+}
+
+#[test]
+fn truncated_json_is_a_file_error_naming_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let full = collection(&[feature("a", "{}", SQUARE)]);
+    let p = write(&dir, "trunc.geojson", &full[..full.len() / 2]);
+    let e = ingest(std::slice::from_ref(&p), &IngestOptions::default()).unwrap_err();
+    assert!(matches!(e, IngestError::Json { .. }), "{e}");
+    assert!(e.to_string().contains("trunc.geojson"), "{e}");
+}
+
+#[test]
+fn degenerate_and_out_of_range_features_are_skipped_with_their_reason() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = collection(&[
+        feature("ok", "{}", SQUARE),
+        feature("two_points", "{}", "[[[4.36,52.0],[4.3601,52.0]]]"),
+        feature("line", "{}", "[[[4.36,52.0],[4.3601,52.0],[4.3602,52.0],[4.36,52.0]]]"),
+        feature("lon500", "{}", "[[[500,52.0],[500.0001,52.0],[500.0001,52.0001],[500,52.0]]]"),
+        feature("tiny", "{}", "[[[4.36,52.0],[4.36000001,52.0],[4.36000001,52.00000001],[4.36,52.0]]]"),
+        r#"{"type":"Feature","id":"pt","properties":{},"geometry":{"type":"Point","coordinates":[4.36,52.0]}}"#.into(),
+        r#"{"type":"Feature","id":"null","properties":{},"geometry":null}"#.into(),
+    ]);
+    let out = ingest(
+        &[write(&dir, "bad.geojson", &text)],
+        &IngestOptions::default(),
+    )
+    .unwrap();
+    out.report.check_invariants().unwrap();
+    assert_eq!(out.report.features_read, 7);
+    assert_eq!(out.buildings.len(), 1);
+    assert_eq!(
+        reason_of(&out, "two_points"),
+        Some(IssueReason::TooFewPoints)
+    );
+    assert_eq!(reason_of(&out, "line"), Some(IssueReason::ZeroArea));
+    assert_eq!(
+        reason_of(&out, "lon500"),
+        Some(IssueReason::CoordinateOutOfRange)
+    );
+    assert_eq!(reason_of(&out, "tiny"), Some(IssueReason::ZeroArea));
+    assert_eq!(
+        reason_of(&out, "pt"),
+        Some(IssueReason::UnsupportedGeometry)
+    );
+    assert_eq!(reason_of(&out, "null"), Some(IssueReason::NoGeometry));
+    assert_eq!(out.report.skipped_by_reason["zero_area"], 2);
+    assert!(out
+        .report
+        .skipped
+        .iter()
+        .all(|s| s.file.ends_with("bad.geojson") && !s.detail.is_empty()));
+}
+
+#[test]
+fn numbers_beyond_f64_skip_the_feature_not_the_file() {
+    // JSON has no NaN; 1e999 overflows f64. In a FeatureCollection only that feature is skipped.
+    // Non-finite coordinates inside the pipeline are covered by the unit test in lib.rs.
+    let dir = tempfile::tempdir().unwrap();
+    let text = collection(&[
+        feature(
+            "inf",
+            "{}",
+            "[[[1e999,52.0],[4.3601,52.0],[4.3601,52.0001],[1e999,52.0]]]",
+        ),
+        feature("ok", "{}", SQUARE),
+    ]);
+    let out = ingest(
+        &[write(&dir, "inf.geojson", &text)],
+        &IngestOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(out.buildings.len(), 1);
+    assert_eq!(
+        out.report.skipped[0].reason,
+        IssueReason::NonFiniteCoordinate
+    );
+    assert_eq!(out.report.skipped[0].feature_id, "inf.geojson#0");
+}
+
+#[test]
+fn bowtie_is_repaired_into_one_building_of_two_parts() {
+    let dir = tempfile::tempdir().unwrap();
+    let bowtie = "[[[4.36,52.0],[4.3601,52.0001],[4.3601,52.0],[4.36,52.0001],[4.36,52.0]]]";
+    let out = ingest(
+        &[write(
+            &dir,
+            "bowtie.geojson",
+            &collection(&[feature("bow", "{}", bowtie)]),
+        )],
+        &IngestOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(out.buildings.len(), 1);
+    assert_eq!(out.buildings[0].footprint.0.len(), 2);
+    citylod_ingest::check_footprint(&out.buildings[0].footprint).unwrap();
+    assert_eq!(out.report.repaired[0].reason, IssueReason::SelfIntersection);
+    assert_eq!(out.report.repaired[0].feature_id, "bow");
+    assert_eq!(out.report.features_repaired, 1);
+}
+
+#[test]
+fn unclosed_ring_and_repeated_points_are_repaired_and_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let open = "[[[4.36,52.0],[4.3601,52.0],[4.3601,52.0],[4.3601,52.0001],[4.36,52.0001]]]";
+    let out = ingest(
+        &[write(
+            &dir,
+            "open.geojson",
+            &collection(&[feature("o", "{}", open)]),
+        )],
+        &IngestOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(out.buildings.len(), 1);
+    let reasons: Vec<_> = out.report.repaired.iter().map(|r| r.reason).collect();
+    assert_eq!(
+        reasons,
+        vec![IssueReason::RingClosed, IssueReason::RepeatedPointsRemoved]
+    );
+    assert_eq!(out.buildings[0].footprint.0[0].exterior().0.len(), 5);
+}
+
+#[test]
+fn heights_missing_string_and_storeys_resolve_and_are_counted() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = collection(&[
+        feature("none", "{}", SQUARE),
+        feature("str", r#"{"height":"28 m"}"#, SQUARE),
+        feature("comma", r#"{"building:height":"12,5"}"#, SQUARE),
+        feature("levels", r#"{"building:levels":"4"}"#, SQUARE),
+        feature("custom", r#"{"hoogte": 7}"#, SQUARE),
+    ]);
+    let opts = IngestOptions {
+        height_attr: Some("hoogte".into()),
+        storey_height_m: 3.5,
+        default_height_m: 9.0,
+        ..Default::default()
+    };
+    let out = ingest(&[write(&dir, "h.geojson", &text)], &opts).unwrap();
+    let h: Vec<_> = out
+        .buildings
+        .iter()
+        .map(|b| (b.height_m, b.height_source))
+        .collect();
+    assert_eq!(
+        h,
+        vec![
+            (9.0, HeightSource::Default),
+            (28.0, HeightSource::KnownAttribute),
+            (12.5, HeightSource::KnownAttribute),
+            (14.0, HeightSource::Storeys),
+            (7.0, HeightSource::NamedAttribute),
+        ]
+    );
+    let s = &out.report.height_sources;
+    assert_eq!(
+        (
+            s["default"],
+            s["known_attribute"],
+            s["storeys"],
+            s["named_attribute"]
+        ),
+        (1, 2, 1, 1)
+    );
+}
+
+#[test]
+fn unknown_crs_codes_are_file_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(
+        &dir,
+        "a.geojson",
+        &collection(&[feature("a", "{}", SQUARE)]),
+    );
+    let opts = IngestOptions {
+        crs: Some("EPSG:999999".into()),
+        ..Default::default()
+    };
+    let e = ingest(&[p], &opts).unwrap_err();
+    assert!(matches!(e, IngestError::UnknownCrs { .. }), "{e}");
+    assert!(e.to_string().contains("999999"));
+    // A CRS declared inside the file that the EPSG table lacks names the file.
+    let text = r#"{"type":"FeatureCollection","crs":{"type":"name","properties":{"name":"urn:ogc:def:crs:EPSG::999999"}},"features":[]}"#;
+    let e = ingest(&[write(&dir, "b.geojson", text)], &IngestOptions::default()).unwrap_err();
+    assert!(
+        matches!(&e, IngestError::UnknownCrs { origin, .. } if origin.ends_with("b.geojson")),
+        "{e}"
+    );
+}
+
+#[test]
+fn other_file_level_problems_are_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("nope.geojson");
+    assert!(matches!(
+        ingest(&[missing], &IngestOptions::default()),
+        Err(IngestError::Read { .. })
+    ));
+    let bad_default = IngestOptions {
+        default_height_m: 0.0,
+        ..Default::default()
+    };
+    assert!(matches!(
+        ingest(&[], &bad_default),
+        Err(IngestError::InvalidOption { .. })
+    ));
+    let e = ingest(
+        &[write(&dir, "arr.json", "[1,2,3]")],
+        &IngestOptions::default(),
+    )
+    .unwrap_err();
+    assert!(matches!(e, IngestError::UnknownFormat { .. }), "{e}");
+    let e = ingest(
+        &[write(&dir, "kml.json", r#"{"type":"Topology"}"#)],
+        &IngestOptions::default(),
+    )
+    .unwrap_err();
+    assert!(matches!(e, IngestError::UnknownFormat { .. }), "{e}");
+    let cj = r#"{"type":"CityJSON","version":"1.0","CityObjects":{},"vertices":[]}"#;
+    let e = ingest(&[write(&dir, "nocrs.json", cj)], &IngestOptions::default()).unwrap_err();
+    assert!(matches!(e, IngestError::MissingCrs { .. }), "{e}");
+    assert!(e.to_string().contains("--crs"));
+    let seq = "{\"type\":\"CityJSON\",\"version\":\"2.0\",\"transform\":{\"scale\":[1,1,1],\"translate\":[0,0,0]},\
+               \"metadata\":{\"referenceSystem\":\"https://www.opengis.net/def/crs/EPSG/0/7415\"},\"CityObjects\":{},\"vertices\":[]}\n\
+               {\"type\":\"CityJSONFeature\",\"id\":\"x\",\"CityObjects\":{},\"vertices\":[]}\n{\"type\":\"CityJSONFea";
+    let e = ingest(
+        &[write(&dir, "broken.city.jsonl", seq)],
+        &IngestOptions::default(),
+    )
+    .unwrap_err();
+    assert!(matches!(e, IngestError::Json { line: 3, .. }), "{e}");
+}
+
+#[test]
+fn ids_follow_input_order_across_files_and_fall_back_to_file_index() {
+    let dir = tempfile::tempdir().unwrap();
+    let anon = SQUARE
+        .replace("4.36,", "4.37,")
+        .replace("4.3601,", "4.3701,");
+    let a = write(
+        &dir,
+        "a.geojson",
+        &collection(&[feature("a0", "{}", SQUARE)]),
+    );
+    let b_text = format!(
+        r#"{{"type":"FeatureCollection","features":[{{"type":"Feature","properties":{{}},"geometry":{{"type":"Polygon","coordinates":{anon}}}}}]}}"#
+    );
+    let b = write(&dir, "b.geojson", &b_text);
+    let out = ingest(&[a, b], &IngestOptions::default()).unwrap();
+    let ids: Vec<_> = out
+        .buildings
+        .iter()
+        .map(|b| (b.id.0, b.source_id.as_str()))
+        .collect();
+    assert_eq!(ids, vec![(0, "a0"), (1, "b.geojson#0")]);
+    assert_eq!(out.report.files.len(), 2);
+    // The frame origin is the centre of both buildings' extent.
+    assert!(
+        (out.frame.origin_lon_deg - 4.36505).abs() < 1e-9,
+        "{}",
+        out.frame.origin_lon_deg
+    );
+}
+
+#[test]
+fn the_same_input_gives_identical_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = collection(
+        &(0..200)
+            .map(|i| {
+                let x = 4.36 + i as f64 * 0.0002;
+                feature(
+                    &i.to_string(),
+                    &format!(r#"{{"height":{i}}}"#),
+                    &format!(
+                        "[[[{x},52.0],[{},52.0],[{},52.0001],[{x},52.0]]]",
+                        x + 0.0001,
+                        x + 0.0001
+                    ),
+                )
+            })
+            .collect::<Vec<_>>(),
+    );
+    let p = write(&dir, "many.geojson", &text);
+    let a = ingest(std::slice::from_ref(&p), &IngestOptions::default()).unwrap();
+    let b = ingest(&[p], &IngestOptions::default()).unwrap();
+    assert_eq!(
+        serde_json::to_string(&a.report).unwrap(),
+        serde_json::to_string(&b.report).unwrap()
+    );
+    assert_eq!(a.frame, b.frame);
+    for (x, y) in a.buildings.iter().zip(&b.buildings) {
+        assert_eq!(
+            (&x.source_id, &x.footprint, x.height_m),
+            (&y.source_id, &y.footprint, y.height_m)
+        );
+    }
+}
