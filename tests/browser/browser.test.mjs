@@ -2,15 +2,19 @@
 // directories; default target/e2e/delft and target/e2e/nyc, built by the Makefile) is served by
 // tools/serve.mjs and opened in CesiumJS and in 3d-tiles-renderer in Debian's Chromium (SwiftShader WebGL).
 // For the views far, mid and street: loading finishes within the time-out, no tile fails, no page error,
-// at least one tile is selected and showing the tileset changes at least MIN_DIFF_PIXELS pixels.
+// at least one tile is selected, showing the tileset changes at least MIN_DIFF_PIXELS pixels, and those
+// pixels are shaded (at least MIN_SHADE_LEVELS luminance levels: lit walls and roofs, not a flat silhouette).
 // Screenshots: target/browser/<tileset>/<client>-<view>.png. One JSON line per view on stdout. A missing
-// tileset is skipped with a message, or fails when CITYLOD_REQUIRE_TILESETS=1.
+// tileset is skipped with a message, or fails when CITYLOD_REQUIRE_TILESETS=1. CITYLOD_CLIENTS=cesium|3dtr
+// limits the run to one client; CITYLOD_IDLE_TIMEOUT_MS changes the per-view load time-out (60 s).
 import { after, before, describe, test } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
 import path from 'node:path';
 import { CLIENTS, REPO, launchBrowser, runClient, startServer, tilesetDirs } from '../../tools/browser.mjs';
 
+// CITYLOD_CLIENTS=cesium or =3dtr runs one client only (default: both).
+const clients = (process.env.CITYLOD_CLIENTS ?? Object.keys(CLIENTS).join(',')).split(',').filter((c) => c in CLIENTS);
 const dirs = tilesetDirs().map((dir) => ({ dir, name: path.basename(dir), present: fs.existsSync(path.join(dir, 'tileset.json')) }));
 let browser = null;
 before(async () => { if (dirs.some((d) => d.present)) browser = await launchBrowser(); });
@@ -27,7 +31,7 @@ for (const { dir, name, present } of dirs) {
     let server = null;
     before(async () => { server = await startServer(dir); });
     after(async () => { if (server) await server.close(); });
-    for (const client of Object.keys(CLIENTS)) {
+    for (const client of clients) {
       test(`${name} loads and draws in ${client}`, { timeout: 240000 }, async () => {
         const result = await runClient({
           browser,
@@ -37,14 +41,15 @@ for (const { dir, name, present } of dirs) {
           log: (rec) => {
             const { selectedTileUris, ...rest } = rec.stats ?? {};
             process.stdout.write(JSON.stringify({
-              tileset: name, client, view: rec.view, idleMs: rec.idleMs, diffPixels: rec.diffPixels, ...rest,
+              tileset: name, client, view: rec.view, idleMs: rec.idleMs, diffPixels: rec.diffPixels, shadeLevels: rec.shadeLevels, ...rest,
               selectedTileUris: (selectedTileUris ?? []).slice(0, 20), selectedTileUrisTotal: (selectedTileUris ?? []).length,
-              camera: rec.camera, problems: rec.problems, consoleErrors: rec.consoleErrors,
+              camera: rec.camera, pickCentre: rec.pickCentre, problems: rec.problems, shadingProblem: rec.shadingProblem, consoleErrors: rec.consoleErrors,
             }) + '\n');
           },
         });
         process.stdout.write(JSON.stringify({ tileset: name, client, totalMs: result.ms }) + '\n');
-        const problems = result.records.flatMap((r) => r.problems.map((p) => `${r.view}: ${p}`));
+        const problems = result.records.flatMap((r) =>
+          [...r.problems, ...(r.shadingProblem ? [r.shadingProblem] : [])].map((p) => `${r.view}: ${p}`));
         assert.deepEqual(problems, [], `${name} in ${client}:\n  ${problems.join('\n  ')}`);
       });
     }

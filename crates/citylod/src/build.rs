@@ -3,9 +3,8 @@
 use anyhow::{bail, Context, Result};
 use citylod_ingest::{ingest, IngestOptions};
 use citylod_ingest::{FeatureIssue, IssueReason};
-use citylod_tiles::{tile_spatially, write_tileset, Compression, Staging, WriteOptions};
+use citylod_tiles::{write_tileset, Compression, Staging, WriteOptions};
 use clap::{Args, ValueEnum};
-use rayon::prelude::*;
 use serde::Serialize;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -42,17 +41,45 @@ pub struct BuildArgs {
     #[arg(long, value_name = "M", default_value_t = 10.0, help_heading = "Input")]
     pub default_height: f64,
 
-    /// Most buildings in one leaf tile.
+    /// Weight λ of the side orientation in the adjacent distance d = d_min·(1 − N·λ), 0–1.
+    #[arg(long, value_name = "λ", default_value_t = 0.6, help_heading = "Generalization")]
+    pub lambda_adjacent: f64,
+
+    /// Levels above the buildings: L = max(1, ⌊log₂ n / DIV⌋) before balancing (more levels for smaller DIV).
+    #[arg(long, value_name = "DIV", default_value_t = 1.5, help_heading = "Generalization")]
+    pub depth_divisor: f64,
+
+    /// Simplification removes concave notches smaller than δa = (mean child footprint area) / λa (m²).
+    #[arg(long, value_name = "λa", default_value_t = 50.0, help_heading = "Generalization")]
+    pub lambda_area: f64,
+
+    /// Simplification drops vertices whose angle exceeds this many degrees (nearly straight).
+    #[arg(long, value_name = "DEG", default_value_t = 175.0, help_heading = "Generalization")]
+    pub collinear_angle: f64,
+
+    /// No generalization: only the buildings, in leaf tiles (for comparisons; coarse views then load everything).
+    #[arg(long, help_heading = "Generalization")]
+    pub leaves_only: bool,
+
+    /// Also write each level as GeoJSON (WGS84) and PNG into this folder, for QGIS or a quick look.
+    #[arg(long, value_name = "DIR", help_heading = "Generalization")]
+    pub dump_levels: Option<PathBuf>,
+
+    /// Height tolerance δH in screen pixels: a block is drawn only while its height spread Δh appears smaller.
+    #[arg(long, value_name = "PX", default_value_t = 20.0, help_heading = "Level of detail")]
+    pub dh_px: f64,
+
+    /// Area tolerance δA in screen pixels²: a block is drawn only while the ground it adds, Δa, appears smaller.
+    /// Tile geometricError = max(Δh, √Δa · δH/√δA) metres, so a client refining at SSE = δH honours both.
+    #[arg(long, value_name = "PX²", default_value_t = 200.0, help_heading = "Level of detail")]
+    pub da_px: f64,
+
+    /// Most features (buildings or blocks) in one tile.
     #[arg(long, value_name = "N", default_value_t = 2000, help_heading = "Tiles")]
     pub tile_max_features: usize,
 
-    /// Most triangles in one leaf tile.
-    #[arg(
-        long,
-        value_name = "N",
-        default_value_t = 200_000,
-        help_heading = "Tiles"
-    )]
+    /// Most triangles in one tile (a single larger feature gets a tile of its own).
+    #[arg(long, value_name = "N", default_value_t = 200_000, help_heading = "Tiles")]
     pub tile_max_triangles: usize,
 
     /// Geometry compression of the glb content.
@@ -85,6 +112,9 @@ struct BuildReport<'a> {
     counts: Counts,
     ingest: &'a citylod_ingest::IngestReport,
     mesh_skipped: Vec<FeatureIssue>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    generalize: Option<&'a citylod_generalize::GeneralizeReport>,
+    lod: Vec<LevelSummary>,
     tiles: &'a citylod_tiles::WriteStats,
     timings_ms: Timings,
 }
@@ -97,9 +127,23 @@ struct Counts {
     skipped: usize,
 }
 
+/// One level of the written tree: its nodes, tiles and the spread of their geometric errors.
+#[derive(Serialize)]
+pub struct LevelSummary {
+    pub level: usize,
+    pub nodes: usize,
+    pub tiles: usize,
+    pub triangles: usize,
+    pub geometric_error_min_m: f64,
+    pub geometric_error_max_m: f64,
+    /// Blocks whose merged footprint could not be extruded and that show their buildings instead.
+    pub mesh_fallbacks: usize,
+}
+
 #[derive(Serialize, Default)]
 struct Timings {
     ingest: u64,
+    generalize: u64,
     mesh: u64,
     tiles: u64,
     total: u64,
@@ -112,6 +156,11 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
     ] {
         if !(v.is_finite() && v > 0.0) {
             bail!("{name} must be a positive number of metres, got {v}");
+        }
+    }
+    for (name, v) in [("--dh-px", args.dh_px), ("--da-px", args.da_px), ("--lambda-area", args.lambda_area)] {
+        if !(v.is_finite() && v > 0.0) {
+            bail!("{name} must be a positive number, got {v}");
         }
     }
     if args.tile_max_features == 0 || args.tile_max_triangles == 0 {
@@ -140,36 +189,50 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         );
     }
 
-    progress.stage("meshing buildings");
+    let mut generalized = None;
+    if !args.leaves_only {
+        progress.stage("generalizing");
+        let t = Instant::now();
+        let opts = citylod_generalize::GeneralizeOptions {
+            lambda_adjacent: args.lambda_adjacent,
+            depth_divisor: args.depth_divisor,
+            lambda_area: args.lambda_area,
+            collinear_angle_deg: args.collinear_angle,
+            ..Default::default()
+        };
+        let g = citylod_generalize::generalize(&ingested.buildings, &opts).context("generalizing the footprints")?;
+        timings.generalize = t.elapsed().as_millis() as u64;
+        if let Some(dir) = &args.dump_levels {
+            citylod_generalize::dump_levels(dir, &g.hierarchy, &ingested.buildings, &ingested.frame)
+                .with_context(|| format!("writing the level pictures to {}", dir.display()))?;
+        }
+        generalized = Some(g);
+    }
+
+    progress.stage("meshing");
     let t = Instant::now();
-    let meshed: Vec<_> = ingested
-        .buildings
-        .par_iter()
-        .map(|b| {
-            citylod_mesh::extrude(&b.footprint, b.base_z_m, b.base_z_m + b.height_m)
-                .map_err(|e| (b, e))
+    let kappa = args.dh_px / args.da_px.sqrt();
+    let lod = crate::lod::LodTree::build(&ingested.buildings, generalized.as_ref().map(|g| &g.hierarchy), kappa);
+    timings.mesh = t.elapsed().as_millis() as u64;
+    let mesh_skipped: Vec<FeatureIssue> = lod
+        .failed_buildings
+        .iter()
+        .map(|(b, e)| FeatureIssue {
+            file: String::new(),
+            feature_id: ingested.buildings[b.0 as usize].source_id.clone(),
+            reason: IssueReason::MeshFailed,
+            detail: e.clone(),
         })
         .collect();
-    let table = crate::features::BuildingTable::new(&ingested.buildings);
-    let mut features = Vec::with_capacity(meshed.len());
-    let mut mesh_skipped = Vec::new();
-    for (b, m) in ingested.buildings.iter().zip(meshed) {
-        match m {
-            Ok(mesh) => features.push(table.feature(b, mesh)),
-            Err((b, e)) => mesh_skipped.push(FeatureIssue {
-                file: String::new(),
-                feature_id: b.source_id.clone(),
-                reason: IssueReason::MeshFailed,
-                detail: e.to_string(),
-            }),
-        }
-    }
-    timings.mesh = t.elapsed().as_millis() as u64;
 
     progress.stage("writing tiles");
     let t = Instant::now();
-    let written = features.len();
-    let root = tile_spatially(features, args.tile_max_features, args.tile_max_triangles);
+    let written = ingested.buildings.len() - mesh_skipped.len();
+    let budget = citylod_tiles::hlod::TileBudget {
+        max_features: args.tile_max_features,
+        max_triangles: args.tile_max_triangles,
+    };
+    let (root, lod_summary) = lod.tiles(&ingested.buildings, budget);
     let write_opts = WriteOptions {
         compression: match args.compression {
             CompressionArg::Meshopt => Compression::Meshopt,
@@ -183,7 +246,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         &staging,
         &root,
         &ingested.frame,
-        &table.schema(),
+        &crate::features::schema(&lod.building_table),
         &write_opts,
     )
     .with_context(|| format!("writing the tileset to {}", args.out.display()))?;
@@ -201,6 +264,9 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
             "crs": args.crs, "height_attr": args.height_attr, "storey_attr": args.storey_attr,
             "storey_height_m": args.storey_height, "default_height_m": args.default_height,
             "tile_max_features": args.tile_max_features, "tile_max_triangles": args.tile_max_triangles,
+            "lambda_adjacent": args.lambda_adjacent, "depth_divisor": args.depth_divisor,
+            "lambda_area": args.lambda_area, "collinear_angle_deg": args.collinear_angle,
+            "leaves_only": args.leaves_only, "dh_px": args.dh_px, "da_px": args.da_px,
             "compression": format!("{:?}", args.compression).to_lowercase(),
         }),
         frame: &ingested.frame,
@@ -212,6 +278,8 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         },
         ingest: r,
         mesh_skipped,
+        generalize: generalized.as_ref().map(|g| &g.report),
+        lod: lod_summary,
         tiles: &stats,
         timings_ms: timings,
     };

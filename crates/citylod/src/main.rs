@@ -4,6 +4,7 @@
 mod build;
 mod features;
 mod inspect;
+mod lod;
 mod progress;
 
 use clap::{Parser, Subcommand};

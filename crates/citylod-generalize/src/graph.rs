@@ -1,0 +1,402 @@
+//! Sparse candidate graph for single-link clustering (DESIGN.md §3.1): every pair of buildings whose
+//! bounding boxes lie within `reach_m` of each other (rstar R-tree), plus every Delaunay edge (spade) of
+//! footprint vertices that joins two different buildings, so the graph is connected. Edge weights are
+//! adjacent distances (seed 000 §3.1, m), computed in parallel. Invariant: edges are unique `a < b`
+//! pairs sorted by (a, b), and the graph over all buildings is connected.
+
+use crate::adjacent::adjacent_distance;
+use crate::single_link::{Merge, UnionFind};
+use citylod_model::Footprint;
+use geo::Area;
+use rayon::prelude::*;
+use rstar::primitives::{GeomWithData, Rectangle};
+use rstar::{RTree, AABB};
+use spade::{DelaunayTriangulation, HasPosition, Point2, Triangulation};
+
+/// An edge of the candidate graph: buildings `a < b` (indices) and their adjacent distance (m).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CandidateEdge {
+    pub a: u32,
+    pub b: u32,
+    pub d_m: f64,
+}
+
+/// How the candidate pairs were found.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct GraphStats {
+    /// The bounding-box reach used (m).
+    pub reach_m: f64,
+    /// Distinct pairs found by the R-tree reach query.
+    pub n_reach_pairs: usize,
+    /// Distinct pairs found by the Delaunay triangulation.
+    pub n_delaunay_pairs: usize,
+    /// Points inserted into the triangulation.
+    pub n_delaunay_points: usize,
+    /// Edges added only to join components the two searches left apart (0 on sound input).
+    pub n_fallback_edges: usize,
+    /// The reach of the refinement pass (m); merges below (1 − λ)·reach_far_m equal brute force.
+    pub reach_far_m: f64,
+    /// Pairs added by the refinement pass ([`refine_pairs`]).
+    pub n_refine_pairs: usize,
+    /// Distinct candidate edges in total.
+    pub n_edges: usize,
+}
+
+/// The automatic reach rule: `factor` × the median of √(footprint area) over the buildings, i.e. a
+/// fraction of the typical building size (m). 0 when there are no buildings.
+pub fn auto_reach_m(footprints: &[&Footprint], factor: f64) -> f64 {
+    let mut sizes: Vec<f64> = footprints
+        .iter()
+        .map(|f| f.unsigned_area().sqrt())
+        .filter(|s| s.is_finite())
+        .collect();
+    if sizes.is_empty() {
+        return 0.0;
+    }
+    let mid = sizes.len() / 2;
+    let (_, median, _) = sizes.select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
+    factor * *median
+}
+
+/// Builds the candidate graph over `footprints` (local ENU m; index = building index): the pairs of
+/// [`candidate_pairs`] weighted by [`weigh_pairs`].
+pub fn candidate_graph(
+    footprints: &[&Footprint],
+    reach_m: f64,
+    lambda_adjacent: f64,
+    max_points_per_building: usize,
+) -> (Vec<CandidateEdge>, GraphStats) {
+    let (pairs, stats) = candidate_pairs(footprints, reach_m, max_points_per_building);
+    (weigh_pairs(footprints, &pairs, lambda_adjacent), stats)
+}
+
+/// The candidate pairs (a < b, sorted, unique) over `footprints`: R-tree reach pairs, Delaunay pairs
+/// and, if those leave the graph disconnected, one fallback edge from each component to the previous
+/// one (components ordered by their first building). `max_points_per_building` caps how many
+/// exterior vertices of one footprint enter the triangulation (evenly spaced, at least 1).
+/// Footprints without finite vertices only join through the fallback edges.
+pub fn candidate_pairs(
+    footprints: &[&Footprint],
+    reach_m: f64,
+    max_points_per_building: usize,
+) -> (Vec<(u32, u32)>, GraphStats) {
+    let n = footprints.len();
+    let boxes: Vec<Option<[f64; 4]>> = footprints.iter().map(|f| bbox(f)).collect();
+
+    let reach_pairs = reach_pairs(&boxes, reach_m);
+    let (delaunay_pairs, n_points) = delaunay_pairs(footprints, max_points_per_building);
+    let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(reach_pairs.len() + delaunay_pairs.len());
+    pairs.extend_from_slice(&reach_pairs);
+    pairs.extend_from_slice(&delaunay_pairs);
+    pairs.sort_unstable();
+    pairs.dedup();
+
+    let mut uf = UnionFind::new(n);
+    for &(a, b) in &pairs {
+        uf.union(a, b);
+    }
+    let mut firsts: Vec<u32> = Vec::new(); // first building of each component, in building order
+    let mut seen = vec![false; n];
+    for i in 0..n as u32 {
+        let r = uf.find(i) as usize;
+        if !std::mem::replace(&mut seen[r], true) {
+            firsts.push(i);
+        }
+    }
+    let n_fallback_edges = firsts.len().saturating_sub(1);
+    if n_fallback_edges > 0 {
+        pairs.extend(firsts.windows(2).map(|w| (w[0], w[1])));
+        pairs.sort_unstable();
+        pairs.dedup();
+    }
+    let stats = GraphStats {
+        reach_m,
+        n_reach_pairs: reach_pairs.len(),
+        n_delaunay_pairs: delaunay_pairs.len(),
+        n_delaunay_points: n_points,
+        n_fallback_edges,
+        reach_far_m: 0.0,
+        n_refine_pairs: 0,
+        n_edges: pairs.len(),
+    };
+    (pairs, stats)
+}
+
+/// Adjacent distance of every pair (rayon; the output order is the input order).
+pub fn weigh_pairs(
+    footprints: &[&Footprint],
+    pairs: &[(u32, u32)],
+    lambda_adjacent: f64,
+) -> Vec<CandidateEdge> {
+    pairs
+        .par_iter()
+        .map(|&(a, b)| CandidateEdge {
+            a,
+            b,
+            d_m: adjacent_distance(
+                footprints[a as usize],
+                footprints[b as usize],
+                lambda_adjacent,
+            )
+            .d_m,
+        })
+        .collect()
+}
+
+/// Pairs that could still change the single-link result, found after a first clustering: every pair
+/// (a, b) not in `existing` (sorted) whose boxes are within `reach_far_m` (max-norm gap) and whose
+/// lower bound (1 − λ)·gap ≤ d (the Euclidean gap between the boxes is ≤ d_min) is below the distance
+/// at which `merges` first join a and b. Adding these pairs and clustering again makes every merge
+/// with d < (1 − λ)·reach_far_m exact: a pair left out has d ≥ its bound ≥ its final join distance.
+/// Works in chunks of buildings so memory stays bounded; the result is sorted and unique.
+pub fn refine_pairs(
+    footprints: &[&Footprint],
+    existing: &[(u32, u32)],
+    merges: &[Merge],
+    reach_far_m: f64,
+    lambda_adjacent: f64,
+) -> Vec<(u32, u32)> {
+    const CHUNK: usize = 1 << 16;
+    let n = footprints.len();
+    let boxes: Vec<Option<[f64; 4]>> = footprints.iter().map(|f| bbox(f)).collect();
+    let half = reach_far_m.max(0.0) / 2.0;
+    let grown =
+        |b: &[f64; 4]| AABB::from_corners([b[0] - half, b[1] - half], [b[2] + half, b[3] + half]);
+    let items: Vec<GeomWithData<Rectangle<[f64; 2]>, u32>> = boxes
+        .iter()
+        .enumerate()
+        .filter_map(|(i, b)| {
+            b.as_ref()
+                .map(|b| GeomWithData::new(Rectangle::from_aabb(grown(b)), i as u32))
+        })
+        .collect();
+    let tree = RTree::bulk_load(items);
+    let keep = 1.0 - lambda_adjacent;
+    let mut out = Vec::new();
+    for start in (0..n).step_by(CHUNK) {
+        let end = (start + CHUNK).min(n);
+        // (lower bound of d, a, b)
+        let mut queries: Vec<(f64, u32, u32)> = (start..end)
+            .into_par_iter()
+            .flat_map_iter(|i| {
+                let mut found = Vec::new();
+                if let Some(bi) = &boxes[i] {
+                    for o in tree.locate_in_envelope_intersecting(&grown(bi)) {
+                        let j = o.data as usize;
+                        if j <= i || existing.binary_search(&(i as u32, j as u32)).is_ok() {
+                            continue;
+                        }
+                        let bj = boxes[j].as_ref().expect("in the tree");
+                        let gx = (bi[0] - bj[2]).max(bj[0] - bi[2]).max(0.0);
+                        let gy = (bi[1] - bj[3]).max(bj[1] - bi[3]).max(0.0);
+                        found.push((keep * gx.hypot(gy), i as u32, j as u32));
+                    }
+                }
+                found
+            })
+            .collect();
+        queries.sort_unstable_by(|p, q| p.0.total_cmp(&q.0).then((p.1, p.2).cmp(&(q.1, q.2))));
+        let mut uf = UnionFind::new(n);
+        let mut next = 0;
+        for &(bound, a, b) in &queries {
+            while next < merges.len() && merges[next].d_m <= bound {
+                uf.union(merges[next].a, merges[next].b);
+                next += 1;
+            }
+            if uf.find(a) != uf.find(b) {
+                out.push((a, b));
+            }
+        }
+    }
+    out.sort_unstable();
+    out
+}
+
+/// [min x, min y, max x, max y] over the finite vertices, `None` when there are none.
+pub(crate) fn bbox(fp: &Footprint) -> Option<[f64; 4]> {
+    let mut b = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    for poly in &fp.0 {
+        for c in &poly.exterior().0 {
+            if c.x.is_finite() && c.y.is_finite() {
+                b = [b[0].min(c.x), b[1].min(c.y), b[2].max(c.x), b[3].max(c.y)];
+            }
+        }
+    }
+    (b[0] <= b[2]).then_some(b)
+}
+
+/// Pairs whose boxes, each grown by `reach_m / 2`, intersect: the gap between the boxes along each
+/// axis is at most `reach_m` (a max-norm box distance).
+fn reach_pairs(boxes: &[Option<[f64; 4]>], reach_m: f64) -> Vec<(u32, u32)> {
+    let half = reach_m.max(0.0) / 2.0;
+    let grown =
+        |b: &[f64; 4]| AABB::from_corners([b[0] - half, b[1] - half], [b[2] + half, b[3] + half]);
+    let items: Vec<GeomWithData<Rectangle<[f64; 2]>, u32>> = boxes
+        .iter()
+        .enumerate()
+        .filter_map(|(i, b)| {
+            b.as_ref().map(|b| {
+                let e = grown(b);
+                GeomWithData::new(Rectangle::from_aabb(e), i as u32)
+            })
+        })
+        .collect();
+    let tree = RTree::bulk_load(items);
+    let mut pairs: Vec<(u32, u32)> = boxes
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(i, b)| {
+            let i = i as u32;
+            let found: Vec<(u32, u32)> = match b {
+                Some(b) => tree
+                    .locate_in_envelope_intersecting(&grown(b))
+                    .filter(|o| o.data > i)
+                    .map(|o| (i, o.data))
+                    .collect(),
+                None => Vec::new(),
+            };
+            found
+        })
+        .collect();
+    pairs.sort_unstable();
+    pairs
+}
+
+struct Site {
+    pos: Point2<f64>,
+    building: u32,
+}
+
+impl HasPosition for Site {
+    type Scalar = f64;
+    fn position(&self) -> Point2<f64> {
+        self.pos
+    }
+}
+
+/// Delaunay edges between different buildings, over up to `max_points` exterior vertices per footprint.
+fn delaunay_pairs(footprints: &[&Footprint], max_points: usize) -> (Vec<(u32, u32)>, usize) {
+    let max_points = max_points.max(1);
+    let mut sites: Vec<Site> = Vec::new();
+    for (i, fp) in footprints.iter().enumerate() {
+        let pts: Vec<_> =
+            fp.0.iter()
+                .flat_map(|p| {
+                    let c = &p.exterior().0;
+                    // Rings are closed: skip the repeated last point.
+                    c[..c.len().saturating_sub(1)].iter()
+                })
+                .filter(|c| c.x.is_finite() && c.y.is_finite())
+                .collect();
+        let step = pts.len().div_ceil(max_points).max(1);
+        for c in pts.iter().step_by(step) {
+            sites.push(Site {
+                pos: Point2::new(c.x, c.y),
+                building: i as u32,
+            });
+        }
+    }
+    let n_points = sites.len();
+    // bulk_load_stable keeps the input order for equal points, so the result does not depend on threads.
+    let Ok(tri) = DelaunayTriangulation::<Site>::bulk_load_stable(sites) else {
+        return (Vec::new(), n_points);
+    };
+    let mut pairs: Vec<(u32, u32)> = tri
+        .undirected_edges()
+        .filter_map(|e| {
+            let [v0, v1] = e.vertices();
+            let (a, b) = (v0.data().building, v1.data().building);
+            (a != b).then_some((a.min(b), a.max(b)))
+        })
+        .collect();
+    pairs.sort_unstable();
+    pairs.dedup();
+    (pairs, n_points)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use geo_types::{polygon, MultiPolygon};
+
+    fn square(x: f64, y: f64, w: f64) -> Footprint {
+        MultiPolygon(vec![
+            polygon![(x: x, y: y), (x: x + w, y: y), (x: x + w, y: y + w), (x: x, y: y + w)],
+        ])
+    }
+
+    fn connected(n: usize, edges: &[CandidateEdge]) -> bool {
+        let mut uf = UnionFind::new(n);
+        for e in edges {
+            uf.union(e.a, e.b);
+        }
+        (0..n as u32).all(|i| uf.find(i) == uf.find(0))
+    }
+
+    #[test]
+    fn far_apart_clusters_stay_connected_through_delaunay() {
+        let fps: Vec<Footprint> = (0..20)
+            .map(|i| {
+                square(
+                    (i % 5) as f64 * 12.0 + (i / 10) as f64 * 5000.0,
+                    (i / 5) as f64 * 12.0,
+                    10.0,
+                )
+            })
+            .collect();
+        let refs: Vec<&Footprint> = fps.iter().collect();
+        let (edges, stats) = candidate_graph(&refs, 3.0, 0.6, 16);
+        assert!(connected(fps.len(), &edges));
+        assert_eq!(stats.n_fallback_edges, 0);
+        assert!(edges
+            .windows(2)
+            .all(|w| (w[0].a, w[0].b) < (w[1].a, w[1].b)));
+        assert!(edges.iter().all(|e| e.a < e.b && e.d_m >= 0.0));
+    }
+
+    #[test]
+    fn identical_and_collinear_buildings_are_connected() {
+        let mut fps: Vec<Footprint> = (0..30)
+            .map(|i| square(i as f64 * 50.0, 0.0, 10.0))
+            .collect();
+        fps.push(square(0.0, 0.0, 10.0)); // identical to the first: its vertices vanish in the triangulation
+        let refs: Vec<&Footprint> = fps.iter().collect();
+        let (edges, _) = candidate_graph(&refs, 1.0, 0.6, 16);
+        assert!(connected(fps.len(), &edges));
+        let twin = edges
+            .iter()
+            .find(|e| (e.a, e.b) == (0, 30))
+            .expect("twins are candidates");
+        assert_eq!(twin.d_m, 0.0);
+    }
+
+    #[test]
+    fn empty_footprints_are_joined_by_fallback_edges() {
+        let fps = [
+            square(0.0, 0.0, 10.0),
+            MultiPolygon(vec![]),
+            square(100.0, 0.0, 10.0),
+        ];
+        let refs: Vec<&Footprint> = fps.iter().collect();
+        let (edges, stats) = candidate_graph(&refs, 1.0, 0.6, 16);
+        assert!(connected(3, &edges));
+        assert_eq!(stats.n_fallback_edges, 1);
+    }
+
+    #[test]
+    fn auto_reach_is_a_fraction_of_the_median_size() {
+        let fps = [
+            square(0.0, 0.0, 10.0),
+            square(0.0, 0.0, 20.0),
+            square(0.0, 0.0, 30.0),
+        ];
+        let refs: Vec<&Footprint> = fps.iter().collect();
+        assert!((auto_reach_m(&refs, 0.5) - 10.0).abs() < 1e-12);
+        assert_eq!(auto_reach_m(&[], 0.5), 0.0);
+    }
+}

@@ -1,0 +1,640 @@
+//! The `generalize` entry point (seed 000 §3, DESIGN.md §3): candidate graph → adjacent distances →
+//! single-link → condensed, balanced levels → per node merged and simplified footprint and Δh/Δa.
+//! Local ENU metres throughout. Invariant: every level partitions all buildings (level 0 = one node per
+//! building, last level = one node); the result is the same for the same input and options.
+
+use crate::graph::{auto_reach_m, bbox, candidate_pairs, refine_pairs, weigh_pairs, GraphStats};
+use crate::levels::{condense, LevelKind, LevelOptions};
+use crate::single_link::{single_link, Merge};
+use crate::{merge_footprints, node_stats, simplify_footprint};
+use citylod_model::{Building, BuildingId, Footprint, Hierarchy, Level, Node, NodeId};
+use geo::Area;
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Options of the generalization; every field has the seed's or citylod's stated default.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GeneralizeOptions {
+    /// λ of the adjacent distance d = d_min·(1 − N·λ), in [0, 1] (seed: 0.6).
+    pub lambda_adjacent: f64,
+    /// L = max(1, ⌊log₂ n / depth_divisor⌋) levels above the buildings before balancing, > 0 (seed: 1.5).
+    pub depth_divisor: f64,
+    /// δa = a_avg / lambda_area (m²), the concave-triangle area simplification removes, > 0 (seed: 50).
+    pub lambda_area: f64,
+    /// Vertices with an interior angle above this are dropped as collinear (degrees; default 175).
+    pub collinear_angle_deg: f64,
+    /// Floor for dᵢ in the rate rᵢ = (dᵢ₊₁ − dᵢ)/max(dᵢ, d_floor) (m; default 1). Below a metre the
+    /// relative increase measures survey noise (3DBAG's millimetre gaps between row houses), not the
+    /// step from one district to the next: with 0.01 m every Delft threshold fell below 0.3 m.
+    pub d_floor_m: f64,
+    /// Thresholds balancing may insert between two planned ones (default 2).
+    pub max_inserts_per_level: usize,
+    /// Bounding-box reach of the candidate search (m); `None`: `reach_factor` × median √area.
+    pub reach_m: Option<f64>,
+    /// See `reach_m` (default 0.5).
+    pub reach_factor: f64,
+    /// The refinement pass looks this many reaches far (default 10; 0 turns it off): merges with
+    /// d < (1 − λ)·reach_far_factor·reach are then the same as with all pairs.
+    pub reach_far_factor: f64,
+    /// Footprint vertices per building entering the Delaunay triangulation (default 16).
+    pub max_delaunay_points_per_building: usize,
+}
+
+impl Default for GeneralizeOptions {
+    fn default() -> Self {
+        GeneralizeOptions {
+            lambda_adjacent: 0.6,
+            depth_divisor: 1.5,
+            lambda_area: 50.0,
+            collinear_angle_deg: 175.0,
+            d_floor_m: 1.0,
+            max_inserts_per_level: 2,
+            reach_m: None,
+            reach_factor: 0.5,
+            reach_far_factor: 10.0,
+            max_delaunay_points_per_building: 16,
+        }
+    }
+}
+
+/// Why `generalize` refused its input.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum GeneralizeError {
+    #[error("no buildings to generalize")]
+    NoBuildings,
+    #[error("building at index {index} has id {id}; ids must equal input indices")]
+    IdNotIndex { index: usize, id: u32 },
+    #[error("building {id} ({source_id}) has no ring with 3 distinct finite points")]
+    DegenerateFootprint { id: u32, source_id: String },
+    #[error("option {name} = {value} is out of range ({expected})")]
+    BadOption {
+        name: &'static str,
+        value: f64,
+        expected: &'static str,
+    },
+}
+
+/// One level of the result, as reported.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct LevelReport {
+    /// 0 = the buildings.
+    pub index: usize,
+    /// `None` for the buildings.
+    pub kind: Option<LevelKind>,
+    pub nodes: usize,
+    /// Every single-link merge with d ≤ threshold_m is applied (m).
+    pub threshold_m: f64,
+    pub max_children: usize,
+    pub tie_splits: usize,
+    pub budget_splits: usize,
+    /// Nodes whose footprint has more than one polygon.
+    pub multipolygon_nodes: usize,
+    /// Nodes whose merged or simplified footprint lost area below their largest child's, so the
+    /// unsimplified union or the children's polygons were kept instead (0 when merging is sound).
+    pub footprint_fallbacks: usize,
+}
+
+/// Wall-clock time of each phase (ms); the only part of the report that varies between runs.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct PhaseTimings {
+    pub candidates_ms: f64,
+    pub distances_ms: f64,
+    pub single_link_ms: f64,
+    pub levels_ms: f64,
+    pub footprints_ms: f64,
+    pub total_ms: f64,
+}
+
+/// What the generalization did.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct GeneralizeReport {
+    pub n_buildings: usize,
+    pub n_candidate_edges: usize,
+    pub graph: GraphStats,
+    /// L from the formula, before balancing.
+    pub target_levels: usize,
+    /// Thresholds from the largest rates (≤ L − 1).
+    pub rate_levels: usize,
+    /// Rate thresholds dropped because their level would not at least halve the node count.
+    pub rate_levels_skipped: usize,
+    pub p: usize,
+    pub delta_p: usize,
+    /// Every level, buildings first; levels above the buildings = rate levels − skipped + inserted + 1
+    /// (top) + extra top.
+    pub levels: Vec<LevelReport>,
+    pub tie_splits: usize,
+    pub budget_splits: usize,
+    pub multipolygon_nodes: usize,
+    pub footprint_fallbacks: usize,
+    pub timings: PhaseTimings,
+}
+
+/// The hierarchy and its report.
+#[derive(Debug, Clone)]
+pub struct Generalized {
+    pub hierarchy: Hierarchy,
+    pub report: GeneralizeReport,
+}
+
+/// Generalizes `buildings` (ids = indices, footprints in local ENU m) into a hierarchy: level 0 holds
+/// one node per building (its own footprint), each level above partitions the buildings into clusters
+/// with merged, simplified footprints (ring vertices from the members plus union intersection points),
+/// and the last level is one node. A building alone in its cluster stays as it is.
+///
+/// Errors on an empty input, ids that are not the indices, footprints without a usable ring, or
+/// options out of range; never panics on input data.
+pub fn generalize(
+    buildings: &[Building],
+    opts: &GeneralizeOptions,
+) -> Result<Generalized, GeneralizeError> {
+    let t_start = Instant::now();
+    validate(buildings, opts)?;
+    let n = buildings.len();
+    let mut timings = PhaseTimings::default();
+    let footprints: Vec<&Footprint> = buildings.iter().map(|b| &b.footprint).collect();
+
+    let (merges, graph_stats) = cluster(&footprints, opts, &mut timings);
+
+    let t = Instant::now();
+    let boxes: Vec<[f64; 4]> = footprints
+        .iter()
+        .map(|f| bbox(f).unwrap_or([0.0; 4]))
+        .collect();
+    let level_opts = LevelOptions {
+        depth_divisor: opts.depth_divisor,
+        d_floor_m: opts.d_floor_m,
+        max_inserts_per_level: opts.max_inserts_per_level,
+    };
+    let plan = condense(n, &merges, &boxes, &level_opts);
+    timings.levels_ms = ms(t);
+
+    let t = Instant::now();
+    let mut levels: Vec<Level> = Vec::with_capacity(plan.levels.len() + 1);
+    levels.push(Level {
+        threshold_m: 0.0,
+        nodes: buildings
+            .par_iter()
+            .map(|b| {
+                let mut node = empty_node(vec![], vec![b.id], b.footprint.clone());
+                node_stats(&[b], &b.footprint, &[]).write_into(&mut node);
+                node
+            })
+            .collect(),
+    });
+    let mut reports = vec![level_report(0, None, &levels[0])];
+    for planned in &plan.levels {
+        let below = &levels.last().expect("level 0 exists").nodes;
+        let bridges = bridges_per_group(&planned.groups, below, &merges, n);
+        let a_avg_m2 = below.iter().map(|nd| nd.area_m2).sum::<f64>() / below.len().max(1) as f64;
+        let delta_a_m2 = a_avg_m2 / opts.lambda_area;
+        let built: Vec<(Node, bool)> = planned
+            .groups
+            .par_iter()
+            .zip(bridges.par_iter())
+            .map(|(g, br)| {
+                build_node(
+                    g,
+                    br,
+                    below,
+                    buildings,
+                    delta_a_m2,
+                    opts.collinear_angle_deg,
+                )
+            })
+            .collect();
+        let footprint_fallbacks = built.iter().filter(|(_, f)| *f).count();
+        let level = Level {
+            threshold_m: planned.threshold_m,
+            nodes: built.into_iter().map(|(node, _)| node).collect(),
+        };
+        let mut r = level_report(levels.len(), Some(planned.kind), &level);
+        r.footprint_fallbacks = footprint_fallbacks;
+        r.tie_splits = planned.tie_splits;
+        r.budget_splits = planned.budget_splits;
+        reports.push(r);
+        levels.push(level);
+    }
+    timings.footprints_ms = ms(t);
+    timings.total_ms = ms(t_start);
+
+    let hierarchy = Hierarchy { levels };
+    debug_assert!(hierarchy.check_invariants(n).is_empty());
+    let report = GeneralizeReport {
+        n_buildings: n,
+        n_candidate_edges: graph_stats.n_edges,
+        graph: graph_stats,
+        target_levels: plan.target_levels,
+        rate_levels: plan.rate_levels,
+        rate_levels_skipped: plan.rate_levels_skipped,
+        p: plan.p,
+        delta_p: plan.delta_p,
+        tie_splits: reports.iter().map(|r| r.tie_splits).sum(),
+        budget_splits: reports.iter().map(|r| r.budget_splits).sum(),
+        multipolygon_nodes: reports.iter().skip(1).map(|r| r.multipolygon_nodes).sum(),
+        footprint_fallbacks: reports.iter().map(|r| r.footprint_fallbacks).sum(),
+        levels: reports,
+        timings,
+    };
+    Ok(Generalized { hierarchy, report })
+}
+
+/// Single-link clustering of `footprints` (local ENU m) on the sparse candidate graph: reach and
+/// Delaunay pairs, clustered, then refined once with [`refine_pairs`] within `reach_far_factor` ×
+/// reach and clustered again. Returns the merges (sorted by d) and how the graph was built; fills the
+/// candidate, distance and single-link times of `timings`.
+pub fn cluster(
+    footprints: &[&Footprint],
+    opts: &GeneralizeOptions,
+    timings: &mut PhaseTimings,
+) -> (Vec<Merge>, GraphStats) {
+    let n = footprints.len();
+    let t = Instant::now();
+    let reach_m = opts
+        .reach_m
+        .unwrap_or_else(|| auto_reach_m(footprints, opts.reach_factor));
+    let (pairs, mut stats) =
+        candidate_pairs(footprints, reach_m, opts.max_delaunay_points_per_building);
+    timings.candidates_ms += ms(t);
+
+    let t = Instant::now();
+    let mut edges = weigh_pairs(footprints, &pairs, opts.lambda_adjacent);
+    timings.distances_ms += ms(t);
+
+    let t = Instant::now();
+    let mut merges = single_link(n, &edges);
+    timings.single_link_ms += ms(t);
+
+    stats.reach_far_m = reach_m * opts.reach_far_factor;
+    if opts.reach_far_factor > 0.0 {
+        let t = Instant::now();
+        let extra = refine_pairs(
+            footprints,
+            &pairs,
+            &merges,
+            stats.reach_far_m,
+            opts.lambda_adjacent,
+        );
+        timings.candidates_ms += ms(t);
+        stats.n_refine_pairs = extra.len();
+        stats.n_edges += extra.len();
+        if !extra.is_empty() {
+            let t = Instant::now();
+            edges.extend(weigh_pairs(footprints, &extra, opts.lambda_adjacent));
+            timings.distances_ms += ms(t);
+            let t = Instant::now();
+            merges = single_link(n, &edges);
+            timings.single_link_ms += ms(t);
+        }
+    }
+    (merges, stats)
+}
+
+fn ms(t: Instant) -> f64 {
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+fn validate(buildings: &[Building], opts: &GeneralizeOptions) -> Result<(), GeneralizeError> {
+    let bad = |name, value, expected| {
+        Err(GeneralizeError::BadOption {
+            name,
+            value,
+            expected,
+        })
+    };
+    if !(0.0..=1.0).contains(&opts.lambda_adjacent) {
+        return bad("lambda_adjacent", opts.lambda_adjacent, "0 ≤ λ ≤ 1");
+    }
+    if !(opts.depth_divisor > 0.0 && opts.depth_divisor.is_finite()) {
+        return bad("depth_divisor", opts.depth_divisor, "> 0");
+    }
+    if opts.lambda_area.is_nan() || opts.lambda_area <= 0.0 {
+        return bad("lambda_area", opts.lambda_area, "> 0");
+    }
+    if opts.d_floor_m.is_nan() || opts.d_floor_m <= 0.0 {
+        return bad("d_floor_m", opts.d_floor_m, "> 0");
+    }
+    if let Some(r) = opts.reach_m {
+        if !(r >= 0.0 && r.is_finite()) {
+            return bad("reach_m", r, "≥ 0 and finite");
+        }
+    }
+    if buildings.is_empty() {
+        return Err(GeneralizeError::NoBuildings);
+    }
+    if buildings.len() > u32::MAX as usize {
+        // Ids are u32; the check below would overflow.
+        return Err(GeneralizeError::IdNotIndex {
+            index: u32::MAX as usize,
+            id: u32::MAX,
+        });
+    }
+    for (i, b) in buildings.iter().enumerate() {
+        if b.id != BuildingId(i as u32) {
+            return Err(GeneralizeError::IdNotIndex {
+                index: i,
+                id: b.id.0,
+            });
+        }
+        let usable = b.footprint.0.iter().any(|p| {
+            let mut pts: Vec<(f64, f64)> = p
+                .exterior()
+                .0
+                .iter()
+                .filter(|c| c.x.is_finite() && c.y.is_finite())
+                .map(|c| (c.x, c.y))
+                .collect();
+            pts.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+            pts.dedup();
+            pts.len() >= 3
+        });
+        if !usable {
+            return Err(GeneralizeError::DegenerateFootprint {
+                id: b.id.0,
+                source_id: b.source_id.clone(),
+            });
+        }
+    }
+    Ok(())
+}
+
+fn empty_node(children: Vec<NodeId>, members: Vec<BuildingId>, footprint: Footprint) -> Node {
+    Node {
+        children,
+        members,
+        footprint,
+        height_m: 0.0,
+        base_z_m: 0.0,
+        h_min_m: 0.0,
+        h_max_m: 0.0,
+        dh_m: 0.0,
+        da_m2: 0.0,
+        area_m2: 0.0,
+        landmarks: Vec::new(),
+    }
+}
+
+/// For each group, the pairs of its children (local indices, i < j, unique) joined by a spanning-tree
+/// edge of the single-link clustering.
+fn bridges_per_group(
+    groups: &[Vec<u32>],
+    below: &[Node],
+    merges: &[Merge],
+    n: usize,
+) -> Vec<Vec<(usize, usize)>> {
+    let mut child_of = vec![0u32; n];
+    for (c, node) in below.iter().enumerate() {
+        for &BuildingId(b) in &node.members {
+            child_of[b as usize] = c as u32;
+        }
+    }
+    let mut place = vec![(0u32, 0u32); below.len()]; // child → (group, local index)
+    for (g, children) in groups.iter().enumerate() {
+        for (local, &c) in children.iter().enumerate() {
+            place[c as usize] = (g as u32, local as u32);
+        }
+    }
+    let mut bridges: Vec<Vec<(usize, usize)>> = vec![Vec::new(); groups.len()];
+    for m in merges {
+        let (ca, cb) = (child_of[m.a as usize], child_of[m.b as usize]);
+        let ((ga, la), (gb, lb)) = (place[ca as usize], place[cb as usize]);
+        if ca != cb && ga == gb {
+            let (i, j) = (la.min(lb) as usize, la.max(lb) as usize);
+            bridges[ga as usize].push((i, j));
+        }
+    }
+    for b in &mut bridges {
+        b.sort_unstable();
+        b.dedup();
+    }
+    bridges
+}
+
+fn build_node(
+    group: &[u32],
+    bridges: &[(usize, usize)],
+    below: &[Node],
+    buildings: &[Building],
+    delta_a_m2: f64,
+    collinear_angle_deg: f64,
+) -> (Node, bool) {
+    if let [only] = group {
+        let mut node = below[*only as usize].clone();
+        node.children = vec![NodeId(*only)];
+        return (node, false);
+    }
+    let parts: Vec<&Footprint> = group
+        .iter()
+        .map(|&c| &below[c as usize].footprint)
+        .collect();
+    let merged = merge_footprints(&parts, bridges).footprint;
+    let simplified = simplify_footprint(&merged, delta_a_m2, collinear_angle_deg);
+    // Coverage guard: a node's footprint can never be smaller than its largest child. Should merging
+    // or simplifying lose area anyway, fall back to the unsimplified union, then to the children's
+    // polygons side by side, and count it.
+    let largest_child_m2 = group
+        .iter()
+        .map(|&c| below[c as usize].area_m2)
+        .fold(0.0, f64::max);
+    let covers = |fp: &Footprint| fp.unsigned_area() >= 0.99 * largest_child_m2 - 1e-6;
+    let (footprint, fallback) = if covers(&simplified) {
+        (simplified, false)
+    } else if covers(&merged) {
+        (merged, true)
+    } else {
+        let polys = parts.iter().flat_map(|p| p.0.iter().cloned()).collect();
+        (geo_types::MultiPolygon(polys), true)
+    };
+    let mut members: Vec<BuildingId> = group
+        .iter()
+        .flat_map(|&c| below[c as usize].members.iter().copied())
+        .collect();
+    members.sort_unstable();
+    let refs: Vec<&Building> = members.iter().map(|id| &buildings[id.0 as usize]).collect();
+    let stats = node_stats(&refs, &footprint, &[]);
+    let mut node = empty_node(
+        group.iter().map(|&c| NodeId(c)).collect(),
+        members,
+        footprint,
+    );
+    stats.write_into(&mut node);
+    (node, fallback)
+}
+
+fn level_report(index: usize, kind: Option<LevelKind>, level: &Level) -> LevelReport {
+    LevelReport {
+        index,
+        kind,
+        nodes: level.nodes.len(),
+        threshold_m: level.threshold_m,
+        max_children: level
+            .nodes
+            .iter()
+            .map(|n| n.children.len())
+            .max()
+            .unwrap_or(0),
+        tie_splits: 0,
+        budget_splits: 0,
+        multipolygon_nodes: level
+            .nodes
+            .iter()
+            .filter(|n| n.footprint.0.len() > 1)
+            .count(),
+        footprint_fallbacks: 0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use citylod_model::HeightSource;
+    use geo_types::{LineString, MultiPolygon, Polygon};
+
+    fn building(i: usize, pts: Vec<(f64, f64)>, height_m: f64) -> Building {
+        Building {
+            id: BuildingId(i as u32),
+            source_id: format!("b{i}"),
+            footprint: MultiPolygon(vec![Polygon::new(LineString::from(pts), vec![])]),
+            base_z_m: 0.0,
+            height_m,
+            height_source: HeightSource::Default,
+            attributes: Default::default(),
+            mesh: None,
+        }
+    }
+
+    fn rect(i: usize, x: f64, y: f64, w: f64, h: f64) -> Building {
+        building(
+            i,
+            vec![(x, y), (x + w, y), (x + w, y + h), (x, y + h)],
+            5.0 + (i % 7) as f64,
+        )
+    }
+
+    fn assert_sound(g: &Generalized, n: usize) {
+        let h = &g.hierarchy;
+        assert_eq!(h.check_invariants(n), Vec::<String>::new());
+        assert_eq!(h.levels.last().unwrap().nodes.len(), 1, "one top node");
+        for lv in &h.levels[1..] {
+            for node in &lv.nodes {
+                assert!(node.children.len() <= g.report.delta_p);
+            }
+        }
+    }
+
+    #[test]
+    fn one_building_gives_a_two_level_hierarchy() {
+        let g = generalize(&[rect(0, 0.0, 0.0, 10.0, 10.0)], &Default::default()).unwrap();
+        assert_sound(&g, 1);
+        assert_eq!(g.hierarchy.levels.len(), 2);
+        let top = &g.hierarchy.levels[1].nodes[0];
+        assert_eq!(top.footprint, g.hierarchy.levels[0].nodes[0].footprint);
+    }
+
+    #[test]
+    fn two_identical_buildings_merge() {
+        let bs = [rect(0, 0.0, 0.0, 10.0, 10.0), rect(1, 0.0, 0.0, 10.0, 10.0)];
+        let g = generalize(&bs, &Default::default()).unwrap();
+        assert_sound(&g, 2);
+        assert_eq!(g.hierarchy.levels.last().unwrap().nodes[0].members.len(), 2);
+    }
+
+    #[test]
+    fn five_hundred_touching_row_houses() {
+        let bs: Vec<Building> = (0..500)
+            .map(|i| rect(i, i as f64 * 6.0, 0.0, 6.0, 12.0))
+            .collect();
+        let g = generalize(&bs, &Default::default()).unwrap();
+        assert_sound(&g, 500);
+        assert!(g.report.tie_splits > 0);
+    }
+
+    #[test]
+    fn ten_thousand_vertex_footprint() {
+        let big: Vec<(f64, f64)> = (0..10_000)
+            .map(|k| {
+                let t = k as f64 / 10_000.0 * std::f64::consts::TAU;
+                let r = 100.0 + 3.0 * (t * 50.0).sin();
+                (r * t.cos(), r * t.sin())
+            })
+            .collect();
+        let mut bs = vec![building(0, big, 30.0)];
+        bs.extend((1..40).map(|i| {
+            rect(
+                i,
+                120.0 + (i % 8) as f64 * 15.0,
+                (i / 8) as f64 * 15.0,
+                10.0,
+                10.0,
+            )
+        }));
+        let g = generalize(&bs, &Default::default()).unwrap();
+        assert_sound(&g, 40);
+    }
+
+    #[test]
+    fn buildings_on_one_line() {
+        let bs: Vec<Building> = (0..200)
+            .map(|i| rect(i, i as f64 * 13.0, 0.0, 10.0, 10.0))
+            .collect();
+        let g = generalize(&bs, &Default::default()).unwrap();
+        assert_sound(&g, 200);
+    }
+
+    #[test]
+    fn same_input_same_hierarchy() {
+        let bs: Vec<Building> = (0..300)
+            .map(|i| {
+                rect(
+                    i,
+                    (i % 20) as f64 * 14.0 + (i / 60) as f64 * 3.0,
+                    (i / 20) as f64 * 17.0,
+                    10.0,
+                    12.0,
+                )
+            })
+            .collect();
+        let a = generalize(&bs, &Default::default()).unwrap();
+        let b = generalize(&bs, &Default::default()).unwrap();
+        assert_sound(&a, 300);
+        assert_eq!(a.hierarchy.levels.len(), b.hierarchy.levels.len());
+        for (la, lb) in a.hierarchy.levels.iter().zip(&b.hierarchy.levels) {
+            assert_eq!(la.nodes.len(), lb.nodes.len());
+            for (na, nb) in la.nodes.iter().zip(&lb.nodes) {
+                assert_eq!(
+                    (&na.members, &na.children, &na.footprint),
+                    (&nb.members, &nb.children, &nb.footprint)
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn bad_input_is_an_error_not_a_panic() {
+        assert_eq!(
+            generalize(&[], &Default::default()).unwrap_err(),
+            GeneralizeError::NoBuildings
+        );
+        let mut b = rect(0, 0.0, 0.0, 1.0, 1.0);
+        b.id = BuildingId(3);
+        assert!(matches!(
+            generalize(&[b], &Default::default()),
+            Err(GeneralizeError::IdNotIndex { .. })
+        ));
+        let flat = building(0, vec![(0.0, 0.0), (1.0, 0.0), (0.0, 0.0)], 3.0);
+        assert!(matches!(
+            generalize(&[flat], &Default::default()),
+            Err(GeneralizeError::DegenerateFootprint { .. })
+        ));
+        let opts = GeneralizeOptions {
+            lambda_adjacent: 1.5,
+            ..Default::default()
+        };
+        assert!(matches!(
+            generalize(&[rect(0, 0.0, 0.0, 1.0, 1.0)], &opts),
+            Err(GeneralizeError::BadOption {
+                name: "lambda_adjacent",
+                ..
+            })
+        ));
+    }
+}

@@ -1,0 +1,525 @@
+//! Condensing the single-link dendrogram into a few balanced levels (seed 000 §3.3.2). Thresholds
+//! (m) sit where the sorted merge distance jumps most (rate rᵢ = (dᵢ₊₁ − dᵢ)/max(dᵢ, d_floor)); a level
+//! with more than δp = 2·⌈n^(1/L)⌉ children per node on average gets a lower threshold from the largest
+//! rate inside its crowded clusters, and nodes still over δp are split spatially. Invariant: every level
+//! partitions the level below, no node has more than δp children, and the top level is one node.
+
+use crate::single_link::{Merge, UnionFind};
+
+/// Tuning of the condensing.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LevelOptions {
+    /// L = max(1, ⌊log₂ n / depth_divisor⌋) levels above the buildings before balancing (seed: 1.5).
+    pub depth_divisor: f64,
+    /// Floor for dᵢ in the rate rᵢ, so that touching buildings (d = 0) give finite rates (m).
+    pub d_floor_m: f64,
+    /// At most this many levels are inserted below one planned threshold.
+    pub max_inserts_per_level: usize,
+}
+
+impl Default for LevelOptions {
+    fn default() -> Self {
+        LevelOptions {
+            depth_divisor: 1.5,
+            d_floor_m: 1.0,
+            max_inserts_per_level: 2,
+        }
+    }
+}
+
+/// Why a level exists.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LevelKind {
+    /// One of the L − 1 thresholds at the largest distance-increase rates.
+    Rate,
+    /// A threshold inserted by balancing (the level had more than δp children per node on average).
+    Inserted,
+    /// Every merge of the dendrogram applied (the single-link top).
+    Top,
+    /// A purely spatial grouping above the top, when splits left more than one top node.
+    ExtraTop,
+}
+
+/// One level above the buildings.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct PlannedLevel {
+    pub kind: LevelKind,
+    /// Every merge with d ≤ threshold_m is applied at this level (m); the top's is the largest merge d.
+    pub threshold_m: f64,
+    /// Merges of the dendrogram applied (a prefix of the sorted merges).
+    pub n_merges: usize,
+    /// Each node's children: indices into the level below, ascending. Nodes are ordered by their
+    /// smallest building, children likewise.
+    #[serde(skip)]
+    pub groups: Vec<Vec<u32>>,
+    /// Nodes over δp children whose merges in this level's interval all have the same distance
+    /// (typically touching row houses, d = 0), split spatially.
+    pub tie_splits: usize,
+    /// Nodes over δp children split spatially because the insertion budget ran out.
+    pub budget_splits: usize,
+}
+
+/// The condensed levels and the balancing parameters.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct LevelPlan {
+    /// L = max(1, ⌊log₂ n / depth_divisor⌋): planned levels above the buildings before balancing.
+    pub target_levels: usize,
+    /// Thresholds from the largest rates: min(L − 1, number of distance increases).
+    pub rate_levels: usize,
+    /// Rate thresholds dropped because their level would not at least halve the node count (their
+    /// merges go to the next level); typical for the last few merges of isolated outliers.
+    pub rate_levels_skipped: usize,
+    /// p = ⌈n^(1/L)⌉, the children per node of a perfectly balanced tree.
+    pub p: usize,
+    /// δp = 2p, the most children a node may have.
+    pub delta_p: usize,
+    /// Levels above the buildings, finest first; the last one holds a single node.
+    pub levels: Vec<PlannedLevel>,
+}
+
+/// L = max(1, ⌊log₂ n / depth_divisor⌋) (n = 37, divisor 1.5 → 3, the seed's example).
+pub fn target_levels(n: usize, depth_divisor: f64) -> usize {
+    if n < 2 || depth_divisor.is_nan() || depth_divisor <= 0.0 {
+        return 1;
+    }
+    (((n as f64).log2() / depth_divisor).floor() as usize).max(1)
+}
+
+/// Condenses `merges` (from [`crate::single_link`], sorted by d) over `n` buildings into levels.
+/// `boxes[i]` = [min x, min y, max x, max y] of building i (local ENU m), used for spatial splits.
+/// The number of levels above the buildings is `rate_levels` − `rate_levels_skipped` + inserted
+/// levels + 1 (top) + extra top levels; see [`PlannedLevel::kind`]. n = 0 gives no levels.
+pub fn condense(n: usize, merges: &[Merge], boxes: &[[f64; 4]], opts: &LevelOptions) -> LevelPlan {
+    debug_assert_eq!(boxes.len(), n);
+    debug_assert!(merges.windows(2).all(|w| w[0].d_m <= w[1].d_m));
+    let l = target_levels(n, opts.depth_divisor);
+    let p = if n < 2 {
+        1
+    } else {
+        let r = (n as f64).powf(1.0 / l as f64);
+        // Guard against 3.0000000001 for exact powers.
+        (r - 1e-9).ceil().max(1.0) as usize
+    };
+    let delta_p = (2 * p).max(2);
+    let mut plan = LevelPlan {
+        target_levels: l,
+        rate_levels: 0,
+        rate_levels_skipped: 0,
+        p,
+        delta_p,
+        levels: Vec::new(),
+    };
+    if n == 0 {
+        return plan;
+    }
+    let m = merges.len();
+    let d = |i: usize| merges[i].d_m;
+    let rate = |i: usize| (d(i + 1) - d(i)) / d(i).max(opts.d_floor_m);
+
+    let mut rates: Vec<(f64, usize)> = (0..m.saturating_sub(1))
+        .filter(|&i| d(i + 1) > d(i))
+        .map(|i| (rate(i), i))
+        .collect();
+    rates.sort_by(|x, y| y.0.total_cmp(&x.0).then(x.1.cmp(&y.1)));
+    let mut targets: Vec<(usize, LevelKind)> = rates
+        .iter()
+        .take(l - 1)
+        .map(|&(_, i)| (i + 1, LevelKind::Rate))
+        .collect();
+    targets.sort_unstable();
+    plan.rate_levels = targets.len();
+    targets.push((m, LevelKind::Top));
+
+    let threshold_at = |k: usize| {
+        if k == 0 {
+            0.0
+        } else if k == m {
+            d(m - 1)
+        } else {
+            (d(k - 1) + d(k)) / 2.0
+        }
+    };
+
+    let mut below: Vec<NodeInfo> = (0..n as u32)
+        .map(|i| NodeInfo {
+            rep: i,
+            bbox: boxes[i as usize],
+        })
+        .collect();
+    let mut uf_lo = UnionFind::new(n);
+    let mut k_lo = 0usize;
+    let mut slot = vec![u32::MAX; n];
+
+    for (k_hi, kind) in targets {
+        let mut inserted = 0usize;
+        loop {
+            let mut k = k_hi;
+            // Paper: while the level is too crowded (m·δp < m_ch), replace its threshold by a lower one.
+            let (groups, internal) = loop {
+                let mut uf = uf_lo.clone();
+                for mg in &merges[k_lo..k] {
+                    uf.union(mg.a, mg.b);
+                }
+                let (groups, roots) = group_children(&below, &mut uf, &mut slot);
+                // Merge indices inside this interval, for the groups over δp children.
+                let mut internal: Vec<Vec<usize>> = vec![Vec::new(); groups.len()];
+                for (j, mg) in merges.iter().enumerate().take(k).skip(k_lo) {
+                    let g = slot[uf.find(mg.a) as usize] as usize;
+                    if groups[g].len() > delta_p {
+                        internal[g].push(j);
+                    }
+                }
+                for r in roots {
+                    slot[r as usize] = u32::MAX;
+                }
+                let crowded = groups.len() * delta_p < below.len();
+                let cut = if crowded && inserted < opts.max_inserts_per_level {
+                    best_local_cut(merges, &internal, opts.d_floor_m)
+                } else {
+                    None
+                };
+                match cut {
+                    Some(kc) => {
+                        debug_assert!(k_lo < kc && kc < k);
+                        k = kc;
+                    }
+                    None => break (groups, internal),
+                }
+            };
+            // A rate level that does not at least halve the node count hands its merges to the next.
+            if kind == LevelKind::Rate && k == k_hi && groups.len() * 2 > below.len() {
+                plan.rate_levels_skipped += 1;
+                break;
+            }
+            if k != k_hi {
+                inserted += 1;
+            }
+            let mut level = PlannedLevel {
+                kind: if k == k_hi { kind } else { LevelKind::Inserted },
+                threshold_m: threshold_at(k),
+                n_merges: k,
+                groups: Vec::new(),
+                tie_splits: 0,
+                budget_splits: 0,
+            };
+            let mut out: Vec<Vec<u32>> = Vec::with_capacity(groups.len());
+            for (mut g, js) in groups.into_iter().zip(internal) {
+                if g.len() > delta_p {
+                    let tie = js
+                        .first()
+                        .is_none_or(|&f| d(f) == d(*js.last().expect("non-empty")));
+                    if tie {
+                        level.tie_splits += 1;
+                    } else {
+                        level.budget_splits += 1;
+                    }
+                    split_spatially(&mut g, &below, delta_p, &mut out);
+                } else {
+                    out.push(g);
+                }
+            }
+            below = finish_level(&mut level, out, &below);
+            plan.levels.push(level);
+            // Children of later levels are looked up through the merges applied so far.
+            for mg in &merges[k_lo..k] {
+                uf_lo.union(mg.a, mg.b);
+            }
+            k_lo = k;
+            if k == k_hi {
+                break;
+            }
+        }
+    }
+
+    while below.len() > 1 {
+        let mut all: Vec<u32> = (0..below.len() as u32).collect();
+        let mut out = Vec::new();
+        let mut level = PlannedLevel {
+            kind: LevelKind::ExtraTop,
+            threshold_m: threshold_at(m),
+            n_merges: m,
+            groups: Vec::new(),
+            tie_splits: 0,
+            budget_splits: 0,
+        };
+        if all.len() > delta_p {
+            level.tie_splits += 1;
+        }
+        split_spatially(&mut all, &below, delta_p, &mut out);
+        below = finish_level(&mut level, out, &below);
+        plan.levels.push(level);
+    }
+    plan
+}
+
+/// The lower threshold for a crowded level: over the groups with more than δp children, the largest
+/// rate between consecutive distinct distances of the group's own merges (the seed's rule applied to
+/// the crowded clusters' distance sequences); returns the number of merges to apply (all merges with
+/// d ≤ the lower distance, so ties are never cut). `None` when every crowded group is a tie.
+fn best_local_cut(merges: &[Merge], internal: &[Vec<usize>], d_floor_m: f64) -> Option<usize> {
+    let d = |i: usize| merges[i].d_m;
+    let mut best: Option<(f64, usize)> = None;
+    for js in internal {
+        for w in js.windows(2) {
+            let (lo, hi) = (d(w[0]), d(w[1]));
+            if hi > lo {
+                let r = (hi - lo) / lo.max(d_floor_m);
+                let k = merges.partition_point(|mg| mg.d_m <= lo);
+                if best.is_none_or(|(br, bk)| r > br || (r == br && k < bk)) {
+                    best = Some((r, k));
+                }
+            }
+        }
+    }
+    best.map(|(_, k)| k)
+}
+
+/// What condensing needs to know of a node: its smallest building and its bounding box.
+#[derive(Debug, Clone, Copy)]
+struct NodeInfo {
+    rep: u32,
+    bbox: [f64; 4],
+}
+
+/// Groups the nodes of the level below by their union–find component. Leaves `slot[root]` = group
+/// index for the returned roots (the caller resets them).
+fn group_children(
+    below: &[NodeInfo],
+    uf: &mut UnionFind,
+    slot: &mut [u32],
+) -> (Vec<Vec<u32>>, Vec<u32>) {
+    let mut groups: Vec<Vec<u32>> = Vec::new();
+    let mut roots = Vec::new();
+    for (c, info) in below.iter().enumerate() {
+        let r = uf.find(info.rep);
+        if slot[r as usize] == u32::MAX {
+            slot[r as usize] = groups.len() as u32;
+            groups.push(Vec::new());
+            roots.push(r);
+        }
+        groups[slot[r as usize] as usize].push(c as u32);
+    }
+    (groups, roots)
+}
+
+/// Orders the groups by first child (= by smallest building) and returns the new level's nodes.
+fn finish_level(
+    level: &mut PlannedLevel,
+    mut groups: Vec<Vec<u32>>,
+    below: &[NodeInfo],
+) -> Vec<NodeInfo> {
+    groups.sort_unstable_by_key(|g| g[0]);
+    let infos = groups
+        .iter()
+        .map(|g| {
+            let mut bbox = below[g[0] as usize].bbox;
+            for &c in &g[1..] {
+                let b = below[c as usize].bbox;
+                bbox = [
+                    bbox[0].min(b[0]),
+                    bbox[1].min(b[1]),
+                    bbox[2].max(b[2]),
+                    bbox[3].max(b[3]),
+                ];
+            }
+            NodeInfo {
+                rep: below[g[0] as usize].rep,
+                bbox,
+            }
+        })
+        .collect();
+    level.groups = groups;
+    infos
+}
+
+/// Recursive median split along the longer axis of the children's box centres until every piece has
+/// at most `max` children; pieces come out with their children ascending.
+fn split_spatially(children: &mut [u32], below: &[NodeInfo], max: usize, out: &mut Vec<Vec<u32>>) {
+    if children.len() <= max.max(1) {
+        let mut v = children.to_vec();
+        v.sort_unstable();
+        out.push(v);
+        return;
+    }
+    let centre = |c: u32| {
+        let b = below[c as usize].bbox;
+        [(b[0] + b[2]) / 2.0, (b[1] + b[3]) / 2.0]
+    };
+    let mut lo = [f64::INFINITY; 2];
+    let mut hi = [f64::NEG_INFINITY; 2];
+    for &c in children.iter() {
+        let p = centre(c);
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let axis = usize::from(hi[1] - lo[1] > hi[0] - lo[0]);
+    children.sort_unstable_by(|&a, &b| centre(a)[axis].total_cmp(&centre(b)[axis]).then(a.cmp(&b)));
+    let mid = children.len() / 2;
+    let (left, right) = children.split_at_mut(mid);
+    split_spatially(left, below, max, out);
+    split_spatially(right, below, max, out);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn merges(ds: &[(f64, u32, u32)]) -> Vec<Merge> {
+        ds.iter().map(|&(d_m, a, b)| Merge { d_m, a, b }).collect()
+    }
+
+    fn unit_boxes(n: usize) -> Vec<[f64; 4]> {
+        (0..n)
+            .map(|i| [i as f64, 0.0, i as f64 + 1.0, 1.0])
+            .collect()
+    }
+
+    /// Every level's groups partition the level below, and no node has more than δp children.
+    fn check(plan: &LevelPlan, n: usize) {
+        let mut below = n;
+        for lv in &plan.levels {
+            let mut seen = vec![false; below];
+            for g in &lv.groups {
+                assert!(
+                    g.len() <= plan.delta_p,
+                    "{} children > δp {}",
+                    g.len(),
+                    plan.delta_p
+                );
+                assert!(g.windows(2).all(|w| w[0] < w[1]));
+                for &c in g {
+                    assert!(!std::mem::replace(&mut seen[c as usize], true));
+                }
+            }
+            assert!(seen.iter().all(|&s| s));
+            assert!(lv.groups.windows(2).all(|w| w[0][0] < w[1][0]));
+            below = lv.groups.len();
+        }
+        assert_eq!(below, 1, "one top node");
+    }
+
+    #[test]
+    fn depth_formula_matches_the_seed_example() {
+        assert_eq!(target_levels(37, 1.5), 3);
+        assert_eq!(target_levels(22_186, 1.5), 9);
+        assert_eq!(target_levels(1, 1.5), 1);
+        assert_eq!(target_levels(2, 1.5), 1);
+    }
+
+    #[test]
+    fn seed_figure_6_threshold_falls_between_32_and_58() {
+        // Figure 6b: six buildings merged at 19, 23, 27, 32, 58. With L = 2 (divisor 1.2) the single
+        // rate threshold goes where d jumps from 32 to 58.
+        let ms = merges(&[
+            (19.0, 0, 1),
+            (23.0, 1, 2),
+            (27.0, 3, 4),
+            (32.0, 2, 3),
+            (58.0, 4, 5),
+        ]);
+        let opts = LevelOptions {
+            depth_divisor: 1.2,
+            ..Default::default()
+        };
+        let plan = condense(6, &ms, &unit_boxes(6), &opts);
+        assert_eq!(plan.target_levels, 2);
+        assert_eq!(plan.levels[0].kind, LevelKind::Rate);
+        assert_eq!(plan.levels[0].threshold_m, 45.0);
+        assert_eq!(plan.levels[0].groups, vec![vec![0, 1, 2, 3, 4], vec![5]]);
+        check(&plan, 6);
+    }
+
+    #[test]
+    fn crowded_level_gets_an_inserted_threshold() {
+        // 32 buildings: 8 quads at 1 m, quads paired at 3 m, pairs of pairs at 9 m, halves at 100 m.
+        // L = ⌊5 / 2.5⌋ = 2 gives one rate threshold, at the 9 → 100 jump: 2 nodes of 16 children
+        // (p = 6, δp = 12, and 2·12 < 32: crowded). The crowded clusters' own distance sequence
+        // 1, 3, 9 jumps most (ties go low) at 1 → 3, so a level of the 8 quads is inserted below.
+        let mut ms: Vec<(f64, u32, u32)> = Vec::new();
+        for q in 0..8u32 {
+            ms.extend((0..3).map(|k| (1.0, 4 * q + k, 4 * q + k + 1)));
+        }
+        ms.extend((0..4u32).map(|r| (3.0, 8 * r, 8 * r + 4)));
+        ms.extend((0..2u32).map(|s| (9.0, 16 * s, 16 * s + 8)));
+        ms.push((100.0, 0, 16));
+        let opts = LevelOptions {
+            depth_divisor: 2.5,
+            ..Default::default()
+        };
+        let plan = condense(32, &merges(&ms), &unit_boxes(32), &opts);
+        assert_eq!(
+            (plan.target_levels, plan.p, plan.delta_p, plan.rate_levels),
+            (2, 6, 12, 1)
+        );
+        check(&plan, 32);
+        let kinds: Vec<LevelKind> = plan.levels.iter().map(|l| l.kind).collect();
+        assert_eq!(
+            kinds,
+            vec![LevelKind::Inserted, LevelKind::Rate, LevelKind::Top]
+        );
+        assert_eq!(plan.levels[0].groups.len(), 8);
+        assert_eq!(plan.levels[0].threshold_m, 2.0);
+        assert_eq!(plan.levels[1].groups.len(), 2);
+        assert!(plan
+            .levels
+            .iter()
+            .all(|l| l.tie_splits == 0 && l.budget_splits == 0));
+    }
+
+    #[test]
+    fn rate_level_that_does_not_halve_is_skipped() {
+        // Figure 6 with L = ⌊log₂ 6 / 0.8⌋ = 3: rates 0.21 (19 → 23), 0.17, 0.19, 0.81 (32 → 58). The
+        // threshold at 21 would only join one pair (6 → 5 nodes), so its merge moves up to the 45 m level.
+        let ms = merges(&[
+            (19.0, 0, 1),
+            (23.0, 1, 2),
+            (27.0, 3, 4),
+            (32.0, 2, 3),
+            (58.0, 4, 5),
+        ]);
+        let opts = LevelOptions {
+            depth_divisor: 0.8,
+            ..Default::default()
+        };
+        let plan = condense(6, &ms, &unit_boxes(6), &opts);
+        check(&plan, 6);
+        assert_eq!((plan.rate_levels, plan.rate_levels_skipped), (2, 1));
+        assert_eq!(plan.levels[0].threshold_m, 45.0);
+        // δp = 2·⌈6^(1/3)⌉ = 4: the 5-building cluster is split spatially (a budget split).
+        assert_eq!(
+            plan.levels[0].groups,
+            vec![vec![0, 1], vec![2, 3, 4], vec![5]]
+        );
+        assert_eq!(plan.levels[0].budget_splits, 1);
+    }
+
+    #[test]
+    fn touching_row_houses_are_split_spatially_and_reported() {
+        let n = 500;
+        let ms: Vec<(f64, u32, u32)> = (0..n as u32 - 1).map(|i| (0.0, i, i + 1)).collect();
+        let plan = condense(n, &merges(&ms), &unit_boxes(n), &LevelOptions::default());
+        check(&plan, n);
+        assert!(plan.levels.iter().map(|l| l.tie_splits).sum::<usize>() > 0);
+        // Spatial pieces of a row are runs of consecutive houses.
+        for g in &plan.levels[0].groups {
+            assert_eq!(g.last().unwrap() - g[0] + 1, g.len() as u32);
+        }
+    }
+
+    #[test]
+    fn single_building_has_one_top_level() {
+        let plan = condense(1, &[], &unit_boxes(1), &LevelOptions::default());
+        assert_eq!(plan.levels.len(), 1);
+        assert_eq!(plan.levels[0].groups, vec![vec![0]]);
+    }
+
+    #[test]
+    fn disconnected_dendrogram_still_gets_one_top() {
+        let plan = condense(40, &[], &unit_boxes(40), &LevelOptions::default());
+        check(&plan, 40);
+        assert!(plan.levels.iter().any(|l| l.kind == LevelKind::ExtraTop));
+    }
+}

@@ -1,0 +1,574 @@
+//! Simplifying a merged footprint (seed 000 §3.2, after Visvalingam–Whyatt): remove the vertex of the
+//! smallest concave triangle while its area < δa, then near-collinear vertices (angle > 175°). Local ENU
+//! metres. Invariants: output vertices ⊆ input vertices, no self-intersection, every ring ≥ 3 vertices,
+//! and the output covers the input (up to `CONVEX_COLLINEAR_TOL_M` where a convex near-straight vertex goes).
+
+use crate::merge::{
+    closed_ring, cross, in_closed_triangle, open_ring, point_segment_dist2, signed_area2,
+};
+use citylod_model::Footprint;
+use geo_types::{MultiPolygon, Polygon};
+use rstar::primitives::GeomWithData;
+use rstar::{RTree, AABB};
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+/// A convex vertex whose angle exceeds the collinearity threshold is removed only when it lies at most
+/// this far (m) from the chord of its neighbours, so the area given up is a sliver of at most this width.
+pub const CONVEX_COLLINEAR_TOL_M: f64 = 0.02;
+
+/// Simplifies `fp` (local ENU m) in two passes, each removing one vertex at a time from a priority queue:
+///
+/// 1. *Concave triangles*: a vertex is concave when, walking its ring with the solid on the left (exterior
+///    CCW, holes CW), the turn there is clockwise — a notch in the exterior, or a corner of a hole that
+///    points into the hole. Removing it fills the triangle, so the footprint only grows. The vertex with
+///    the smallest such triangle goes first while its area < `delta_a_m2` (m²). Holes whose whole area is
+///    below `delta_a_m2` are filled.
+/// 2. *Near-collinear vertices*: vertices whose inner angle > `max_angle_deg` (175° in the paper), most
+///    collinear first; a concave one always qualifies, a convex one only within `CONVEX_COLLINEAR_TOL_M`
+///    of its neighbours' chord.
+///
+/// A removal is skipped when any other vertex of the footprint lies in the closed triangle it cuts (which
+/// is what a self-intersection or a swallowed ring would need), or when the ring would drop below 3
+/// vertices. Cost O(n log n). Degenerate input: rings with fewer than 3 distinct points or zero area are
+/// dropped, a polygon without a usable exterior is dropped; `delta_a_m2 <= 0` skips pass 1.
+///
+/// # Examples
+/// ```
+/// use citylod_generalize::simplify_footprint;
+/// use geo_types::{polygon, MultiPolygon};
+/// // A 10 × 10 square with a 1 × 1 notch cut into its top edge.
+/// let fp = MultiPolygon(vec![polygon![(x: 0.0, y: 0.0), (x: 10.0, y: 0.0), (x: 10.0, y: 10.0),
+///     (x: 6.0, y: 10.0), (x: 6.0, y: 9.0), (x: 5.0, y: 9.0), (x: 5.0, y: 10.0), (x: 0.0, y: 10.0)]]);
+/// let s = simplify_footprint(&fp, 2.0, 175.0);
+/// assert_eq!(s.0[0].exterior().0.len(), 5); // the notch is filled: a plain square
+/// ```
+pub fn simplify_footprint(fp: &Footprint, delta_a_m2: f64, max_angle_deg: f64) -> Footprint {
+    let mut rings: Vec<RingSpec> = Vec::new();
+    for (k, poly) in fp.0.iter().enumerate() {
+        let Some(ext) = open_ring(poly.exterior(), true) else {
+            continue;
+        };
+        rings.push(RingSpec { poly: k, pts: ext });
+        for h in poly.interiors().iter().filter_map(|r| open_ring(r, false)) {
+            if signed_area2(&h).abs() / 2.0 >= delta_a_m2 {
+                rings.push(RingSpec { poly: k, pts: h });
+            }
+        }
+    }
+    let mut net = Net::new(&rings);
+    if delta_a_m2 > 0.0 {
+        net.remove_concave(delta_a_m2);
+    }
+    let max_angle_rad = max_angle_deg.to_radians();
+    if max_angle_rad.is_finite() && max_angle_rad < std::f64::consts::PI {
+        net.remove_collinear(max_angle_rad);
+    }
+    net.into_footprint(fp.0.len(), delta_a_m2)
+}
+
+struct RingSpec {
+    poly: usize,
+    pts: Vec<[f64; 2]>,
+}
+
+struct Vertex {
+    pos: [f64; 2],
+    prev: u32,
+    next: u32,
+    ring: u32,
+    alive: bool,
+    /// Bumped whenever a neighbour changes, so stale queue entries are skipped.
+    version: u32,
+}
+
+struct RingState {
+    poly: usize,
+    first: u32,
+    len: usize,
+}
+
+type VPoint = GeomWithData<[f64; 2], u32>;
+
+/// The rings as doubly linked vertex lists plus a point index of every live vertex.
+struct Net {
+    v: Vec<Vertex>,
+    rings: Vec<RingState>,
+    index: RTree<VPoint>,
+}
+
+#[derive(PartialEq)]
+struct Entry {
+    key: f64,
+    id: u32,
+    version: u32,
+}
+impl Eq for Entry {}
+impl PartialOrd for Entry {
+    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for Entry {
+    fn cmp(&self, o: &Self) -> Ordering {
+        self.key.total_cmp(&o.key).then(self.id.cmp(&o.id))
+    }
+}
+
+impl Net {
+    fn new(rings: &[RingSpec]) -> Self {
+        let mut v = Vec::new();
+        let mut states = Vec::new();
+        for (r, spec) in rings.iter().enumerate() {
+            let base = v.len() as u32;
+            let n = spec.pts.len() as u32;
+            for (i, &p) in spec.pts.iter().enumerate() {
+                let i = i as u32;
+                v.push(Vertex {
+                    pos: p,
+                    prev: base + (i + n - 1) % n,
+                    next: base + (i + 1) % n,
+                    ring: r as u32,
+                    alive: true,
+                    version: 0,
+                });
+            }
+            states.push(RingState {
+                poly: spec.poly,
+                first: base,
+                len: n as usize,
+            });
+        }
+        let index = RTree::bulk_load(
+            v.iter()
+                .enumerate()
+                .map(|(i, x)| VPoint::new(x.pos, i as u32))
+                .collect(),
+        );
+        Net {
+            v,
+            rings: states,
+            index,
+        }
+    }
+
+    fn triangle(&self, id: u32) -> [[f64; 2]; 3] {
+        let x = &self.v[id as usize];
+        [
+            self.v[x.prev as usize].pos,
+            x.pos,
+            self.v[x.next as usize].pos,
+        ]
+    }
+
+    /// Twice the signed area of the vertex's triangle: < 0 means concave (solid on the left).
+    fn turn2(&self, id: u32) -> f64 {
+        let t = self.triangle(id);
+        cross(t[0], t[1], t[2])
+    }
+
+    /// Inner angle (rad) between the vertex's two sides; π for a straight or degenerate vertex.
+    fn angle(&self, id: u32) -> f64 {
+        let [p, x, n] = self.triangle(id);
+        let a = [p[0] - x[0], p[1] - x[1]];
+        let b = [n[0] - x[0], n[1] - x[1]];
+        let (la, lb) = (a[0].hypot(a[1]), b[0].hypot(b[1]));
+        if la == 0.0 || lb == 0.0 {
+            return std::f64::consts::PI;
+        }
+        ((a[0] * b[0] + a[1] * b[1]) / (la * lb))
+            .clamp(-1.0, 1.0)
+            .acos()
+    }
+
+    /// True when removing the vertex keeps every ring simple, disjoint from the others and ≥ 3 vertices.
+    fn can_remove(&self, id: u32) -> bool {
+        let x = &self.v[id as usize];
+        let ring = &self.rings[x.ring as usize];
+        if ring.len <= 3 {
+            return false;
+        }
+        let t = self.triangle(id);
+        if ring.len == 4 {
+            let nn = self.v[self.v[x.next as usize].next as usize].pos;
+            if cross(t[0], t[2], nn) == 0.0 {
+                return false;
+            }
+        }
+        let env = AABB::from_points(t.iter());
+        !self.index.locate_in_envelope_intersecting(&env).any(|q| {
+            q.data != id && q.data != x.prev && q.data != x.next && in_closed_triangle(*q.geom(), t)
+        })
+    }
+
+    fn remove(&mut self, id: u32) {
+        let (p, n, pos, r) = {
+            let x = &self.v[id as usize];
+            (x.prev, x.next, x.pos, x.ring)
+        };
+        self.v[id as usize].alive = false;
+        self.v[p as usize].next = n;
+        self.v[n as usize].prev = p;
+        self.v[p as usize].version += 1;
+        self.v[n as usize].version += 1;
+        let ring = &mut self.rings[r as usize];
+        ring.len -= 1;
+        if ring.first == id {
+            ring.first = n;
+        }
+        let removed = self.index.remove(&VPoint::new(pos, id));
+        debug_assert!(removed.is_some(), "vertex {id} missing from the index");
+    }
+
+    /// Pass 1: smallest concave triangle first while its area < `delta_a_m2`.
+    fn remove_concave(&mut self, delta_a_m2: f64) {
+        let mut heap = BinaryHeap::new();
+        let push = |net: &Net, heap: &mut BinaryHeap<std::cmp::Reverse<Entry>>, id: u32| {
+            let t2 = net.turn2(id);
+            if t2 < 0.0 {
+                heap.push(std::cmp::Reverse(Entry {
+                    key: -t2 / 2.0,
+                    id,
+                    version: net.v[id as usize].version,
+                }));
+            }
+        };
+        for id in 0..self.v.len() as u32 {
+            push(self, &mut heap, id);
+        }
+        while let Some(std::cmp::Reverse(e)) = heap.pop() {
+            if e.key >= delta_a_m2 {
+                break;
+            }
+            let x = &self.v[e.id as usize];
+            if !x.alive || x.version != e.version || !self.can_remove(e.id) {
+                continue;
+            }
+            let (p, n) = (x.prev, x.next);
+            self.remove(e.id);
+            push(self, &mut heap, p);
+            push(self, &mut heap, n);
+        }
+    }
+
+    /// True when the vertex may go in pass 2: its angle exceeds the threshold, and it is concave, straight,
+    /// or convex within `CONVEX_COLLINEAR_TOL_M` of the chord.
+    fn collinear_candidate(&self, id: u32, max_angle_rad: f64) -> Option<f64> {
+        let a = self.angle(id);
+        if a <= max_angle_rad {
+            return None;
+        }
+        if self.turn2(id) > 0.0 {
+            let [p, x, n] = self.triangle(id);
+            if point_segment_dist2(x, p, n) > CONVEX_COLLINEAR_TOL_M * CONVEX_COLLINEAR_TOL_M {
+                return None;
+            }
+        }
+        Some(a)
+    }
+
+    /// Pass 2: most collinear vertex first while its angle > `max_angle_rad`.
+    fn remove_collinear(&mut self, max_angle_rad: f64) {
+        let mut heap = BinaryHeap::new();
+        let push = |net: &Net, heap: &mut BinaryHeap<Entry>, id: u32| {
+            if let Some(a) = net.collinear_candidate(id, max_angle_rad) {
+                heap.push(Entry {
+                    key: a,
+                    id,
+                    version: net.v[id as usize].version,
+                });
+            }
+        };
+        for id in 0..self.v.len() as u32 {
+            push(self, &mut heap, id);
+        }
+        while let Some(e) = heap.pop() {
+            let x = &self.v[e.id as usize];
+            if !x.alive || x.version != e.version || !self.can_remove(e.id) {
+                continue;
+            }
+            let (p, n) = (x.prev, x.next);
+            self.remove(e.id);
+            push(self, &mut heap, p);
+            push(self, &mut heap, n);
+        }
+    }
+
+    fn into_footprint(self, n_polys: usize, delta_a_m2: f64) -> Footprint {
+        type Rings = (Vec<[f64; 2]>, Vec<Vec<[f64; 2]>>);
+        let mut polys: Vec<Option<Rings>> = vec![None; n_polys];
+        for ring in &self.rings {
+            let mut pts = Vec::with_capacity(ring.len);
+            let mut id = ring.first;
+            for _ in 0..ring.len {
+                pts.push(self.v[id as usize].pos);
+                id = self.v[id as usize].next;
+            }
+            debug_assert_eq!(id, ring.first, "ring links broken");
+            match &mut polys[ring.poly] {
+                None => polys[ring.poly] = Some((pts, Vec::new())),
+                Some((_, holes)) => {
+                    if signed_area2(&pts).abs() / 2.0 >= delta_a_m2 {
+                        holes.push(pts);
+                    }
+                }
+            }
+        }
+        MultiPolygon(
+            polys
+                .into_iter()
+                .flatten()
+                .map(|(ext, holes)| {
+                    Polygon::new(
+                        closed_ring(&ext),
+                        holes.iter().map(|h| closed_ring(h)).collect(),
+                    )
+                })
+                .collect(),
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::merge::tests::{rect, uncovered_m2};
+    use geo::{Area, Validation};
+    use geo_types::{polygon, LineString};
+    use proptest::prelude::*;
+
+    fn vertex_count(fp: &Footprint) -> usize {
+        fp.0.iter()
+            .flat_map(|p| std::iter::once(p.exterior()).chain(p.interiors()))
+            .map(|r| r.0.len() - 1)
+            .sum()
+    }
+
+    fn vertices(fp: &Footprint) -> Vec<[f64; 2]> {
+        fp.0.iter()
+            .flat_map(|p| std::iter::once(p.exterior()).chain(p.interiors()))
+            .flat_map(|r| r.0.iter().map(|c| [c.x, c.y]))
+            .collect()
+    }
+
+    /// A 10 × 10 square with a notch of `w` × `d` m in its top edge.
+    fn notched(w: f64, d: f64) -> Footprint {
+        MultiPolygon(vec![
+            polygon![(x: 0.0, y: 0.0), (x: 10.0, y: 0.0), (x: 10.0, y: 10.0),
+            (x: 5.0 + w, y: 10.0), (x: 5.0 + w, y: 10.0 - d), (x: 5.0, y: 10.0 - d), (x: 5.0, y: 10.0),
+            (x: 0.0, y: 10.0)],
+        ])
+    }
+
+    #[test]
+    fn notch_smaller_than_delta_a_is_filled() {
+        let s = simplify_footprint(&notched(1.0, 1.0), 2.0, 175.0);
+        assert_eq!(vertex_count(&s), 4);
+        assert!((s.unsigned_area() - 100.0).abs() < 1e-9);
+        // An L-shaped building: the 5 × 5 missing corner is one concave triangle of 12.5 m².
+        let l = MultiPolygon(vec![
+            polygon![(x: 0.0, y: 0.0), (x: 10.0, y: 0.0), (x: 10.0, y: 5.0),
+            (x: 5.0, y: 5.0), (x: 5.0, y: 10.0), (x: 0.0, y: 10.0)],
+        ]);
+        let s = simplify_footprint(&l, 13.0, 175.0);
+        assert_eq!(vertex_count(&s), 5);
+        assert!((s.unsigned_area() - 87.5).abs() < 1e-9);
+    }
+
+    #[test]
+    fn notch_larger_than_delta_a_is_kept() {
+        let fp = notched(3.0, 4.0);
+        let s = simplify_footprint(&fp, 2.0, 175.0);
+        assert_eq!(vertex_count(&s), 8);
+        assert!((s.unsigned_area() - fp.unsigned_area()).abs() < 1e-9);
+    }
+
+    fn with_hole(side: f64) -> Footprint {
+        let h = 15.0 - side / 2.0;
+        MultiPolygon(vec![Polygon::new(
+            rect(0.0, 0.0, 30.0, 30.0).0[0].exterior().clone(),
+            vec![LineString::from(vec![
+                (h, h),
+                (h, h + side),
+                (h + side, h + side),
+                (h + side, h),
+                (h, h),
+            ])],
+        )])
+    }
+
+    #[test]
+    fn courtyard_larger_than_delta_a_is_kept_and_small_hole_filled() {
+        let s = simplify_footprint(&with_hole(10.0), 20.0, 175.0);
+        assert_eq!(s.0[0].interiors().len(), 1);
+        assert_eq!(s.0[0].interiors()[0].0.len(), 5);
+        assert!((s.unsigned_area() - 800.0).abs() < 1e-9);
+        let s = simplify_footprint(&with_hole(2.0), 20.0, 175.0);
+        assert!(s.0[0].interiors().is_empty());
+    }
+
+    #[test]
+    fn hole_corners_count_as_concave_from_the_solid() {
+        // A 10 × 10 courtyard whose east side bulges 1 m into the solid at (21, 15): seen from the solid
+        // that corner is concave (5 m² triangle) and goes; the square corners (25 m² and more) stay.
+        let fp = MultiPolygon(vec![Polygon::new(
+            rect(0.0, 0.0, 30.0, 30.0).0[0].exterior().clone(),
+            vec![LineString::from(vec![
+                (10.0, 10.0),
+                (10.0, 20.0),
+                (20.0, 20.0),
+                (21.0, 15.0),
+                (20.0, 10.0),
+                (10.0, 10.0),
+            ])],
+        )]);
+        let s = simplify_footprint(&fp, 10.0, 175.0);
+        assert_eq!(s.0[0].interiors()[0].0.len(), 5);
+        assert!((s.unsigned_area() - 800.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn near_collinear_vertices_go_only_when_concave_or_within_tolerance() {
+        // Concave bend of 179° on the bottom edge: removed (adds a sliver).
+        let concave = MultiPolygon(vec![
+            polygon![(x: 0.0, y: 0.0), (x: 10.0, y: 0.087), (x: 20.0, y: 0.0),
+            (x: 20.0, y: 10.0), (x: 0.0, y: 10.0)],
+        ]);
+        assert_eq!(vertex_count(&simplify_footprint(&concave, 0.0, 175.0)), 4);
+        // Convex bend of 179°, 8.7 cm off the chord: kept, it would uncover solid.
+        let convex = MultiPolygon(vec![
+            polygon![(x: 0.0, y: 0.0), (x: 10.0, y: -0.087), (x: 20.0, y: 0.0),
+            (x: 20.0, y: 10.0), (x: 0.0, y: 10.0)],
+        ]);
+        assert_eq!(vertex_count(&simplify_footprint(&convex, 0.0, 175.0)), 5);
+        // Convex but within 1 cm: removed.
+        let tiny = MultiPolygon(vec![
+            polygon![(x: 0.0, y: 0.0), (x: 10.0, y: -0.01), (x: 20.0, y: 0.0),
+            (x: 20.0, y: 10.0), (x: 0.0, y: 10.0)],
+        ]);
+        assert_eq!(vertex_count(&simplify_footprint(&tiny, 0.0, 175.0)), 4);
+    }
+
+    #[test]
+    fn filling_a_notch_never_swallows_another_polygon() {
+        // A U with a separate building standing in its 4 × 4 notch; δa far above the notch area.
+        let u = MultiPolygon(vec![
+            polygon![(x: 0.0, y: 0.0), (x: 10.0, y: 0.0), (x: 10.0, y: 10.0), (x: 7.0, y: 10.0),
+                (x: 7.0, y: 5.0), (x: 3.0, y: 5.0), (x: 3.0, y: 10.0), (x: 0.0, y: 10.0)],
+            polygon![(x: 4.0, y: 6.0), (x: 6.0, y: 6.0), (x: 6.0, y: 8.0), (x: 4.0, y: 8.0)],
+        ]);
+        let s = simplify_footprint(&u, 1000.0, 175.0);
+        assert!(s.is_valid(), "{:?}", s.validation_errors());
+        assert_eq!(s.0.len(), 2);
+        assert!(uncovered_m2(&[&u], &s) < 1e-9);
+    }
+
+    #[test]
+    fn rings_never_drop_below_three_vertices() {
+        let tri = MultiPolygon(vec![
+            polygon![(x: 0.0, y: 0.0), (x: 10.0, y: 0.0), (x: 5.0, y: 0.01)],
+        ]);
+        let s = simplify_footprint(&tri, 1e9, 175.0);
+        assert_eq!(vertex_count(&s), 3);
+        assert!(simplify_footprint(&MultiPolygon(vec![]), 10.0, 175.0)
+            .0
+            .is_empty());
+    }
+
+    #[test]
+    fn boston_merged_groups_simplify_valid_and_covering() {
+        use crate::merge::tests::{boston_sample, gap_mst_hints, grid_groups};
+        let Some(fps) = boston_sample(1000) else {
+            return;
+        };
+        let a_avg_m2 = fps.iter().map(|f| f.unsigned_area()).sum::<f64>() / fps.len() as f64;
+        let merged: Vec<Footprint> = grid_groups(&fps, 80.0)
+            .iter()
+            .map(|g| {
+                let parts: Vec<&Footprint> = g.iter().map(|&i| &fps[i]).collect();
+                crate::merge::merge_footprints(&parts, &gap_mst_hints(&parts)).footprint
+            })
+            .collect();
+        let before: usize = merged.iter().map(vertex_count).sum();
+        for delta_a_m2 in [a_avg_m2 / 50.0, a_avg_m2 / 5.0] {
+            let t0 = std::time::Instant::now();
+            let out: Vec<Footprint> = merged
+                .iter()
+                .map(|m| simplify_footprint(m, delta_a_m2, 175.0))
+                .collect();
+            let dt = t0.elapsed();
+            let after: usize = out.iter().map(vertex_count).sum();
+            eprintln!(
+                "boston simplify δa = {delta_a_m2:.1} m²: {before} → {after} vertices in {dt:?}"
+            );
+            assert!(after < before);
+            for (m, s) in merged.iter().zip(&out) {
+                assert!(s.is_valid(), "{:?}", s.validation_errors());
+                let input = vertices(m);
+                assert!(vertices(s).iter().all(|v| input.contains(v)));
+                let perimeter: f64 =
+                    m.0.iter()
+                        .flat_map(|p| std::iter::once(p.exterior()).chain(p.interiors()))
+                        .flat_map(|r| r.0.windows(2))
+                        .map(|w| (w[1].x - w[0].x).hypot(w[1].y - w[0].y))
+                        .sum();
+                assert!(uncovered_m2(&[m], s) <= perimeter * CONVEX_COLLINEAR_TOL_M + 1e-9);
+            }
+        }
+    }
+
+    /// A star-shaped polygon: radii around (0, 0) at sorted angles, so it is simple.
+    fn star(radii: &[(f64, f64)]) -> Footprint {
+        let mut pts: Vec<(f64, f64)> = radii.to_vec();
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        pts.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-3);
+        let mut ring: Vec<(f64, f64)> = pts
+            .iter()
+            .map(|&(t, r)| (r * t.cos(), r * t.sin()))
+            .collect();
+        ring.push(ring[0]);
+        MultiPolygon(vec![Polygon::new(LineString::from(ring), vec![])])
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(128))]
+        #[test]
+        fn simplified_is_valid_subset_and_covers_input(
+            radii in prop::collection::vec((0.0f64..std::f64::consts::TAU, 2.0f64..30.0), 4..60),
+            delta_a in 0.0f64..200.0,
+            angle in 150.0f64..180.0,
+        ) {
+            let fp = star(&radii);
+            prop_assume!(fp.0[0].exterior().0.len() >= 4 && fp.is_valid());
+            let s = simplify_footprint(&fp, delta_a, angle);
+            prop_assert!(s.is_valid(), "{:?}", s.validation_errors());
+            let input = vertices(&fp);
+            prop_assert!(vertices(&s).iter().all(|v| input.contains(v)));
+            for p in &s.0 {
+                prop_assert!(p.exterior().0.len() >= 4);
+            }
+            let perimeter: f64 = fp.0[0].exterior().0.windows(2)
+                .map(|w| (w[1].x - w[0].x).hypot(w[1].y - w[0].y)).sum();
+            prop_assert!(uncovered_m2(&[&fp], &s) <= perimeter * CONVEX_COLLINEAR_TOL_M + 1e-9);
+        }
+
+        #[test]
+        fn simplified_merge_stays_valid_and_covers_the_parts(
+            rects in prop::collection::vec((0.0f64..60.0, 0.0f64..60.0, 2.0f64..20.0, 2.0f64..20.0), 2..8),
+            delta_a in 0.0f64..100.0,
+        ) {
+            let parts: Vec<Footprint> = rects.iter().map(|&(x, y, w, h)| rect(x, y, x + w, y + h)).collect();
+            let refs: Vec<&Footprint> = parts.iter().collect();
+            let hints: Vec<(usize, usize)> = (1..parts.len()).map(|i| (i - 1, i)).collect();
+            let merged = crate::merge::merge_footprints(&refs, &hints).footprint;
+            let s = simplify_footprint(&merged, delta_a, 175.0);
+            prop_assert!(s.is_valid(), "{:?}", s.validation_errors());
+            let input = vertices(&merged);
+            prop_assert!(vertices(&s).iter().all(|v| input.contains(v)));
+            // Only a convex near-straight vertex may give up solid: a sliver ≤ CONVEX_COLLINEAR_TOL_M wide.
+            let perimeter: f64 = merged.0.iter().flat_map(|p| p.exterior().0.windows(2))
+                .map(|w| (w[1].x - w[0].x).hypot(w[1].y - w[0].y)).sum();
+            prop_assert!(uncovered_m2(&refs, &s) <= perimeter * CONVEX_COLLINEAR_TOL_M + 1e-9);
+        }
+    }
+}

@@ -1,0 +1,250 @@
+//! Bounding volume hierarchy over a triangle mesh: closest point (for the sampled Hausdorff distance) and
+//! first ray hit (for visibility checks). Median split on the longest centroid axis; leaves hold ≤ 4
+//! triangles. Metres in, metres out. Deterministic for a given mesh.
+
+use citylod_model::Mesh3d;
+
+use crate::simplify::geom::{closest_point_on_triangle, dist2, segment_triangle_hit, Aabb, V3};
+
+const LEAF_SIZE: usize = 4;
+
+struct Node {
+    bounds: Aabb,
+    /// Leaf: triangles `order[start..start + count]`; inner node when `count == 0`.
+    start: u32,
+    count: u32,
+    children: [u32; 2],
+}
+
+/// Triangle BVH over a borrowed mesh.
+pub struct MeshBvh<'a> {
+    mesh: &'a Mesh3d,
+    nodes: Vec<Node>,
+    order: Vec<u32>,
+}
+
+impl<'a> MeshBvh<'a> {
+    /// Builds the hierarchy; triangles with out-of-range indices are left out.
+    pub fn new(mesh: &'a Mesh3d) -> Self {
+        let n = mesh.positions.len();
+        let valid = |t: &[u32; 3]| t.iter().all(|&i| (i as usize) < n);
+        let mut order: Vec<u32> = (0..mesh.triangles.len() as u32)
+            .filter(|&t| valid(&mesh.triangles[t as usize]))
+            .collect();
+        let centroid: Vec<V3> = mesh
+            .triangles
+            .iter()
+            .map(|t| {
+                if valid(t) {
+                    let p = t.map(|i| mesh.positions[i as usize]);
+                    [0, 1, 2].map(|k| (p[0][k] + p[1][k] + p[2][k]) / 3.0)
+                } else {
+                    [0.0; 3]
+                }
+            })
+            .collect();
+        let mut bvh = MeshBvh {
+            mesh,
+            nodes: Vec::new(),
+            order: Vec::new(),
+        };
+        if !order.is_empty() {
+            let len = order.len();
+            bvh.build(&mut order, 0, len, &centroid);
+        }
+        bvh.order = order;
+        bvh
+    }
+
+    fn tri(&self, t: u32) -> [V3; 3] {
+        self.mesh.triangles[t as usize].map(|i| self.mesh.positions[i as usize])
+    }
+
+    fn build(&mut self, order: &mut [u32], start: usize, end: usize, centroid: &[V3]) -> u32 {
+        let mut bounds = Aabb::empty();
+        let mut cb = Aabb::empty();
+        for &t in &order[start..end] {
+            for p in self.tri(t) {
+                bounds.add(p);
+            }
+            cb.add(centroid[t as usize]);
+        }
+        let id = self.nodes.len() as u32;
+        self.nodes.push(Node {
+            bounds,
+            start: start as u32,
+            count: (end - start) as u32,
+            children: [0, 0],
+        });
+        if end - start <= LEAF_SIZE {
+            return id;
+        }
+        let ext = [0, 1, 2].map(|k| cb.max[k] - cb.min[k]);
+        let axis = (0..3)
+            .max_by(|&a, &b| ext[a].total_cmp(&ext[b]))
+            .unwrap_or(0);
+        let mid = (start + end) / 2;
+        order[start..end].select_nth_unstable_by(mid - start, |&a, &b| {
+            centroid[a as usize][axis]
+                .total_cmp(&centroid[b as usize][axis])
+                .then(a.cmp(&b))
+        });
+        let left = self.build(order, start, mid, centroid);
+        let right = self.build(order, mid, end, centroid);
+        let node = &mut self.nodes[id as usize];
+        node.count = 0;
+        node.children = [left, right];
+        id
+    }
+
+    /// Closest point on the mesh to `p`: (distance in m, triangle index), or `None` for an empty mesh.
+    pub fn closest(&self, p: V3) -> Option<(f64, u32)> {
+        let mut best = (f64::INFINITY, u32::MAX);
+        self.closest_within(p, &mut best);
+        (best.1 != u32::MAX).then(|| (best.0.sqrt(), best.1))
+    }
+
+    /// Improves `best` (squared distance, triangle) with anything closer than it.
+    fn closest_within(&self, p: V3, best: &mut (f64, u32)) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        let mut stack = vec![0u32];
+        while let Some(id) = stack.pop() {
+            let node = &self.nodes[id as usize];
+            if node.bounds.dist2(p) >= best.0 {
+                continue;
+            }
+            if node.count > 0 {
+                for &t in &self.order[node.start as usize..(node.start + node.count) as usize] {
+                    let [a, b, c] = self.tri(t);
+                    let d = dist2(p, closest_point_on_triangle(p, a, b, c));
+                    if d < best.0 || (d == best.0 && t < best.1) {
+                        *best = (d, t);
+                    }
+                }
+            } else {
+                let [l, r] = node.children;
+                let (dl, dr) = (
+                    self.nodes[l as usize].bounds.dist2(p),
+                    self.nodes[r as usize].bounds.dist2(p),
+                );
+                // Visit the nearer child first: push it last.
+                if dl <= dr {
+                    stack.push(r);
+                    stack.push(l);
+                } else {
+                    stack.push(l);
+                    stack.push(r);
+                }
+            }
+        }
+    }
+
+    /// First triangle hit by the ray `origin + t·dir` for `t` in `(t_min, t_max]` (t in units of `dir`):
+    /// `(t, triangle)`. Ties go to the lower triangle index.
+    pub fn ray_hit(&self, origin: V3, dir: V3, t_min: f64, t_max: f64) -> Option<(f64, u32)> {
+        if self.nodes.is_empty() {
+            return None;
+        }
+        let inv = dir.map(|d| {
+            if d.abs() > 1e-300 {
+                1.0 / d
+            } else {
+                f64::INFINITY.copysign(d)
+            }
+        });
+        let mut best: Option<(f64, u32)> = None;
+        let mut limit = t_max;
+        let mut stack = vec![0u32];
+        while let Some(id) = stack.pop() {
+            let node = &self.nodes[id as usize];
+            if !slab(&node.bounds, origin, inv, t_min, limit) {
+                continue;
+            }
+            if node.count > 0 {
+                for &t in &self.order[node.start as usize..(node.start + node.count) as usize] {
+                    let [a, b, c] = self.tri(t);
+                    if let Some(h) = segment_triangle_hit(origin, dir, a, b, c, t_min, limit) {
+                        if best.is_none_or(|(bt, bi)| h < bt || (h == bt && t < bi)) {
+                            best = Some((h, t));
+                            limit = h;
+                        }
+                    }
+                }
+            } else {
+                stack.extend(node.children);
+            }
+        }
+        best
+    }
+}
+
+fn slab(b: &Aabb, o: V3, inv: V3, t0: f64, t1: f64) -> bool {
+    let (mut lo, mut hi) = (t0, t1);
+    for k in 0..3 {
+        let (mut a, mut c) = ((b.min[k] - o[k]) * inv[k], (b.max[k] - o[k]) * inv[k]);
+        if a.is_nan() || c.is_nan() {
+            // Ray parallel to the slab and starting on its plane.
+            if o[k] < b.min[k] || o[k] > b.max[k] {
+                return false;
+            }
+            continue;
+        }
+        if a > c {
+            std::mem::swap(&mut a, &mut c);
+        }
+        lo = lo.max(a);
+        hi = hi.min(c);
+        if lo > hi {
+            return false;
+        }
+    }
+    true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn two_squares() -> Mesh3d {
+        // Unit squares at z = 0 and z = 5.
+        Mesh3d {
+            positions: vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [1.0, 1.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, 0.0, 5.0],
+                [1.0, 0.0, 5.0],
+                [1.0, 1.0, 5.0],
+                [0.0, 1.0, 5.0],
+            ],
+            triangles: vec![[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]],
+        }
+    }
+
+    #[test]
+    fn closest_point_matches_brute_force() {
+        let m = two_squares();
+        let bvh = MeshBvh::new(&m);
+        let (d, t) = bvh.closest([0.3, 0.6, 4.0]).unwrap();
+        assert!((d - 1.0).abs() < 1e-12);
+        assert!(t >= 2);
+        let (d, _) = bvh.closest([3.0, 0.5, 0.0]).unwrap();
+        assert!((d - 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn ray_hits_the_nearer_square_first() {
+        let m = two_squares();
+        let bvh = MeshBvh::new(&m);
+        let (t, tri) = bvh
+            .ray_hit([0.4, 0.3, -1.0], [0.0, 0.0, 1.0], 0.0, 100.0)
+            .unwrap();
+        assert!((t - 1.0).abs() < 1e-12 && tri < 2);
+        assert!(bvh
+            .ray_hit([0.4, 0.3, -1.0], [1.0, 0.0, 0.0], 0.0, 100.0)
+            .is_none());
+    }
+}

@@ -1,0 +1,409 @@
+//! Seed 003 (topology-preserving simplification of multi-component buildings): components by BFS; boundary
+//! vertices from edge–triangle intersections between components (AABB pre-filter, 1 % buffer, §3.2.2–3.2.3);
+//! hole vertices on one-triangle edges; cost a/|cos θ|·QEM for boundary vertices (θ = E–C angle), the
+//! improved QEM for hole vertices, plain QEM otherwise (eq. 2); half-edge collapse to the target rate.
+//! Invariant (checked, not hoped for): no originally touching component pair separates (tolerance 1 cm).
+
+use citylod_model::Mesh3d;
+
+use super::components::{components, Components};
+use super::geom::{
+    add, dist2, dot, normalize, scale, segment_triangle_hit, sub, tri_area, tri_normal2, Aabb, V3,
+};
+use super::halfedge::{collapse_until, CollapseMesh, Stop};
+use super::qem::{vertex_quadrics, Quadric};
+use super::{compact, rate, rate_note, SimplifyResult};
+use crate::topology::{contact_report, TOUCH_TOLERANCE_M};
+
+/// Buffer of §3.2.3 (visually attached components): bounding boxes and edges grow by 1 % of their length.
+const BUFFER_FRACTION: f64 = 0.01;
+
+/// |cos θ| below this (θ above ~89.9°) forbids the collapse outright instead of costing ~∞.
+const MIN_ABS_COS: f64 = 1e-3;
+
+/// Vertex class of seed 003 §3.2.1.
+#[derive(Debug, Clone, PartialEq)]
+pub enum VertexClass {
+    Ordinary,
+    /// On an edge with one triangle (and not a boundary vertex).
+    Hole,
+    /// Inside (or on) another component: the unit normals of the other components' triangles its edges
+    /// meet — the collapse reference planes of §3.3.1 — with the id of that component.
+    Boundary {
+        planes: Vec<(u32, V3, f64)>,
+    },
+}
+
+/// Classifies every vertex (unused vertices are `Ordinary`).
+pub fn classify_vertices(mesh: &Mesh3d, comps: &Components) -> Vec<VertexClass> {
+    let n = mesh.positions.len();
+    let mut planes: Vec<Vec<(u32, V3, f64)>> = vec![Vec::new(); n];
+    let p = &mesh.positions;
+    // Undirected edges with their triangles, per component.
+    let mut edge_tris: std::collections::BTreeMap<(u32, u32), Vec<u32>> = Default::default();
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            if a != b {
+                edge_tris
+                    .entry((a.min(b), a.max(b)))
+                    .or_default()
+                    .push(t as u32);
+            }
+        }
+    }
+    let mut comp_edges: Vec<Vec<(u32, u32)>> = vec![Vec::new(); comps.count];
+    for &(a, b) in edge_tris.keys() {
+        comp_edges[comps.of_vertex[a as usize] as usize].push((a, b));
+    }
+    let mut comp_tris: Vec<Vec<u32>> = vec![Vec::new(); comps.count];
+    for (t, &c) in comps.of_triangle.iter().enumerate() {
+        comp_tris[c as usize].push(t as u32);
+    }
+    let boxes: Vec<Aabb> = comp_tris
+        .iter()
+        .map(|ts| {
+            Aabb::of(
+                ts.iter()
+                    .flat_map(|&t| mesh.triangles[t as usize].map(|i| p[i as usize])),
+            )
+        })
+        .collect();
+    let grown: Vec<Aabb> = boxes
+        .iter()
+        .map(|b| b.expanded(BUFFER_FRACTION * b.diagonal()))
+        .collect();
+    let tri_pts = |t: u32| mesh.triangles[t as usize].map(|i| p[i as usize]);
+    let mut extra_boundary: Vec<(u32, u32, V3, f64)> = Vec::new();
+    for c1 in 0..comps.count {
+        for c2 in 0..comps.count {
+            if c1 == c2 || !grown[c1].overlaps(&grown[c2]) {
+                continue;
+            }
+            // Step 2 and 3 of the pre-filter: edges of c1 meeting box(c2), triangles of c2 meeting box(c1).
+            let targets: Vec<(u32, Aabb)> = comp_tris[c2]
+                .iter()
+                .map(|&t| (t, Aabb::of(tri_pts(t))))
+                .filter(|(_, b)| b.overlaps(&grown[c1]))
+                .collect();
+            if targets.is_empty() {
+                continue;
+            }
+            for &(a, b) in &comp_edges[c1] {
+                let (pa, pb) = (p[a as usize], p[b as usize]);
+                let d = sub(pb, pa);
+                let (s, e) = (
+                    sub(pa, scale(d, BUFFER_FRACTION)),
+                    add(pb, scale(d, BUFFER_FRACTION)),
+                );
+                if !grown[c2].hits_segment(s, e) {
+                    continue;
+                }
+                let eb = Aabb::of([s, e]);
+                let mut hits: Vec<(f64, V3, f64)> = Vec::new(); // (d·n, unit normal, plane offset)
+                for (t, tb) in &targets {
+                    if !tb.overlaps(&eb) {
+                        continue;
+                    }
+                    let [x, y, z] = tri_pts(*t);
+                    if segment_triangle_hit(pa, d, x, y, z, -BUFFER_FRACTION, 1.0 + BUFFER_FRACTION)
+                        .is_some()
+                    {
+                        let n = normalize(tri_normal2(x, y, z));
+                        hits.push((dot(d, n), n, -dot(n, x)));
+                    }
+                }
+                if hits.is_empty() {
+                    continue;
+                }
+                let leaves = hits.iter().any(|h| h.0 > 0.0);
+                let enters = hits.iter().any(|h| h.0 < 0.0);
+                let (n, off) = (hits[0].1, hits[0].2);
+                if leaves && enters {
+                    // The edge passes through c2: both ends constrain the contact.
+                    planes[a as usize].push((c2 as u32, n, off));
+                    planes[b as usize].push((c2 as u32, n, off));
+                    // "Embedded" rule: a diagonal of a planar quad takes the quad's other corners along.
+                    let ts = &edge_tris[&(a.min(b), a.max(b))];
+                    if ts.len() == 2 {
+                        let [ta, tb] = [tri_pts(ts[0]), tri_pts(ts[1])];
+                        let (na, nb) = (
+                            normalize(tri_normal2(ta[0], ta[1], ta[2])),
+                            normalize(tri_normal2(tb[0], tb[1], tb[2])),
+                        );
+                        if dot(na, nb).abs() > 0.999 {
+                            for &t in ts {
+                                for w in mesh.triangles[t as usize] {
+                                    if w != a && w != b {
+                                        extra_boundary.push((w, c2 as u32, n, off));
+                                    }
+                                }
+                            }
+                        }
+                    }
+                } else {
+                    // The end inside c2 (the edge leaves c2 along its outward normal from the back end).
+                    let inside = if leaves { a } else { b };
+                    planes[inside as usize].push((c2 as u32, n, off));
+                }
+            }
+        }
+    }
+    for (w, c, n, off) in extra_boundary {
+        planes[w as usize].push((c, n, off));
+    }
+    let mut one_tri_edge = vec![false; n];
+    for (&(a, b), ts) in &edge_tris {
+        if ts.len() == 1 {
+            one_tri_edge[a as usize] = true;
+            one_tri_edge[b as usize] = true;
+        }
+    }
+    planes
+        .into_iter()
+        .enumerate()
+        .map(|(v, mut pl)| {
+            if !pl.is_empty() {
+                pl.sort_by(|x, y| {
+                    x.0.cmp(&y.0).then(
+                        x.1.iter()
+                            .zip(y.1.iter())
+                            .fold(std::cmp::Ordering::Equal, |o, (a, b)| {
+                                o.then(a.total_cmp(b))
+                            }),
+                    )
+                });
+                pl.dedup_by(|x, y| {
+                    x.0 == y.0 && dist2(x.1, y.1) < 1e-12 && (x.2 - y.2).abs() < 1e-9
+                });
+                VertexClass::Boundary { planes: pl }
+            } else if one_tri_edge[v] {
+                VertexClass::Hole
+            } else {
+                VertexClass::Ordinary
+            }
+        })
+        .collect()
+}
+
+/// Seed 003 simplification of one building towards `target_rate`; see [`super::simplify`].
+pub(crate) fn simplify_topo_qem(mesh: &Mesh3d, a: f64, target_rate: f64) -> SimplifyResult {
+    let a = if a.is_finite() && a > 0.0 {
+        a
+    } else {
+        super::DEFAULT_TOPO_QEM_A
+    };
+    let comps = components(mesh.positions.len(), &mesh.triangles);
+    let classes = classify_vertices(mesh, &comps);
+    let n_tris = mesh.triangles.len();
+    let remove_target = ((target_rate * n_tris as f64).round() as usize).min(n_tris);
+    let mut locked = vec![false; mesh.positions.len()];
+    let mut locked_pairs = 0usize;
+    // The paper's soft constraint first. Each lost contact then locks the boundary vertices of its two
+    // components, and if it is lost again, the two components entirely — which cannot separate.
+    let max_rounds = 2 * comps.count + 2;
+    for _round in 0..max_rounds {
+        let (result, stop) = run_once(mesh, &comps, &classes, &locked, a, remove_target);
+        let report = contact_report(mesh, &result, TOUCH_TOLERANCE_M);
+        if report.lost.is_empty() {
+            let why = match stop {
+                Stop::NoValidCollapse => "no collapse left that keeps the mesh valid (link condition, flips, degenerate triangles, locked contacts)",
+                Stop::Reached => "target met",
+            };
+            let mut note = rate_note(target_rate, result.rate_reached, why, n_tris);
+            if locked_pairs > 0 {
+                let l = format!(
+                    "contacts kept by locking vertices for {locked_pairs} lost component pair(s)"
+                );
+                note = Some(note.map_or(l.clone(), |n| format!("{n}; {l}")));
+            }
+            return SimplifyResult { note, ..result };
+        }
+        locked_pairs += report.lost.len();
+        for &(c1, c2) in &report.lost {
+            let in_pair = |v: usize| comps.of_vertex[v] == c1 || comps.of_vertex[v] == c2;
+            let boundary_all_locked = (0..mesh.positions.len())
+                .filter(|&v| in_pair(v) && matches!(classes[v], VertexClass::Boundary { .. }))
+                .all(|v| locked[v]);
+            for v in (0..mesh.positions.len()).filter(|&v| in_pair(v)) {
+                if boundary_all_locked || matches!(classes[v], VertexClass::Boundary { .. }) {
+                    locked[v] = true;
+                }
+            }
+        }
+    }
+    super::unchanged(
+        mesh,
+        "could not keep every component contact: returned unchanged",
+    )
+}
+
+fn run_once(
+    mesh: &Mesh3d,
+    comps: &Components,
+    classes: &[VertexClass],
+    locked: &[bool],
+    a: f64,
+    remove_target: usize,
+) -> (SimplifyResult, Stop) {
+    let p = &mesh.positions;
+    let mut q = vertex_quadrics(p, &mesh.triangles);
+    let mut area_around = vec![0.0; p.len()];
+    for t in &mesh.triangles {
+        let ar = tri_area(p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]);
+        for &v in t {
+            area_around[v as usize] += ar;
+        }
+    }
+    // Contact planes join a boundary vertex's quadric, so sliding off the other component costs.
+    for (v, class) in classes.iter().enumerate() {
+        if let VertexClass::Boundary { planes } = class {
+            for &(_, n, off) in planes {
+                q[v].add(&Quadric::from_plane(n, off, area_around[v].max(1e-6)));
+            }
+        }
+    }
+    // Vertices on one-triangle edges: holes, or (if also boundary) the open side of a part that leans on
+    // another (§3.2.3 rule 1). Both get the improved QEM so their open side cannot slide away for free.
+    let mut open = vec![false; p.len()];
+    let mut edge_count: std::collections::BTreeMap<(u32, u32), u32> = Default::default();
+    for t in &mesh.triangles {
+        for k in 0..3 {
+            let (x, y) = (t[k], t[(k + 1) % 3]);
+            *edge_count.entry((x.min(y), x.max(y))).or_default() += 1;
+        }
+    }
+    for (&(x, y), &c) in &edge_count {
+        if c == 1 {
+            open[x as usize] = true;
+            open[y as usize] = true;
+        }
+    }
+    let mut m = CollapseMesh::new(p, &mesh.triangles, comps.of_triangle.clone(), comps.count);
+    m.locked.copy_from_slice(locked);
+    let cost = |m: &CollapseMesh, q: &[Quadric], u: u32, v: u32| -> Option<f64> {
+        let (pu, pv) = (m.pos[u as usize], m.pos[v as usize]);
+        let mut qem = q[u as usize].eval(pv) + q[v as usize].eval(pv);
+        if open[u as usize] {
+            // Improved QEM: the edge length stands in for the missing distance to the open side.
+            let around: f64 = m.vtris[u as usize]
+                .iter()
+                .map(|&t| {
+                    let tr = m.tris[t as usize];
+                    tri_area(
+                        m.pos[tr[0] as usize],
+                        m.pos[tr[1] as usize],
+                        m.pos[tr[2] as usize],
+                    )
+                })
+                .sum();
+            qem = qem.max(around * dist2(pu, pv));
+        }
+        match &classes[u as usize] {
+            VertexClass::Ordinary | VertexClass::Hole => Some(qem),
+            VertexClass::Boundary { planes } => {
+                let shared_component = match &classes[v as usize] {
+                    VertexClass::Boundary { planes: pv_planes } => {
+                        planes.iter().any(|x| pv_planes.iter().any(|y| y.0 == x.0))
+                    }
+                    _ => false,
+                };
+                let cos = if shared_component {
+                    1.0
+                } else {
+                    let d = normalize(sub(pv, pu));
+                    planes
+                        .iter()
+                        .map(|&(_, n, _)| (1.0 - dot(d, n).powi(2)).max(0.0).sqrt())
+                        .fold(1.0, f64::min)
+                };
+                (cos >= MIN_ABS_COS).then(|| a / cos * qem)
+            }
+        }
+    };
+    let stop = collapse_until(&mut m, &mut q, &cost, remove_target);
+    let alive: Vec<u32> = (0..m.tris.len() as u32)
+        .filter(|&t| m.tri_alive[t as usize])
+        .collect();
+    let tris: Vec<[u32; 3]> = alive.iter().map(|&t| m.tris[t as usize]).collect();
+    let (out, kept) = compact(p, &tris);
+    let result = SimplifyResult {
+        rate_reached: rate(mesh.triangles.len(), out.triangles.len()),
+        mesh: out,
+        note: None,
+        source_vertex: kept.into_iter().map(Some).collect(),
+        source_triangle: alive.into_iter().map(Some).collect(),
+    };
+    (result, stop)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::simplify::halfedge::tests::subdivided_box;
+    use crate::topology::mesh_report;
+
+    fn shifted(m: &Mesh3d, by: V3) -> Mesh3d {
+        Mesh3d {
+            positions: m.positions.iter().map(|p| add(*p, by)).collect(),
+            triangles: m.triangles.clone(),
+        }
+    }
+
+    fn union(a: &Mesh3d, b: &Mesh3d) -> Mesh3d {
+        let off = a.positions.len() as u32;
+        let mut m = a.clone();
+        m.positions.extend(&b.positions);
+        m.triangles
+            .extend(b.triangles.iter().map(|t| t.map(|i| i + off)));
+        m
+    }
+
+    /// A 6 m × 6 m × 3 m block with a 2 m chimney standing on its roof (separate component).
+    fn house_with_chimney() -> Mesh3d {
+        let body = subdivided_box([6.0, 6.0, 3.0], 3);
+        let chimney = shifted(&subdivided_box([1.0, 1.0, 2.0], 2), [2.5, 2.5, 3.0]);
+        union(&body, &chimney)
+    }
+
+    #[test]
+    fn chimney_base_vertices_are_boundary_vertices() {
+        let m = house_with_chimney();
+        let comps = components(m.positions.len(), &m.triangles);
+        assert_eq!(comps.count, 2);
+        let classes = classify_vertices(&m, &comps);
+        let boundary: Vec<usize> = (0..m.positions.len())
+            .filter(|&v| matches!(classes[v], VertexClass::Boundary { .. }))
+            .collect();
+        // Every chimney vertex at z = 3 sits on the roof.
+        for v in 0..m.positions.len() {
+            if comps.of_vertex[v] == 1
+                && m.positions[v][2] == 3.0
+                && [2.5, 3.5].contains(&m.positions[v][0])
+            {
+                assert!(
+                    boundary.contains(&v),
+                    "chimney base corner {v} not boundary"
+                );
+            }
+        }
+        assert!(!classes.contains(&VertexClass::Hole));
+    }
+
+    #[test]
+    fn simplified_house_keeps_its_chimney_attached_and_closed() {
+        let m = house_with_chimney();
+        for rate_target in [0.5, 0.6, 0.8] {
+            let out = simplify_topo_qem(&m, 2.0, rate_target);
+            let contacts = contact_report(&m, &out, TOUCH_TOLERANCE_M);
+            assert_eq!(contacts.touching_before, vec![(0, 1)]);
+            assert!(contacts.lost.is_empty());
+            let r = mesh_report(&out.mesh);
+            assert!(
+                r.watertight && r.orientation_consistent && r.degenerate == 0,
+                "{r:?}"
+            );
+            assert!((out.rate_reached - rate_target).abs() <= 0.01 || out.note.is_some());
+        }
+    }
+}

@@ -1,0 +1,468 @@
+//! One tile's glb: every feature of a class merged into one TRIANGLES primitive (one primitive per
+//! class present, so each primitive has one feature-id set and one property table), positions
+//! (east, up, −north) relative to the tile centre, quantized to SHORT with one uniform scale in the
+//! node (KHR_mesh_quantization), BYTE-normalized normals, feature ids as a FLOAT `_FEATURE_ID_0`
+//! (EXT_mesh_features), property tables (EXT_structural_metadata), optionally EXT_meshopt_compression.
+
+use crate::glb::{write_glb, BinBuilder};
+use crate::gltf_json::*;
+use crate::metadata::{encode_column, schema_json};
+use crate::spec::{ContentFeature, MetadataSchema};
+use crate::{Compression, TilesError};
+use std::collections::BTreeMap;
+
+/// Largest quantized coordinate magnitude.
+const Q_MAX: f64 = 32767.0;
+
+/// A tile's encoded glb and what is in it.
+pub(crate) struct EncodedContent {
+    pub glb: Vec<u8>,
+    pub triangles: u64,
+    pub vertices: u64,
+    /// Triangles whose corners collapsed onto each other after quantization, left out.
+    pub dropped_triangles: u64,
+    /// Bounds (min, max) of the dequantized positions in local ENU metres: what clients draw.
+    pub bounds_enu: ([f64; 3], [f64; 3]),
+}
+
+/// ENU (x east, y north, z up) → glTF y-up (east, up, −north).
+pub(crate) fn enu_to_yup(p: [f64; 3]) -> [f64; 3] {
+    [p[0], p[2], -p[1]]
+}
+
+/// Axis-aligned bounds (min, max) of points, `None` when there are none.
+pub(crate) fn bounds(points: impl Iterator<Item = [f64; 3]>) -> Option<([f64; 3], [f64; 3])> {
+    points.fold(None, |acc, p| {
+        let (lo, hi) = acc.unwrap_or((p, p));
+        Some((
+            std::array::from_fn(|i| lo[i].min(p[i])),
+            std::array::from_fn(|i| hi[i].max(p[i])),
+        ))
+    })
+}
+
+/// Checks a feature against the schema and its own indices; the message says what is wrong.
+fn check_feature(f: &ContentFeature, schema: &MetadataSchema) -> Result<(), String> {
+    let class = schema
+        .classes
+        .get(f.class)
+        .ok_or_else(|| format!("class {} not in the schema", f.class))?;
+    if f.values.len() != class.properties.len() {
+        return Err(format!(
+            "{} values for the {} properties of class {}",
+            f.values.len(),
+            class.properties.len(),
+            class.id
+        ));
+    }
+    if f.mesh.positions.iter().flatten().any(|c| !c.is_finite()) {
+        return Err("non-finite vertex position".into());
+    }
+    let n = f.mesh.positions.len();
+    if f.mesh.triangles.iter().flatten().any(|&i| i as usize >= n) {
+        return Err(format!("triangle index out of range ({n} vertices)"));
+    }
+    Ok(())
+}
+
+/// Encodes the features of one tile (`tile` names it in errors). `Ok(None)` when the features have
+/// no triangles at all (no content to write); a class without triangles gets no primitive.
+pub(crate) fn encode_content(
+    tile: &str,
+    features: &[ContentFeature],
+    schema: &MetadataSchema,
+    compression: Compression,
+    normals: bool,
+    generator: &str,
+) -> Result<Option<EncodedContent>, TilesError> {
+    for (i, f) in features.iter().enumerate() {
+        check_feature(f, schema).map_err(|msg| TilesError::Feature {
+            tile: tile.to_string(),
+            feature: i,
+            msg,
+        })?;
+    }
+    let all = features
+        .iter()
+        .flat_map(|f| f.mesh.positions.iter().map(|&p| enu_to_yup(p)));
+    let Some((lo, hi)) = bounds(all) else {
+        return Ok(None);
+    };
+    let translation: [f64; 3] = std::array::from_fn(|i| (lo[i] + hi[i]) / 2.0);
+    // One scale for all axes: normals then need no correction for the node's scale (a non-uniform
+    // scale would bend them through the inverse transpose), at a precision of extent/65534.
+    let half = (0..3).map(|i| (hi[i] - lo[i]) / 2.0).fold(0.0, f64::max);
+    let scale = [if half > 0.0 { half / Q_MAX } else { 1.0 }; 3];
+    let quantize = |p: [f64; 3]| -> [i16; 3] {
+        let g = enu_to_yup(p);
+        std::array::from_fn(|i| {
+            ((g[i] - translation[i]) / scale[i])
+                .round()
+                .clamp(-Q_MAX, Q_MAX) as i16
+        })
+    };
+
+    // Features grouped by class, classes in schema order, features in input order.
+    let mut by_class: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    for (i, f) in features.iter().enumerate() {
+        by_class.entry(f.class).or_default().push(i);
+    }
+
+    let meshopt = compression == Compression::Meshopt;
+    let mut doc = Gltf {
+        asset: Asset {
+            version: "2.0".into(),
+            generator: Some(generator.into()),
+        },
+        scene: Some(0),
+        scenes: vec![Scene { nodes: vec![0] }],
+        nodes: vec![Node {
+            mesh: Some(0),
+            translation: Some(translation),
+            scale: Some(scale),
+            ..Default::default()
+        }],
+        materials: vec![Material {
+            pbr_metallic_roughness: Pbr {
+                base_color_factor: [0.8, 0.8, 0.8, 1.0],
+                metallic_factor: 0.0,
+                roughness_factor: 1.0,
+            },
+            double_sided: false,
+        }],
+        ..Default::default()
+    };
+    let mut bin = BinBuilder::default();
+    let mut fallback = BinBuilder::default();
+    let mut primitives = Vec::new();
+    let mut tables = Vec::new();
+    let (mut triangles, mut vertices, mut dropped) = (0u64, 0u64, 0u64);
+    let (mut quantized_lo, mut quantized_hi) = ([i16::MAX; 3], [i16::MIN; 3]);
+
+    for (&class, members) in &by_class {
+        let mut pos: Vec<[i16; 4]> = Vec::new();
+        let mut fid: Vec<f32> = Vec::new();
+        let mut nor: Vec<[f64; 3]> = Vec::new();
+        let mut idx: Vec<u32> = Vec::new();
+        for (k, &fi) in members.iter().enumerate() {
+            let m = &features[fi].mesh;
+            let v0 = pos.len() as u32;
+            for &p in &m.positions {
+                let q = quantize(p);
+                pos.push([q[0], q[1], q[2], 0]);
+                fid.push(k as f32);
+            }
+            if normals {
+                nor.extend(vertex_normals_yup(m));
+            }
+            for t in &m.triangles {
+                let c = t.map(|i| &pos[(v0 + i) as usize][..3]);
+                if c[0] == c[1] || c[1] == c[2] || c[0] == c[2] {
+                    dropped += 1;
+                    continue;
+                }
+                idx.extend(t.map(|i| v0 + i));
+            }
+        }
+        if idx.is_empty() {
+            continue; // a class whose features have no triangles: nothing to draw or pick
+        }
+        if pos.len() > u32::MAX as usize || members.len() > 1 << 24 {
+            return Err(TilesError::Tile {
+                tile: tile.into(),
+                msg: "too many vertices or features for one glb".into(),
+            });
+        }
+        triangles += idx.len() as u64 / 3;
+        for p in &pos {
+            for i in 0..3 {
+                quantized_lo[i] = quantized_lo[i].min(p[i]);
+                quantized_hi[i] = quantized_hi[i].max(p[i]);
+            }
+        }
+        vertices += pos.len() as u64;
+        let n = pos.len();
+        let lo_q: Vec<f64> = (0..3)
+            .map(|i| pos.iter().map(|p| p[i]).min().unwrap() as f64)
+            .collect();
+        let hi_q: Vec<f64> = (0..3)
+            .map(|i| pos.iter().map(|p| p[i]).max().unwrap() as f64)
+            .collect();
+        let pos_bytes: Vec<u8> = pos.iter().flatten().flat_map(|c| c.to_le_bytes()).collect();
+        let fid_bytes: Vec<u8> = fid.iter().flat_map(|c| c.to_le_bytes()).collect();
+        let wide = n > u16::MAX as usize;
+        let idx_bytes: Vec<u8> = if wide {
+            idx.iter().flat_map(|i| i.to_le_bytes()).collect()
+        } else {
+            idx.iter().flat_map(|&i| (i as u16).to_le_bytes()).collect()
+        };
+        let idx_stride = if wide { 4 } else { 2 };
+        let nor_bytes: Option<Vec<u8>> = normals.then(|| {
+            nor.iter()
+                .flat_map(|v| [v[0], v[1], v[2], 0.0])
+                .map(|c| ((c * 127.0).round() as i8) as u8)
+                .collect()
+        });
+
+        let mut view = |raw: Vec<u8>, stride: usize, count: usize, target: u32, mode: &str| {
+            let byte_stride = (target == ARRAY_BUFFER).then_some(stride);
+            let bv = if meshopt {
+                let encoded =
+                    encode_meshopt(&raw, stride, count, mode, n).map_err(|e| TilesError::Tile {
+                        tile: tile.into(),
+                        msg: format!("meshopt encoding failed: {e:?}"),
+                    })?;
+                BufferView {
+                    buffer: 1,
+                    byte_offset: fallback.reserve(raw.len()),
+                    byte_length: raw.len(),
+                    byte_stride,
+                    target: Some(target),
+                    extensions: Some(BufferViewExtensions {
+                        meshopt: Some(MeshoptView {
+                            buffer: 0,
+                            byte_offset: bin.push(&encoded),
+                            byte_length: encoded.len(),
+                            byte_stride: stride,
+                            count,
+                            mode: mode.into(),
+                            filter: None,
+                        }),
+                    }),
+                }
+            } else {
+                BufferView {
+                    buffer: 0,
+                    byte_offset: bin.push(&raw),
+                    byte_length: raw.len(),
+                    byte_stride,
+                    target: Some(target),
+                    extensions: None,
+                }
+            };
+            doc.buffer_views.push(bv);
+            Ok::<usize, TilesError>(doc.buffer_views.len() - 1)
+        };
+        let pos_view = view(pos_bytes, 8, n, ARRAY_BUFFER, "ATTRIBUTES")?;
+        let normal_view = match nor_bytes {
+            Some(b) => Some(view(b, 4, n, ARRAY_BUFFER, "ATTRIBUTES")?),
+            None => None,
+        };
+        let fid_view = view(fid_bytes, 4, n, ARRAY_BUFFER, "ATTRIBUTES")?;
+        let idx_view = view(
+            idx_bytes,
+            idx_stride,
+            idx.len(),
+            ELEMENT_ARRAY_BUFFER,
+            "TRIANGLES",
+        )?;
+
+        let acc = doc.accessors.len();
+        doc.accessors.push(Accessor {
+            buffer_view: Some(pos_view),
+            component_type: SHORT,
+            count: n,
+            r#type: "VEC3".into(),
+            min: Some(lo_q),
+            max: Some(hi_q),
+            ..Default::default()
+        });
+        doc.accessors.push(Accessor {
+            buffer_view: Some(fid_view),
+            component_type: FLOAT,
+            count: n,
+            r#type: "SCALAR".into(),
+            ..Default::default()
+        });
+        doc.accessors.push(Accessor {
+            buffer_view: Some(idx_view),
+            component_type: if wide { UNSIGNED_INT } else { UNSIGNED_SHORT },
+            count: idx.len(),
+            r#type: "SCALAR".into(),
+            ..Default::default()
+        });
+        if let Some(v) = normal_view {
+            doc.accessors.push(Accessor {
+                buffer_view: Some(v),
+                component_type: BYTE,
+                normalized: true,
+                count: n,
+                r#type: "VEC3".into(),
+                ..Default::default()
+            });
+        }
+
+        let class_def = &schema.classes[class];
+        let mut properties = BTreeMap::new();
+        for (pi, p) in class_def.properties.iter().enumerate() {
+            let col = encode_column(p.kind, members.iter().map(|&fi| &features[fi].values[pi]))
+                .map_err(|(k, msg)| TilesError::Feature {
+                    tile: tile.into(),
+                    feature: members[k.min(members.len() - 1)],
+                    msg: format!("property {}: {msg}", p.name),
+                })?;
+            let mut plain = |data: &[u8]| {
+                doc.buffer_views.push(BufferView {
+                    buffer: 0,
+                    byte_offset: bin.push(data),
+                    byte_length: data.len(),
+                    ..Default::default()
+                });
+                doc.buffer_views.len() - 1
+            };
+            let values = plain(&col.values);
+            let string_offsets = col.string_offsets.as_deref().map(&mut plain);
+            properties.insert(
+                p.name.clone(),
+                PropertyTableProperty {
+                    values,
+                    string_offset_type: string_offsets.map(|_| "UINT32".into()),
+                    string_offsets,
+                },
+            );
+        }
+        tables.push(PropertyTable {
+            class: class_def.id.clone(),
+            count: members.len(),
+            properties,
+        });
+        primitives.push(Primitive {
+            attributes: normal_view
+                .map(|_| ("NORMAL".to_string(), acc + 3))
+                .into_iter()
+                .chain([("POSITION".into(), acc), ("_FEATURE_ID_0".into(), acc + 1)])
+                .collect(),
+            indices: Some(acc + 2),
+            material: Some(0),
+            mode: Some(MODE_TRIANGLES),
+            extensions: Some(PrimitiveExtensions {
+                mesh_features: Some(MeshFeatures {
+                    feature_ids: vec![FeatureId {
+                        feature_count: members.len(),
+                        attribute: Some(0),
+                        property_table: Some(tables.len() - 1),
+                        null_feature_id: None,
+                    }],
+                }),
+            }),
+        });
+    }
+    if primitives.is_empty() {
+        return Ok(None);
+    }
+    doc.meshes = vec![Mesh { primitives }];
+    doc.extensions = Some(RootExtensions {
+        structural_metadata: Some(StructuralMetadata {
+            schema: Some(schema_json(schema)),
+            property_tables: tables,
+        }),
+    });
+    doc.buffers.push(Buffer {
+        byte_length: bin.padded_len(),
+        ..Default::default()
+    });
+    // Dequantized bounds: the quantized extremes mapped back through the node transform, y-up → ENU.
+    let (qlo, qhi) = (quantized_lo, quantized_hi);
+    let corner = |q: [i16; 3]| -> [f64; 3] {
+        let g: [f64; 3] = std::array::from_fn(|i| translation[i] + scale[i] * q[i] as f64);
+        [g[0], -g[2], g[1]]
+    };
+    let bounds_enu = bounds([corner(qlo), corner(qhi)].into_iter()).expect("two points");
+    let mut used = vec![EXT_MESH_FEATURES, EXT_STRUCTURAL_METADATA, KHR_QUANTIZATION];
+    let mut required = vec![KHR_QUANTIZATION];
+    if meshopt {
+        // The fallback buffer has no data (no uri, not the GLB chunk), so the extension is required.
+        doc.buffers.push(Buffer {
+            byte_length: fallback.padded_len(),
+            uri: None,
+            extensions: Some(BufferExtensions {
+                meshopt: Some(MeshoptBuffer { fallback: true }),
+            }),
+        });
+        used.push(EXT_MESHOPT);
+        required.push(EXT_MESHOPT);
+    }
+    used.sort_unstable();
+    required.sort_unstable();
+    doc.extensions_used = used.into_iter().map(String::from).collect();
+    doc.extensions_required = required.into_iter().map(String::from).collect();
+
+    bin.bytes.resize(bin.padded_len(), 0);
+    let json = serde_json::to_vec(&doc).expect("glTF structs always serialize");
+    Ok(Some(EncodedContent {
+        glb: write_glb(&json, &bin.bytes),
+        triangles,
+        vertices,
+        dropped_triangles: dropped,
+        bounds_enu,
+    }))
+}
+
+/// Unit vertex normals in glTF y-up axes: the area-weighted sum of the incident triangles' normals
+/// (for the flat-shaded meshes of citylod-mesh, the face normal). Unused vertices point up.
+fn vertex_normals_yup(m: &citylod_model::Mesh3d) -> Vec<[f64; 3]> {
+    let mut acc = vec![[0.0f64; 3]; m.positions.len()];
+    for t in &m.triangles {
+        let [a, b, c] = t.map(|i| m.positions[i as usize]);
+        let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+        let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+        let n = [
+            u[1] * v[2] - u[2] * v[1],
+            u[2] * v[0] - u[0] * v[2],
+            u[0] * v[1] - u[1] * v[0],
+        ];
+        for &i in t {
+            (0..3).for_each(|k| acc[i as usize][k] += n[k]);
+        }
+    }
+    acc.into_iter()
+        .map(|n| {
+            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            if len > 0.0 && len.is_finite() {
+                enu_to_yup(n.map(|c| c / len))
+            } else {
+                [0.0, 1.0, 0.0]
+            }
+        })
+        .collect()
+}
+
+/// Compresses one buffer view (`count` elements of `stride` bytes) with the EXT_meshopt_compression
+/// codecs: attributes with vertex codec version 0 (the only one that extension allows), triangles
+/// with the index codec (version 1, header 0xe1, as the extension specifies).
+fn encode_meshopt(
+    raw: &[u8],
+    stride: usize,
+    count: usize,
+    mode: &str,
+    vertex_count: usize,
+) -> Result<Vec<u8>, meshopt::Error> {
+    debug_assert_eq!(raw.len(), stride * count);
+    let out = match (mode, stride) {
+        ("TRIANGLES", 2) => {
+            let idx: Vec<u32> = raw
+                .chunks_exact(2)
+                .map(|b| u16::from_le_bytes([b[0], b[1]]) as u32)
+                .collect();
+            meshopt::encode_index_buffer(&idx, vertex_count)?
+        }
+        ("TRIANGLES", _) => {
+            let idx: Vec<u32> = raw
+                .chunks_exact(4)
+                .map(|b| u32::from_le_bytes(b.try_into().unwrap()))
+                .collect();
+            meshopt::encode_index_buffer(&idx, vertex_count)?
+        }
+        (_, 4) => {
+            let v: Vec<[u8; 4]> = raw.chunks_exact(4).map(|b| b.try_into().unwrap()).collect();
+            meshopt::encode_vertex_buffer_level(&v, 2, Some(0))?
+        }
+        _ => {
+            debug_assert_eq!(stride, 8);
+            let v: Vec<[u8; 8]> = raw.chunks_exact(8).map(|b| b.try_into().unwrap()).collect();
+            meshopt::encode_vertex_buffer_level(&v, 2, Some(0))?
+        }
+    };
+    debug_assert!(mode == "TRIANGLES" || out.first() == Some(&0xa0));
+    Ok(out)
+}

@@ -1,0 +1,116 @@
+//! The GLB container (glTF 2.0 §4.4): a 12-byte header, a JSON chunk padded with spaces and a BIN
+//! chunk padded with zeros, both to 4 bytes. Also the binary buffer builder that keeps every buffer
+//! view 8-byte aligned (EXT_structural_metadata requires it; vertex data needs 4).
+
+const MAGIC: u32 = 0x4654_6C67; // "glTF"
+const CHUNK_JSON: u32 = 0x4E4F_534A;
+const CHUNK_BIN: u32 = 0x004E_4942;
+
+/// Builds a binary buffer whose pieces all start at multiples of 8 bytes.
+#[derive(Default)]
+pub(crate) struct BinBuilder {
+    pub bytes: Vec<u8>,
+}
+
+impl BinBuilder {
+    /// Appends `data` at the next 8-byte boundary and returns its offset.
+    pub fn push(&mut self, data: &[u8]) -> usize {
+        self.reserve(data.len());
+        let off = self.bytes.len() - data.len();
+        self.bytes[off..].copy_from_slice(data);
+        off
+    }
+
+    /// Reserves `len` zero bytes at the next 8-byte boundary and returns their offset.
+    pub fn reserve(&mut self, len: usize) -> usize {
+        self.bytes.resize(self.bytes.len().next_multiple_of(8), 0);
+        let off = self.bytes.len();
+        self.bytes.resize(off + len, 0);
+        off
+    }
+
+    /// Length padded to 8 bytes.
+    pub fn padded_len(&self) -> usize {
+        self.bytes.len().next_multiple_of(8)
+    }
+}
+
+/// Assembles a glb from its JSON text and binary chunk (which may be empty: then no BIN chunk).
+pub(crate) fn write_glb(json: &[u8], bin: &[u8]) -> Vec<u8> {
+    let json_len = json.len().next_multiple_of(4);
+    let bin_len = bin.len().next_multiple_of(4);
+    let total = 12 + 8 + json_len + if bin.is_empty() { 0 } else { 8 + bin_len };
+    let mut out = Vec::with_capacity(total);
+    out.extend_from_slice(&MAGIC.to_le_bytes());
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&(total as u32).to_le_bytes());
+    out.extend_from_slice(&(json_len as u32).to_le_bytes());
+    out.extend_from_slice(&CHUNK_JSON.to_le_bytes());
+    out.extend_from_slice(json);
+    out.resize(20 + json_len, b' ');
+    if !bin.is_empty() {
+        out.extend_from_slice(&(bin_len as u32).to_le_bytes());
+        out.extend_from_slice(&CHUNK_BIN.to_le_bytes());
+        out.extend_from_slice(bin);
+        out.resize(total, 0);
+    }
+    debug_assert_eq!(out.len(), total);
+    out
+}
+
+/// Splits a glb into its JSON chunk and BIN chunk (empty when absent).
+pub(crate) fn parse_glb(b: &[u8]) -> Result<(&[u8], &[u8]), String> {
+    let u32_at = |i: usize| -> Result<u32, String> {
+        b.get(i..i + 4)
+            .map(|s| u32::from_le_bytes(s.try_into().unwrap()))
+            .ok_or_else(|| "truncated".to_string())
+    };
+    if u32_at(0)? != MAGIC {
+        return Err("not a glb (bad magic)".into());
+    }
+    if u32_at(4)? != 2 {
+        return Err(format!("glb version {} is not 2", u32_at(4)?));
+    }
+    let total = (u32_at(8)? as usize).min(b.len());
+    let mut pos = 12;
+    let (mut json, mut bin): (Option<&[u8]>, &[u8]) = (None, &[]);
+    while pos + 8 <= total {
+        let len = u32_at(pos)? as usize;
+        let ty = u32_at(pos + 4)?;
+        let data = b
+            .get(pos + 8..pos + 8 + len)
+            .ok_or("chunk runs past the end")?;
+        match ty {
+            CHUNK_JSON if json.is_none() => json = Some(data),
+            CHUNK_BIN if bin.is_empty() => bin = data,
+            _ => {}
+        }
+        pos += 8 + len;
+    }
+    Ok((json.ok_or("no JSON chunk")?, bin))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn glb_chunks_round_trip_and_are_padded() {
+        let glb = write_glb(b"{\"a\":1}", &[1, 2, 3]);
+        assert_eq!(glb.len() % 4, 0);
+        let (j, bin) = parse_glb(&glb).unwrap();
+        assert_eq!(j, b"{\"a\":1} ");
+        assert_eq!(bin, &[1, 2, 3, 0]);
+        assert!(parse_glb(b"glTF").is_err());
+        assert!(parse_glb(&glb[..20]).is_err());
+    }
+
+    #[test]
+    fn bin_builder_aligns_to_8() {
+        let mut b = BinBuilder::default();
+        assert_eq!(b.push(&[1, 2, 3]), 0);
+        assert_eq!(b.push(&[4]), 8);
+        assert_eq!(b.reserve(2), 16);
+        assert_eq!(b.padded_len(), 24);
+    }
+}

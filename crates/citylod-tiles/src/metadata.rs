@@ -1,0 +1,330 @@
+//! Property tables of EXT_structural_metadata: the inline schema, and columns encoded as the spec
+//! lays them out (numbers little-endian, strings as UTF-8 plus UINT32 offsets, booleans as a
+//! bitstream, least significant bit first). Null rule: numeric and string properties write their
+//! `noData` value (see [`PropertyKind`]); booleans have no `noData` in the spec and write `false`.
+
+use crate::gltf_json::{Class, ClassProperty, Schema};
+use crate::spec::{MetadataSchema, PropValue, PropertyKind};
+use std::collections::BTreeMap;
+
+pub(crate) const NO_DATA_F64: f64 = f64::MIN;
+pub(crate) const NO_DATA_I64: i64 = i64::MIN;
+pub(crate) const NO_DATA_U32: u32 = u32::MAX;
+
+/// The schema as written inline in every glb.
+pub(crate) fn schema_json(schema: &MetadataSchema) -> Schema {
+    let classes = schema
+        .classes
+        .iter()
+        .map(|c| {
+            let properties = c
+                .properties
+                .iter()
+                .map(|p| {
+                    let (ty, ct, no_data) = match p.kind {
+                        PropertyKind::String => ("STRING", None, Some(serde_json::json!(""))),
+                        PropertyKind::Float64 => (
+                            "SCALAR",
+                            Some("FLOAT64"),
+                            Some(serde_json::json!(NO_DATA_F64)),
+                        ),
+                        PropertyKind::Int64 => (
+                            "SCALAR",
+                            Some("INT64"),
+                            Some(serde_json::json!(NO_DATA_I64)),
+                        ),
+                        PropertyKind::UInt32 => (
+                            "SCALAR",
+                            Some("UINT32"),
+                            Some(serde_json::json!(NO_DATA_U32)),
+                        ),
+                        PropertyKind::Boolean => ("BOOLEAN", None, None),
+                    };
+                    let prop = ClassProperty {
+                        r#type: ty.into(),
+                        component_type: ct.map(Into::into),
+                        description: p.description.clone(),
+                        no_data,
+                    };
+                    (p.name.clone(), prop)
+                })
+                .collect();
+            (c.id.clone(), Class { properties })
+        })
+        .collect();
+    Schema {
+        id: schema.id.clone(),
+        classes,
+    }
+}
+
+/// One encoded column: the `values` bytes and, for strings, the `stringOffsets` bytes.
+pub(crate) struct Column {
+    pub values: Vec<u8>,
+    pub string_offsets: Option<Vec<u8>>,
+}
+
+/// Encodes one property for `values` (one per feature). `Err` says which feature's value does not
+/// fit the kind.
+pub(crate) fn encode_column<'a>(
+    kind: PropertyKind,
+    values: impl ExactSizeIterator<Item = &'a PropValue>,
+) -> Result<Column, (usize, String)> {
+    let n = values.len();
+    let mut out = Vec::new();
+    let mut offsets: Vec<u8> = Vec::new();
+    let mut bits = vec![0u8; n.div_ceil(8)];
+    for (i, v) in values.enumerate() {
+        let bad = |what: &str| (i, format!("{v:?} does not fit a {what} property"));
+        match kind {
+            PropertyKind::Float64 => {
+                let x = match v {
+                    PropValue::Null => NO_DATA_F64,
+                    PropValue::Float(f) => *f,
+                    PropValue::Int(k) => *k as f64,
+                    _ => return Err(bad("Float64")),
+                };
+                out.extend_from_slice(&x.to_le_bytes());
+            }
+            PropertyKind::Int64 => {
+                let x = match v {
+                    PropValue::Null => NO_DATA_I64,
+                    PropValue::Int(k) => *k,
+                    PropValue::Float(f) if f.fract() == 0.0 && f.abs() < 9.2e18 => *f as i64,
+                    _ => return Err(bad("Int64")),
+                };
+                out.extend_from_slice(&x.to_le_bytes());
+            }
+            PropertyKind::UInt32 => {
+                let x = match v {
+                    PropValue::Null => NO_DATA_U32,
+                    PropValue::Int(k) => u32::try_from(*k).map_err(|_| bad("UInt32"))?,
+                    PropValue::Float(f) if f.fract() == 0.0 && (0.0..4.3e9).contains(f) => {
+                        u32::try_from(*f as u64).map_err(|_| bad("UInt32"))?
+                    }
+                    _ => return Err(bad("UInt32")),
+                };
+                out.extend_from_slice(&x.to_le_bytes());
+            }
+            PropertyKind::Boolean => match v {
+                PropValue::Bool(true) => bits[i / 8] |= 1 << (i % 8),
+                PropValue::Bool(false) | PropValue::Null => {}
+                _ => return Err(bad("Boolean")),
+            },
+            PropertyKind::String => {
+                offsets.extend_from_slice(&offset_u32(out.len()).map_err(|m| (i, m))?);
+                match v {
+                    PropValue::Null => {}
+                    PropValue::Str(s) => out.extend_from_slice(s.as_bytes()),
+                    PropValue::Bool(b) => out.extend_from_slice(b.to_string().as_bytes()),
+                    PropValue::Int(k) => out.extend_from_slice(k.to_string().as_bytes()),
+                    PropValue::Float(f) => out.extend_from_slice(f.to_string().as_bytes()),
+                }
+            }
+        }
+    }
+    Ok(match kind {
+        PropertyKind::Boolean => Column {
+            values: bits,
+            string_offsets: None,
+        },
+        PropertyKind::String => {
+            offsets.extend_from_slice(&offset_u32(out.len()).map_err(|m| (n, m))?);
+            Column {
+                values: out,
+                string_offsets: Some(offsets),
+            }
+        }
+        _ => Column {
+            values: out,
+            string_offsets: None,
+        },
+    })
+}
+
+fn offset_u32(len: usize) -> Result<[u8; 4], String> {
+    u32::try_from(len)
+        .map(u32::to_le_bytes)
+        .map_err(|_| "string column exceeds 4 GiB".to_string())
+}
+
+/// Decodes `count` values of one property. Values equal to the property's `noData` read as `Null`.
+pub(crate) fn decode_column(
+    prop: &ClassProperty,
+    count: usize,
+    values: &[u8],
+    string_offsets: Option<(&[u8], &str)>,
+) -> Result<Vec<PropValue>, String> {
+    let no_data = prop.no_data.as_ref();
+    match prop.r#type.as_str() {
+        "BOOLEAN" => {
+            if values.len() < count.div_ceil(8) {
+                return Err("boolean column too short".into());
+            }
+            Ok((0..count)
+                .map(|i| PropValue::Bool(values[i / 8] >> (i % 8) & 1 == 1))
+                .collect())
+        }
+        "STRING" => {
+            let (off_bytes, off_type) = string_offsets.ok_or("string column without offsets")?;
+            let offs = read_uints(off_bytes, off_type, count + 1)?;
+            let empty = no_data.and_then(|v| v.as_str());
+            (0..count)
+                .map(|i| {
+                    let (a, b) = (offs[i] as usize, offs[i + 1] as usize);
+                    let s = values
+                        .get(a..b)
+                        .ok_or("string offset out of range")
+                        .and_then(|s| std::str::from_utf8(s).map_err(|_| "string not UTF-8"))?;
+                    Ok(if Some(s) == empty {
+                        PropValue::Null
+                    } else {
+                        PropValue::Str(s.to_string())
+                    })
+                })
+                .collect()
+        }
+        "SCALAR" => {
+            let ct = prop.component_type.as_deref().unwrap_or("");
+            let size = component_size(ct).ok_or_else(|| format!("component type {ct:?}"))?;
+            if values.len() < size * count {
+                return Err("numeric column too short".into());
+            }
+            Ok((0..count)
+                .map(|i| {
+                    let b = &values[i * size..(i + 1) * size];
+                    let v = match ct {
+                        "FLOAT32" => {
+                            PropValue::Float(f32::from_le_bytes(b.try_into().unwrap()) as f64)
+                        }
+                        "FLOAT64" => PropValue::Float(f64::from_le_bytes(b.try_into().unwrap())),
+                        "INT8" => PropValue::Int(b[0] as i8 as i64),
+                        "INT16" => PropValue::Int(i16::from_le_bytes(b.try_into().unwrap()) as i64),
+                        "INT32" => PropValue::Int(i32::from_le_bytes(b.try_into().unwrap()) as i64),
+                        "INT64" => PropValue::Int(i64::from_le_bytes(b.try_into().unwrap())),
+                        "UINT64" => {
+                            PropValue::Int(u64::from_le_bytes(b.try_into().unwrap()) as i64)
+                        }
+                        _ => PropValue::Int(read_uint(b) as i64),
+                    };
+                    let is_no_data = match (&v, no_data) {
+                        (PropValue::Float(f), Some(nd)) => nd.as_f64() == Some(*f),
+                        (PropValue::Int(k), Some(nd)) => {
+                            nd.as_i64() == Some(*k)
+                                || (nd.as_u64().is_some() && nd.as_u64() == u64::try_from(*k).ok())
+                        }
+                        _ => false,
+                    };
+                    if is_no_data {
+                        PropValue::Null
+                    } else {
+                        v
+                    }
+                })
+                .collect())
+        }
+        other => Err(format!(
+            "property type {other:?} is not supported by this reader"
+        )),
+    }
+}
+
+fn component_size(ct: &str) -> Option<usize> {
+    Some(match ct {
+        "INT8" | "UINT8" => 1,
+        "INT16" | "UINT16" => 2,
+        "INT32" | "UINT32" | "FLOAT32" => 4,
+        "INT64" | "UINT64" | "FLOAT64" => 8,
+        _ => return None,
+    })
+}
+
+fn read_uint(b: &[u8]) -> u64 {
+    b.iter().rev().fold(0u64, |acc, &x| acc << 8 | x as u64)
+}
+
+fn read_uints(bytes: &[u8], ty: &str, n: usize) -> Result<Vec<u64>, String> {
+    let size = component_size(ty).ok_or_else(|| format!("offset type {ty:?}"))?;
+    if bytes.len() < size * n {
+        return Err("offset column too short".into());
+    }
+    Ok(bytes.chunks_exact(size).take(n).map(read_uint).collect())
+}
+
+/// One decoded feature row: its class and its values by property id.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FeatureRow {
+    pub class: String,
+    pub values: BTreeMap<String, PropValue>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::spec::{ClassDef, PropertyDef};
+
+    fn round_trip(kind: PropertyKind, vals: &[PropValue]) -> Vec<PropValue> {
+        let schema = MetadataSchema {
+            id: "s".into(),
+            classes: vec![ClassDef {
+                id: "c".into(),
+                properties: vec![PropertyDef {
+                    name: "p".into(),
+                    kind,
+                    description: None,
+                }],
+            }],
+        };
+        let prop = schema_json(&schema).classes["c"].properties["p"].clone();
+        let col = encode_column(kind, vals.iter()).unwrap();
+        let offs = col.string_offsets.as_deref().map(|o| (o, "UINT32"));
+        decode_column(&prop, vals.len(), &col.values, offs).unwrap()
+    }
+
+    #[test]
+    fn columns_round_trip_with_nulls() {
+        use PropValue::*;
+        let s = [Str("Zürich 東京".into()), Null, Str("x".into()), Int(7)];
+        assert_eq!(
+            round_trip(PropertyKind::String, &s),
+            [
+                Str("Zürich 東京".into()),
+                Null,
+                Str("x".into()),
+                Str("7".into())
+            ]
+        );
+        let f = [Float(1.5), Null, Int(-3), Float(-0.0)];
+        assert_eq!(
+            round_trip(PropertyKind::Float64, &f),
+            [Float(1.5), Null, Float(-3.0), Float(-0.0)]
+        );
+        let i = [Int(i64::MAX), Null, Float(12.0)];
+        assert_eq!(
+            round_trip(PropertyKind::Int64, &i),
+            [Int(i64::MAX), Null, Int(12)]
+        );
+        let u = [Int(0), Null, Int(4_000_000_000)];
+        assert_eq!(
+            round_trip(PropertyKind::UInt32, &u),
+            [Int(0), Null, Int(4_000_000_000)]
+        );
+        let b: Vec<PropValue> = (0..11)
+            .map(|k| if k == 5 { Null } else { Bool(k % 3 == 0) })
+            .collect();
+        let want: Vec<PropValue> = (0..11).map(|k| Bool(k != 5 && k % 3 == 0)).collect();
+        assert_eq!(round_trip(PropertyKind::Boolean, &b), want);
+    }
+
+    #[test]
+    fn values_that_do_not_fit_are_rejected_with_their_index() {
+        use PropValue::*;
+        let e = encode_column(PropertyKind::UInt32, [Int(1), Int(-1)].iter())
+            .err()
+            .unwrap();
+        assert_eq!(e.0, 1);
+        assert!(encode_column(PropertyKind::Float64, [Str("a".into())].iter()).is_err());
+        assert!(encode_column(PropertyKind::Int64, [Float(0.5)].iter()).is_err());
+        assert!(encode_column(PropertyKind::Boolean, [Int(1)].iter()).is_err());
+    }
+}

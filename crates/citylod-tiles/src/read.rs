@@ -1,0 +1,709 @@
+//! A tileset reader for tests and the checker: walks `tileset.json` (and external tilesets named by
+//! `content.uri` ending in `.json`), decodes glb content (plain or EXT_meshopt_compression buffers,
+//! any quantized or float positions, node transforms, feature ids, property tables).
+//! Output positions are in the root tile's frame (z up; for citylod: local ENU metres).
+
+use crate::glb::parse_glb;
+use crate::gltf_json::{self as gj, Gltf};
+use crate::metadata::{decode_column, FeatureRow};
+use crate::tileset_json as tj;
+use crate::TilesError;
+use std::borrow::Cow;
+use std::path::{Path, PathBuf};
+
+/// A whole tileset, tiles in pre-order (`tiles[0]` is the root).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TilesetData {
+    /// The root tile's `transform` (column-major; identity when absent): root frame → ECEF.
+    pub root_transform: [f64; 16],
+    /// `tileset.geometricError` (m).
+    pub geometric_error_m: f64,
+    pub tiles: Vec<TileData>,
+}
+
+/// One tile.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TileData {
+    /// `0` for the root, `p/k` for child k of `p`; the root of an external tileset under `p` is `p/ext`.
+    pub path_in_tree: String,
+    pub geometric_error_m: f64,
+    /// The `box` bounding volume as written (in the tile's frame), if the tile has one.
+    pub bounding_box: Option<[f64; 12]>,
+    pub content_uri: Option<String>,
+    /// Decoded glb content (`None` without content or for external-tileset links).
+    pub content: Option<GlbData>,
+    /// Indices into `TilesetData::tiles`.
+    pub children: Vec<usize>,
+}
+
+/// Decoded glb content.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct GlbData {
+    /// Vertex positions in the root frame (z up; local ENU metres for citylod tilesets).
+    pub positions_local: Vec<[f64; 3]>,
+    /// Unit vertex normals in the root frame, one per vertex; empty when the content has none.
+    pub normals_local: Vec<[f64; 3]>,
+    pub triangles: Vec<[u32; 3]>,
+    /// Per vertex: index into `features`, or `u32::MAX` when the vertex has no feature.
+    pub feature_ids: Vec<u32>,
+    /// Property-table rows of every table, tables in order.
+    pub features: Vec<FeatureRow>,
+}
+
+/// Sanity limits against hostile or corrupt files (allocation happens before data is checked).
+const MAX_ELEMENTS: usize = 1 << 28;
+const MAX_VIEW_BYTES: usize = 1 << 31;
+
+const IDENTITY: [f64; 16] = [
+    1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0,
+];
+
+/// Reads a tileset and all its content. Errors name the file that failed.
+pub fn read_tileset(path: &Path) -> Result<TilesetData, TilesError> {
+    let ts = load_json(path)?;
+    let root_transform = ts.root.transform.unwrap_or(IDENTITY);
+    let mut tiles = Vec::new();
+    let base = path.parent().unwrap_or(Path::new("")).to_path_buf();
+    // The root frame: positions are expressed relative to the root's own transform.
+    let root_inv = affine_inverse(&root_transform).ok_or_else(|| TilesError::Tile {
+        tile: "0".into(),
+        msg: "root transform is not invertible".into(),
+    })?;
+    walk(
+        &ts.root,
+        &base,
+        "0".into(),
+        &root_inv,
+        &IDENTITY,
+        0,
+        &mut tiles,
+    )?;
+    Ok(TilesetData {
+        root_transform,
+        geometric_error_m: ts.geometric_error,
+        tiles,
+    })
+}
+
+fn load_json(path: &Path) -> Result<tj::Tileset, TilesError> {
+    let bytes = std::fs::read(path).map_err(TilesError::io(path))?;
+    serde_json::from_slice(&bytes).map_err(|source| TilesError::Json {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// `world` is the product of the ancestors' transforms; `root_inv` maps world to the root frame.
+fn walk(
+    t: &tj::Tile,
+    base: &Path,
+    path: String,
+    root_inv: &[f64; 16],
+    parent_world: &[f64; 16],
+    depth: usize,
+    out: &mut Vec<TileData>,
+) -> Result<usize, TilesError> {
+    if depth > 64 {
+        return Err(TilesError::Tile {
+            tile: path,
+            msg: "tileset nesting deeper than 64 (a cycle of external tilesets?)".into(),
+        });
+    }
+    let world = mul(parent_world, &t.transform.unwrap_or(IDENTITY));
+    let to_root = mul(root_inv, &world);
+    let me = out.len();
+    out.push(TileData {
+        path_in_tree: path.clone(),
+        geometric_error_m: t.geometric_error,
+        bounding_box: t.bounding_volume.r#box,
+        content_uri: t.content.as_ref().map(|c| c.uri.clone()),
+        content: None,
+        children: Vec::new(),
+    });
+    let mut children = Vec::new();
+    if let Some(c) = &t.content {
+        let file = base.join(&c.uri);
+        if c.uri.ends_with(".json") {
+            let ext = load_json(&file)?;
+            let ext_base = file.parent().unwrap_or(Path::new("")).to_path_buf();
+            let k = walk(
+                &ext.root,
+                &ext_base,
+                format!("{path}/ext"),
+                root_inv,
+                &world,
+                depth + 1,
+                out,
+            )?;
+            children.push(k);
+        } else {
+            let bytes = std::fs::read(&file).map_err(TilesError::io(&file))?;
+            let mut glb = read_glb(&bytes, &file)?;
+            for p in &mut glb.positions_local {
+                *p = apply(&to_root, *p);
+            }
+            let nm = normal_matrix(&to_root);
+            for n in &mut glb.normals_local {
+                *n = transform_normal(&nm, *n);
+            }
+            out[me].content = Some(glb);
+        }
+    }
+    for (k, c) in t.children.iter().enumerate() {
+        children.push(walk(
+            c,
+            base,
+            format!("{path}/{k}"),
+            root_inv,
+            &world,
+            depth,
+            out,
+        )?);
+    }
+    out[me].children = children;
+    Ok(me)
+}
+
+/// Decodes a glb; positions are in the tile's frame (glTF y-up converted to z-up). `path` is only
+/// used in errors and to resolve external buffer uris.
+pub fn read_glb(bytes: &[u8], path: &Path) -> Result<GlbData, TilesError> {
+    let err = |msg: String| TilesError::Glb {
+        path: path.to_path_buf(),
+        msg,
+    };
+    let (json, bin) = parse_glb(bytes).map_err(err)?;
+    let doc: Gltf = serde_json::from_slice(json).map_err(|source| TilesError::Json {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let base = path.parent().unwrap_or(Path::new("")).to_path_buf();
+    Decoder {
+        doc: &doc,
+        bin,
+        base,
+    }
+    .decode()
+    .map_err(err)
+}
+
+struct Decoder<'a> {
+    doc: &'a Gltf,
+    bin: &'a [u8],
+    base: PathBuf,
+}
+
+impl Decoder<'_> {
+    fn decode(&self) -> Result<GlbData, String> {
+        let mut out = GlbData::default();
+        let meta = self
+            .doc
+            .extensions
+            .as_ref()
+            .and_then(|e| e.structural_metadata.as_ref());
+        let mut table_offsets = Vec::new();
+        if let Some(meta) = meta {
+            let schema = meta
+                .schema
+                .as_ref()
+                .ok_or("property tables without an inline schema")?;
+            for table in &meta.property_tables {
+                table_offsets.push(out.features.len() as u32);
+                let class = schema
+                    .classes
+                    .get(&table.class)
+                    .ok_or_else(|| format!("class {} not in schema", table.class))?;
+                if table.count > MAX_ELEMENTS {
+                    return Err(format!("property table of {} rows", table.count));
+                }
+                let mut rows = vec![std::collections::BTreeMap::new(); table.count];
+                for (name, col) in &table.properties {
+                    let prop = class
+                        .properties
+                        .get(name)
+                        .ok_or_else(|| format!("property {name} not in class {}", table.class))?;
+                    let values = self.view(col.values)?;
+                    let offsets = match col.string_offsets {
+                        Some(v) => Some(self.view(v)?),
+                        None => None,
+                    };
+                    let ty = col.string_offset_type.as_deref().unwrap_or("UINT32");
+                    let decoded = decode_column(
+                        prop,
+                        table.count,
+                        &values,
+                        offsets.as_deref().map(|o| (o, ty)),
+                    )
+                    .map_err(|m| format!("property table {}.{name}: {m}", table.class))?;
+                    for (row, v) in rows.iter_mut().zip(decoded) {
+                        row.insert(name.clone(), v);
+                    }
+                }
+                out.features
+                    .extend(rows.into_iter().map(|values| FeatureRow {
+                        class: table.class.clone(),
+                        values,
+                    }));
+            }
+        }
+        let scene = self.doc.scenes.get(self.doc.scene.unwrap_or(0));
+        let roots = scene.map(|s| s.nodes.clone()).unwrap_or_default();
+        for n in roots {
+            self.node(n, &IDENTITY, &table_offsets, &mut out, 0)?;
+        }
+        Ok(out)
+    }
+
+    fn node(
+        &self,
+        n: usize,
+        parent: &[f64; 16],
+        table_offsets: &[u32],
+        out: &mut GlbData,
+        depth: usize,
+    ) -> Result<(), String> {
+        let node = self.doc.nodes.get(n).ok_or("node index out of range")?;
+        if depth > 64 {
+            return Err("node hierarchy deeper than 64".into());
+        }
+        let m = mul(parent, &node_matrix(node));
+        if let Some(mi) = node.mesh {
+            let mesh = self.doc.meshes.get(mi).ok_or("mesh index out of range")?;
+            for prim in &mesh.primitives {
+                if prim.mode.unwrap_or(gj::MODE_TRIANGLES) != gj::MODE_TRIANGLES {
+                    continue;
+                }
+                let pos_acc = *prim
+                    .attributes
+                    .get("POSITION")
+                    .ok_or("primitive without POSITION")?;
+                let pos = self.accessor(pos_acc)?;
+                let v0 = out.positions_local.len() as u32;
+                let nm = normal_matrix(&m);
+                match prim.attributes.get("NORMAL") {
+                    Some(&a) if out.normals_local.len() == out.positions_local.len() => {
+                        for n in self.accessor(a)?.chunks_exact(3) {
+                            let g = transform_normal(&nm, [n[0], n[1], n[2]]);
+                            out.normals_local.push([g[0], -g[2], g[1]]);
+                        }
+                    }
+                    // A primitive without normals after one with: drop them all (mixed content).
+                    _ => out.normals_local.clear(),
+                }
+                for p in pos.chunks_exact(3) {
+                    let g = apply(&m, [p[0], p[1], p[2]]);
+                    out.positions_local.push([g[0], -g[2], g[1]]);
+                }
+                let n_vertices = pos.len() / 3;
+                let idx: Vec<u32> = match prim.indices {
+                    Some(a) => self.accessor(a)?.iter().map(|&i| i as u32).collect(),
+                    None => (0..n_vertices as u32).collect(),
+                };
+                if idx.iter().any(|&i| i as usize >= n_vertices) {
+                    return Err("index out of range".into());
+                }
+                out.triangles.extend(
+                    idx.chunks_exact(3)
+                        .map(|t| [t[0] + v0, t[1] + v0, t[2] + v0]),
+                );
+                let fid_set = prim
+                    .extensions
+                    .as_ref()
+                    .and_then(|e| e.mesh_features.as_ref())
+                    .and_then(|f| f.feature_ids.first());
+                let ids: Vec<u32> = match fid_set {
+                    Some(set) => {
+                        let attr = set
+                            .attribute
+                            .ok_or("feature ids without attribute are not supported")?;
+                        let acc = *prim
+                            .attributes
+                            .get(&format!("_FEATURE_ID_{attr}"))
+                            .ok_or("feature id attribute missing")?;
+                        let offset = set
+                            .property_table
+                            .map(|t| {
+                                table_offsets
+                                    .get(t)
+                                    .copied()
+                                    .ok_or("property table out of range")
+                            })
+                            .transpose()?
+                            .unwrap_or(0);
+                        self.accessor(acc)?
+                            .iter()
+                            .map(|&f| {
+                                let id = f as u32;
+                                if Some(id) == set.null_feature_id
+                                    || id as usize >= set.feature_count
+                                {
+                                    u32::MAX
+                                } else {
+                                    id + offset
+                                }
+                            })
+                            .collect()
+                    }
+                    None => vec![u32::MAX; n_vertices],
+                };
+                if ids.len() != n_vertices {
+                    return Err("feature id count differs from vertex count".into());
+                }
+                out.feature_ids.extend(ids);
+            }
+        }
+        for &c in &node.children {
+            self.node(c, &m, table_offsets, out, depth + 1)?;
+        }
+        Ok(())
+    }
+
+    fn buffer(&self, i: usize) -> Result<Cow<'_, [u8]>, String> {
+        let b = self.doc.buffers.get(i).ok_or("buffer index out of range")?;
+        match &b.uri {
+            None if i == 0 => Ok(Cow::Borrowed(self.bin)),
+            None => Err(format!("buffer {i} has no data")),
+            Some(uri) => std::fs::read(self.base.join(uri))
+                .map(Cow::Owned)
+                .map_err(|e| format!("buffer {uri}: {e}")),
+        }
+    }
+
+    /// The bytes of a buffer view, decompressed when it uses EXT_meshopt_compression.
+    fn view(&self, i: usize) -> Result<Vec<u8>, String> {
+        let bv = self
+            .doc
+            .buffer_views
+            .get(i)
+            .ok_or("buffer view index out of range")?;
+        if let Some(mo) = bv.extensions.as_ref().and_then(|e| e.meshopt.as_ref()) {
+            let src = self.buffer(mo.buffer)?;
+            let data = src
+                .get(mo.byte_offset..mo.byte_offset + mo.byte_length)
+                .ok_or("compressed view out of range")?;
+            if mo.filter.as_deref().is_some_and(|f| f != "NONE") {
+                return Err(format!("meshopt filter {:?} is not supported", mo.filter));
+            }
+            if mo.count.checked_mul(mo.byte_stride) != Some(bv.byte_length)
+                || bv.byte_length > MAX_VIEW_BYTES
+            {
+                return Err(format!(
+                    "compressed view {i}: count × stride does not match its length"
+                ));
+            }
+            let bytes = decode_meshopt(data, &mo.mode, mo.byte_stride, mo.count)?;
+            if bytes.len() != bv.byte_length {
+                return Err("decompressed length differs from the buffer view length".into());
+            }
+            return Ok(bytes);
+        }
+        let src = self.buffer(bv.buffer)?;
+        src.get(bv.byte_offset..bv.byte_offset + bv.byte_length)
+            .map(<[u8]>::to_vec)
+            .ok_or_else(|| format!("buffer view {i} out of range"))
+    }
+
+    /// Accessor elements as f64, components flattened, normalization applied.
+    fn accessor(&self, i: usize) -> Result<Vec<f64>, String> {
+        let a = self
+            .doc
+            .accessors
+            .get(i)
+            .ok_or("accessor index out of range")?;
+        let ncomp = match a.r#type.as_str() {
+            "SCALAR" => 1,
+            "VEC2" => 2,
+            "VEC3" => 3,
+            "VEC4" => 4,
+            t => return Err(format!("accessor type {t} not supported")),
+        };
+        let size = match a.component_type {
+            gj::BYTE | gj::UNSIGNED_BYTE => 1,
+            gj::SHORT | gj::UNSIGNED_SHORT => 2,
+            gj::UNSIGNED_INT | gj::FLOAT => 4,
+            c => return Err(format!("component type {c}")),
+        };
+        let bv_index = a.buffer_view.ok_or("accessor without buffer view")?;
+        let data = self.view(bv_index)?;
+        let stride = self.doc.buffer_views[bv_index]
+            .byte_stride
+            .unwrap_or(ncomp * size);
+        let mut out = Vec::with_capacity((a.count.min(MAX_ELEMENTS) * ncomp).min(data.len()));
+        for e in 0..a.count {
+            for c in 0..ncomp {
+                let o = a.byte_offset + e * stride + c * size;
+                let b = data
+                    .get(o..o + size)
+                    .ok_or("accessor reads past its buffer view")?;
+                let v = match a.component_type {
+                    gj::BYTE => {
+                        let x = b[0] as i8 as f64;
+                        if a.normalized {
+                            (x / 127.0).max(-1.0)
+                        } else {
+                            x
+                        }
+                    }
+                    gj::UNSIGNED_BYTE => b[0] as f64 / if a.normalized { 255.0 } else { 1.0 },
+                    gj::SHORT => {
+                        let x = i16::from_le_bytes([b[0], b[1]]) as f64;
+                        if a.normalized {
+                            (x / 32767.0).max(-1.0)
+                        } else {
+                            x
+                        }
+                    }
+                    gj::UNSIGNED_SHORT => {
+                        u16::from_le_bytes([b[0], b[1]]) as f64
+                            / if a.normalized { 65535.0 } else { 1.0 }
+                    }
+                    gj::UNSIGNED_INT => u32::from_le_bytes(b.try_into().unwrap()) as f64,
+                    _ => f32::from_le_bytes(b.try_into().unwrap()) as f64,
+                };
+                out.push(v);
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// Decompresses one EXT_meshopt_compression view into `count × stride` bytes.
+fn decode_meshopt(data: &[u8], mode: &str, stride: usize, count: usize) -> Result<Vec<u8>, String> {
+    let fail = |e: meshopt::Error| format!("meshopt {mode} decoding failed: {e:?}");
+    // Elements decoded as arrays of stride/4 words (the codec copies raw bytes; native order keeps them).
+    macro_rules! attributes {
+        ($($n:literal)*) => {
+            match stride / 4 {
+                $($n if stride % 4 == 0 => meshopt::decode_vertex_buffer::<[u32; $n]>(data, count)
+                    .map_err(fail)?
+                    .iter()
+                    .flatten()
+                    .flat_map(|w| w.to_ne_bytes())
+                    .collect(),)*
+                _ => return Err(format!("meshopt stride {stride} not supported")),
+            }
+        };
+    }
+    Ok(match (mode, stride) {
+        ("ATTRIBUTES", _) => attributes!(1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16),
+        ("TRIANGLES", 2) => meshopt::decode_index_buffer::<u16>(data, count)
+            .map_err(fail)?
+            .iter()
+            .flat_map(|i| i.to_le_bytes())
+            .collect(),
+        ("TRIANGLES", 4) => meshopt::decode_index_buffer::<u32>(data, count)
+            .map_err(fail)?
+            .iter()
+            .flat_map(|i| i.to_le_bytes())
+            .collect(),
+        ("INDICES", 2) => meshopt::decode_index_sequence::<u16>(data, count)
+            .map_err(fail)?
+            .iter()
+            .flat_map(|i| i.to_le_bytes())
+            .collect(),
+        ("INDICES", 4) => meshopt::decode_index_sequence::<u32>(data, count)
+            .map_err(fail)?
+            .iter()
+            .flat_map(|i| i.to_le_bytes())
+            .collect(),
+        _ => {
+            return Err(format!(
+                "meshopt mode {mode} with stride {stride} not supported"
+            ))
+        }
+    })
+}
+
+/// Column-major 4×4 product a·b.
+fn mul(a: &[f64; 16], b: &[f64; 16]) -> [f64; 16] {
+    std::array::from_fn(|k| {
+        let (col, row) = (k / 4, k % 4);
+        (0..4).map(|i| a[i * 4 + row] * b[col * 4 + i]).sum()
+    })
+}
+
+fn apply(m: &[f64; 16], p: [f64; 3]) -> [f64; 3] {
+    std::array::from_fn(|r| m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r])
+}
+
+/// Inverse of an affine column-major matrix (last row 0 0 0 1), `None` when singular.
+fn affine_inverse(m: &[f64; 16]) -> Option<[f64; 16]> {
+    let a = |r: usize, c: usize| m[c * 4 + r];
+    let det = a(0, 0) * (a(1, 1) * a(2, 2) - a(1, 2) * a(2, 1))
+        - a(0, 1) * (a(1, 0) * a(2, 2) - a(1, 2) * a(2, 0))
+        + a(0, 2) * (a(1, 0) * a(2, 1) - a(1, 1) * a(2, 0));
+    if det.abs() < 1e-300 || !det.is_finite() {
+        return None;
+    }
+    // Inverse of the 3×3 block by cofactors.
+    let mut inv = [0.0; 16];
+    for r in 0..3 {
+        for c in 0..3 {
+            let (r1, r2) = ((c + 1) % 3, (c + 2) % 3);
+            let (c1, c2) = ((r + 1) % 3, (r + 2) % 3);
+            inv[c * 4 + r] = (a(r1, c1) * a(r2, c2) - a(r1, c2) * a(r2, c1)) / det;
+        }
+    }
+    let t = [a(0, 3), a(1, 3), a(2, 3)];
+    for r in 0..3 {
+        inv[12 + r] = -(0..3).map(|c| inv[c * 4 + r] * t[c]).sum::<f64>();
+    }
+    inv[15] = 1.0;
+    Some(inv)
+}
+
+/// The inverse transpose of the linear part (column-major 4×4 with zero translation), which maps
+/// normals; identity when singular.
+fn normal_matrix(m: &[f64; 16]) -> [f64; 16] {
+    let mut lin = *m;
+    lin[12..15].fill(0.0);
+    let inv = affine_inverse(&lin).unwrap_or(IDENTITY);
+    std::array::from_fn(|k| {
+        if k % 4 < 3 && k < 12 {
+            inv[(k % 4) * 4 + k / 4]
+        } else {
+            IDENTITY[k]
+        }
+    })
+}
+
+fn transform_normal(nm: &[f64; 16], n: [f64; 3]) -> [f64; 3] {
+    let v = apply(nm, n);
+    let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    if len > 0.0 {
+        v.map(|c| c / len)
+    } else {
+        v
+    }
+}
+
+/// A node's local matrix: `matrix`, or translation · rotation · scale.
+fn node_matrix(n: &gj::Node) -> [f64; 16] {
+    if let Some(m) = n.matrix {
+        return m;
+    }
+    let t = n.translation.unwrap_or([0.0; 3]);
+    let [x, y, z, w] = n.rotation.unwrap_or([0.0, 0.0, 0.0, 1.0]);
+    let s = n.scale.unwrap_or([1.0; 3]);
+    let r = [
+        [
+            1.0 - 2.0 * (y * y + z * z),
+            2.0 * (x * y + z * w),
+            2.0 * (x * z - y * w),
+        ],
+        [
+            2.0 * (x * y - z * w),
+            1.0 - 2.0 * (x * x + z * z),
+            2.0 * (y * z + x * w),
+        ],
+        [
+            2.0 * (x * z + y * w),
+            2.0 * (y * z - x * w),
+            1.0 - 2.0 * (x * x + y * y),
+        ],
+    ];
+    // r[c] is column c of the rotation.
+    let mut m = IDENTITY;
+    for c in 0..3 {
+        for row in 0..3 {
+            m[c * 4 + row] = r[c][row] * s[c];
+        }
+        m[12 + c] = t[c];
+    }
+    m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn affine_inverse_undoes_enu_to_ecef() {
+        let f = citylod_model::LocalFrame::new(4.36, 52.0, 3.0);
+        let m = f.enu_to_ecef_column_major();
+        let inv = affine_inverse(&m).unwrap();
+        let p = [12.0, -40.0, 7.0];
+        let q = apply(&inv, apply(&m, p));
+        assert!((0..3).all(|i| (q[i] - p[i]).abs() < 1e-6), "{q:?}");
+        let id = mul(&inv, &m);
+        assert!((0..16).all(|i| (id[i] - IDENTITY[i]).abs() < 1e-9));
+    }
+
+    #[test]
+    fn node_rotation_about_z_turns_x_into_y() {
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        let n = gj::Node {
+            rotation: Some([0.0, 0.0, h, h]),
+            translation: Some([1.0, 2.0, 3.0]),
+            ..Default::default()
+        };
+        let p = apply(&node_matrix(&n), [1.0, 0.0, 0.0]);
+        assert!(
+            (p[0] - 1.0).abs() < 1e-12 && (p[1] - 3.0).abs() < 1e-12 && (p[2] - 3.0).abs() < 1e-12,
+            "{p:?}"
+        );
+    }
+
+    #[test]
+    fn corrupt_glbs_give_errors_not_panics() {
+        use crate::spec::*;
+        let schema = MetadataSchema {
+            id: "s".into(),
+            classes: vec![ClassDef {
+                id: "c".into(),
+                properties: vec![PropertyDef {
+                    name: "n".into(),
+                    kind: PropertyKind::String,
+                    description: None,
+                }],
+            }],
+        };
+        let mesh = citylod_model::Mesh3d {
+            positions: vec![
+                [0.0, 0.0, 0.0],
+                [4.0, 0.0, 0.0],
+                [0.0, 4.0, 2.0],
+                [4.0, 4.0, 2.0],
+            ],
+            triangles: vec![[0, 1, 2], [1, 3, 2]],
+        };
+        let f = ContentFeature {
+            mesh,
+            class: 0,
+            values: vec![PropValue::Str("x".into())],
+        };
+        for c in [crate::Compression::Meshopt, crate::Compression::None] {
+            let glb = crate::content::encode_content(
+                "0",
+                std::slice::from_ref(&f),
+                &schema,
+                c,
+                true,
+                "t",
+            )
+            .unwrap()
+            .unwrap()
+            .glb;
+            let path = Path::new("t.glb");
+            assert_eq!(read_glb(&glb, path).unwrap().triangles.len(), 2);
+            for cut in (0..glb.len()).step_by(7) {
+                let _ = read_glb(&glb[..cut], path);
+            }
+            let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+            for at in (20 + json_len..glb.len()).step_by(3) {
+                let mut bad = glb.clone();
+                bad[at] ^= 0x5a;
+                let _ = read_glb(&bad, path);
+            }
+            let (json, bin) = crate::glb::parse_glb(&glb).unwrap();
+            let text = String::from_utf8_lossy(json).to_string();
+            for (from, to) in [
+                ("\"count\":4,", "\"count\":4000000000000,"),
+                ("\"count\":1,", "\"count\":4000000000000,"),
+            ] {
+                assert!(text.contains(from), "{text}");
+                let hostile = text.replacen(from, to, 1);
+                assert!(read_glb(&crate::glb::write_glb(hostile.as_bytes(), bin), path).is_err());
+            }
+        }
+    }
+}

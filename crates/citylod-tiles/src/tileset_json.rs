@@ -1,0 +1,51 @@
+//! The subset of 3D Tiles 1.1 `tileset.json` citylod writes and reads, as serde structs (no logic).
+//! Boxes are 12 numbers in the tile's frame (z up): centre, then the x, y and z half-axis vectors.
+//! Transforms are 4×4 column-major.
+
+use serde::{Deserialize, Serialize};
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub struct Tileset {
+    pub asset: Asset,
+    pub geometric_error: f64,
+    pub root: Tile,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub struct Asset {
+    pub version: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub generator: Option<String>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub struct Tile {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transform: Option<[f64; 16]>,
+    pub bounding_volume: BoundingVolume,
+    pub geometric_error: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub refine: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub content: Option<Content>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub children: Vec<Tile>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BoundingVolume {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub r#box: Option<[f64; 12]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub region: Option<[f64; 6]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sphere: Option<[f64; 4]>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Content {
+    pub uri: String,
+}

@@ -1,0 +1,912 @@
+//! The tileset writer: one glb per tile with features (encoded in parallel, files and order
+//! deterministic) and `tileset.json` (3D Tiles 1.1, REPLACE, root `transform` = ENU→ECEF, `box`
+//! volumes in the root's ENU frame enclosing each tile's content and all its descendants').
+//! Tile paths: the root is `0`, child k of tile `p` is `p/k`; content goes to `tiles/<path>.glb`.
+
+use crate::content::{bounds, encode_content};
+use crate::spec::{MetadataSchema, TileSpec};
+use crate::staging::Staging;
+use crate::tileset_json as tj;
+use crate::TilesError;
+use citylod_model::LocalFrame;
+use rayon::prelude::*;
+
+/// How vertex and index data are stored in the glb.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Compression {
+    /// EXT_meshopt_compression (required extension; the fallback buffer holds no data).
+    #[default]
+    Meshopt,
+    /// Plain quantized buffers.
+    None,
+}
+
+/// Writer options.
+#[derive(Debug, Clone, Default)]
+pub struct WriteOptions {
+    pub compression: Compression,
+    /// Leave out vertex normals (BYTE normalized, 4 bytes per vertex before compression). The glTF
+    /// spec asks clients to compute flat normals when they are missing, but CesiumJS draws such
+    /// primitives unlit (CesiumGS/cesium#6506, #10237), so normals are written unless this is set.
+    pub omit_normals: bool,
+    /// `tileset.geometricError` (m). Default: the larger of the root's geometric error and the root
+    /// box diagonal, so the root is considered as soon as the city spans a few pixels. Never less than
+    /// the root's geometric error.
+    pub tileset_geometric_error_m: Option<f64>,
+}
+
+/// What was written.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct WriteStats {
+    /// All tiles, with and without content.
+    pub tiles: usize,
+    /// Tiles with a glb.
+    pub content_tiles: usize,
+    pub glb_bytes: u64,
+    pub tileset_json_bytes: u64,
+    pub triangles: u64,
+    pub vertices: u64,
+    pub features: u64,
+    /// Triangles left out because quantization collapsed two of their corners.
+    pub dropped_triangles: u64,
+}
+
+/// Box (min, max) in the root ENU frame.
+type Bounds = ([f64; 3], [f64; 3]);
+
+/// Smallest half-size of a box axis (m), so no box is flat.
+const MIN_HALF_M: f64 = 0.005;
+
+/// Writes `tileset.json` and `tiles/**.glb` for the tree `root` into the staging directory `out`
+/// (commit it afterwards, see [`Staging`]). Meshes are in local ENU metres of `frame`; `schema`
+/// gives the classes and properties of the features' values.
+///
+/// Errors: invalid schema ids, a feature whose class, values or indices do not fit, non-finite
+/// positions or geometric errors, I/O. Tiles whose features have no vertices get no content.
+/// The same input gives byte-identical files.
+pub fn write_tileset(
+    out: &Staging,
+    root: &TileSpec,
+    frame: &LocalFrame,
+    schema: &MetadataSchema,
+    opts: &WriteOptions,
+) -> Result<WriteStats, TilesError> {
+    schema.validate()?;
+    let mut flat: Vec<(String, &TileSpec)> = Vec::with_capacity(root.count_tiles());
+    flatten(root, "0".into(), &mut flat);
+    for (path, t) in &flat {
+        if !(t.geometric_error_m.is_finite() && t.geometric_error_m >= 0.0) {
+            return Err(TilesError::Tile {
+                tile: path.clone(),
+                msg: format!(
+                    "geometric error {} m is not finite and ≥ 0",
+                    t.geometric_error_m
+                ),
+            });
+        }
+    }
+    let generator = format!("citylod {}", env!("CARGO_PKG_VERSION"));
+    let encoded: Vec<Result<TileOut, TilesError>> = flat
+        .par_iter()
+        .map(|(path, t)| {
+            let content = encode_content(
+                path,
+                &t.features,
+                schema,
+                opts.compression,
+                !opts.omit_normals,
+                &generator,
+            )?;
+            let Some(c) = content else {
+                return Ok(TileOut {
+                    bounds: None,
+                    uri: None,
+                    stats: WriteStats::default(),
+                });
+            };
+            let uri = format!("tiles/{path}.glb");
+            out.write_file(&uri, &c.glb)?;
+            let stats = WriteStats {
+                content_tiles: 1,
+                glb_bytes: c.glb.len() as u64,
+                triangles: c.triangles,
+                vertices: c.vertices,
+                features: t.features.len() as u64,
+                dropped_triangles: c.dropped_triangles,
+                ..Default::default()
+            };
+            // Exact input bounds and the drawn (dequantized) ones, so the box holds both.
+            let exact = bounds(
+                t.features
+                    .iter()
+                    .flat_map(|f| f.mesh.positions.iter().copied()),
+            );
+            Ok(TileOut {
+                bounds: union(exact, Some(c.bounds_enu)),
+                uri: Some(uri),
+                stats,
+            })
+        })
+        .collect();
+    let mut outs = Vec::with_capacity(encoded.len());
+    let mut stats = WriteStats {
+        tiles: flat.len(),
+        ..Default::default()
+    };
+    for r in encoded {
+        let o = r?;
+        stats.content_tiles += o.stats.content_tiles;
+        stats.glb_bytes += o.stats.glb_bytes;
+        stats.triangles += o.stats.triangles;
+        stats.vertices += o.stats.vertices;
+        stats.features += o.stats.features;
+        stats.dropped_triangles += o.stats.dropped_triangles;
+        outs.push(o);
+    }
+
+    let mut next = 0;
+    let (mut root_json, root_bounds) = build_tile(root, &outs, &mut next);
+    debug_assert_eq!(next, outs.len());
+    root_json.transform = Some(frame.enu_to_ecef_column_major());
+    root_json.refine = Some("REPLACE".into());
+    let diagonal = root_bounds.map_or(0.0, |(lo, hi)| dist(lo, hi));
+    let tileset = tj::Tileset {
+        asset: tj::Asset {
+            version: "1.1".into(),
+            generator: Some(generator),
+        },
+        geometric_error: opts
+            .tileset_geometric_error_m
+            .unwrap_or(diagonal)
+            .max(root.geometric_error_m),
+        root: root_json,
+    };
+    let json = serde_json::to_vec(&tileset).expect("tileset structs always serialize");
+    stats.tileset_json_bytes = json.len() as u64;
+    out.write_file("tileset.json", &json)?;
+    Ok(stats)
+}
+
+struct TileOut {
+    bounds: Option<Bounds>,
+    uri: Option<String>,
+    stats: WriteStats,
+}
+
+fn flatten<'a>(t: &'a TileSpec, path: String, out: &mut Vec<(String, &'a TileSpec)>) {
+    out.push((path.clone(), t));
+    for (k, c) in t.children.iter().enumerate() {
+        flatten(c, format!("{path}/{k}"), out);
+    }
+}
+
+fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
+    (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>().sqrt()
+}
+
+/// The JSON of a tile (pre-order index `*next` into `outs`) and the bounds of it and its subtree.
+fn build_tile(t: &TileSpec, outs: &[TileOut], next: &mut usize) -> (tj::Tile, Option<Bounds>) {
+    let me = &outs[*next];
+    *next += 1;
+    let mut b = me.bounds;
+    let mut children = Vec::with_capacity(t.children.len());
+    for c in &t.children {
+        let (cj, cb) = build_tile(c, outs, next);
+        b = union(b, cb);
+        children.push(cj);
+    }
+    let (lo, hi) = b.unwrap_or(([0.0; 3], [0.0; 3]));
+    let c: [f64; 3] = std::array::from_fn(|i| (lo[i] + hi[i]) / 2.0);
+    let h: [f64; 3] = std::array::from_fn(|i| ((hi[i] - lo[i]) / 2.0).max(MIN_HALF_M));
+    let tile = tj::Tile {
+        transform: None,
+        bounding_volume: tj::BoundingVolume {
+            r#box: Some([
+                c[0], c[1], c[2], h[0], 0.0, 0.0, 0.0, h[1], 0.0, 0.0, 0.0, h[2],
+            ]),
+            region: None,
+            sphere: None,
+        },
+        geometric_error: t.geometric_error_m,
+        refine: None,
+        content: me.uri.clone().map(|uri| tj::Content { uri }),
+        children,
+    };
+    (tile, b)
+}
+
+fn union(a: Option<Bounds>, b: Option<Bounds>) -> Option<Bounds> {
+    match (a, b) {
+        (Some((alo, ahi)), Some((blo, bhi))) => Some((
+            std::array::from_fn(|i| alo[i].min(blo[i])),
+            std::array::from_fn(|i| ahi[i].max(bhi[i])),
+        )),
+        (x, None) | (None, x) => x,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::read::{read_tileset, TilesetData};
+    use crate::spec::{ClassDef, ContentFeature, PropValue, PropertyDef, PropertyKind};
+    use crate::tile_spatially;
+    use citylod_model::Mesh3d;
+    use std::path::Path;
+
+    /// A flat-shaded box: four walls and a roof, each face with its own four vertices.
+    pub(crate) fn box_mesh(x: f64, y: f64, w: f64, d: f64, z0: f64, h: f64) -> Mesh3d {
+        let c = [[x, y], [x + w, y], [x + w, y + d], [x, y + d]];
+        let mut m = Mesh3d::default();
+        let mut quad = |q: [[f64; 3]; 4]| {
+            let v = m.positions.len() as u32;
+            m.positions.extend_from_slice(&q);
+            m.triangles
+                .extend_from_slice(&[[v, v + 1, v + 2], [v, v + 2, v + 3]]);
+        };
+        for i in 0..4 {
+            let (a, b) = (c[i], c[(i + 1) % 4]);
+            quad([
+                [a[0], a[1], z0],
+                [b[0], b[1], z0],
+                [b[0], b[1], z0 + h],
+                [a[0], a[1], z0 + h],
+            ]);
+        }
+        quad(c.map(|p| [p[0], p[1], z0 + h]));
+        m
+    }
+
+    pub(crate) fn schema() -> MetadataSchema {
+        let p = |name: &str, kind| PropertyDef {
+            name: name.into(),
+            kind,
+            description: Some(format!("the {name}")),
+        };
+        MetadataSchema {
+            id: "citylod".into(),
+            classes: vec![
+                ClassDef {
+                    id: "building".into(),
+                    properties: vec![
+                        p("source_id", PropertyKind::String),
+                        p("height_m", PropertyKind::Float64),
+                        p("storeys", PropertyKind::Int64),
+                        p("code", PropertyKind::UInt32),
+                        p("listed", PropertyKind::Boolean),
+                    ],
+                },
+                ClassDef {
+                    id: "cluster".into(),
+                    properties: vec![
+                        p("member_count", PropertyKind::UInt32),
+                        p("dh_m", PropertyKind::Float64),
+                    ],
+                },
+            ],
+        }
+    }
+
+    fn building(i: usize) -> ContentFeature {
+        let (x, y) = ((i % 8) as f64 * 25.0 - 90.0, (i / 8) as f64 * 30.0 - 70.0);
+        let h = 6.0 + (i * 7 % 23) as f64;
+        let name = match i % 4 {
+            0 => PropValue::Str(format!("bâtiment-{i} 東京")),
+            1 => PropValue::Null,
+            _ => PropValue::Str(format!("b{i}")),
+        };
+        ContentFeature {
+            mesh: box_mesh(x, y, 12.0 + (i % 3) as f64, 9.5, (i % 5) as f64 * 0.37, h),
+            class: 0,
+            values: vec![
+                name,
+                if i % 6 == 5 {
+                    PropValue::Null
+                } else {
+                    PropValue::Float(h + 0.125)
+                },
+                if i % 7 == 3 {
+                    PropValue::Null
+                } else {
+                    PropValue::Int(i as i64 - 20)
+                },
+                if i % 9 == 4 {
+                    PropValue::Null
+                } else {
+                    PropValue::Int(i as i64 * 1000)
+                },
+                PropValue::Bool(i.is_multiple_of(3)),
+            ],
+        }
+    }
+
+    fn cluster(x: f64, y: f64, n: i64) -> ContentFeature {
+        ContentFeature {
+            mesh: box_mesh(x, y, 80.0, 60.0, 0.0, 11.0),
+            class: 1,
+            values: vec![PropValue::Int(n), PropValue::Float(n as f64 * 0.5)],
+        }
+    }
+
+    /// 40 buildings in leaves, two clusters at the root (content at an inner level), and one leaf
+    /// holding features of both classes.
+    fn city() -> TileSpec {
+        let mut root = tile_spatially((0..40).map(building).collect(), 7, 10_000);
+        root.features = vec![cluster(-95.0, -75.0, 20), cluster(5.0, -75.0, 20)];
+        let mut leaf = &mut root;
+        while !leaf.children.is_empty() {
+            leaf = &mut leaf.children[0];
+        }
+        leaf.features.push(cluster(-90.0, -70.0, 3));
+        // A pyramid with an off-centre apex: slanted faces at odd angles.
+        let mut pyramid = building(41);
+        let base = [
+            [0.0, 0.0, 20.0],
+            [13.0, 0.0, 20.0],
+            [13.0, 9.0, 20.0],
+            [0.0, 9.0, 20.0],
+        ];
+        let apex = [3.7, 5.1, 27.3];
+        pyramid.mesh = Mesh3d::default();
+        for i in 0..4 {
+            let v = pyramid.mesh.positions.len() as u32;
+            pyramid
+                .mesh
+                .positions
+                .extend_from_slice(&[base[i], base[(i + 1) % 4], apex]);
+            pyramid.mesh.triangles.push([v, v + 1, v + 2]);
+        }
+        leaf.features.push(pyramid);
+        root
+    }
+
+    fn frame() -> LocalFrame {
+        LocalFrame::new(-71.06, 42.35, 12.0)
+    }
+
+    fn write(
+        dir: &Path,
+        root: &TileSpec,
+        compression: Compression,
+    ) -> Result<WriteStats, TilesError> {
+        let out = Staging::create(dir)?;
+        let opts = WriteOptions {
+            compression,
+            ..Default::default()
+        };
+        let stats = write_tileset(&out, root, &frame(), &schema(), &opts)?;
+        out.commit()?;
+        Ok(stats)
+    }
+
+    /// The spec tree flattened in the writer's pre-order, paired with the read tiles.
+    fn spec_preorder<'a>(t: &'a TileSpec, out: &mut Vec<&'a TileSpec>) {
+        out.push(t);
+        t.children.iter().for_each(|c| spec_preorder(c, out));
+    }
+
+    /// What a value reads back as, per the null rules (bool null → false).
+    fn expected(v: &PropValue, kind: PropertyKind) -> PropValue {
+        match (v, kind) {
+            (PropValue::Null, PropertyKind::Boolean) => PropValue::Bool(false),
+            (PropValue::Int(k), PropertyKind::Float64) => PropValue::Float(*k as f64),
+            _ => v.clone(),
+        }
+    }
+
+    fn check_round_trip(root: &TileSpec, back: &TilesetData) {
+        let schema = schema();
+        let mut specs = Vec::new();
+        spec_preorder(root, &mut specs);
+        assert_eq!(specs.len(), back.tiles.len());
+        for (spec, tile) in specs.iter().zip(&back.tiles) {
+            assert_eq!(tile.geometric_error_m, spec.geometric_error_m);
+            let Some(glb) = &tile.content else {
+                assert!(
+                    spec.features.is_empty(),
+                    "tile {} lost its content",
+                    tile.path_in_tree
+                );
+                continue;
+            };
+            // Features in the glb: grouped by class (schema order), input order within a class.
+            let mut order: Vec<&ContentFeature> = spec.features.iter().collect();
+            order.sort_by_key(|f| f.class);
+            assert_eq!(glb.features.len(), order.len());
+            let ext = bounds(order.iter().flat_map(|f| f.mesh.positions.iter().copied())).unwrap();
+            // One quantization step for all axes (uniform node scale): half the largest extent / 32767.
+            let step = (0..3).map(|i| ext.1[i] - ext.0[i]).fold(0.0, f64::max) / 65534.0;
+            let tol = [step / 2.0 + 1e-9; 3];
+            let (mut v, mut t) = (0usize, 0usize);
+            for (k, f) in order.iter().enumerate() {
+                let class = &schema.classes[f.class];
+                assert_eq!(glb.features[k].class, class.id);
+                for (p, val) in class.properties.iter().zip(&f.values) {
+                    assert_eq!(
+                        glb.features[k].values[&p.name],
+                        expected(val, p.kind),
+                        "{}",
+                        p.name
+                    );
+                }
+                let k_in_class = order[..k].iter().filter(|g| g.class == f.class).count();
+                let table_start = k - k_in_class;
+                for tri in &f.mesh.triangles {
+                    let got = glb.triangles[t];
+                    let want = tri.map(|i| (v + i as usize) as u32);
+                    assert_eq!(got, want);
+                    t += 1;
+                    // Each corner's normal is the face normal (flat-shaded input).
+                    let [a, b, c] = tri.map(|i| f.mesh.positions[i as usize]);
+                    let (u, w) = (
+                        [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
+                        [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
+                    );
+                    let n = [
+                        u[1] * w[2] - u[2] * w[1],
+                        u[2] * w[0] - u[0] * w[2],
+                        u[0] * w[1] - u[1] * w[0],
+                    ];
+                    let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+                    for &i in &want {
+                        let m = glb.normals_local[i as usize];
+                        let cos = (0..3).map(|k| m[k] * n[k] / len).sum::<f64>();
+                        assert!(cos > 0.999, "normal {m:?} vs face {n:?}");
+                    }
+                }
+                for p in &f.mesh.positions {
+                    let q = glb.positions_local[v];
+                    for i in 0..3 {
+                        assert!(
+                            (q[i] - p[i]).abs() <= tol[i],
+                            "{q:?} vs {p:?} (tol {tol:?})"
+                        );
+                    }
+                    assert_eq!(glb.feature_ids[v] as usize, table_start + k_in_class);
+                    v += 1;
+                }
+            }
+            assert_eq!((v, t), (glb.positions_local.len(), glb.triangles.len()));
+        }
+    }
+
+    #[test]
+    fn round_trip_keeps_positions_ids_and_properties() {
+        let root = city();
+        for compression in [Compression::Meshopt, Compression::None] {
+            let dir = tempfile::tempdir().unwrap();
+            let stats = write(&dir.path().join("out"), &root, compression).unwrap();
+            let back = read_tileset(&dir.path().join("out/tileset.json")).unwrap();
+            assert_eq!(back.root_transform, frame().enu_to_ecef_column_major());
+            assert!(back.geometric_error_m >= root.geometric_error_m);
+            check_round_trip(&root, &back);
+            assert_eq!(stats.features, 44);
+            assert_eq!(stats.triangles, 43 * 10 + 4);
+            assert_eq!(stats.dropped_triangles, 0);
+        }
+    }
+
+    #[test]
+    fn meshopt_is_smaller_and_uses_codec_version_0() {
+        let root = tile_spatially((0..40).map(building).collect(), 100, 100_000);
+        let dir = tempfile::tempdir().unwrap();
+        let plain = write(&dir.path().join("plain"), &root, Compression::None).unwrap();
+        let packed = write(&dir.path().join("packed"), &root, Compression::Meshopt).unwrap();
+        assert!(
+            packed.glb_bytes < plain.glb_bytes,
+            "{} vs {}",
+            packed.glb_bytes,
+            plain.glb_bytes
+        );
+        let glb = std::fs::read(dir.path().join("packed/tiles/0.glb")).unwrap();
+        let (json, bin) = crate::glb::parse_glb(&glb).unwrap();
+        let doc: crate::gltf_json::Gltf = serde_json::from_slice(json).unwrap();
+        assert!(doc
+            .extensions_required
+            .contains(&"EXT_meshopt_compression".to_string()));
+        let mut modes = Vec::new();
+        for bv in &doc.buffer_views {
+            if let Some(mo) = bv.extensions.as_ref().and_then(|e| e.meshopt.as_ref()) {
+                let header = bin[mo.byte_offset];
+                assert_eq!(
+                    header,
+                    if mo.mode == "ATTRIBUTES" { 0xa0 } else { 0xe1 },
+                    "{}",
+                    mo.mode
+                );
+                assert_eq!(mo.byte_offset % 4, 0);
+                modes.push(mo.mode.clone());
+            }
+        }
+        assert_eq!(
+            modes,
+            ["ATTRIBUTES", "ATTRIBUTES", "ATTRIBUTES", "TRIANGLES"]
+        );
+        // Property-table views are 8-byte aligned (EXT_structural_metadata).
+        assert!(doc.buffer_views.iter().all(|bv| bv.byte_offset % 8 == 0));
+    }
+
+    #[test]
+    fn same_input_gives_byte_identical_files() {
+        let root = city();
+        let dir = tempfile::tempdir().unwrap();
+        write(&dir.path().join("a"), &root, Compression::Meshopt).unwrap();
+        write(&dir.path().join("b"), &root, Compression::Meshopt).unwrap();
+        let files = |d: &Path| {
+            let mut v = Vec::new();
+            let mut stack = vec![d.to_path_buf()];
+            while let Some(p) = stack.pop() {
+                for e in std::fs::read_dir(&p).unwrap() {
+                    let e = e.unwrap().path();
+                    if e.is_dir() {
+                        stack.push(e);
+                    } else {
+                        v.push((
+                            e.strip_prefix(d).unwrap().to_path_buf(),
+                            std::fs::read(&e).unwrap(),
+                        ));
+                    }
+                }
+            }
+            v.sort();
+            v
+        };
+        let (a, b) = (files(&dir.path().join("a")), files(&dir.path().join("b")));
+        assert!(a.len() > 5);
+        assert_eq!(a, b);
+    }
+
+    #[test]
+    fn boxes_enclose_content_and_descendants() {
+        let root = city();
+        let dir = tempfile::tempdir().unwrap();
+        write(&dir.path().join("out"), &root, Compression::Meshopt).unwrap();
+        let back = read_tileset(&dir.path().join("out/tileset.json")).unwrap();
+        let inside =
+            |b: &[f64; 12], p: [f64; 3]| (0..3).all(|i| (p[i] - b[i]).abs() <= b[3 + 4 * i] + 1e-6);
+        for t in &back.tiles {
+            let b = t.bounding_box.unwrap();
+            assert_eq!(
+                [b[4], b[5], b[6], b[8], b[9], b[10]],
+                [0.0; 6],
+                "axis-aligned in ENU"
+            );
+            for &p in t.content.iter().flat_map(|c| &c.positions_local) {
+                assert!(
+                    inside(&b, p),
+                    "tile {}: {p:?} outside {b:?}",
+                    t.path_in_tree
+                );
+            }
+            for &c in &t.children {
+                let cb = back.tiles[c].bounding_box.unwrap();
+                for corner in 0..8 {
+                    let p: [f64; 3] = std::array::from_fn(|i| {
+                        cb[i] + if corner >> i & 1 == 1 { 1.0 } else { -1.0 } * cb[3 + 4 * i]
+                    });
+                    assert!(
+                        inside(&b, p),
+                        "child {} pokes out of {}",
+                        back.tiles[c].path_in_tree,
+                        t.path_in_tree
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn tileset_json_has_transform_replace_and_tree_uris() {
+        let root = city();
+        let dir = tempfile::tempdir().unwrap();
+        let stats = write(&dir.path().join("out"), &root, Compression::Meshopt).unwrap();
+        let text = std::fs::read_to_string(dir.path().join("out/tileset.json")).unwrap();
+        assert_eq!(text.len() as u64, stats.tileset_json_bytes);
+        let ts: crate::tileset_json::Tileset = serde_json::from_str(&text).unwrap();
+        assert_eq!(ts.asset.version, "1.1");
+        assert!(ts
+            .asset
+            .generator
+            .as_deref()
+            .unwrap()
+            .starts_with("citylod "));
+        assert_eq!(ts.root.refine.as_deref(), Some("REPLACE"));
+        assert_eq!(ts.root.content.as_ref().unwrap().uri, "tiles/0.glb");
+        assert_eq!(ts.root.children[1].children[0].children.len(), 2);
+        let back = read_tileset(&dir.path().join("out/tileset.json")).unwrap();
+        for t in &back.tiles {
+            if let Some(uri) = &t.content_uri {
+                assert_eq!(uri, &format!("tiles/{}.glb", t.path_in_tree));
+                assert!(dir.path().join("out").join(uri).is_file());
+            }
+            for &c in &t.children {
+                assert!(back.tiles[c].geometric_error_m <= t.geometric_error_m);
+            }
+        }
+        assert_eq!(stats.tiles, back.tiles.len());
+    }
+
+    #[test]
+    fn failed_write_leaves_the_previous_tileset_whole() {
+        let dir = tempfile::tempdir().unwrap();
+        let dest = dir.path().join("out");
+        write(&dest, &city(), Compression::Meshopt).unwrap();
+        let before = std::fs::read(dest.join("tileset.json")).unwrap();
+        let mut bad = city();
+        bad.children[1].features.push(ContentFeature {
+            mesh: box_mesh(0.0, 0.0, 1.0, 1.0, 0.0, 1.0),
+            class: 7,
+            values: vec![],
+        });
+        let err = write(&dest, &bad, Compression::Meshopt).unwrap_err();
+        assert!(err.to_string().contains("class 7"), "{err}");
+        let mut nan = city();
+        nan.features[0].mesh.positions[0][2] = f64::NAN;
+        assert!(write(&dest, &nan, Compression::None).is_err());
+        assert_eq!(std::fs::read(dest.join("tileset.json")).unwrap(), before);
+        assert_eq!(
+            std::fs::read_dir(dir.path()).unwrap().count(),
+            1,
+            "no staging directory left"
+        );
+        read_tileset(&dest.join("tileset.json")).unwrap();
+    }
+
+    /// Runs the Khronos glTF-Validator (npm `gltf-validator`, installed by `npm ci` at the repo root)
+    /// on every glb of the synthetic city, both compressions. Skips when node or the package is absent.
+    #[test]
+    fn glbs_pass_the_khronos_validator() {
+        let validator = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../node_modules/gltf-validator"
+        );
+        if !Path::new(validator).is_dir() {
+            eprintln!("skipped: {validator} not found (run `npm ci` at the repository root)");
+            return;
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let mut glbs = Vec::new();
+        for (name, c) in [
+            ("meshopt", Compression::Meshopt),
+            ("plain", Compression::None),
+        ] {
+            let out = dir.path().join(name);
+            write(&out, &city(), c).unwrap();
+            let back = read_tileset(&out.join("tileset.json")).unwrap();
+            glbs.extend(
+                back.tiles
+                    .iter()
+                    .filter_map(|t| t.content_uri.as_ref().map(|u| out.join(u))),
+            );
+        }
+        const SCRIPT: &str = r#"
+            const v = require(process.argv[1]);
+            const fs = require('fs');
+            (async () => {
+              let errors = 0;
+              for (const f of process.argv.slice(2)) {
+                const r = await v.validateBytes(new Uint8Array(fs.readFileSync(f)), { uri: f });
+                errors += r.issues.numErrors;
+                for (const m of r.issues.messages.filter(m => m.severity <= 1))
+                  console.log(`${f}: ${m.severity === 0 ? 'error' : 'warning'} ${m.code} ${m.pointer || ''} ${m.message}`);
+              }
+              console.log(`errors: ${errors}`);
+            })();
+        "#;
+        let out = match std::process::Command::new("node")
+            .arg("-e")
+            .arg(SCRIPT)
+            .arg(validator)
+            .args(&glbs)
+            .output()
+        {
+            Ok(o) => o,
+            Err(e) => {
+                eprintln!("skipped: cannot run node: {e}");
+                return;
+            }
+        };
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "{text}\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(text.contains("errors: 0"), "{text}");
+        assert!(!text.contains("warning"), "{text}");
+        assert!(glbs.len() >= 10);
+    }
+
+    /// Decodes every EXT_meshopt_compression stream with the JavaScript decoder browsers use (npm
+    /// `meshoptimizer`) and compares it byte for byte with the same tile written uncompressed.
+    /// Skips when node or the package is absent.
+    #[test]
+    fn meshopt_streams_decode_identically_in_the_js_decoder() {
+        let decoder = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../node_modules/meshoptimizer/index.js"
+        );
+        if !Path::new(decoder).is_file() {
+            eprintln!("skipped: {decoder} not found (run `npm ci` at the repository root)");
+            return;
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let root = city();
+        write(&dir.path().join("meshopt"), &root, Compression::Meshopt).unwrap();
+        write(&dir.path().join("plain"), &root, Compression::None).unwrap();
+        const SCRIPT: &str = r#"
+            const [decoderPath, dir] = process.argv.slice(1);
+            const fs = require('fs'), path = require('path');
+            const parse = f => {
+              const b = fs.readFileSync(f), jl = b.readUInt32LE(12);
+              return { json: JSON.parse(b.subarray(20, 20 + jl).toString()), bin: b.subarray(28 + jl) };
+            };
+            const walk = d => fs.readdirSync(d, { withFileTypes: true }).flatMap(e =>
+              e.isDirectory() ? walk(path.join(d, e.name)) : [path.join(d, e.name)]);
+            import(decoderPath).then(async ({ MeshoptDecoder }) => {
+              await MeshoptDecoder.ready;
+              let views = 0, mismatches = 0;
+              for (const f of walk(path.join(dir, 'meshopt', 'tiles'))) {
+                const m = parse(f), p = parse(f.replace(path.join(dir, 'meshopt'), path.join(dir, 'plain')));
+                m.json.bufferViews.forEach((bv, i) => {
+                  const e = bv.extensions && bv.extensions.EXT_meshopt_compression;
+                  if (!e) return;
+                  const out = new Uint8Array(e.count * e.byteStride);
+                  MeshoptDecoder.decodeGltfBuffer(out, e.count, e.byteStride,
+                    m.bin.subarray(e.byteOffset, e.byteOffset + e.byteLength), e.mode, e.filter || 'NONE');
+                  const pv = p.json.bufferViews[i];
+                  views++;
+                  if (Buffer.compare(Buffer.from(out), p.bin.subarray(pv.byteOffset, pv.byteOffset + pv.byteLength)) !== 0) {
+                    mismatches++;
+                    console.log(`mismatch ${f} bufferView ${i}`);
+                  }
+                });
+              }
+              console.log(`views: ${views} mismatches: ${mismatches}`);
+            });
+        "#;
+        let out = match std::process::Command::new("node")
+            .arg("-e")
+            .arg(SCRIPT)
+            .arg(decoder)
+            .arg(dir.path())
+            .output()
+        {
+            Ok(o) => o,
+            Err(e) => {
+                eprintln!("skipped: cannot run node: {e}");
+                return;
+            }
+        };
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "{text}\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(text.contains(" mismatches: 0"), "{text}");
+        assert!(!text.contains("views: 0 "), "{text}");
+    }
+
+    #[test]
+    fn tiles_over_65535_vertices_use_32_bit_indices() {
+        let root = TileSpec {
+            features: (0..3300).map(building).collect(),
+            ..Default::default()
+        };
+        for compression in [Compression::Meshopt, Compression::None] {
+            let dir = tempfile::tempdir().unwrap();
+            write(&dir.path().join("out"), &root, compression).unwrap();
+            let glb = std::fs::read(dir.path().join("out/tiles/0.glb")).unwrap();
+            let (json, _) = crate::glb::parse_glb(&glb).unwrap();
+            let doc: crate::gltf_json::Gltf = serde_json::from_slice(json).unwrap();
+            assert_eq!(
+                doc.accessors[2].component_type,
+                crate::gltf_json::UNSIGNED_INT
+            );
+            assert_eq!(doc.accessors[0].count, 3300 * 20);
+            let back = read_tileset(&dir.path().join("out/tileset.json")).unwrap();
+            check_round_trip(&root, &back);
+        }
+    }
+
+    #[test]
+    fn reader_follows_external_tilesets_and_their_transforms() {
+        let dir = tempfile::tempdir().unwrap();
+        write(&dir.path().join("inner"), &city(), Compression::Meshopt).unwrap();
+        let o = frame().origin_ecef();
+        let outer = crate::tileset_json::Tileset {
+            asset: crate::tileset_json::Asset {
+                version: "1.1".into(),
+                generator: None,
+            },
+            geometric_error: 1e5,
+            root: crate::tileset_json::Tile {
+                transform: None,
+                bounding_volume: crate::tileset_json::BoundingVolume {
+                    r#box: Some([
+                        o[0], o[1], o[2], 1e4, 0.0, 0.0, 0.0, 1e4, 0.0, 0.0, 0.0, 1e4,
+                    ]),
+                    region: None,
+                    sphere: None,
+                },
+                geometric_error: 1e5,
+                refine: Some("REPLACE".into()),
+                content: Some(crate::tileset_json::Content {
+                    uri: "inner/tileset.json".into(),
+                }),
+                children: vec![],
+            },
+        };
+        std::fs::write(
+            dir.path().join("tileset.json"),
+            serde_json::to_vec(&outer).unwrap(),
+        )
+        .unwrap();
+        let inner = read_tileset(&dir.path().join("inner/tileset.json")).unwrap();
+        let both = read_tileset(&dir.path().join("tileset.json")).unwrap();
+        assert_eq!(both.tiles.len(), inner.tiles.len() + 1);
+        assert_eq!(both.tiles[0].children, vec![1]);
+        for (a, b) in inner.tiles.iter().zip(&both.tiles[1..]) {
+            assert_eq!(b.path_in_tree, a.path_in_tree.replacen('0', "0/ext", 1));
+            assert_eq!(a.content.is_some(), b.content.is_some());
+            let (Some(ca), Some(cb)) = (&a.content, &b.content) else {
+                continue;
+            };
+            assert_eq!(ca.features, cb.features);
+            assert_eq!(ca.triangles, cb.triangles);
+            for (p, q) in ca.positions_local.iter().zip(&cb.positions_local) {
+                let want = frame().enu_to_ecef(*p);
+                assert!(
+                    (0..3).all(|i| (want[i] - q[i]).abs() < 1e-6),
+                    "{want:?} vs {q:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn omit_normals_writes_no_normal_attribute() {
+        let root = tile_spatially((0..10).map(building).collect(), 100, 100_000);
+        let dir = tempfile::tempdir().unwrap();
+        let out = Staging::create(&dir.path().join("out")).unwrap();
+        let opts = WriteOptions {
+            omit_normals: true,
+            ..Default::default()
+        };
+        let lean = write_tileset(&out, &root, &frame(), &schema(), &opts).unwrap();
+        out.commit().unwrap();
+        let back = read_tileset(&dir.path().join("out/tileset.json")).unwrap();
+        let glb = back.tiles[0].content.as_ref().unwrap();
+        assert!(glb.normals_local.is_empty() && !glb.positions_local.is_empty());
+        let full = write(&dir.path().join("full"), &root, Compression::Meshopt).unwrap();
+        assert!(lean.glb_bytes < full.glb_bytes);
+    }
+
+    #[test]
+    fn features_without_triangles_give_no_content() {
+        let mut lone = building(0);
+        lone.mesh.triangles.clear();
+        let mut flat = building(1);
+        flat.mesh
+            .positions
+            .iter_mut()
+            .for_each(|p| *p = [1.0, 2.0, 3.0]); // all corners coincide
+        let root = TileSpec {
+            features: vec![lone, flat],
+            children: vec![TileSpec {
+                features: vec![building(2)],
+                ..Default::default()
+            }],
+            geometric_error_m: 5.0,
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let stats = write(&dir.path().join("out"), &root, Compression::Meshopt).unwrap();
+        assert_eq!(
+            (stats.tiles, stats.content_tiles, stats.features),
+            (2, 1, 1)
+        );
+        let back = read_tileset(&dir.path().join("out/tileset.json")).unwrap();
+        assert!(back.tiles[0].content.is_none() && back.tiles[1].content.is_some());
+    }
+}
