@@ -72,6 +72,15 @@ impl OrientedBox {
         })
     }
 
+    /// Whether any part of the box may be inside the view frustum of `camera` (near plane and four
+    /// sides, no far plane) — the culling test of [`select`]; conservative near frustum corners.
+    pub fn is_visible(&self, camera: &Camera, viewport: Viewport) -> bool {
+        !camera
+            .frustum_planes(viewport)
+            .iter()
+            .any(|p| self.outside(p))
+    }
+
     /// Whether the box lies entirely on the outside of `plane`.
     fn outside(&self, plane: &Plane) -> bool {
         let s = vec3::dot(plane.n, self.center_m) + plane.d;

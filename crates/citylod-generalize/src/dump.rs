@@ -558,6 +558,96 @@ mod tests {
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
+    /// Boston's 1000 central buildings as three levels: the buildings, 80 m grid blocks, one block.
+    /// Set `CITYLOD_DUMP_DIR` to keep the pictures.
+    #[test]
+    fn boston_levels_dump_draws_every_level() {
+        use crate::merge::tests::{boston_sample, gap_mst_hints, grid_groups};
+        let Some(fps) = boston_sample(1000) else {
+            return;
+        };
+        let buildings: Vec<Building> = fps
+            .iter()
+            .enumerate()
+            .map(|(i, fp)| Building {
+                id: BuildingId(i as u32),
+                source_id: format!("b{i}"),
+                footprint: fp.clone(),
+                base_z_m: 0.0,
+                height_m: 10.0 + (i % 7) as f64 * 3.0,
+                height_source: HeightSource::Default,
+                attributes: Default::default(),
+                mesh: None,
+            })
+            .collect();
+        let a_avg_m2 = buildings.iter().map(|b| b.area_m2()).sum::<f64>() / buildings.len() as f64;
+        let make = |members: Vec<u32>, children: Vec<u32>, fp: Footprint| {
+            let refs: Vec<&Building> = members.iter().map(|&m| &buildings[m as usize]).collect();
+            let mut n = node(fp, members.clone(), children);
+            crate::node_stats(&refs, &n.footprint, &[]).write_into(&mut n);
+            n
+        };
+        let l0: Vec<Node> = (0..fps.len() as u32)
+            .map(|i| make(vec![i], vec![], fps[i as usize].clone()))
+            .collect();
+        let l1: Vec<Node> = grid_groups(&fps, 80.0)
+            .into_iter()
+            .map(|g| {
+                let parts: Vec<&Footprint> = g.iter().map(|&i| &fps[i]).collect();
+                let m = crate::merge_footprints(&parts, &gap_mst_hints(&parts)).footprint;
+                let fp = crate::simplify_footprint(&m, a_avg_m2 / 50.0, 175.0);
+                let mut members: Vec<u32> = g.iter().map(|&i| i as u32).collect();
+                members.sort();
+                make(members.clone(), members, fp)
+            })
+            .collect();
+        let parts: Vec<&Footprint> = l1.iter().map(|n| &n.footprint).collect();
+        let m = crate::merge_footprints(&parts, &gap_mst_hints(&parts)).footprint;
+        let top = crate::simplify_footprint(&m, a_avg_m2 * 20.0 / 50.0, 175.0);
+        let l2 = vec![make(
+            (0..fps.len() as u32).collect(),
+            (0..l1.len() as u32).collect(),
+            top,
+        )];
+        let n1 = l1.len();
+        let h = Hierarchy {
+            levels: [l0, l1, l2]
+                .into_iter()
+                .map(|nodes| Level {
+                    threshold_m: 0.0,
+                    nodes,
+                })
+                .collect(),
+        };
+        assert!(
+            h.check_invariants(fps.len()).is_empty(),
+            "{:?}",
+            h.check_invariants(fps.len())
+        );
+        let keep = std::env::var_os("CITYLOD_DUMP_DIR").map(PathBuf::from);
+        let dir = keep.clone().unwrap_or_else(|| scratch("boston"));
+        let frame = LocalFrame::new(-71.07, 42.35, 0.0);
+        dump_levels(&dir, &h, &buildings, &frame).unwrap();
+        for (k, want) in [(0, 1000), (1, n1), (2, 1)] {
+            let v: Value = serde_json::from_str(
+                &std::fs::read_to_string(dir.join(format!("level-{k}.geojson"))).unwrap(),
+            )
+            .unwrap();
+            assert_eq!(v["features"].as_array().unwrap().len(), want);
+            let (_, _, px) = decode(&dir.join(format!("level-{k}.png")));
+            let colours: std::collections::BTreeSet<[u8; 3]> =
+                px.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+            assert!(
+                colours.len() > want.min(20),
+                "level {k}: {} colours",
+                colours.len()
+            );
+        }
+        if keep.is_none() {
+            std::fs::remove_dir_all(&dir).unwrap();
+        }
+    }
+
     #[test]
     fn dump_is_byte_identical_across_runs() {
         let (buildings, h) = sample();

@@ -172,6 +172,27 @@ pub fn refine_pairs(
         .collect();
     let tree = RTree::bulk_load(items);
     let keep = 1.0 - lambda_adjacent;
+
+    // Cluster labels at a ladder of distances 0, ¼, ½, 1, 2, …, 512 m: a pair whose buildings already
+    // share a label at a rung ≤ its bound is joined below the bound and is dropped before the exact sweep.
+    let ladder: Vec<f64> = std::iter::once(0.0).chain((-2..=9).map(|k| 2f64.powi(k))).collect();
+    let mut labels: Vec<Vec<u32>> = Vec::with_capacity(ladder.len());
+    {
+        let mut uf = UnionFind::new(n);
+        let mut next = 0;
+        for &rung in &ladder {
+            while next < merges.len() && merges[next].d_m <= rung {
+                uf.union(merges[next].a, merges[next].b);
+                next += 1;
+            }
+            labels.push((0..n as u32).map(|i| uf.find(i)).collect());
+        }
+    }
+    let joined_below = |bound: f64, a: usize, b: usize| {
+        let rung = ladder.partition_point(|&r| r <= bound);
+        rung > 0 && labels[rung - 1][a] == labels[rung - 1][b]
+    };
+
     let mut out = Vec::new();
     for start in (0..n).step_by(CHUNK) {
         let end = (start + CHUNK).min(n);
@@ -183,13 +204,16 @@ pub fn refine_pairs(
                 if let Some(bi) = &boxes[i] {
                     for o in tree.locate_in_envelope_intersecting(&grown(bi)) {
                         let j = o.data as usize;
-                        if j <= i || existing.binary_search(&(i as u32, j as u32)).is_ok() {
+                        if j <= i {
                             continue;
                         }
                         let bj = boxes[j].as_ref().expect("in the tree");
                         let gx = (bi[0] - bj[2]).max(bj[0] - bi[2]).max(0.0);
                         let gy = (bi[1] - bj[3]).max(bj[1] - bi[3]).max(0.0);
-                        found.push((keep * gx.hypot(gy), i as u32, j as u32));
+                        let bound = keep * gx.hypot(gy);
+                        if !joined_below(bound, i, j) {
+                            found.push((bound, i as u32, j as u32));
+                        }
                     }
                 }
                 found
@@ -203,7 +227,7 @@ pub fn refine_pairs(
                 uf.union(merges[next].a, merges[next].b);
                 next += 1;
             }
-            if uf.find(a) != uf.find(b) {
+            if uf.find(a) != uf.find(b) && existing.binary_search(&(a, b)).is_err() {
                 out.push((a, b));
             }
         }

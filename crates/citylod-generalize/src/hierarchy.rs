@@ -33,8 +33,9 @@ pub struct GeneralizeOptions {
     pub reach_m: Option<f64>,
     /// See `reach_m` (default 0.5).
     pub reach_factor: f64,
-    /// The refinement pass looks this many reaches far (default 10; 0 turns it off): merges with
-    /// d < (1 − λ)·reach_far_factor·reach are then the same as with all pairs.
+    /// The refinement pass looks this many reaches far (default 6; 0 turns it off): merges with
+    /// d < (1 − λ)·reach_far_factor·reach are then the same as with all pairs. On 1,000 central
+    /// Boston buildings, identical partitions (vs all pairs) were 88 % without it, 96 % at 3, 100 % at 5.
     pub reach_far_factor: f64,
     /// Footprint vertices per building entering the Delaunay triangulation (default 16).
     pub max_delaunay_points_per_building: usize,
@@ -51,7 +52,7 @@ impl Default for GeneralizeOptions {
             max_inserts_per_level: 2,
             reach_m: None,
             reach_factor: 0.5,
-            reach_far_factor: 10.0,
+            reach_far_factor: 6.0,
             max_delaunay_points_per_building: 16,
         }
     }

@@ -1180,6 +1180,31 @@ pub(crate) mod tests {
         hints
     }
 
+    #[test]
+    #[ignore]
+    fn tmp_debug_boston_full() {
+        let Some(fps) = boston_sample(30000) else { return };
+        let buildings: Vec<citylod_model::Building> = fps.iter().enumerate().map(|(i, fp)| citylod_model::Building {
+            id: citylod_model::BuildingId(i as u32), source_id: format!("{i}"), footprint: fp.clone(), base_z_m: 0.0,
+            height_m: 10.0, height_source: citylod_model::HeightSource::Default, attributes: Default::default(), mesh: None,
+        }).collect();
+        let g = crate::generalize(&buildings, &crate::GeneralizeOptions::default()).unwrap();
+        let h = &g.hierarchy;
+        for k in 1..h.levels.len() {
+            for (i, n) in h.levels[k].nodes.iter().enumerate() {
+                let kids: Vec<&Footprint> = n.children.iter().map(|c| &h.levels[k - 1].nodes[c.0 as usize].footprint).collect();
+                let largest = kids.iter().map(|f| f.unsigned_area()).fold(0.0, f64::max);
+                if n.footprint.unsigned_area() < 0.99 * largest {
+                    eprintln!("level {k} node {i}: area {} largest child {largest}", n.footprint.unsigned_area());
+                    for c in &kids { eprintln!("  child valid {} area {} polys {}", c.is_valid(), c.unsigned_area(), c.0.len()); }
+                    let m = merge_footprints(&kids, &[]);
+                    eprintln!("  plain union area {} valid {}", m.footprint.unsigned_area(), m.footprint.is_valid());
+                    if kids.len() <= 3 { for c in &kids { eprintln!("  {:?}", c); } }
+                }
+            }
+        }
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]
         #[test]

@@ -65,7 +65,7 @@ proptest! {
         prop_assert_eq!(h.levels.last().unwrap().nodes.len(), 1);
         for li in 1..h.levels.len() {
             let (lv, below) = (&h.levels[li], &h.levels[li - 1]);
-            prop_assert!(lv.nodes.len() < below.nodes.len());
+            prop_assert!(lv.nodes.len() < below.nodes.len() || n == 1);
             for node in &lv.nodes {
                 prop_assert!(node.children.len() <= g.report.delta_p);
                 prop_assert!(node.dh_m >= 0.0 && node.da_m2 >= 0.0);

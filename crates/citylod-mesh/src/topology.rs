@@ -140,23 +140,31 @@ fn touching_pairs_of_groups(
     out
 }
 
-fn groups_touch(mesh: &Mesh3d, ga: &[u32], gb: &[u32], ba: &Aabb, bb: &Aabb, tol: f64) -> bool {
-    let near = |g: &[u32], other: &Aabb| -> Vec<(u32, Aabb)> {
+fn groups_touch(mesh: &Mesh3d, ga: &[u32], gb: &[u32], _ba: &Aabb, _bb: &Aabb, tol: f64) -> bool {
+    let pa: Vec<[V3; 3]> = ga.iter().map(|&t| tri_points(mesh, t)).collect();
+    let pb: Vec<[V3; 3]> = gb.iter().map(|&t| tri_points(mesh, t)).collect();
+    triangle_sets_touch(&pa, &pb, tol)
+}
+
+/// Whether two triangle sets come within `tol` (m) of each other (AABB pre-filter, exact triangle
+/// distances).
+pub(crate) fn triangle_sets_touch(a: &[[V3; 3]], b: &[[V3; 3]], tol: f64) -> bool {
+    let ba = Aabb::of(a.iter().flatten().copied());
+    let bb = Aabb::of(b.iter().flatten().copied());
+    if !ba.expanded(tol).overlaps(&bb) {
+        return false;
+    }
+    let near = |g: &[[V3; 3]], other: &Aabb| -> Vec<(usize, Aabb)> {
         let ob = other.expanded(tol);
-        g.iter()
-            .map(|&t| (t, Aabb::of(tri_points(mesh, t))))
-            .filter(|(_, b)| b.overlaps(&ob))
-            .collect()
+        g.iter().enumerate().map(|(i, t)| (i, Aabb::of(*t))).filter(|(_, b)| b.overlaps(&ob)).collect()
     };
-    let na = near(ga, bb);
-    let nb = near(gb, ba);
+    let na = near(a, &bb);
+    let nb = near(b, &ba);
     let tol2 = tol * tol;
-    for (ta, boxa) in &na {
+    for (ia, boxa) in &na {
         let boxa = boxa.expanded(tol);
-        for (tb, boxb) in &nb {
-            if boxa.overlaps(boxb)
-                && triangle_triangle_dist2(tri_points(mesh, *ta), tri_points(mesh, *tb)) <= tol2
-            {
+        for (ib, boxb) in &nb {
+            if boxa.overlaps(boxb) && triangle_triangle_dist2(a[*ia], b[*ib]) <= tol2 {
                 return true;
             }
         }

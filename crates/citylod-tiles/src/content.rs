@@ -301,6 +301,11 @@ pub(crate) fn encode_content(
                     feature: members[k.min(members.len() - 1)],
                     msg: format!("property {}: {msg}", p.name),
                 })?;
+            // A string column that is empty (null) in every row would need a zero-length buffer view, which
+            // glTF forbids; the table leaves the property out instead, which means "no value" for all rows.
+            if col.values.is_empty() && col.string_offsets.is_some() {
+                continue;
+            }
             let mut plain = |data: &[u8]| {
                 doc.buffer_views.push(BufferView {
                     buffer: 0,

@@ -238,6 +238,12 @@ impl Decoder<'_> {
                         row.insert(name.clone(), v);
                     }
                 }
+                // A property a table leaves out has no value for any of its features.
+                for name in class.properties.keys() {
+                    for row in rows.iter_mut() {
+                        row.entry(name.clone()).or_insert(crate::PropValue::Null);
+                    }
+                }
                 out.features
                     .extend(rows.into_iter().map(|values| FeatureRow {
                         class: table.class.clone(),

@@ -112,8 +112,9 @@ struct BuildReport<'a> {
     counts: Counts,
     ingest: &'a citylod_ingest::IngestReport,
     mesh_skipped: Vec<FeatureIssue>,
+    /// The generalization report without its timings (those go to `timings_ms`, so the rest is deterministic).
     #[serde(skip_serializing_if = "Option::is_none")]
-    generalize: Option<&'a citylod_generalize::GeneralizeReport>,
+    generalize: Option<serde_json::Value>,
     lod: Vec<LevelSummary>,
     tiles: &'a citylod_tiles::WriteStats,
     timings_ms: Timings,
@@ -144,6 +145,8 @@ pub struct LevelSummary {
 struct Timings {
     ingest: u64,
     generalize: u64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    generalize_phases: Option<serde_json::Value>,
     mesh: u64,
     tiles: u64,
     total: u64,
@@ -252,6 +255,8 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
     .with_context(|| format!("writing the tileset to {}", args.out.display()))?;
     timings.tiles = t.elapsed().as_millis() as u64;
     timings.total = t_all.elapsed().as_millis() as u64;
+    let mut generalize_report = generalized.as_ref().map(|g| serde_json::to_value(&g.report)).transpose()?;
+    timings.generalize_phases = generalize_report.as_mut().and_then(|v| v.as_object_mut()?.remove("timings"));
     let r = &ingested.report;
     let report = BuildReport {
         citylod_version: env!("CARGO_PKG_VERSION"),
@@ -278,7 +283,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         },
         ingest: r,
         mesh_skipped,
-        generalize: generalized.as_ref().map(|g| &g.report),
+        generalize: generalize_report,
         lod: lod_summary,
         tiles: &stats,
         timings_ms: timings,

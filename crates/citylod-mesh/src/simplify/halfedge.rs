@@ -170,6 +170,21 @@ impl CollapseMesh {
         true
     }
 
+    /// Component of triangle `t`.
+    pub fn component_of_triangle(&self, t: u32) -> u32 {
+        self.comp_of_tri[t as usize]
+    }
+
+    /// Corner positions of the alive triangles of component `c` as they would be after `u → v`.
+    pub fn component_after(&self, c: u32, u: u32, v: u32) -> Vec<[V3; 3]> {
+        (0..self.tris.len())
+            .filter(|&t| self.tri_alive[t] && self.comp_of_tri[t] == c)
+            .map(|t| self.tris[t])
+            .filter(|tri| !(tri.contains(&u) && tri.contains(&v)))
+            .map(|tri| tri.map(|x| self.pos[if x == u { v } else { x } as usize]))
+            .collect()
+    }
+
     /// Moves `u` onto `v`; returns the number of triangles removed. Caller checked [`Self::can_collapse`].
     pub fn collapse(&mut self, u: u32, v: u32) -> usize {
         debug_assert!(self.can_collapse(u, v));
@@ -251,12 +266,16 @@ impl PartialOrd for Entry {
 /// Cost of moving `u` onto `v` given the current quadrics; `None` forbids the move.
 pub(crate) type CostFn<'a> = dyn Fn(&CollapseMesh, &[Quadric], u32, u32) -> Option<f64> + 'a;
 
+/// Extra rule a caller may impose on a valid collapse `u → v` (true = allowed).
+pub(crate) type VetoFn<'a> = dyn Fn(&CollapseMesh, u32, u32) -> bool + 'a;
+
 /// Collapses cheapest-first until at least `remove_target` triangles are gone or nothing valid is left.
 /// Quadrics accumulate: after `u → v`, `q[v] += q[u]`.
 pub(crate) fn collapse_until(
     m: &mut CollapseMesh,
     q: &mut [Quadric],
     cost: &CostFn,
+    allow: Option<&VetoFn>,
     remove_target: usize,
 ) -> Stop {
     let start = m.alive_tris;
@@ -290,7 +309,10 @@ pub(crate) fn collapse_until(
             if start - m.alive_tris >= remove_target {
                 return Stop::Reached;
             }
-            if stamp[e.u as usize] != e.stamp || !m.can_collapse(e.u, e.v) {
+            if stamp[e.u as usize] != e.stamp
+                || !m.can_collapse(e.u, e.v)
+                || allow.is_some_and(|f| !f(m, e.u, e.v))
+            {
                 continue;
             }
             q[e.v as usize] = {
@@ -300,8 +322,15 @@ pub(crate) fn collapse_until(
             };
             m.collapse(e.u, e.v);
             progressed = true;
-            let ring = m.neighbours(e.v);
-            for w in std::iter::once(e.v).chain(ring) {
+            // Re-queue the two-ring: validity (link condition, flips) of moves there may have changed.
+            let mut ring = m.neighbours(e.v);
+            for w in ring.clone() {
+                ring.extend(m.neighbours(w));
+            }
+            ring.push(e.v);
+            ring.sort_unstable();
+            ring.dedup();
+            for w in ring {
                 stamp[w as usize] += 1;
                 push_vertex(m, q, &mut heap, w, stamp[w as usize]);
             }
@@ -381,7 +410,7 @@ pub(crate) mod tests {
             Some(q[u as usize].eval(pos[v as usize]))
         };
         let n0 = m.alive_tris;
-        collapse_until(&mut m, &mut q, &cost, n0 - 12);
+        collapse_until(&mut m, &mut q, &cost, None, n0 - 12);
         m.check_invariants();
         let tris: Vec<[u32; 3]> = (0..m.tris.len())
             .filter(|&t| m.tri_alive[t])

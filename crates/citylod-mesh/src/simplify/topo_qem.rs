@@ -13,7 +13,7 @@ use super::geom::{
 use super::halfedge::{collapse_until, CollapseMesh, Stop};
 use super::qem::{vertex_quadrics, Quadric};
 use super::{compact, rate, rate_note, SimplifyResult};
-use crate::topology::{contact_report, TOUCH_TOLERANCE_M};
+use crate::topology::{contact_report, touching_pairs, triangle_sets_touch, TOUCH_TOLERANCE_M};
 
 /// Buffer of §3.2.3 (visually attached components): bounding boxes and edges grow by 1 % of their length.
 const BUFFER_FRACTION: f64 = 0.01;
@@ -238,6 +238,18 @@ pub(crate) fn simplify_topo_qem(mesh: &Mesh3d, a: f64, target_rate: f64) -> Simp
     )
 }
 
+/// For each component, the components it touches in the input.
+fn contact_partners(mesh: &Mesh3d, comps: &Components) -> Vec<Vec<u32>> {
+    let mut partners = vec![Vec::new(); comps.count];
+    if comps.count > 1 {
+        for (a, b) in touching_pairs(mesh, comps, TOUCH_TOLERANCE_M) {
+            partners[a as usize].push(b);
+            partners[b as usize].push(a);
+        }
+    }
+    partners
+}
+
 fn run_once(
     mesh: &Mesh3d,
     comps: &Components,
@@ -253,14 +265,6 @@ fn run_once(
         let ar = tri_area(p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]);
         for &v in t {
             area_around[v as usize] += ar;
-        }
-    }
-    // Contact planes join a boundary vertex's quadric, so sliding off the other component costs.
-    for (v, class) in classes.iter().enumerate() {
-        if let VertexClass::Boundary { planes } = class {
-            for &(_, n, off) in planes {
-                q[v].add(&Quadric::from_plane(n, off, area_around[v].max(1e-6)));
-            }
         }
     }
     // Vertices on one-triangle edges: holes, or (if also boundary) the open side of a part that leans on
@@ -321,7 +325,22 @@ fn run_once(
             }
         }
     };
-    let stop = collapse_until(&mut m, &mut q, &cost, remove_target);
+    // Hard rule on top of the paper's soft cost: a collapse may not pull a component away from one it
+    // touched (checked on the post-collapse triangles against each partner, same test as the report).
+    let partners = contact_partners(mesh, comps);
+    let allow = |m: &CollapseMesh, u: u32, v: u32| -> bool {
+        let Some(&t) = m.vtris[u as usize].first() else { return true };
+        let c = m.component_of_triangle(t);
+        if partners[c as usize].is_empty() {
+            return true;
+        }
+        let after = m.component_after(c, u, v);
+        partners[c as usize].iter().all(|&d| {
+            let other = m.component_after(d, u32::MAX, u32::MAX);
+            triangle_sets_touch(&after, &other, TOUCH_TOLERANCE_M)
+        })
+    };
+    let stop = collapse_until(&mut m, &mut q, &cost, Some(&allow), remove_target);
     let alive: Vec<u32> = (0..m.tris.len() as u32)
         .filter(|&t| m.tri_alive[t as usize])
         .collect();
