@@ -175,7 +175,9 @@ pub fn refine_pairs(
 
     // Cluster labels at a ladder of distances 0, ¼, ½, 1, 2, …, 512 m: a pair whose buildings already
     // share a label at a rung ≤ its bound is joined below the bound and is dropped before the exact sweep.
-    let ladder: Vec<f64> = std::iter::once(0.0).chain((-2..=9).map(|k| 2f64.powi(k))).collect();
+    let ladder: Vec<f64> = std::iter::once(0.0)
+        .chain((-2..=9).map(|k| 2f64.powi(k)))
+        .collect();
     let mut labels: Vec<Vec<u32>> = Vec::with_capacity(ladder.len());
     {
         let mut uf = UnionFind::new(n);

@@ -1183,11 +1183,10 @@ pub(crate) mod tests {
     #[test]
     #[ignore]
     fn tmp_debug_boston_full() {
-        let Some(fps) = boston_sample(30000) else { return };
-        let buildings: Vec<citylod_model::Building> = fps.iter().enumerate().map(|(i, fp)| citylod_model::Building {
-            id: citylod_model::BuildingId(i as u32), source_id: format!("{i}"), footprint: fp.clone(), base_z_m: 0.0,
-            height_m: 10.0, height_source: citylod_model::HeightSource::Default, attributes: Default::default(), mesh: None,
-        }).collect();
+        #[allow(dead_code)]
+        #[path = "../../../tests/common/mod.rs"]
+        mod common;
+        let (buildings, _) = common::load_geojson("boston/boston_buildings.geojson").unwrap();
         let g = crate::generalize(&buildings, &crate::GeneralizeOptions::default()).unwrap();
         let h = &g.hierarchy;
         for k in 1..h.levels.len() {

@@ -88,10 +88,17 @@ fn sparse_single_link_matches_brute_force_on_boston() {
     let (fraction, steps) = identical_partition_fraction(n, &brute, &sparse);
     let (fraction_first, _) = identical_partition_fraction(n, &brute, &first_pass);
     for factor in [2.0, 3.0, 5.0, 10.0] {
-        let opts = GeneralizeOptions { reach_far_factor: factor, ..Default::default() };
+        let opts = GeneralizeOptions {
+            reach_far_factor: factor,
+            ..Default::default()
+        };
         let (m, st) = cluster(&fps, &opts, &mut Default::default());
         let (f, _) = identical_partition_fraction(n, &brute, &m);
-        eprintln!("reach_far_factor {factor}: identical partitions {:.2} %, {} refinement pairs", f * 100.0, st.n_refine_pairs);
+        eprintln!(
+            "reach_far_factor {factor}: identical partitions {:.2} %, {} refinement pairs",
+            f * 100.0,
+            st.n_refine_pairs
+        );
     }
     eprintln!(
         "without the refinement pass: identical partitions at {:.2} %; refinement added {} pairs (reach far {:.1} m)",

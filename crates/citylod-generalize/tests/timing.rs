@@ -14,7 +14,10 @@ use std::time::Instant;
 fn cpu_s() -> f64 {
     let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
     let after = stat.rsplit(')').next().unwrap_or("");
-    let f: Vec<f64> = after.split_whitespace().filter_map(|x| x.parse().ok()).collect();
+    let f: Vec<f64> = after
+        .split_whitespace()
+        .filter_map(|x| x.parse().ok())
+        .collect();
     // After the command name: state (not a number, dropped), ppid, …, utime, stime (ticks of 1/100 s).
     if f.len() > 12 {
         (f[10] + f[11]) / 100.0

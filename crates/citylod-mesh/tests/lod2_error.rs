@@ -112,7 +112,11 @@ fn worst_den_haag() {
     let set = largest(all, 12);
     for b in &set {
         let comps = citylod_mesh::simplify::components::components(b.mesh.positions.len(), &b.mesh.triangles).count;
-        let mut line = format!("{} tris {} comps {comps}:", &b.id[5..13], b.mesh.triangles.len());
+        let cs = citylod_mesh::simplify::components::components(b.mesh.positions.len(), &b.mesh.triangles);
+        let cl = citylod_mesh::simplify::topo_qem::classify_vertices(&b.mesh, &cs);
+        let nb = cl.iter().filter(|c| matches!(c, citylod_mesh::simplify::topo_qem::VertexClass::Boundary { .. })).count();
+        let nh = cl.iter().filter(|c| matches!(c, citylod_mesh::simplify::topo_qem::VertexClass::Hole)).count();
+        let mut line = format!("{} tris {} verts {} boundary {nb} hole {nh} comps {comps}:", &b.id[5..13], b.mesh.triangles.len(), b.mesh.positions.len());
         for (name, m) in [("t2", Simplifier::TopoQem { a: 2.0 }), ("t1", Simplifier::TopoQem { a: 1.0 }), ("q", Simplifier::Qem)] {
             let out = simplify(&b.mesh, &m, 0.5);
             let e = hausdorff_m(&b.mesh, &out.mesh, 1.0);

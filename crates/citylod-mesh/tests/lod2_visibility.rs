@@ -115,7 +115,7 @@ fn counts_at_80() -> Option<Vec<Vec<usize>>> {
         (
             "topo_qem",
             Some(Simplifier::TopoQem {
-                a: DEFAULT_TOPO_QEM_A,
+                a: 1.0,
             }),
         ),
         ("qem", Some(Simplifier::Qem)),

@@ -260,13 +260,6 @@ fn run_once(
 ) -> (SimplifyResult, Stop) {
     let p = &mesh.positions;
     let mut q = vertex_quadrics(p, &mesh.triangles);
-    let mut area_around = vec![0.0; p.len()];
-    for t in &mesh.triangles {
-        let ar = tri_area(p[t[0] as usize], p[t[1] as usize], p[t[2] as usize]);
-        for &v in t {
-            area_around[v as usize] += ar;
-        }
-    }
     // Vertices on one-triangle edges: holes, or (if also boundary) the open side of a part that leans on
     // another (§3.2.3 rule 1). Both get the improved QEM so their open side cannot slide away for free.
     let mut open = vec![false; p.len()];

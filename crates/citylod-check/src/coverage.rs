@@ -1,0 +1,451 @@
+//! Cut coverage and tree consistency (DESIGN.md §6): the selected tiles plus the frustum-culled
+//! subtrees must cover every building exactly once; a block tile's Σ member_count must equal what
+//! its children hold; geometricError must never grow from a tile to a child; a building index must
+//! sit in one leaf only. Identity: `building_index` of leaf features, or a block's `members` list.
+
+use std::collections::BTreeMap;
+
+use crate::finding::{Finding, FindingKind, MAX_LISTED};
+use crate::select::Selection;
+use crate::tileset::{LoadedTileset, NodeRef};
+
+/// Relative slack when comparing geometric errors (float noise of the writer).
+const ERROR_SLACK: f64 = 1e-9;
+
+/// View-independent checks of the whole tree: errors monotone, buildings in one leaf only, member
+/// counts consistent between a tile and its children, features identifiable.
+pub fn check_tree(ts: &LoadedTileset) -> Vec<Finding> {
+    let mut out = Vec::new();
+    let n = ts.tiles.len();
+    for (i, node) in ts.tree.tiles.iter().enumerate() {
+        for &c in node.children.iter().filter(|&&c| c < n) {
+            let (pe, ce) = (node.geometric_error_m, ts.tree.tiles[c].geometric_error_m);
+            if ce > pe + ERROR_SLACK * pe.abs().max(1.0) {
+                out.push(
+                    Finding::at(
+                        FindingKind::ErrorGrows,
+                        ts,
+                        c,
+                        format!(
+                            "geometricError {ce} m is larger than its parent {}'s {pe} m",
+                            ts.tiles[i].path_in_tree
+                        ),
+                    )
+                    .values(ce, pe),
+                );
+            }
+        }
+    }
+
+    // Buildings in two leaves, grouped by the pair of tiles.
+    let mut first: BTreeMap<u32, usize> = BTreeMap::new();
+    let mut twice: BTreeMap<(usize, usize), Vec<u32>> = BTreeMap::new();
+    for (i, t) in ts.tiles.iter().enumerate() {
+        for f in &t.features {
+            if let NodeRef::Building { building_index } = f.node {
+                if let Some(&j) = first.get(&building_index) {
+                    twice.entry((j, i)).or_default().push(building_index);
+                } else {
+                    first.insert(building_index, i);
+                }
+            }
+        }
+    }
+    for ((j, i), b) in twice {
+        out.push(
+            Finding::at(
+                FindingKind::BuildingInTwoLeaves,
+                ts,
+                i,
+                format!(
+                    "{} building(s) of this tile are also in tile {}",
+                    b.len(),
+                    ts.tiles[j].path_in_tree
+                ),
+            )
+            .node(NodeRef::Building {
+                building_index: b[0],
+            })
+            .buildings(&b),
+        );
+    }
+
+    let counts = held_counts(ts);
+    for (i, t) in ts.tiles.iter().enumerate() {
+        let unknown = t
+            .features
+            .iter()
+            .filter(|f| matches!(f.node, NodeRef::Feature { .. }))
+            .count();
+        if unknown > 0 {
+            out.push(Finding::at(
+                FindingKind::UnknownFeature,
+                ts,
+                i,
+                format!("{unknown} feature(s) have neither building_index nor level and node_index"),
+            ));
+        }
+        if t.holds_buildings() || t.features.is_empty() {
+            continue;
+        }
+        let Some(total) = t.member_total() else {
+            continue;
+        };
+        let children = &ts.tree.tiles[i].children;
+        let held: Option<u64> = if children.is_empty() {
+            Some(t.under.len() as u64)
+        } else {
+            children
+                .iter()
+                .filter(|&&c| c < n)
+                .map(|&c| counts[c])
+                .sum()
+        };
+        if let Some(held) = held.filter(|&h| h != total) {
+            out.push(
+                Finding::at(
+                    FindingKind::MemberCountMismatch,
+                    ts,
+                    i,
+                    format!(
+                        "the blocks of this tile hold {total} buildings (Σ member_count) but its \
+                         children hold {held}: refining it {} {} building(s)",
+                        if held < total { "loses" } else { "adds" },
+                        total.abs_diff(held)
+                    ),
+                )
+                .values(held as f64, total as f64),
+            );
+        }
+    }
+    out
+}
+
+/// Buildings each tile stands for: Σ member_count of its content, or its children's when it has
+/// none; `None` when some block does not say.
+fn held_counts(ts: &LoadedTileset) -> Vec<Option<u64>> {
+    let n = ts.tiles.len();
+    let mut counts = vec![None; n];
+    for i in (0..n).rev() {
+        counts[i] = if ts.tiles[i].features.is_empty() {
+            ts.tree.tiles[i]
+                .children
+                .iter()
+                .filter(|&&c| c > i && c < n)
+                .map(|&c| counts[c])
+                .sum()
+        } else {
+            ts.tiles[i].member_total()
+        };
+    }
+    counts
+}
+
+/// Coverage of one cut: every building covered exactly once by the selected tiles and the culled
+/// subtrees; holes (empty tiles selected, blocks that stand for fewer buildings than lie below
+/// them) and bad links are reported too.
+pub fn check_cut(ts: &LoadedTileset, sel: &Selection) -> Vec<Finding> {
+    let mut out = Vec::new();
+    if sel.root_below_threshold {
+        out.push(Finding::at(
+            FindingKind::TilesetNotDrawn,
+            ts,
+            ts.tree.root,
+            format!(
+                "the tileset's geometricError {} m already meets the SSE threshold at the root's \
+                 distance: a client draws nothing",
+                ts.tree.tileset_geometric_error_m
+            ),
+        ));
+        return out;
+    }
+    for &(p, c) in &sel.bad_links {
+        out.push(Finding::at(
+            FindingKind::BadLink,
+            ts,
+            p,
+            format!("child link to tile #{c} is out of range or revisits a tile"),
+        ));
+    }
+
+    // (building, covering tile) pairs; `owner` says which frontier tile each building lies under.
+    let mut covered: Vec<(u32, usize)> = Vec::new();
+    let mut owner: BTreeMap<u32, usize> = BTreeMap::new();
+    let frontier = sel
+        .selected
+        .iter()
+        .chain(&sel.selected_empty)
+        .chain(&sel.culled);
+    for &i in frontier {
+        let Some(t) = ts.tiles.get(i) else { continue };
+        for &b in &t.under {
+            owner.insert(b, i);
+        }
+    }
+    for &i in &sel.culled {
+        covered.extend(ts.tiles[i].under.iter().map(|&b| (b, i)));
+    }
+    for &i in &sel.selected_empty {
+        out.push(Finding::at(
+            FindingKind::EmptyTileSelected,
+            ts,
+            i,
+            format!(
+                "selected but without content: {} building(s) below it are not drawn",
+                ts.tiles[i].under.len()
+            ),
+        ));
+    }
+    for &i in &sel.selected {
+        let t = &ts.tiles[i];
+        let all_listed = t.features.iter().all(|f| f.members.is_some());
+        if all_listed {
+            covered.extend(
+                t.features
+                    .iter()
+                    .flat_map(|f| f.members.iter().flatten())
+                    .map(|&b| (b, i)),
+            );
+            continue;
+        }
+        // Blocks known only by their member_count stand for the buildings below the tile.
+        covered.extend(t.under.iter().map(|&b| (b, i)));
+        if let Some(total) = t.member_total() {
+            let below = t.under.len() as u64;
+            if total < below {
+                out.push(
+                    Finding::at(
+                        FindingKind::BuildingMissing,
+                        ts,
+                        i,
+                        format!(
+                            "the blocks of this selected tile stand for {total} buildings \
+                             (Σ member_count) but {below} lie below it: {} missing from the cut",
+                            below - total
+                        ),
+                    )
+                    .values(total as f64, below as f64),
+                );
+            }
+        }
+    }
+    covered.sort_unstable();
+
+    let mut twice: BTreeMap<Vec<usize>, Vec<u32>> = BTreeMap::new();
+    for run in covered.chunk_by(|a, b| a.0 == b.0) {
+        if run.len() > 1 {
+            let tiles: Vec<usize> = run.iter().map(|&(_, t)| t).collect();
+            twice.entry(tiles).or_default().push(run[0].0);
+        }
+    }
+    for (tiles, b) in twice {
+        let names: Vec<&str> = tiles
+            .iter()
+            .map(|&t| ts.tiles[t].path_in_tree.as_str())
+            .collect();
+        out.push(
+            Finding::at(
+                FindingKind::BuildingTwice,
+                ts,
+                tiles[tiles.len() - 1],
+                format!(
+                    "{} building(s) covered by {} tiles of the cut: {}",
+                    b.len(),
+                    tiles.len(),
+                    names.join(", ")
+                ),
+            )
+            .node(NodeRef::Building {
+                building_index: b[0],
+            })
+            .buildings(&b),
+        );
+    }
+
+    let mut missing: BTreeMap<Option<usize>, Vec<u32>> = BTreeMap::new();
+    let mut covered_iter = covered.iter().map(|&(b, _)| b).peekable();
+    for &b in &ts.buildings {
+        while covered_iter.next_if(|&c| c < b).is_some() {}
+        if covered_iter.peek() != Some(&b) {
+            missing.entry(owner.get(&b).copied()).or_default().push(b);
+        }
+    }
+    for (tile, b) in missing {
+        let mut f = match tile {
+            Some(i) => Finding::at(
+                FindingKind::BuildingMissing,
+                ts,
+                i,
+                format!("{} building(s) below this tile are not in the cut", b.len()),
+            ),
+            None => Finding {
+                tile: String::new(),
+                content_uri: None,
+                ..Finding::at(
+                    FindingKind::BuildingMissing,
+                    ts,
+                    usize::MAX,
+                    format!(
+                        "{} building(s) are reachable from no tile of the cut (first: {:?})",
+                        b.len(),
+                        &b[..b.len().min(MAX_LISTED)]
+                    ),
+                )
+            },
+        };
+        f = f
+            .node(NodeRef::Building {
+                building_index: b[0],
+            })
+            .buildings(&b);
+        out.push(f);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::select::{OrientedBox, TileNode, TileTree};
+    use crate::tileset::{FeatureInfo, TileInfo};
+
+    fn building(b: u32) -> FeatureInfo {
+        FeatureInfo {
+            node: NodeRef::Building { building_index: b },
+            member_count: Some(1),
+            members: Some(vec![b]),
+            dh_m: 0.0,
+            da_m2: 0.0,
+            fallback: false,
+            bounds_m: None,
+        }
+    }
+
+    fn block(members: u32) -> FeatureInfo {
+        FeatureInfo {
+            node: NodeRef::Cluster {
+                level: 1,
+                node_index: 0,
+            },
+            member_count: Some(members),
+            members: None,
+            dh_m: 3.0,
+            da_m2: 10.0,
+            fallback: false,
+            bounds_m: None,
+        }
+    }
+
+    /// Root (one block of 4) → leaves {0, 1} and {2, 3}.
+    fn tileset(root_count: u32, leaves: [&[u32]; 2], errors: [f64; 3]) -> LoadedTileset {
+        let info = |path: &str, features: Vec<FeatureInfo>| TileInfo {
+            path_in_tree: path.into(),
+            content_uri: Some(format!("tiles/{path}.glb")),
+            content_bytes: 0,
+            mesh: None,
+            features,
+            under: Vec::new(),
+        };
+        let mut tiles = vec![
+            info("0", vec![block(root_count)]),
+            info("0/0", leaves[0].iter().map(|&b| building(b)).collect()),
+            info("0/1", leaves[1].iter().map(|&b| building(b)).collect()),
+        ];
+        tiles[1].under = leaves[0].to_vec();
+        tiles[2].under = leaves[1].to_vec();
+        let mut all: Vec<u32> = leaves.concat();
+        all.sort_unstable();
+        tiles[0].under = all.clone();
+        let node = |e: f64, children: Vec<usize>| TileNode {
+            bounds: OrientedBox::from_min_max([0.0; 3], [1.0; 3]),
+            geometric_error_m: e,
+            children,
+            has_content: true,
+        };
+        LoadedTileset {
+            tree: TileTree {
+                tiles: vec![
+                    node(errors[0], vec![1, 2]),
+                    node(errors[1], vec![]),
+                    node(errors[2], vec![]),
+                ],
+                root: 0,
+                tileset_geometric_error_m: 100.0,
+            },
+            tiles,
+            buildings: all.into_iter().collect(),
+        }
+    }
+
+    fn kinds(f: &[Finding]) -> Vec<FindingKind> {
+        f.iter().map(|f| f.kind).collect()
+    }
+
+    fn sel(selected: Vec<usize>, refined: Vec<usize>, culled: Vec<usize>) -> Selection {
+        Selection {
+            selected,
+            refined,
+            culled,
+            ..Selection::default()
+        }
+    }
+
+    #[test]
+    fn sound_tree_and_cuts_have_no_findings() {
+        let ts = tileset(4, [&[0, 1], &[2, 3]], [5.0, 0.0, 0.0]);
+        assert!(check_tree(&ts).is_empty());
+        assert!(check_cut(&ts, &sel(vec![0], vec![], vec![])).is_empty());
+        assert!(check_cut(&ts, &sel(vec![1], vec![0], vec![2])).is_empty());
+    }
+
+    #[test]
+    fn growing_error_is_found_at_the_child() {
+        let ts = tileset(4, [&[0, 1], &[2, 3]], [5.0, 0.0, 9.0]);
+        let f = check_tree(&ts);
+        assert_eq!(kinds(&f), vec![FindingKind::ErrorGrows]);
+        assert_eq!(f[0].tile, "0/1");
+    }
+
+    #[test]
+    fn building_in_two_leaves_is_found_and_covered_twice() {
+        let ts = tileset(4, [&[0, 1], &[1, 3]], [5.0, 0.0, 0.0]);
+        assert!(kinds(&check_tree(&ts)).contains(&FindingKind::BuildingInTwoLeaves));
+        let f = check_cut(&ts, &sel(vec![1, 2], vec![0], vec![]));
+        let twice: Vec<&Finding> = f
+            .iter()
+            .filter(|f| f.kind == FindingKind::BuildingTwice)
+            .collect();
+        assert_eq!(twice.len(), 1);
+        assert_eq!(twice[0].buildings, vec![1]);
+    }
+
+    #[test]
+    fn lost_child_is_a_member_count_mismatch_at_the_parent() {
+        let mut ts = tileset(4, [&[0, 1], &[2, 3]], [5.0, 0.0, 0.0]);
+        ts.tree.tiles[0].children = vec![1];
+        ts.tiles[0].under = vec![0, 1];
+        let f = check_tree(&ts);
+        assert_eq!(kinds(&f), vec![FindingKind::MemberCountMismatch]);
+        assert_eq!((f[0].tile.as_str(), f[0].measured), ("0", Some(2.0)));
+    }
+
+    #[test]
+    fn block_dropped_from_a_selected_tile_is_missing_from_the_cut() {
+        let ts = tileset(3, [&[0, 1], &[2, 3]], [5.0, 0.0, 0.0]);
+        let f = check_cut(&ts, &sel(vec![0], vec![], vec![]));
+        assert_eq!(kinds(&f), vec![FindingKind::BuildingMissing]);
+    }
+
+    #[test]
+    fn empty_selected_tile_is_a_hole() {
+        let ts = tileset(4, [&[0, 1], &[2, 3]], [5.0, 0.0, 0.0]);
+        let mut s = sel(vec![1], vec![0], vec![]);
+        s.selected_empty = vec![2];
+        let f = check_cut(&ts, &s);
+        assert_eq!(
+            kinds(&f),
+            vec![FindingKind::EmptyTileSelected, FindingKind::BuildingMissing]
+        );
+        assert_eq!(f[1].buildings, vec![2, 3]);
+    }
+}

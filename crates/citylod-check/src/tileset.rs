@@ -1,0 +1,416 @@
+//! The checker's view of a decoded tileset (citylod-tiles `read`): the [`TileTree`] that selection
+//! walks, and per tile its mesh, its features' identities (building index, or block level and node)
+//! and the buildings below it. Root frame (local ENU metres, z up), as the reader returns it.
+//! Invariant: `tiles[i]` describes `tree.tiles[i]`; `under` lists are sorted (duplicates kept).
+
+use std::collections::BTreeSet;
+use std::path::Path;
+
+use citylod_model::Mesh3d;
+use citylod_tiles::read::{TileData, TilesetData};
+use citylod_tiles::PropValue;
+use serde::Serialize;
+
+use crate::select::{OrientedBox, TileNode, TileTree};
+use crate::vec3::Vec3;
+
+/// Which node of the hierarchy a feature (or finding) is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[serde(untagged)]
+pub enum NodeRef {
+    /// A building (level 0), by citylod's `building_index`.
+    Building { building_index: u32 },
+    /// A block of level ≥ 1, by `level` and `node_index`.
+    Cluster { level: u32, node_index: u32 },
+    /// A feature without a recognised identity, by its row in the tile's property tables.
+    Feature { feature: u32 },
+}
+
+/// One feature of a tile's content.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FeatureInfo {
+    pub node: NodeRef,
+    /// `member_count` of a block; 1 for a building; `None` when a block does not say.
+    pub member_count: Option<u32>,
+    /// The buildings of a block when its `members` property lists them (a JSON array or
+    /// comma-separated indices in a string); `[building_index]` for a building.
+    pub members: Option<Vec<u32>>,
+    /// Height spread Δh (m) and added ground Δa (m²) of a block; 0 for buildings.
+    pub dh_m: f64,
+    pub da_m2: f64,
+    /// A block drawn with its buildings' own meshes (exact, so no criterion applies).
+    pub fallback: bool,
+    /// Axis-aligned bounds (min, max) of the feature's vertices; `None` without geometry.
+    pub bounds_m: Option<(Vec3, Vec3)>,
+}
+
+/// One tile as the checks see it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TileInfo {
+    /// `0`, `0/1`, … as in [`TileData::path_in_tree`].
+    pub path_in_tree: String,
+    pub content_uri: Option<String>,
+    /// Size of the content file (0 when unknown).
+    pub content_bytes: u64,
+    /// The content as one mesh in the root frame; `None` without content.
+    pub mesh: Option<Mesh3d>,
+    pub features: Vec<FeatureInfo>,
+    /// Building indices held by the leaf tiles at or below this tile, sorted, duplicates kept.
+    pub under: Vec<u32>,
+}
+
+impl TileInfo {
+    /// Whether the content holds buildings (level-0 features).
+    pub fn holds_buildings(&self) -> bool {
+        self.features
+            .iter()
+            .any(|f| matches!(f.node, NodeRef::Building { .. }))
+    }
+
+    /// Σ member_count over the features (`None` when a block lacks it).
+    pub fn member_total(&self) -> Option<u64> {
+        self.features
+            .iter()
+            .map(|f| f.member_count.map(u64::from))
+            .sum()
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.mesh.as_ref().map_or(0, |m| m.triangles.len())
+    }
+}
+
+/// A tileset ready for selection, validation and rendering.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoadedTileset {
+    pub tree: TileTree,
+    pub tiles: Vec<TileInfo>,
+    /// Every building index held by some building feature.
+    pub buildings: BTreeSet<u32>,
+}
+
+impl LoadedTileset {
+    /// Converts reader output. `base_dir` (the folder of `tileset.json`) is used only to measure
+    /// content file sizes. A tile without a `box` gets the bounds of its content and children; a
+    /// child link out of range is kept (selection reports it). Never panics on odd input.
+    pub fn from_data(data: &TilesetData, base_dir: Option<&Path>) -> LoadedTileset {
+        let n = data.tiles.len();
+        let mut tiles: Vec<TileInfo> = data
+            .tiles
+            .iter()
+            .map(|t| tile_info(t, base_dir))
+            .collect();
+        let buildings: BTreeSet<u32> = tiles
+            .iter()
+            .flat_map(|t| &t.features)
+            .filter_map(|f| match f.node {
+                NodeRef::Building { building_index } => Some(building_index),
+                _ => None,
+            })
+            .collect();
+        // Pre-order (children after parents) lets a reverse sweep fill `under` bottom-up; guard
+        // against links that point backwards anyway.
+        for i in (0..n).rev() {
+            let mut under: Vec<u32> = if data.tiles[i].children.is_empty() {
+                leaf_buildings(&tiles[i])
+            } else {
+                data.tiles[i]
+                    .children
+                    .iter()
+                    .filter(|&&c| c > i && c < n)
+                    .flat_map(|&c| tiles[c].under.iter().copied())
+                    .collect()
+            };
+            under.sort_unstable();
+            tiles[i].under = under;
+        }
+        let mut nodes: Vec<TileNode> = Vec::with_capacity(n);
+        for (t, info) in data.tiles.iter().zip(&tiles) {
+            nodes.push(TileNode {
+                bounds: t
+                    .bounding_box
+                    .map(box_from_array)
+                    .unwrap_or_else(|| zero_box()),
+                geometric_error_m: t.geometric_error_m,
+                children: t.children.clone(),
+                has_content: info.mesh.as_ref().is_some_and(|m| !m.triangles.is_empty()),
+            });
+        }
+        // Missing boxes: content bounds joined with the children's boxes, bottom-up.
+        for i in (0..n).rev() {
+            if data.tiles[i].bounding_box.is_some() {
+                continue;
+            }
+            let mut lo_hi: Option<(Vec3, Vec3)> = tiles[i].mesh.as_ref().and_then(mesh_bounds);
+            for &c in data.tiles[i].children.iter().filter(|&&c| c > i && c < n) {
+                lo_hi = join(lo_hi, Some(box_aabb(&nodes[c].bounds)));
+            }
+            if let Some((lo, hi)) = lo_hi {
+                nodes[i].bounds = OrientedBox::from_min_max(lo, hi);
+            }
+        }
+        LoadedTileset {
+            tree: TileTree {
+                tiles: nodes,
+                root: 0,
+                tileset_geometric_error_m: data.geometric_error_m,
+            },
+            tiles,
+            buildings,
+        }
+    }
+
+    /// Axis-aligned bounds (min, max) of the root's box, root frame (m); `None` without tiles.
+    pub fn root_extent(&self) -> Option<(Vec3, Vec3)> {
+        self.tree.tiles.get(self.tree.root).map(|t| box_aabb(&t.bounds))
+    }
+
+    /// Indices of the tiles whose content holds buildings (full detail).
+    pub fn leaf_tiles(&self) -> Vec<usize> {
+        (0..self.tiles.len())
+            .filter(|&i| self.tiles[i].holds_buildings())
+            .collect()
+    }
+}
+
+/// The buildings a leaf tile holds: building features, or the `members` of its blocks.
+fn leaf_buildings(t: &TileInfo) -> Vec<u32> {
+    t.features
+        .iter()
+        .flat_map(|f| f.members.clone().unwrap_or_default())
+        .collect()
+}
+
+fn tile_info(t: &TileData, base_dir: Option<&Path>) -> TileInfo {
+    let content_bytes = match (base_dir, &t.content_uri) {
+        (Some(dir), Some(uri)) => std::fs::metadata(dir.join(uri)).map_or(0, |m| m.len()),
+        _ => 0,
+    };
+    let (mesh, features) = match &t.content {
+        None => (None, Vec::new()),
+        Some(glb) => {
+            let mut bounds: Vec<Option<(Vec3, Vec3)>> = vec![None; glb.features.len()];
+            for (p, &f) in glb.positions_local.iter().zip(&glb.feature_ids) {
+                if let Some(b) = bounds.get_mut(f as usize) {
+                    *b = join(*b, Some((*p, *p)));
+                }
+            }
+            let features = glb
+                .features
+                .iter()
+                .enumerate()
+                .map(|(k, row)| feature_info(k as u32, &row.class, &row.values, bounds[k]))
+                .collect();
+            let mesh = Mesh3d {
+                positions: glb.positions_local.clone(),
+                triangles: glb.triangles.clone(),
+            };
+            (Some(mesh), features)
+        }
+    };
+    TileInfo {
+        path_in_tree: t.path_in_tree.clone(),
+        content_uri: t.content_uri.clone(),
+        content_bytes,
+        mesh,
+        features,
+        under: Vec::new(),
+    }
+}
+
+fn as_u32(v: Option<&PropValue>) -> Option<u32> {
+    match v? {
+        PropValue::Int(i) => u32::try_from(*i).ok().filter(|&u| u != u32::MAX),
+        PropValue::Float(f) if f.fract() == 0.0 && *f >= 0.0 && *f < f64::from(u32::MAX) => {
+            Some(*f as u32)
+        }
+        _ => None,
+    }
+}
+
+fn as_f64(v: Option<&PropValue>) -> Option<f64> {
+    match v? {
+        PropValue::Float(f) if f.is_finite() && *f != f64::MIN => Some(*f),
+        PropValue::Int(i) if *i != i64::MIN => Some(*i as f64),
+        _ => None,
+    }
+}
+
+/// `members` as written in a string: `[1, 2, 3]` or `1,2,3`. `None` when absent or unparsable.
+fn parse_members(v: Option<&PropValue>) -> Option<Vec<u32>> {
+    let PropValue::Str(s) = v? else { return None };
+    let inner = s.trim().trim_start_matches('[').trim_end_matches(']');
+    if inner.trim().is_empty() {
+        return None;
+    }
+    inner
+        .split(',')
+        .map(|x| x.trim().parse::<u32>().ok())
+        .collect()
+}
+
+fn feature_info(
+    k: u32,
+    class: &str,
+    values: &std::collections::BTreeMap<String, PropValue>,
+    bounds_m: Option<(Vec3, Vec3)>,
+) -> FeatureInfo {
+    let get = |name: &str| values.get(name);
+    let building = as_u32(get("building_index")).filter(|_| class == "building");
+    let cluster = match (class, as_u32(get("level")), as_u32(get("node_index"))) {
+        ("cluster", Some(level), Some(node_index)) => Some((level, node_index)),
+        _ => None,
+    };
+    let (node, member_count, members) = match (building, cluster) {
+        (Some(b), _) => (NodeRef::Building { building_index: b }, Some(1), Some(vec![b])),
+        (None, Some((level, node_index))) => (
+            NodeRef::Cluster { level, node_index },
+            as_u32(get("member_count")),
+            parse_members(get("members")),
+        ),
+        (None, None) => (NodeRef::Feature { feature: k }, None, None),
+    };
+    FeatureInfo {
+        node,
+        member_count: members
+            .as_ref()
+            .filter(|_| member_count.is_none())
+            .map(|m| m.len() as u32)
+            .or(member_count),
+        members,
+        dh_m: as_f64(get("dh_m")).unwrap_or(0.0).max(0.0),
+        da_m2: as_f64(get("da_m2")).unwrap_or(0.0).max(0.0),
+        fallback: matches!(get("fallback"), Some(PropValue::Bool(true))),
+        bounds_m,
+    }
+}
+
+fn box_from_array(b: [f64; 12]) -> OrientedBox {
+    OrientedBox {
+        center_m: [b[0], b[1], b[2]],
+        half_axes_m: [[b[3], b[4], b[5]], [b[6], b[7], b[8]], [b[9], b[10], b[11]]],
+    }
+}
+
+fn zero_box() -> OrientedBox {
+    OrientedBox::from_min_max([0.0; 3], [0.0; 3])
+}
+
+/// Axis-aligned bounds of an oriented box.
+pub(crate) fn box_aabb(b: &OrientedBox) -> (Vec3, Vec3) {
+    let r: Vec3 = std::array::from_fn(|i| b.half_axes_m.iter().map(|h| h[i].abs()).sum());
+    (
+        std::array::from_fn(|i| b.center_m[i] - r[i]),
+        std::array::from_fn(|i| b.center_m[i] + r[i]),
+    )
+}
+
+fn mesh_bounds(m: &Mesh3d) -> Option<(Vec3, Vec3)> {
+    m.positions.iter().fold(None, |acc, p| join(acc, Some((*p, *p))))
+}
+
+fn join(a: Option<(Vec3, Vec3)>, b: Option<(Vec3, Vec3)>) -> Option<(Vec3, Vec3)> {
+    match (a, b) {
+        (Some((l1, h1)), Some((l2, h2))) => Some((
+            std::array::from_fn(|i| l1[i].min(l2[i])),
+            std::array::from_fn(|i| h1[i].max(h2[i])),
+        )),
+        (x, None) | (None, x) => x,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use citylod_tiles::read::GlbData;
+    use citylod_tiles::FeatureRow;
+    use std::collections::BTreeMap;
+
+    fn building_row(i: i64) -> FeatureRow {
+        FeatureRow {
+            class: "building".into(),
+            values: BTreeMap::from([("building_index".to_string(), PropValue::Int(i))]),
+        }
+    }
+
+    fn content(rows: Vec<FeatureRow>) -> GlbData {
+        let mut g = GlbData::default();
+        for (k, _) in rows.iter().enumerate() {
+            let x = k as f64 * 10.0;
+            let v0 = g.positions_local.len() as u32;
+            g.positions_local
+                .extend([[x, 0.0, 0.0], [x + 5.0, 0.0, 0.0], [x, 5.0, 8.0]]);
+            g.feature_ids.extend([k as u32; 3]);
+            g.triangles.push([v0, v0 + 1, v0 + 2]);
+        }
+        g.features = rows;
+        g
+    }
+
+    fn tile(path: &str, content_rows: Vec<FeatureRow>, children: Vec<usize>) -> TileData {
+        TileData {
+            path_in_tree: path.into(),
+            geometric_error_m: if children.is_empty() { 0.0 } else { 10.0 },
+            bounding_box: None,
+            content_uri: None,
+            content: Some(content(content_rows)),
+            children,
+        }
+    }
+
+    #[test]
+    fn under_sets_collect_leaf_buildings_and_boxes_fill_in() {
+        let cluster = FeatureRow {
+            class: "cluster".into(),
+            values: BTreeMap::from([
+                ("level".to_string(), PropValue::Int(1)),
+                ("node_index".to_string(), PropValue::Int(0)),
+                ("member_count".to_string(), PropValue::Int(3)),
+                ("dh_m".to_string(), PropValue::Float(4.0)),
+            ]),
+        };
+        let data = TilesetData {
+            root_transform: [0.0; 16],
+            geometric_error_m: 100.0,
+            tiles: vec![
+                tile("0", vec![cluster], vec![1, 2]),
+                tile("0/0", vec![building_row(2), building_row(0)], vec![]),
+                tile("0/1", vec![building_row(1)], vec![]),
+            ],
+        };
+        let t = LoadedTileset::from_data(&data, None);
+        assert_eq!(t.tiles[0].under, vec![0, 1, 2]);
+        assert_eq!(t.tiles[0].member_total(), Some(3));
+        assert_eq!(
+            t.tiles[0].features[0].node,
+            NodeRef::Cluster {
+                level: 1,
+                node_index: 0
+            }
+        );
+        assert_eq!(t.tiles[0].features[0].dh_m, 4.0);
+        assert_eq!(t.buildings, BTreeSet::from([0, 1, 2]));
+        assert_eq!(t.leaf_tiles(), vec![1, 2]);
+        // Feature bounds and the filled-in box of the leaf with two features.
+        assert_eq!(
+            t.tiles[1].features[1].bounds_m,
+            Some(([10.0, 0.0, 0.0], [15.0, 5.0, 8.0]))
+        );
+        let (lo, hi) = box_aabb(&t.tree.tiles[1].bounds);
+        assert_eq!((lo, hi), ([0.0, 0.0, 0.0], [15.0, 5.0, 8.0]));
+    }
+
+    #[test]
+    fn members_strings_parse_and_bad_ones_are_ignored() {
+        assert_eq!(
+            parse_members(Some(&PropValue::Str("[3, 1,2]".into()))),
+            Some(vec![3, 1, 2])
+        );
+        assert_eq!(
+            parse_members(Some(&PropValue::Str("4,x".into()))),
+            None
+        );
+        assert_eq!(parse_members(Some(&PropValue::Int(4))), None);
+        assert_eq!(as_u32(Some(&PropValue::Int(-1))), None);
+    }
+}
