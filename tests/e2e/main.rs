@@ -3,5 +3,6 @@
 //! The tilesets are kept under `target/e2e/<name>` for the browser tests (`tests/browser/`) and for people.
 
 mod bad_input;
+mod check;
 mod common;
 mod real_data;

@@ -229,6 +229,36 @@ pub fn check_cut(ts: &LoadedTileset, sel: &Selection) -> Vec<Finding> {
             }
         }
     }
+    // A refined block tile whose children hold fewer buildings than its blocks loses the rest.
+    let counts = held_counts(ts);
+    for &i in &sel.refined {
+        let t = &ts.tiles[i];
+        let (Some(total), false) = (t.member_total(), t.holds_buildings() || t.features.is_empty())
+        else {
+            continue;
+        };
+        let held: Option<u64> = ts.tree.tiles[i]
+            .children
+            .iter()
+            .filter(|&&c| c < ts.tiles.len())
+            .map(|&c| counts[c])
+            .sum();
+        if let Some(held) = held.filter(|&h| h < total) {
+            out.push(
+                Finding::at(
+                    FindingKind::BuildingMissing,
+                    ts,
+                    i,
+                    format!(
+                        "this tile is refined but its children hold {held} of the {total} buildings \
+                         its blocks stand for: {} missing from the cut",
+                        total - held
+                    ),
+                )
+                .values(held as f64, total as f64),
+            );
+        }
+    }
     covered.sort_unstable();
 
     let mut twice: BTreeMap<Vec<usize>, Vec<u32>> = BTreeMap::new();
@@ -424,9 +454,13 @@ mod tests {
         let mut ts = tileset(4, [&[0, 1], &[2, 3]], [5.0, 0.0, 0.0]);
         ts.tree.tiles[0].children = vec![1];
         ts.tiles[0].under = vec![0, 1];
+        ts.buildings = [0, 1].into_iter().collect();
         let f = check_tree(&ts);
         assert_eq!(kinds(&f), vec![FindingKind::MemberCountMismatch]);
         assert_eq!((f[0].tile.as_str(), f[0].measured), ("0", Some(2.0)));
+        let f = check_cut(&ts, &sel(vec![1], vec![0], vec![]));
+        assert_eq!(kinds(&f), vec![FindingKind::BuildingMissing]);
+        assert_eq!(f[0].tile, "0");
     }
 
     #[test]

@@ -1,6 +1,8 @@
 //! citylod-check proves citylod's promise by drawing it (DESIGN.md §6): for a camera it finds the cut a
 //! standard 3D Tiles client draws ([`select`]), renders scenes headless with wgpu ([`Renderer`]) and
 //! compares the cut's picture with full detail ([`compare`]). Root ENU frame (x east, y north, z up), m.
+//! A decoded tileset becomes a [`LoadedTileset`]; [`check_tree`] validates it once and
+//! [`check_view`] validates, renders and compares the cut of one camera (coverage, seed criterion).
 //!
 //! ```
 //! use citylod_check::{select, Camera, OrientedBox, TileNode, TileTree, Viewport};
@@ -21,20 +23,28 @@
 
 mod camera;
 mod compare;
+mod coverage;
+mod criterion;
 mod error;
+mod finding;
 mod image;
 mod render;
 mod scene;
 mod select;
 mod sheet;
+mod tileset;
 mod vec3;
+mod view_check;
 mod views;
 
 pub use camera::{Camera, Viewport, NEAR_M};
 pub use compare::{
     compare, ImageMetrics, COLOUR_TOLERANCE, DIFF_ADDED, DIFF_RECOLOURED, DIFF_REMOVED,
 };
+pub use coverage::{check_cut, check_tree};
+pub use criterion::{check_criterion, view_error, Tolerances, ViewError};
 pub use error::CheckError;
+pub use finding::{Finding, FindingKind, MAX_LISTED};
 pub use image::Image;
 pub use render::{RenderLayers, Renderer, NO_FEATURE, SKY};
 pub use scene::{box_mesh, Scene};
@@ -42,4 +52,8 @@ pub use select::{
     compute_sse, meets_threshold, select, OrientedBox, Selection, TileNode, TileTree,
 };
 pub use sheet::contact_sheet;
+pub use tileset::{FeatureInfo, LoadedTileset, NodeRef, TileInfo};
+pub use view_check::{
+    check_view, skyline, CheckSettings, Skyline, ViewOutcome, SKYLINE_TOLERANCE_PX,
+};
 pub use views::{standard_views, STANDARD_FOVY_DEG, STREET_HEIGHT_M};

@@ -5,6 +5,7 @@
 
 use citylod_model::Footprint;
 use geo::algorithm::kernels::{Kernel, Orientation, RobustKernel};
+use geo::bool_ops::{BooleanOps, FillRule, OpType};
 use geo::orient::{Direction, Orient};
 use geo_types::{coord, Coord, LineString, MultiPolygon, Polygon};
 use rstar::primitives::{GeomWithData, Line};
@@ -85,7 +86,12 @@ pub(crate) fn merge_with_bridges(
     let footprint = if polys.is_empty() {
         MultiPolygon(Vec::new())
     } else {
-        geo::unary_union(&polys).orient(Direction::Default)
+        // One overlay of every ring with the non-zero rule: on valid parts (winding 0 or 1 each) it equals
+        // `unary_union`, which picks its rule from the first ring's orientation and so loses everything
+        // when that ring is a self-crossing one; non-zero also keeps both lobes of a self-crossing ring.
+        MultiPolygon(polys)
+            .boolean_op_with_fill_rule(&MultiPolygon(Vec::new()), OpType::Union, FillRule::NonZero)
+            .orient(Direction::Default)
     };
     let disconnected = footprint.0.len() > 1;
     (
@@ -612,8 +618,9 @@ fn bridge_polygon(q: &[[f64; 2]]) -> Polygon<f64> {
     Polygon::new(closed_ring(&pts), Vec::new())
 }
 
-/// Open ring without repeated points, oriented CCW when `exterior`, CW otherwise; `None` when fewer than
-/// 3 distinct points or zero area remain.
+/// Open ring without repeated points, oriented CCW when `exterior`, CW otherwise (a ring of zero signed
+/// area, e.g. a symmetric self-crossing one, is left as it is); `None` when fewer than 3 points remain
+/// or a coordinate is not finite.
 pub(crate) fn open_ring(ls: &LineString<f64>, exterior: bool) -> Option<Vec<[f64; 2]>> {
     let mut pts: Vec<[f64; 2]> = Vec::with_capacity(ls.0.len());
     for c in &ls.0 {
@@ -632,10 +639,7 @@ pub(crate) fn open_ring(ls: &LineString<f64>, exterior: bool) -> Option<Vec<[f64
         return None;
     }
     let a = signed_area2(&pts);
-    if a == 0.0 {
-        return None;
-    }
-    if (a > 0.0) != exterior {
+    if a != 0.0 && (a > 0.0) != exterior {
         pts.reverse();
     }
     Some(pts)
@@ -744,7 +748,7 @@ fn segment_dist(a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]) -> f64 {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use geo::{Area, BooleanOps, Validation};
+    use geo::{Area, Validation};
     use geo_types::polygon;
     use proptest::prelude::*;
 
@@ -757,7 +761,10 @@ pub(crate) mod tests {
     /// Area of `parts` not covered by `fp` (m²).
     pub(crate) fn uncovered_m2(parts: &[&Footprint], fp: &Footprint) -> f64 {
         let oriented: Vec<Footprint> = parts.iter().map(|p| p.orient(Direction::Default)).collect();
-        geo::unary_union(&oriented).difference(fp).unsigned_area()
+        MultiPolygon(oriented.into_iter().flat_map(|p| p.0).collect())
+            .boolean_op_with_fill_rule(&MultiPolygon(Vec::new()), OpType::Union, FillRule::NonZero)
+            .difference(fp)
+            .unsigned_area()
     }
 
     fn all_vertices(fp: &Footprint) -> Vec<[f64; 2]> {
@@ -955,6 +962,22 @@ pub(crate) mod tests {
         let m = merge_footprints(&[&a, &b], &[(0, 1)]);
         assert!(!m.disconnected && m.footprint.is_valid());
         assert!(uncovered_m2(&[&a, &b], &m.footprint) < 1e-9);
+    }
+
+    #[test]
+    fn self_crossing_first_part_does_not_empty_the_union() {
+        // A bow-tie first (Boston has a few): its lobes wind opposite ways.
+        let bow = MultiPolygon(vec![
+            polygon![(x: 0.0, y: 0.0), (x: 10.0, y: 10.0), (x: 10.0, y: 0.0), (x: 0.0, y: 10.0)],
+        ]);
+        let b = rect(12.0, 0.0, 20.0, 10.0);
+        let m = merge_footprints(&[&bow, &b], &[(0, 1)]);
+        assert!(m.footprint.is_valid());
+        assert!(
+            m.footprint.unsigned_area() >= 80.0 + 50.0 - 1e-6,
+            "{}",
+            m.footprint.unsigned_area()
+        );
     }
 
     #[test]
@@ -1178,30 +1201,6 @@ pub(crate) mod tests {
             }
         }
         hints
-    }
-
-    #[test]
-    #[ignore]
-    fn tmp_debug_boston_full() {
-        #[allow(dead_code)]
-        #[path = "../../../tests/common/mod.rs"]
-        mod common;
-        let (buildings, _) = common::load_geojson("boston/boston_buildings.geojson").unwrap();
-        let g = crate::generalize(&buildings, &crate::GeneralizeOptions::default()).unwrap();
-        let h = &g.hierarchy;
-        for k in 1..h.levels.len() {
-            for (i, n) in h.levels[k].nodes.iter().enumerate() {
-                let kids: Vec<&Footprint> = n.children.iter().map(|c| &h.levels[k - 1].nodes[c.0 as usize].footprint).collect();
-                let largest = kids.iter().map(|f| f.unsigned_area()).fold(0.0, f64::max);
-                if n.footprint.unsigned_area() < 0.99 * largest {
-                    eprintln!("level {k} node {i}: area {} largest child {largest}", n.footprint.unsigned_area());
-                    for c in &kids { eprintln!("  child valid {} area {} polys {}", c.is_valid(), c.unsigned_area(), c.0.len()); }
-                    let m = merge_footprints(&kids, &[]);
-                    eprintln!("  plain union area {} valid {}", m.footprint.unsigned_area(), m.footprint.is_valid());
-                    if kids.len() <= 3 { for c in &kids { eprintln!("  {:?}", c); } }
-                }
-            }
-        }
     }
 
     proptest! {

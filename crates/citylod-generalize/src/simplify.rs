@@ -46,11 +46,16 @@ pub const CONVEX_COLLINEAR_TOL_M: f64 = 0.02;
 pub fn simplify_footprint(fp: &Footprint, delta_a_m2: f64, max_angle_deg: f64) -> Footprint {
     let mut rings: Vec<RingSpec> = Vec::new();
     for (k, poly) in fp.0.iter().enumerate() {
-        let Some(ext) = open_ring(poly.exterior(), true) else {
+        let Some(ext) = open_ring(poly.exterior(), true).filter(|r| signed_area2(r) != 0.0) else {
             continue;
         };
         rings.push(RingSpec { poly: k, pts: ext });
-        for h in poly.interiors().iter().filter_map(|r| open_ring(r, false)) {
+        for h in poly
+            .interiors()
+            .iter()
+            .filter_map(|r| open_ring(r, false))
+            .filter(|h| signed_area2(h) != 0.0)
+        {
             if signed_area2(&h).abs() / 2.0 >= delta_a_m2 {
                 rings.push(RingSpec { poly: k, pts: h });
             }

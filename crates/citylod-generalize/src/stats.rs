@@ -65,29 +65,29 @@ pub fn node_stats(
     landmarks: &[BuildingId],
 ) -> NodeStats {
     let area_m2 = footprint.unsigned_area();
-    let mut sum_area_m2 = 0.0;
-    let mut largest_m2: f64 = 0.0;
-    for b in members {
-        let a = b.area_m2();
-        sum_area_m2 += a;
-        largest_m2 = largest_m2.max(a);
-    }
+    let member_area_m2: Vec<f64> = members.iter().map(|b| b.area_m2()).collect();
+    let sum_area_m2: f64 = member_area_m2.iter().sum();
+    let largest_m2 = member_area_m2.iter().copied().fold(0.0, f64::max);
     debug_assert!(
         area_m2 >= largest_m2 * 0.99 - 1e-6,
         "node footprint ({area_m2} m²) smaller than a member ({largest_m2} m²): coverage broke"
     );
-    let mut heighted: Vec<&Building> = members
+    let mut heighted: Vec<(&Building, f64)> = members
         .iter()
-        .copied()
-        .filter(|b| !landmarks.contains(&b.id))
+        .zip(&member_area_m2)
+        .filter(|(b, _)| !landmarks.contains(&b.id))
+        .map(|(b, &a)| (*b, a))
         .collect();
     if heighted.is_empty() {
-        heighted = members.to_vec();
+        heighted = members
+            .iter()
+            .copied()
+            .zip(member_area_m2.iter().copied())
+            .collect();
     }
     let (mut w, mut wh, mut wz) = (0.0, 0.0, 0.0);
     let (mut h_min_m, mut h_max_m) = (f64::INFINITY, f64::NEG_INFINITY);
-    for b in &heighted {
-        let a = b.area_m2();
+    for &(b, a) in &heighted {
         w += a;
         wh += a * b.height_m;
         wz += a * b.base_z_m;
@@ -101,8 +101,8 @@ pub fn node_stats(
     } else {
         let n = heighted.len() as f64;
         (
-            heighted.iter().map(|b| b.height_m).sum::<f64>() / n,
-            heighted.iter().map(|b| b.base_z_m).sum::<f64>() / n,
+            heighted.iter().map(|(b, _)| b.height_m).sum::<f64>() / n,
+            heighted.iter().map(|(b, _)| b.base_z_m).sum::<f64>() / n,
         )
     };
     if heighted.is_empty() {

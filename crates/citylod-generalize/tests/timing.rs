@@ -109,7 +109,11 @@ fn time_synthetic_city() {
         t.elapsed().as_secs_f64(),
         cpu_s() - c,
         g.report.timings,
-        g.report.levels.iter().map(|l| l.nodes).collect::<Vec<_>>()
+        g.report
+            .levels
+            .iter()
+            .map(|l| (l.nodes, l.kind, l.tie_splits + l.budget_splits))
+            .collect::<Vec<_>>()
     );
     assert!(g.hierarchy.check_invariants(n).is_empty());
 }

@@ -156,7 +156,11 @@ pub(crate) fn triangle_sets_touch(a: &[[V3; 3]], b: &[[V3; 3]], tol: f64) -> boo
     }
     let near = |g: &[[V3; 3]], other: &Aabb| -> Vec<(usize, Aabb)> {
         let ob = other.expanded(tol);
-        g.iter().enumerate().map(|(i, t)| (i, Aabb::of(*t))).filter(|(_, b)| b.overlaps(&ob)).collect()
+        g.iter()
+            .enumerate()
+            .map(|(i, t)| (i, Aabb::of(*t)))
+            .filter(|(_, b)| b.overlaps(&ob))
+            .collect()
     };
     let na = near(a, &bb);
     let nb = near(b, &ba);

@@ -13,10 +13,10 @@ fn errors(set: &[TestBuilding], method: Simplifier, rate: f64) -> Vec<(f64, f64,
     set.par_iter()
         .map(|b| {
             let out = simplify(&b.mesh, &method, rate);
-            // 1 sample per m² keeps the debug-build test fast; measured_error_m uses 4.
+            // 0.5 samples per m² keep the debug-build test fast; measured_error_m uses 4.
             let changed = out.mesh != b.mesh;
             let e = if changed {
-                hausdorff_m(&b.mesh, &out.mesh, 1.0).max(RESOLUTION_M)
+                hausdorff_m(&b.mesh, &out.mesh, 0.5).max(RESOLUTION_M)
             } else {
                 0.0
             };
@@ -63,13 +63,13 @@ fn check(name: &str, set: &[TestBuilding]) {
 #[test]
 fn hausdorff_error_is_positive_and_grows_with_rate_on_delft() {
     let Some(all) = load_delft("2.2") else { return };
-    check("delft-15", &largest(all, 15));
+    check("delft-10", &largest(all, 10));
 }
 
 #[test]
 fn hausdorff_error_is_positive_and_grows_with_rate_on_den_haag() {
     let Some(all) = load_denhaag() else { return };
-    check("den-haag-15", &largest(all, 15));
+    check("den-haag-10", &largest(all, 10));
 }
 
 #[test]
@@ -106,22 +106,40 @@ fn time_all_delft_lod22() {
 }
 
 #[test]
-#[ignore = "diagnostic: per-building errors of the largest Den Haag buildings"]
-fn worst_den_haag() {
-    let Some(all) = load_denhaag() else { return };
-    let set = largest(all, 12);
-    for b in &set {
-        let comps = citylod_mesh::simplify::components::components(b.mesh.positions.len(), &b.mesh.triangles).count;
-        let cs = citylod_mesh::simplify::components::components(b.mesh.positions.len(), &b.mesh.triangles);
-        let cl = citylod_mesh::simplify::topo_qem::classify_vertices(&b.mesh, &cs);
-        let nb = cl.iter().filter(|c| matches!(c, citylod_mesh::simplify::topo_qem::VertexClass::Boundary { .. })).count();
-        let nh = cl.iter().filter(|c| matches!(c, citylod_mesh::simplify::topo_qem::VertexClass::Hole)).count();
-        let mut line = format!("{} tris {} verts {} boundary {nb} hole {nh} comps {comps}:", &b.id[5..13], b.mesh.triangles.len(), b.mesh.positions.len());
-        for (name, m) in [("t2", Simplifier::TopoQem { a: 2.0 }), ("t1", Simplifier::TopoQem { a: 1.0 }), ("q", Simplifier::Qem)] {
-            let out = simplify(&b.mesh, &m, 0.5);
-            let e = hausdorff_m(&b.mesh, &out.mesh, 1.0);
-            line += &format!(" {name} {} e {e:.2} {};", out.mesh.triangles.len(), out.note.is_some());
-        }
-        println!("{line}");
-    }
+fn profile_simplifier_changes_real_buildings_within_its_step_and_threshold() {
+    let Some(all) = load_delft("2.2") else { return };
+    let set = largest(all, 20);
+    let (step_m, threshold_m) = (3.0, 1.0);
+    let method = Simplifier::Profile {
+        step_m,
+        threshold_m,
+    };
+    let rows: Vec<(bool, f64, f64, bool)> = set
+        .par_iter()
+        .map(|b| {
+            let out = simplify(&b.mesh, &method, 0.5);
+            let changed = out.mesh != b.mesh;
+            let e = if changed {
+                hausdorff_m(&b.mesh, &out.mesh, 0.5)
+            } else {
+                0.0
+            };
+            let r = citylod_mesh::topology::mesh_report(&out.mesh);
+            assert!(out.mesh.triangles.len() <= b.mesh.triangles.len());
+            (
+                changed,
+                out.rate_reached,
+                e,
+                r.orientation_consistent && r.degenerate == 0,
+            )
+        })
+        .collect();
+    let changed = rows.iter().filter(|r| r.0).count();
+    let mean_rate = rows.iter().map(|r| r.1).sum::<f64>() / rows.len() as f64;
+    let max_e = rows.iter().map(|r| r.2).fold(0.0, f64::max);
+    println!("profile step {step_m} m threshold {threshold_m} m on delft-20: {changed} changed, mean rate {:.1} %, max Hausdorff {max_e:.2} m, clean {}", mean_rate * 100.0, rows.iter().filter(|r| r.3).count());
+    assert!(changed > 0, "profile changed no building");
+    assert!(rows.iter().filter(|r| r.0).all(|r| r.1 > 0.0));
+    // Known limitation: a few sections yield overlapping loops whose caps leave slivers; most are clean.
+    assert!(rows.iter().filter(|r| r.3).count() * 5 >= rows.len() * 4);
 }

@@ -2,6 +2,7 @@
 //! Thin glue: flags, wiring of the stages, progress, exit codes (0 ok, 1 check failed, 2 usage or input error).
 
 mod build;
+mod check;
 mod features;
 mod inspect;
 mod lod;
@@ -23,6 +24,8 @@ enum Command {
     Build(build::BuildArgs),
     /// Print what a tileset holds: tiles, triangles, bytes and geometric errors per level.
     Inspect(inspect::InspectArgs),
+    /// Check a tileset: validate and render the cut a 3D Tiles client draws from several cameras against full detail.
+    Check(check::CheckArgs),
 }
 
 /// Exit code for usage errors and unreadable or invalid input.
@@ -43,6 +46,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Build(args) => build::run(args),
         Command::Inspect(args) => inspect::run(args),
+        Command::Check(args) => check::run(args),
     };
     match result {
         Ok(code) => code,

@@ -11,6 +11,9 @@ use super::geom::{dot, normalize, tri_normal2, V3};
 use super::qem::Quadric;
 use crate::topology::is_degenerate;
 
+/// A collapse may turn no triangle by more than ~75° (cos = 0.25) from its current or original normal.
+pub(crate) const MIN_NORMAL_COS: f64 = 0.25;
+
 /// Mutable triangle soup with vertex → triangle incidence, for collapses.
 pub(crate) struct CollapseMesh {
     pub pos: Vec<V3>,
@@ -153,7 +156,9 @@ impl CollapseMesh {
             let n_new = normalize(tri_normal2(p[0], p[1], p[2]));
             let q = tri.map(|x| self.pos[x as usize]);
             let n_old = normalize(tri_normal2(q[0], q[1], q[2]));
-            if dot(n_new, n_old) <= 1e-6 || dot(n_new, self.orig_normal[t as usize]) <= 1e-6 {
+            if dot(n_new, n_old) < MIN_NORMAL_COS
+                || dot(n_new, self.orig_normal[t as usize]) < MIN_NORMAL_COS
+            {
                 return false;
             }
             // A triangle with the same corners already around v would make a doubled face.

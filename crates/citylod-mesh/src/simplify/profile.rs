@@ -60,7 +60,10 @@ pub(crate) fn simplify_profile(
             Some((_, last)) if profile_error_m(last, &profile) <= threshold_m => {}
             Some((_, last)) => {
                 snap_to(&mut profile, last, threshold_m);
-                kept.push((lo, profile));
+                let profile = clean_profile(profile);
+                if !profile.is_empty() {
+                    kept.push((lo, profile));
+                }
             }
             None => kept.push((zmin, profile)),
         }
@@ -351,6 +354,21 @@ fn extrude_profile(
             start += n;
         }
     }
+}
+
+/// Drops repeated consecutive points (snapping can merge neighbours) and loops left without area.
+fn clean_profile(profile: Vec<Loop>) -> Vec<Loop> {
+    profile
+        .into_iter()
+        .map(|mut l| {
+            l.dedup();
+            while l.len() > 1 && l.first() == l.last() {
+                l.pop();
+            }
+            l
+        })
+        .filter(|l| l.len() >= 3 && signed_area(l).abs() > 1e-4)
+        .collect()
 }
 
 fn point_in_loop(l: &Loop, p: [f64; 2]) -> bool {

@@ -1,8 +1,9 @@
 //! Seed 003 (topology-preserving simplification of multi-component buildings): components by BFS; boundary
 //! vertices from edge–triangle intersections between components (AABB pre-filter, 1 % buffer, §3.2.2–3.2.3);
 //! hole vertices on one-triangle edges; cost a/|cos θ|·QEM for boundary vertices (θ = E–C angle), the
-//! improved QEM for hole vertices, plain QEM otherwise (eq. 2); half-edge collapse to the target rate.
-//! Invariant (checked, not hoped for): no originally touching component pair separates (tolerance 1 cm).
+//! improved QEM for hole vertices (and for boundary vertices on open edges), plain QEM otherwise (eq. 2);
+//! half-edge collapse to the target rate. Invariant (enforced, not hoped for): a collapse that would pull a
+//! component away from one it touched (1 cm) is refused; a final contact check locks vertices as a backstop.
 
 use citylod_model::Mesh3d;
 
@@ -199,8 +200,8 @@ pub(crate) fn simplify_topo_qem(mesh: &Mesh3d, a: f64, target_rate: f64) -> Simp
     let remove_target = ((target_rate * n_tris as f64).round() as usize).min(n_tris);
     let mut locked = vec![false; mesh.positions.len()];
     let mut locked_pairs = 0usize;
-    // The paper's soft constraint first. Each lost contact then locks the boundary vertices of its two
-    // components, and if it is lost again, the two components entirely — which cannot separate.
+    // Backstop behind the collapse veto: should a contact still be lost, lock the boundary vertices of its
+    // two components and rerun, and if it is lost again, the two components entirely (they cannot move).
     let max_rounds = 2 * comps.count + 2;
     for _round in 0..max_rounds {
         let (result, stop) = run_once(mesh, &comps, &classes, &locked, a, remove_target);
@@ -322,7 +323,9 @@ fn run_once(
     // touched (checked on the post-collapse triangles against each partner, same test as the report).
     let partners = contact_partners(mesh, comps);
     let allow = |m: &CollapseMesh, u: u32, v: u32| -> bool {
-        let Some(&t) = m.vtris[u as usize].first() else { return true };
+        let Some(&t) = m.vtris[u as usize].first() else {
+            return true;
+        };
         let c = m.component_of_triangle(t);
         if partners[c as usize].is_empty() {
             return true;

@@ -1,0 +1,293 @@
+//! `citylod check TILESET --out DIR`: for each camera, the cut a standard 3D Tiles client draws is validated
+//! (coverage, monotone errors, seed criterion with view angles), rendered beside full detail and compared;
+//! PNGs per view, a contact sheet and `report.json` (schemas/check-report.schema.json). Exit 0 all checks hold,
+//! 1 some check failed, 2 usage or input error.
+
+use anyhow::{bail, Context, Result};
+use citylod_check::{
+    check_tree, check_view, contact_sheet, standard_views, Camera, CheckSettings, Finding, LoadedTileset,
+    Renderer, Tolerances, Viewport, SKYLINE_TOLERANCE_PX, STANDARD_FOVY_DEG,
+};
+use citylod_model::{ecef_to_geodetic, LocalFrame};
+use clap::Args;
+use serde_json::{json, Value};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+#[derive(Args, Debug)]
+pub struct CheckArgs {
+    /// Tileset folder (holding tileset.json) or the tileset.json itself.
+    #[arg(value_name = "TILESET", help_heading = "Input")]
+    pub tileset: PathBuf,
+
+    /// Maximum screen-space error of the simulated client in pixels (CesiumJS `maximumScreenSpaceError`).
+    #[arg(long, value_name = "PX", default_value_t = 16.0, help_heading = "Check")]
+    pub sse: f64,
+
+    /// Height tolerance δH of the seed criterion in pixels. Default: the tileset's `extras.citylod.dh_px`,
+    /// else 20.
+    #[arg(long, value_name = "PX", help_heading = "Check")]
+    pub dh_px: Option<f64>,
+
+    /// Area tolerance δA of the seed criterion in pixels². Default: the tileset's `extras.citylod.da_px`,
+    /// else 200.
+    #[arg(long, value_name = "PX²", help_heading = "Check")]
+    pub da_px: Option<f64>,
+
+    /// Number of built-in views, from the whole city in view (view 0) down to street level.
+    #[arg(long, value_name = "N", default_value_t = 8, help_heading = "Views")]
+    pub views: usize,
+
+    /// A camera instead of the built-in views: longitude and latitude (degrees), ellipsoidal height (m),
+    /// heading (degrees clockwise from north) and pitch (degrees, negative looks down), as in CesiumJS.
+    /// Repeat for several views. Vertical field of view 45°.
+    #[arg(long, value_name = "LON,LAT,H,HEADING,PITCH", help_heading = "Views", allow_hyphen_values = true)]
+    pub camera: Vec<String>,
+
+    /// Width of every render in pixels.
+    #[arg(long, value_name = "PX", default_value_t = 800, help_heading = "Views")]
+    pub width: u32,
+
+    /// Height of every render in pixels.
+    #[arg(long, value_name = "PX", default_value_t = 600, help_heading = "Views")]
+    pub height: u32,
+
+    /// Output folder for view-K/{cut,full,diff}.png, views.png and report.json (created if missing).
+    #[arg(short, long, value_name = "DIR", help_heading = "Output")]
+    pub out: PathBuf,
+
+    /// No progress output.
+    #[arg(short, long, help_heading = "Output")]
+    pub quiet: bool,
+}
+
+/// Parses `lon,lat,height,heading,pitch`.
+fn parse_camera(s: &str, frame: &LocalFrame) -> Result<Camera> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .with_context(|| format!("--camera {s:?}: expected five numbers lon,lat,height,heading,pitch"))?;
+    let [lon, lat, h, heading, pitch] = v[..] else {
+        bail!("--camera {s:?}: expected five numbers lon,lat,height,heading,pitch, got {}", v.len());
+    };
+    Camera::from_geodetic(lon, lat, h, heading, pitch, STANDARD_FOVY_DEG, frame).with_context(|| format!("--camera {s:?}"))
+}
+
+/// δH and δA: the flags, else the tileset's `extras.citylod`, else the seed defaults; with where they came from.
+fn tolerances(args: &CheckArgs, tileset_json: &Value) -> (Tolerances, &'static str) {
+    let extras = &tileset_json["extras"]["citylod"];
+    let from_ts = |k: &str| extras[k].as_f64().filter(|v| v.is_finite() && *v > 0.0);
+    let d = Tolerances::default();
+    let dh = args.dh_px.map(|v| (v, "flag")).or(from_ts("dh_px").map(|v| (v, "tileset"))).unwrap_or((d.dh_px, "default"));
+    let da = args.da_px.map(|v| (v, "flag")).or(from_ts("da_px").map(|v| (v, "tileset"))).unwrap_or((d.da_px, "default"));
+    let source = match (dh.1, da.1) {
+        (a, b) if a == b => a,
+        _ => "mixed",
+    };
+    (Tolerances { dh_px: dh.0, da_px: da.0 }, source)
+}
+
+fn camera_json(c: &Camera, frame: &LocalFrame, source: &str) -> Value {
+    let [lon, lat, h] = frame.enu_to_geodetic(c.eye_m);
+    let f = c.forward;
+    json!({
+        "source": source,
+        "eye_enu_m": c.eye_m,
+        "lon_deg": lon, "lat_deg": lat, "height_m": h,
+        "heading_deg": f[0].atan2(f[1]).to_degrees().rem_euclid(360.0),
+        "pitch_deg": f[2].clamp(-1.0, 1.0).asin().to_degrees(),
+        "fovy_deg": c.fovy_deg,
+    })
+}
+
+fn findings_json(f: &[Finding]) -> Value {
+    serde_json::to_value(f).unwrap_or(Value::Null)
+}
+
+pub fn run(args: CheckArgs) -> Result<ExitCode> {
+    // Silence Mesa's device-select layer before wgpu (and any thread) starts.
+    std::env::set_var("NODEVICE_SELECT", "1");
+    let t_all = Instant::now();
+    if !(args.sse.is_finite() && args.sse > 0.0) {
+        bail!("--sse must be a positive number of pixels, got {}", args.sse);
+    }
+    for (name, v) in [("--dh-px", args.dh_px), ("--da-px", args.da_px)] {
+        if v.is_some_and(|v| !(v.is_finite() && v > 0.0)) {
+            bail!("{name} must be a positive number, got {v:?}");
+        }
+    }
+    if args.width == 0 || args.height == 0 {
+        bail!("--width and --height must be at least 1 pixel");
+    }
+    if args.camera.is_empty() && args.views == 0 {
+        bail!("--views must be at least 1 (or give --camera)");
+    }
+    let path = if args.tileset.is_dir() { args.tileset.join("tileset.json") } else { args.tileset.clone() };
+    let data = citylod_tiles::read::read_tileset(&path).with_context(|| format!("reading {}", path.display()))?;
+    if data.tiles.is_empty() {
+        bail!("{} has no tiles", path.display());
+    }
+    let raw: Value = serde_json::from_slice(&std::fs::read(&path).with_context(|| format!("reading {}", path.display()))?)
+        .with_context(|| format!("parsing {}", path.display()))?;
+    let (tol, tol_source) = tolerances(&args, &raw);
+    let base = path.parent().unwrap_or(Path::new("."));
+    let ts = LoadedTileset::from_data(&data, Some(base));
+
+    let origin = [data.root_transform[12], data.root_transform[13], data.root_transform[14]];
+    let geo = ecef_to_geodetic(origin);
+    let frame = LocalFrame::new(geo[0], geo[1], geo[2]);
+    let georeferenced = origin.iter().map(|v| v * v).sum::<f64>().sqrt() > 1e6;
+    let cameras: Vec<(Camera, &str)> = if args.camera.is_empty() {
+        let (lo, hi) = ts.root_extent().context("the root tile has no bounds")?;
+        standard_views(lo, hi, args.views).into_iter().map(|c| (c, "standard")).collect()
+    } else {
+        if !georeferenced {
+            bail!("--camera needs a georeferenced tileset (its root has no transform to the globe)");
+        }
+        args.camera.iter().map(|s| Ok((parse_camera(s, &frame)?, "camera"))).collect::<Result<_>>()?
+    };
+    if cameras.is_empty() {
+        bail!("no camera: the root bounds are not finite");
+    }
+
+    let renderer = Renderer::new().context("opening a Vulkan device for rendering")?;
+    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    let settings = CheckSettings {
+        sse_px: args.sse,
+        tolerances: tol,
+        viewport: Viewport::new(args.width, args.height),
+        skyline_tolerance_px: SKYLINE_TOLERANCE_PX,
+    };
+
+    let tree_findings = check_tree(&ts);
+    let mut by_kind: BTreeMap<String, usize> = BTreeMap::new();
+    let count = |f: &[Finding], by_kind: &mut BTreeMap<String, usize>| {
+        for f in f {
+            let k = serde_json::to_value(f.kind).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_default();
+            *by_kind.entry(k).or_default() += 1;
+        }
+    };
+    count(&tree_findings, &mut by_kind);
+    let mut views_json = Vec::new();
+    let mut sheet_panels = Vec::new();
+    let mut views_passed = 0;
+    let mut findings_total = tree_findings.len();
+    for (k, (camera, source)) in cameras.iter().enumerate() {
+        let t = Instant::now();
+        let v = check_view(&ts, &renderer, camera, &settings).with_context(|| format!("view {k}"))?;
+        let dir = args.out.join(format!("view-{k}"));
+        std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+        for (name, img) in [("cut", &v.cut), ("full", &v.full), ("diff", &v.metrics.diff)] {
+            let p = dir.join(format!("{name}.png"));
+            img.save_png(&p).with_context(|| format!("writing {}", p.display()))?;
+        }
+        let passed = v.findings.is_empty();
+        views_passed += usize::from(passed);
+        findings_total += v.findings.len();
+        count(&v.findings, &mut by_kind);
+        let m = &v.metrics;
+        let ratio = (v.cut_triangles > 0).then(|| v.full_triangles as f64 / v.cut_triangles as f64);
+        let sel = &v.selection;
+        views_json.push(json!({
+            "index": k,
+            "camera": camera_json(camera, &frame, source),
+            "tiles": {
+                "selected": sel.selected.len(),
+                "selected_empty": sel.selected_empty.len(),
+                "refined": sel.refined.len(),
+                "culled": sel.culled.len(),
+                "full_detail_in_view": v.full_tiles,
+                "selected_paths": sel.selected.iter().map(|&i| ts.tiles[i].path_in_tree.as_str()).collect::<Vec<_>>(),
+            },
+            "triangles": {
+                "cut": v.cut_triangles,
+                "full_in_view": v.full_triangles,
+                "full_total": v.full_triangles_total,
+                "ratio_full_to_cut": ratio,
+            },
+            "bytes": { "cut": v.cut_bytes, "full_in_view": v.full_bytes },
+            "images": {
+                "cut": format!("view-{k}/cut.png"),
+                "full": format!("view-{k}/full.png"),
+                "diff": format!("view-{k}/diff.png"),
+            },
+            "metrics": {
+                "changed_px": m.changed_px,
+                "changed_fraction": m.changed_fraction,
+                "added_px": m.added_px,
+                "removed_px": m.removed_px,
+                "largest_added_region_px": m.largest_added_region_px,
+                "largest_removed_region_px": m.largest_removed_region_px,
+                "skyline": v.skyline,
+                "skyline_limit_px": tol.dh_px + settings.skyline_tolerance_px,
+            },
+            "findings": findings_json(&v.findings),
+            "passed": passed,
+            "elapsed_s": t.elapsed().as_secs_f64(),
+        }));
+        if !args.quiet {
+            eprintln!(
+                "view {k}: {} tiles, {} of {} triangles ({}), {} finding(s), {:.1} s",
+                sel.selected.len(),
+                v.cut_triangles,
+                v.full_triangles,
+                ratio.map_or("-".into(), |r| format!("{r:.1}×")),
+                v.findings.len(),
+                t.elapsed().as_secs_f64()
+            );
+        }
+        sheet_panels.push((format!("view {k} cut"), v.cut));
+        sheet_panels.push((format!("view {k} diff"), v.metrics.diff));
+    }
+    let panels: Vec<(&str, &citylod_check::Image)> = sheet_panels.iter().map(|(l, i)| (l.as_str(), i)).collect();
+    let sheet = contact_sheet(&panels, 4).context("building the contact sheet")?;
+    let sheet_path = args.out.join("views.png");
+    sheet.save_png(&sheet_path).with_context(|| format!("writing {}", sheet_path.display()))?;
+
+    let passed = findings_total == 0;
+    let report = json!({
+        "citylod_version": env!("CARGO_PKG_VERSION"),
+        "tileset": path.display().to_string(),
+        "adapter": renderer.adapter_name(),
+        "settings": {
+            "sse_px": args.sse,
+            "dh_px": tol.dh_px,
+            "da_px": tol.da_px,
+            "tolerance_source": tol_source,
+            "width_px": args.width,
+            "height_px": args.height,
+            "fovy_deg": cameras[0].0.fovy_deg,
+            "skyline_tolerance_px": settings.skyline_tolerance_px,
+        },
+        "tileset_stats": {
+            "tiles": ts.tiles.len(),
+            "leaf_tiles": ts.leaf_tiles().len(),
+            "buildings": ts.buildings.len(),
+            "geometric_error_m": data.geometric_error_m,
+        },
+        "tileset_findings": findings_json(&tree_findings),
+        "views": views_json,
+        "summary": {
+            "views": cameras.len(),
+            "views_passed": views_passed,
+            "findings": findings_total,
+            "findings_by_kind": by_kind,
+            "passed": passed,
+            "elapsed_s": t_all.elapsed().as_secs_f64(),
+        },
+    });
+    let report_path = args.out.join("report.json");
+    std::fs::write(&report_path, serde_json::to_vec_pretty(&report)?).with_context(|| format!("writing {}", report_path.display()))?;
+    if !args.quiet {
+        eprintln!(
+            "citylod check: {views_passed} of {} views passed, {findings_total} finding(s){}; report: {}",
+            cameras.len(),
+            if tree_findings.is_empty() { String::new() } else { format!(" ({} in the tree)", tree_findings.len()) },
+            report_path.display()
+        );
+    }
+    Ok(if passed { ExitCode::SUCCESS } else { ExitCode::from(1) })
+}

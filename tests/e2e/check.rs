@@ -1,0 +1,271 @@
+//! citylod check on real tilesets: every view passes, report.json validates against its schema, far views
+//! draw far fewer triangles than full detail, renders are deterministic; and on deliberately damaged copies
+//! (tileset.json edited with serde_json) the matching finding is reported with exit status 1.
+
+use crate::common::*;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+/// Small renders and few views keep the suite quick in debug builds.
+const SIZE: [&str; 4] = ["--width", "400", "--height", "300"];
+
+/// NYC Lower East Side (bundled), with small tiles so levels have siblings to damage.
+fn nyc() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let out = e2e_dir("check-nyc");
+        let input = repo_root().join("examples/nyc-les/les_buildings.geojson");
+        build(&[&input], &out, &["--tile-max-features", "100"]);
+        out
+    })
+}
+
+fn boston() -> Option<&'static Path> {
+    static DIR: OnceLock<Option<PathBuf>> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let input = shared_data("boston/boston_buildings.geojson")?;
+        let out = e2e_dir("check-boston");
+        build(&[&input], &out, &["--storey-height", "3.5"]);
+        Some(out)
+    })
+    .as_deref()
+}
+
+fn delft() -> Option<&'static Path> {
+    static DIR: OnceLock<Option<PathBuf>> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let input = shared_data("delft-3dbag/delft.city.jsonl")?;
+        let out = e2e_dir("check-delft");
+        build(&[&input], &out, &[]);
+        Some(out)
+    })
+    .as_deref()
+}
+
+/// Runs `citylod check` and returns (exit code, report).
+fn check(tileset: &Path, out: &Path, extra: &[&str]) -> (i32, Value) {
+    let mut args = vec!["check".to_string(), tileset.display().to_string()];
+    args.extend(SIZE.iter().chain(extra).map(|s| s.to_string()));
+    args.extend(["--out".into(), out.display().to_string(), "--quiet".into()]);
+    let a: Vec<&str> = args.iter().map(String::as_str).collect();
+    let o = citylod(&a);
+    let code = o.status.code().expect("exit code");
+    assert!(
+        code == 0 || code == 1,
+        "citylod check failed to run ({code}):\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let report = read_json(&out.join("report.json"));
+    let errors = schema_errors("check-report.schema.json", &report);
+    assert!(errors.is_empty(), "report.json breaks its schema:\n{}", errors.join("\n"));
+    (code, report)
+}
+
+/// Every finding of the report (tileset-wide and per view) as (kind, tile).
+fn findings(report: &Value) -> Vec<(String, String)> {
+    let views = report["views"].as_array().unwrap();
+    report["tileset_findings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .chain(views.iter().flat_map(|v| v["findings"].as_array().unwrap()))
+        .map(|f| (f["kind"].as_str().unwrap().to_string(), f["tile"].as_str().unwrap().to_string()))
+        .collect()
+}
+
+fn assert_all_views_pass(name: &str, tileset: &Path, views: &str) -> Value {
+    let out = scratch_dir(&format!("check-{name}"));
+    let (code, report) = check(tileset, &out, &["--views", views]);
+    assert_eq!(code, 0, "{name}: findings {:?}", findings(&report));
+    let n: usize = views.parse().unwrap();
+    assert_eq!(report["summary"]["views_passed"], n);
+    for k in 0..n {
+        for img in ["cut", "full", "diff"] {
+            assert!(out.join(format!("view-{k}/{img}.png")).is_file(), "{name}: view-{k}/{img}.png");
+        }
+    }
+    assert!(out.join("views.png").is_file());
+    report
+}
+
+/// The far view (view 0, whole extent in view) must draw ≥ 10× fewer triangles than full detail.
+fn assert_far_view_is_ten_times_lighter(name: &str, report: &Value) {
+    let v0 = &report["views"][0]["triangles"];
+    let (cut, full) = (v0["cut"].as_u64().unwrap(), v0["full_in_view"].as_u64().unwrap());
+    assert!(
+        cut * 10 <= full,
+        "{name}: the far view draws {cut} of {full} triangles ({:.2}× fewer), not ≥ 10× fewer",
+        full as f64 / cut.max(1) as f64
+    );
+}
+
+#[test]
+fn nyc_every_view_passes_and_report_validates() {
+    let report = assert_all_views_pass("nyc", nyc(), "6");
+    assert_eq!(report["settings"]["tolerance_source"], "default");
+    assert!(report["tileset_stats"]["buildings"].as_u64().unwrap() > 1000);
+}
+
+#[test]
+fn nyc_far_view_draws_ten_times_fewer_triangles() {
+    let out = scratch_dir("check-nyc-far");
+    let (_, report) = check(nyc(), &out, &["--views", "2"]);
+    assert_far_view_is_ten_times_lighter("nyc", &report);
+}
+
+#[test]
+fn boston_every_view_passes_and_far_view_is_light() {
+    let Some(dir) = boston() else { return };
+    let report = assert_all_views_pass("boston", dir, "4");
+    assert_far_view_is_ten_times_lighter("boston", &report);
+}
+
+#[test]
+fn delft_every_view_passes_and_far_view_is_light() {
+    let Some(dir) = delft() else { return };
+    let report = assert_all_views_pass("delft", dir, "4");
+    assert_far_view_is_ten_times_lighter("delft", &report);
+}
+
+#[test]
+fn renders_are_deterministic() {
+    let (a, b) = (scratch_dir("check-det-a"), scratch_dir("check-det-b"));
+    check(nyc(), &a, &["--views", "2"]);
+    check(nyc(), &b, &["--views", "2"]);
+    for k in 0..2 {
+        for img in ["cut", "full", "diff"] {
+            let p = format!("view-{k}/{img}.png");
+            assert!(std::fs::read(a.join(&p)).unwrap() == std::fs::read(b.join(&p)).unwrap(), "{p} differs");
+        }
+    }
+    assert!(std::fs::read(a.join("views.png")).unwrap() == std::fs::read(b.join("views.png")).unwrap());
+}
+
+#[test]
+fn explicit_camera_is_used_and_unreadable_tileset_is_exit_2() {
+    let out = scratch_dir("check-camera");
+    // Above the Lower East Side looking north-east and down.
+    let (code, report) = check(nyc(), &out, &["--camera", "-73.985,40.715,600,30,-45"]);
+    assert_eq!(code, 0, "{:?}", findings(&report));
+    assert_eq!(report["views"].as_array().unwrap().len(), 1);
+    assert_eq!(report["views"][0]["camera"]["source"], "camera");
+    assert!((report["views"][0]["camera"]["height_m"].as_f64().unwrap() - 600.0).abs() < 1e-3);
+
+    let missing = citylod(&["check", "/nonexistent/tileset.json", "--out", out.to_str().unwrap()]);
+    assert_eq!(missing.status.code(), Some(2));
+    let bad = citylod(&["check", nyc().to_str().unwrap(), "--camera", "1,2,3", "--out", out.to_str().unwrap()]);
+    assert_eq!(bad.status.code(), Some(2));
+}
+
+/// A copy of the NYC tileset with `edit` applied to its tileset.json.
+fn damaged(name: &str, edit: impl FnOnce(&mut Value)) -> PathBuf {
+    let dir = scratch_dir(&format!("damaged-{name}"));
+    for (rel, bytes) in tree_bytes(nyc()) {
+        let p = dir.join(&rel);
+        std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+        std::fs::write(p, bytes).unwrap();
+    }
+    let mut ts = read_json(&dir.join("tileset.json"));
+    edit(&mut ts);
+    std::fs::write(dir.join("tileset.json"), serde_json::to_vec(&ts).unwrap()).unwrap();
+    dir
+}
+
+/// (path in the tree `0/…/k`, JSON pointer) of every tile, pre-order.
+fn tile_pointers(ts: &Value) -> Vec<(String, String)> {
+    fn walk(t: &Value, path: String, ptr: String, out: &mut Vec<(String, String)>) {
+        out.push((path.clone(), ptr.clone()));
+        for (k, c) in t["children"].as_array().into_iter().flatten().enumerate() {
+            walk(c, format!("{path}/{k}"), format!("{ptr}/children/{k}"), out);
+        }
+    }
+    let mut out = Vec::new();
+    walk(&ts["root"], "0".into(), "/root".into(), &mut out);
+    out
+}
+
+fn children_len(t: &Value) -> usize {
+    t["children"].as_array().map_or(0, Vec::len)
+}
+
+/// Whether every child of `t` is a leaf (and it has at least `min` children).
+fn parents_leaves(t: &Value, min: usize) -> bool {
+    t["children"].as_array().is_some_and(|c| c.len() >= min && c.iter().all(|c| children_len(c) == 0))
+}
+
+/// Path and JSON pointer of the first tile with at least two children, all leaves.
+fn parent_of_leaves(ts: &Value) -> (String, String) {
+    tile_pointers(ts)
+        .into_iter()
+        .find(|(_, ptr)| parents_leaves(ts.pointer(ptr).unwrap(), 2))
+        .expect("a tile with two leaf children")
+}
+
+fn run_damaged(name: &str, dir: &Path) -> Vec<(String, String)> {
+    let out = scratch_dir(&format!("damaged-{name}-out"));
+    let (code, report) = check(dir, &out, &["--views", "6"]);
+    let f = findings(&report);
+    assert_eq!(code, 1, "{name}: a damaged tileset must fail the check");
+    assert_eq!(report["summary"]["passed"], false);
+    f
+}
+
+#[test]
+fn too_small_geometric_error_violates_the_criterion() {
+    let dir = damaged("small-error", |ts| {
+        for (_, ptr) in tile_pointers(ts) {
+            let t = ts.pointer_mut(&ptr).unwrap();
+            if parents_leaves(t, 1) {
+                t["geometricError"] = Value::from(0.001);
+            }
+        }
+    });
+    let f = run_damaged("small-error", &dir);
+    assert!(
+        f.iter().any(|(k, _)| k == "height_criterion" || k == "area_criterion"),
+        "expected a criterion finding, got {f:?}"
+    );
+    assert!(!f.iter().any(|(k, _)| k == "error_grows"), "{f:?}");
+}
+
+#[test]
+fn removed_child_is_a_coverage_gap() {
+    let mut parent_path = String::new();
+    let dir = damaged("removed-child", |ts| {
+        let (path, ptr) = parent_of_leaves(ts);
+        parent_path = path;
+        ts.pointer_mut(&ptr).unwrap()["children"].as_array_mut().unwrap().pop();
+    });
+    let f = run_damaged("removed-child", &dir);
+    assert!(
+        f.contains(&("member_count_mismatch".to_string(), parent_path.clone())),
+        "expected member_count_mismatch at {parent_path}, got {f:?}"
+    );
+}
+
+#[test]
+fn content_duplicated_into_a_sibling_is_covered_twice() {
+    let dir = damaged("duplicate", |ts| {
+        let (_, ptr) = parent_of_leaves(ts);
+        let c = ts.pointer_mut(&ptr).unwrap()["children"].as_array_mut().unwrap();
+        c[1]["content"]["uri"] = c[0]["content"]["uri"].clone();
+    });
+    let f = run_damaged("duplicate", &dir);
+    assert!(f.iter().any(|(k, _)| k == "building_in_two_leaves"), "{f:?}");
+    assert!(f.iter().any(|(k, _)| k == "building_twice"), "expected a view to cover a building twice: {f:?}");
+}
+
+#[test]
+fn child_error_above_parent_is_found() {
+    let mut child_path = String::new();
+    let dir = damaged("error-grows", |ts| {
+        let (path, ptr) = parent_of_leaves(ts);
+        let parent = ts.pointer_mut(&ptr).unwrap();
+        let e = parent["geometricError"].as_f64().unwrap();
+        parent["children"][0]["geometricError"] = Value::from(e + 100.0);
+        child_path = format!("{path}/0");
+    });
+    let f = run_damaged("error-grows", &dir);
+    assert!(f.contains(&("error_grows".to_string(), child_path.clone())), "expected error_grows at {child_path}: {f:?}");
+}
