@@ -23,7 +23,7 @@ build:
 demo: setup build
 	$(BIN) build $(DEMO_IN) --out $(DEMO_OUT)
 	$(BIN) inspect $(DEMO_OUT)
-	node tools/screenshot.mjs --tileset $(DEMO_OUT) --out $(DEMO_OUT)-cesium.png
+	node tools/screenshot.mjs --tileset $(DEMO_OUT) --out $(DEMO_OUT)-cesium.png --view mid
 	@echo
 	@echo "Tileset:     $(DEMO_OUT)/tileset.json   (build report: $(DEMO_OUT)/build-report.json)"
 	@echo "Screenshot:  $(DEMO_OUT)-cesium.png"

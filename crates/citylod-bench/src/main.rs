@@ -69,7 +69,57 @@ fn bench_build(citylod: &Path, name: &str, inputs: &[PathBuf], extra: &[&str], r
     Ok(())
 }
 
+/// Runs inside a child process: generalizes one input and prints `{"n": …, "seconds": …}` on stdout.
+fn run_case(kind: &str, arg: &str) -> Result<()> {
+    let buildings = match kind {
+        "synth" => synth::city(arg.parse().context("case synth needs a building count")?, 42),
+        "file" => {
+            let opts = citylod_ingest::IngestOptions { storey_height_m: 3.5, ..Default::default() };
+            citylod_ingest::ingest(&[PathBuf::from(arg)], &opts)?.buildings
+        }
+        other => bail!("unknown case {other}"),
+    };
+    let t = Instant::now();
+    let g = citylod_generalize::generalize(&buildings, &Default::default())?;
+    let seconds = t.elapsed().as_secs_f64();
+    println!(
+        "{}",
+        serde_json::json!({"n": buildings.len(), "seconds": seconds, "levels": g.hierarchy.levels.len()})
+    );
+    Ok(())
+}
+
+/// Generalizes in a child process (so its peak RSS is its own) and returns (n, seconds, peak RSS MB, levels).
+fn bench_generalize(kind: &str, arg: &str) -> Result<(usize, f64, f64, usize)> {
+    let out = std::env::temp_dir().join(format!("citylod-bench-case-{}.json", std::process::id()));
+    let file = std::fs::File::create(&out)?;
+    let me = std::env::current_exe()?;
+    let r = measure(Command::new(me).args(["case", kind, arg]).stdout(file))?;
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&out)?)?;
+    let _ = std::fs::remove_file(&out);
+    Ok((
+        v["n"].as_u64().unwrap_or(0) as usize,
+        v["seconds"].as_f64().unwrap_or(f64::NAN),
+        r.peak_rss_mb,
+        v["levels"].as_u64().unwrap_or(0) as usize,
+    ))
+}
+
+/// Least-squares slope of log(time) against log(n): time ∝ n^slope.
+fn fitted_exponent(points: &[(usize, f64)]) -> f64 {
+    let xs: Vec<f64> = points.iter().map(|p| (p.0 as f64).ln()).collect();
+    let ys: Vec<f64> = points.iter().map(|p| p.1.ln()).collect();
+    let (mx, my) = (xs.iter().sum::<f64>() / xs.len() as f64, ys.iter().sum::<f64>() / ys.len() as f64);
+    let cov: f64 = xs.iter().zip(&ys).map(|(x, y)| (x - mx) * (y - my)).sum();
+    let var: f64 = xs.iter().map(|x| (x - mx) * (x - mx)).sum();
+    cov / var
+}
+
 fn main() -> Result<()> {
+    let argv: Vec<String> = std::env::args().collect();
+    if argv.get(1).map(String::as_str) == Some("case") && argv.len() == 4 {
+        return run_case(&argv[2], &argv[3]);
+    }
     let mut citylod = PathBuf::from("target/release/citylod");
     let mut data = PathBuf::from("../shared/data");
     let mut runs = 3usize;
@@ -87,5 +137,46 @@ fn main() -> Result<()> {
     bench_build(&citylod, "boston (GeoJSON)", &[data.join("boston/boston_buildings.geojson")], &["--storey-height", "3.5"], runs)?;
     bench_build(&citylod, "delft (CityJSONSeq)", &[data.join("delft-3dbag/delft.city.jsonl")], &[], runs)?;
     bench_build(&citylod, "nyc-les (GeoJSON)", &[data.join("nyc-les/les_buildings.geojson")], &[], runs)?;
+
+    println!("== coarse levels cost: total glb bytes, levels of detail vs buildings only (target ≤ 1.25×) ==");
+    for (name, rel, extra) in [
+        ("boston", "boston/boston_buildings.geojson", &["--storey-height", "3.5"][..]),
+        ("delft", "delft-3dbag/delft.city.jsonl", &[][..]),
+        ("nyc-les", "nyc-les/les_buildings.geojson", &[][..]),
+    ] {
+        let input = data.join(rel);
+        if !input.exists() {
+            println!("{name:<28} skipped: {} not found", input.display());
+            continue;
+        }
+        let bytes = |flags: &[&str]| -> Result<u64> {
+            let out = std::env::temp_dir().join(format!("citylod-bench-bytes-{}", std::process::id()));
+            measure(Command::new(&citylod).arg("build").arg(&input).args(extra).args(flags).arg("--out").arg(&out).arg("--quiet"))?;
+            let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("build-report.json"))?)?;
+            let _ = std::fs::remove_dir_all(&out);
+            Ok(report["tiles"]["glb_bytes"].as_u64().unwrap_or(0))
+        };
+        let (lod, leaves) = (bytes(&[])?, bytes(&["--leaves-only"])?);
+        println!(
+            "{name:<28} with levels {:>7.2} MB   buildings only {:>7.2} MB   ratio {:.2}×",
+            lod as f64 / 1e6,
+            leaves as f64 / 1e6,
+            lod as f64 / leaves as f64
+        );
+    }
+
+    println!("== generalization alone (target: Boston ≤ 1 s; 1M ≤ 60 s and ≤ 4 GB; time ∝ n^k with k ≤ 1.2) ==");
+    let boston = data.join("boston/boston_buildings.geojson");
+    if boston.exists() {
+        let (n, t, rss, levels) = bench_generalize("file", boston.to_str().context("path")?)?;
+        println!("{:<28} {n:>9} buildings  {t:>7.3} s  {:>9.0} buildings/s  peak RSS {rss:>7.1} MB  {levels} levels", "boston", n as f64 / t);
+    }
+    let mut points = Vec::new();
+    for n in [10_000usize, 100_000, 1_000_000] {
+        let (n, t, rss, levels) = bench_generalize("synth", &n.to_string())?;
+        println!("{:<28} {n:>9} buildings  {t:>7.3} s  {:>9.0} buildings/s  peak RSS {rss:>7.1} MB  {levels} levels", format!("generated city {n}"), n as f64 / t);
+        points.push((n, t));
+    }
+    println!("fitted exponent of time versus n (generated cities): {:.2}", fitted_exponent(&points));
     Ok(())
 }
