@@ -5,7 +5,7 @@
 
 use std::collections::BTreeMap;
 
-use crate::finding::{Finding, FindingKind, MAX_LISTED};
+use crate::finding::{Finding, FindingKind};
 use crate::select::Selection;
 use crate::tileset::{LoadedTileset, NodeRef};
 
@@ -41,6 +41,9 @@ pub fn check_tree(ts: &LoadedTileset) -> Vec<Finding> {
     let mut first: BTreeMap<u32, usize> = BTreeMap::new();
     let mut twice: BTreeMap<(usize, usize), Vec<u32>> = BTreeMap::new();
     for (i, t) in ts.tiles.iter().enumerate() {
+        if !ts.tree.tiles[i].children.is_empty() {
+            continue; // buildings of inner tiles are landmarks, shown again below
+        }
         for f in &t.features {
             if let NodeRef::Building { building_index } = f.node {
                 if let Some(&j) = first.get(&building_index) {
@@ -82,10 +85,12 @@ pub fn check_tree(ts: &LoadedTileset) -> Vec<Finding> {
                 FindingKind::UnknownFeature,
                 ts,
                 i,
-                format!("{unknown} feature(s) have neither building_index nor level and node_index"),
+                format!(
+                    "{unknown} feature(s) have neither building_index nor level and node_index"
+                ),
             ));
         }
-        if t.holds_buildings() || t.features.is_empty() {
+        if !t.has_clusters() {
             continue;
         }
         let Some(total) = t.member_total() else {
@@ -198,10 +203,16 @@ pub fn check_cut(ts: &LoadedTileset, sel: &Selection) -> Vec<Finding> {
     }
     for &i in &sel.selected {
         let t = &ts.tiles[i];
-        let all_listed = t.features.iter().all(|f| f.members.is_some());
-        if all_listed {
+        // Buildings beside blocks are the blocks' landmarks: members of a block already.
+        let clusters = t.has_clusters();
+        let counted: Vec<_> = t
+            .features
+            .iter()
+            .filter(|f| !clusters || !matches!(f.node, NodeRef::Building { .. }))
+            .collect();
+        if !counted.is_empty() && counted.iter().all(|f| f.members.is_some()) {
             covered.extend(
-                t.features
+                counted
                     .iter()
                     .flat_map(|f| f.members.iter().flatten())
                     .map(|&b| (b, i)),
@@ -233,8 +244,7 @@ pub fn check_cut(ts: &LoadedTileset, sel: &Selection) -> Vec<Finding> {
     let counts = held_counts(ts);
     for &i in &sel.refined {
         let t = &ts.tiles[i];
-        let (Some(total), false) = (t.member_total(), t.holds_buildings() || t.features.is_empty())
-        else {
+        let (Some(total), true) = (t.member_total(), t.has_clusters()) else {
             continue;
         };
         let held: Option<u64> = ts.tree.tiles[i]
@@ -301,34 +311,26 @@ pub fn check_cut(ts: &LoadedTileset, sel: &Selection) -> Vec<Finding> {
         }
     }
     for (tile, b) in missing {
-        let mut f = match tile {
-            Some(i) => Finding::at(
-                FindingKind::BuildingMissing,
-                ts,
-                i,
-                format!("{} building(s) below this tile are not in the cut", b.len()),
+        let message = match tile {
+            Some(_) => format!("{} building(s) below this tile are not in the cut", b.len()),
+            None => format!(
+                "{} building(s) are reachable from no tile of the cut",
+                b.len()
             ),
-            None => Finding {
-                tile: String::new(),
-                content_uri: None,
-                ..Finding::at(
-                    FindingKind::BuildingMissing,
-                    ts,
-                    usize::MAX,
-                    format!(
-                        "{} building(s) are reachable from no tile of the cut (first: {:?})",
-                        b.len(),
-                        &b[..b.len().min(MAX_LISTED)]
-                    ),
-                )
-            },
         };
-        f = f
-            .node(NodeRef::Building {
+        // No owning tile (reached only through a bad link): `at` leaves the tile empty.
+        let f = Finding::at(
+            FindingKind::BuildingMissing,
+            ts,
+            tile.unwrap_or(usize::MAX),
+            message,
+        );
+        out.push(
+            f.node(NodeRef::Building {
                 building_index: b[0],
             })
-            .buildings(&b);
-        out.push(f);
+            .buildings(&b),
+        );
     }
     out
 }
@@ -374,6 +376,7 @@ mod tests {
             content_bytes: 0,
             mesh: None,
             features,
+            triangle_features: Vec::new(),
             under: Vec::new(),
         };
         let mut tiles = vec![
@@ -426,6 +429,16 @@ mod tests {
         assert!(check_tree(&ts).is_empty());
         assert!(check_cut(&ts, &sel(vec![0], vec![], vec![])).is_empty());
         assert!(check_cut(&ts, &sel(vec![1], vec![0], vec![2])).is_empty());
+    }
+
+    #[test]
+    fn landmark_beside_its_block_is_not_counted_twice() {
+        let mut ts = tileset(4, [&[0, 1], &[2, 3]], [5.0, 0.0, 0.0]);
+        ts.tiles[0].features.push(building(2));
+        assert!(check_tree(&ts).is_empty());
+        assert!(check_cut(&ts, &sel(vec![0], vec![], vec![])).is_empty());
+        ts.tiles[0].features[0].members = Some(vec![0, 1, 2, 3]);
+        assert!(check_cut(&ts, &sel(vec![0], vec![], vec![])).is_empty());
     }
 
     #[test]

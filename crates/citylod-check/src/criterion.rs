@@ -84,15 +84,27 @@ pub fn view_error(
     }
 }
 
-/// Every block of every selected tile that is in view and breaks δH or δA.
+/// How close the drawn blocks of one cut come to the tolerances.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+pub struct CriterionStats {
+    /// Blocks of the selected tiles that are in view and not exact (checked).
+    pub blocks_checked: u32,
+    /// Largest ΔH_view (px) and ΔA_view (px²) among them; 0 when none.
+    pub max_dh_view_px: f64,
+    pub max_da_view_px: f64,
+}
+
+/// Every block of every selected tile that is in view and breaks δH or δA, and the largest
+/// ΔH_view and ΔA_view seen.
 pub fn check_criterion(
     ts: &LoadedTileset,
     sel: &Selection,
     camera: &Camera,
     viewport: Viewport,
     tol: Tolerances,
-) -> Vec<Finding> {
+) -> (Vec<Finding>, CriterionStats) {
     let mut out = Vec::new();
+    let mut stats = CriterionStats::default();
     for &i in &sel.selected {
         for f in &ts.tiles[i].features {
             let NodeRef::Cluster { .. } = f.node else {
@@ -105,6 +117,9 @@ pub fn check_criterion(
                 continue;
             }
             let e = view_error(f.dh_m, f.da_m2, bounds, camera, viewport);
+            stats.blocks_checked += 1;
+            stats.max_dh_view_px = stats.max_dh_view_px.max(e.dh_view_px);
+            stats.max_da_view_px = stats.max_da_view_px.max(e.da_view_px);
             let what = format!(
                 "at {:.1} m, line of sight {:.1}° below or above level",
                 e.distance_m, e.elevation_deg
@@ -141,7 +156,7 @@ pub fn check_criterion(
             }
         }
     }
-    out
+    (out, stats)
 }
 
 #[cfg(test)]

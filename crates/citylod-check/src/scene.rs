@@ -65,6 +65,30 @@ impl Scene {
         Ok(())
     }
 
+    /// Adds a mesh as [`Scene::add_mesh`] does, with one feature id per triangle (`feature_ids`
+    /// parallel to `mesh.triangles`). Errors as `add_mesh`, and when the lengths differ.
+    pub fn add_mesh_with_ids(
+        &mut self,
+        mesh: &Mesh3d,
+        colour: [u8; 4],
+        feature_ids: &[u32],
+    ) -> Result<(), CheckError> {
+        if feature_ids.len() != mesh.triangles.len() || feature_ids.contains(&u32::MAX) {
+            return Err(CheckError::Mesh {
+                feature_id: feature_ids.first().copied().unwrap_or(0),
+                detail: format!(
+                    "{} feature ids for {} triangles, or the reserved id u32::MAX",
+                    feature_ids.len(),
+                    mesh.triangles.len()
+                ),
+            });
+        }
+        self.add_mesh(mesh, colour, 0)?;
+        let start = self.feature_ids.len() - feature_ids.len();
+        self.feature_ids[start..].copy_from_slice(feature_ids);
+        Ok(())
+    }
+
     /// Number of triangles.
     pub fn triangle_count(&self) -> usize {
         self.triangles.len()

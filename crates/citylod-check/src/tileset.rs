@@ -1,6 +1,7 @@
 //! The checker's view of a decoded tileset (citylod-tiles `read`): the [`TileTree`] that selection
 //! walks, and per tile its mesh, its features' identities (building index, or block level and node)
-//! and the buildings below it. Root frame (local ENU metres, z up), as the reader returns it.
+//! and the buildings below it. Buildings beside blocks in an inner tile are the blocks' landmarks
+//! (members of a block, drawn at full detail). Root frame (local ENU metres, z up), as the reader returns it.
 //! Invariant: `tiles[i]` describes `tree.tiles[i]`; `under` lists are sorted (duplicates kept).
 
 use std::collections::BTreeSet;
@@ -55,22 +56,28 @@ pub struct TileInfo {
     /// The content as one mesh in the root frame; `None` without content.
     pub mesh: Option<Mesh3d>,
     pub features: Vec<FeatureInfo>,
+    /// Per triangle of `mesh`: index into `features` (of its first vertex), `u32::MAX` for none.
+    pub triangle_features: Vec<u32>,
     /// Building indices held by the leaf tiles at or below this tile, sorted, duplicates kept.
     pub under: Vec<u32>,
 }
 
 impl TileInfo {
-    /// Whether the content holds buildings (level-0 features).
-    pub fn holds_buildings(&self) -> bool {
+    /// Whether the content holds blocks (level ≥ 1 features).
+    pub fn has_clusters(&self) -> bool {
         self.features
             .iter()
-            .any(|f| matches!(f.node, NodeRef::Building { .. }))
+            .any(|f| matches!(f.node, NodeRef::Cluster { .. }))
     }
 
-    /// Σ member_count over the features (`None` when a block lacks it).
+    /// The buildings the content stands for: Σ member_count of its blocks when it has blocks
+    /// (buildings beside blocks are their landmarks, already counted as members), else its number
+    /// of buildings. `None` when a block lacks member_count or a feature has no identity.
     pub fn member_total(&self) -> Option<u64> {
+        let clusters = self.has_clusters();
         self.features
             .iter()
+            .filter(|f| !clusters || !matches!(f.node, NodeRef::Building { .. }))
             .map(|f| f.member_count.map(u64::from))
             .sum()
     }
@@ -85,7 +92,7 @@ impl TileInfo {
 pub struct LoadedTileset {
     pub tree: TileTree,
     pub tiles: Vec<TileInfo>,
-    /// Every building index held by some building feature.
+    /// Every building index held by a building feature of a leaf tile.
     pub buildings: BTreeSet<u32>,
 }
 
@@ -95,14 +102,12 @@ impl LoadedTileset {
     /// child link out of range is kept (selection reports it). Never panics on odd input.
     pub fn from_data(data: &TilesetData, base_dir: Option<&Path>) -> LoadedTileset {
         let n = data.tiles.len();
-        let mut tiles: Vec<TileInfo> = data
-            .tiles
-            .iter()
-            .map(|t| tile_info(t, base_dir))
-            .collect();
+        let mut tiles: Vec<TileInfo> = data.tiles.iter().map(|t| tile_info(t, base_dir)).collect();
         let buildings: BTreeSet<u32> = tiles
             .iter()
-            .flat_map(|t| &t.features)
+            .zip(&data.tiles)
+            .filter(|(_, d)| d.children.is_empty())
+            .flat_map(|(t, _)| &t.features)
             .filter_map(|f| match f.node {
                 NodeRef::Building { building_index } => Some(building_index),
                 _ => None,
@@ -130,7 +135,7 @@ impl LoadedTileset {
                 bounds: t
                     .bounding_box
                     .map(box_from_array)
-                    .unwrap_or_else(|| zero_box()),
+                    .unwrap_or_else(zero_box),
                 geometric_error_m: t.geometric_error_m,
                 children: t.children.clone(),
                 has_content: info.mesh.as_ref().is_some_and(|m| !m.triangles.is_empty()),
@@ -162,13 +167,16 @@ impl LoadedTileset {
 
     /// Axis-aligned bounds (min, max) of the root's box, root frame (m); `None` without tiles.
     pub fn root_extent(&self) -> Option<(Vec3, Vec3)> {
-        self.tree.tiles.get(self.tree.root).map(|t| box_aabb(&t.bounds))
+        self.tree
+            .tiles
+            .get(self.tree.root)
+            .map(|t| box_aabb(&t.bounds))
     }
 
-    /// Indices of the tiles whose content holds buildings (full detail).
+    /// Indices of the leaf tiles (no children) with content: full detail.
     pub fn leaf_tiles(&self) -> Vec<usize> {
         (0..self.tiles.len())
-            .filter(|&i| self.tiles[i].holds_buildings())
+            .filter(|&i| self.tree.tiles[i].children.is_empty() && self.tiles[i].mesh.is_some())
             .collect()
     }
 }
@@ -186,8 +194,8 @@ fn tile_info(t: &TileData, base_dir: Option<&Path>) -> TileInfo {
         (Some(dir), Some(uri)) => std::fs::metadata(dir.join(uri)).map_or(0, |m| m.len()),
         _ => 0,
     };
-    let (mesh, features) = match &t.content {
-        None => (None, Vec::new()),
+    let (mesh, features, triangle_features) = match &t.content {
+        None => (None, Vec::new(), Vec::new()),
         Some(glb) => {
             let mut bounds: Vec<Option<(Vec3, Vec3)>> = vec![None; glb.features.len()];
             for (p, &f) in glb.positions_local.iter().zip(&glb.feature_ids) {
@@ -205,7 +213,19 @@ fn tile_info(t: &TileData, base_dir: Option<&Path>) -> TileInfo {
                 positions: glb.positions_local.clone(),
                 triangles: glb.triangles.clone(),
             };
-            (Some(mesh), features)
+            let n = glb.features.len() as u32;
+            let triangle_features = glb
+                .triangles
+                .iter()
+                .map(|t| {
+                    glb.feature_ids
+                        .get(t[0] as usize)
+                        .copied()
+                        .filter(|&f| f < n)
+                        .unwrap_or(u32::MAX)
+                })
+                .collect();
+            (Some(mesh), features, triangle_features)
         }
     };
     TileInfo {
@@ -214,6 +234,7 @@ fn tile_info(t: &TileData, base_dir: Option<&Path>) -> TileInfo {
         content_bytes,
         mesh,
         features,
+        triangle_features,
         under: Vec::new(),
     }
 }
@@ -262,7 +283,11 @@ fn feature_info(
         _ => None,
     };
     let (node, member_count, members) = match (building, cluster) {
-        (Some(b), _) => (NodeRef::Building { building_index: b }, Some(1), Some(vec![b])),
+        (Some(b), _) => (
+            NodeRef::Building { building_index: b },
+            Some(1),
+            Some(vec![b]),
+        ),
         (None, Some((level, node_index))) => (
             NodeRef::Cluster { level, node_index },
             as_u32(get("member_count")),
@@ -306,7 +331,9 @@ pub(crate) fn box_aabb(b: &OrientedBox) -> (Vec3, Vec3) {
 }
 
 fn mesh_bounds(m: &Mesh3d) -> Option<(Vec3, Vec3)> {
-    m.positions.iter().fold(None, |acc, p| join(acc, Some((*p, *p))))
+    m.positions
+        .iter()
+        .fold(None, |acc, p| join(acc, Some((*p, *p))))
 }
 
 fn join(a: Option<(Vec3, Vec3)>, b: Option<(Vec3, Vec3)>) -> Option<(Vec3, Vec3)> {
@@ -372,6 +399,7 @@ mod tests {
         let data = TilesetData {
             root_transform: [0.0; 16],
             geometric_error_m: 100.0,
+            extras: None,
             tiles: vec![
                 tile("0", vec![cluster], vec![1, 2]),
                 tile("0/0", vec![building_row(2), building_row(0)], vec![]),
@@ -406,10 +434,7 @@ mod tests {
             parse_members(Some(&PropValue::Str("[3, 1,2]".into()))),
             Some(vec![3, 1, 2])
         );
-        assert_eq!(
-            parse_members(Some(&PropValue::Str("4,x".into()))),
-            None
-        );
+        assert_eq!(parse_members(Some(&PropValue::Str("4,x".into()))), None);
         assert_eq!(parse_members(Some(&PropValue::Int(4))), None);
         assert_eq!(as_u32(Some(&PropValue::Int(-1))), None);
     }

@@ -8,11 +8,11 @@ use serde::Serialize;
 use crate::camera::{Camera, Viewport};
 use crate::compare::{compare, ImageMetrics};
 use crate::coverage::check_cut;
-use crate::criterion::{check_criterion, Tolerances};
+use crate::criterion::{check_criterion, CriterionStats, Tolerances};
 use crate::finding::{Finding, FindingKind};
-use crate::render::{RenderLayers, Renderer, SKY};
+use crate::render::{RenderLayers, Renderer, NO_FEATURE, SKY};
 use crate::select::{select, Selection};
-use crate::tileset::LoadedTileset;
+use crate::tileset::{FeatureInfo, LoadedTileset, NodeRef};
 use crate::{CheckError, Image, Scene};
 
 /// Colour of every building and block, so colour changes between cut and full come from shape.
@@ -34,16 +34,19 @@ pub struct CheckSettings {
     pub skyline_tolerance_px: f64,
 }
 
-/// Skyline comparison over the columns where both renders show the same surface on top.
+/// Skyline comparison over the columns where both renders show the same place on top.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
 pub struct Skyline {
-    /// Columns where both renders have a building on top at about the same depth.
+    /// Columns where both renders have the same place on top (see [`skyline`]).
     pub columns: u32,
     /// Largest and mean |top row in cut − top row in full| over those columns (px).
     pub max_shift_px: u32,
     pub mean_shift_px: f64,
     /// Columns whose shift exceeds δH + tolerance.
     pub columns_over_limit: u32,
+    /// Σ over columns of the shift beyond δH + tolerance (px²): the screen area by which the
+    /// skyline breaks the height tolerance.
+    pub excess_area_px2: f64,
 }
 
 /// Everything one view produced.
@@ -51,6 +54,8 @@ pub struct Skyline {
 pub struct ViewOutcome {
     pub selection: Selection,
     pub findings: Vec<Finding>,
+    /// How close the drawn blocks come to δH and δA.
+    pub criterion: CriterionStats,
     pub cut: Image,
     pub full: Image,
     pub metrics: ImageMetrics,
@@ -77,17 +82,14 @@ pub fn check_view(
     let vp = settings.viewport;
     let selection = select(&ts.tree, camera, vp, settings.sse_px);
     let mut findings = check_cut(ts, &selection);
-    findings.extend(check_criterion(
-        ts,
-        &selection,
-        camera,
-        vp,
-        settings.tolerances,
-    ));
+    let (criterion_findings, criterion) =
+        check_criterion(ts, &selection, camera, vp, settings.tolerances);
+    findings.extend(criterion_findings);
 
+    let offsets = feature_offsets(ts);
     let mut cut_scene = Scene::new();
     for &i in &selection.selected {
-        add_tile(&mut cut_scene, ts, i)?;
+        add_tile(&mut cut_scene, ts, &offsets, i)?;
     }
     let leaves = ts.leaf_tiles();
     let in_view: Vec<usize> = leaves
@@ -97,32 +99,39 @@ pub fn check_view(
         .collect();
     let mut full_scene = Scene::new();
     for &i in &in_view {
-        add_tile(&mut full_scene, ts, i)?;
+        add_tile(&mut full_scene, ts, &offsets, i)?;
     }
     let cut = renderer.render_layers(&cut_scene, camera, vp.width_px, vp.height_px)?;
     let full = renderer.render_layers(&full_scene, camera, vp.width_px, vp.height_px)?;
     let metrics = compare(&cut.colour, &full.colour, SKY)?;
 
     let limit_px = settings.tolerances.dh_px + settings.skyline_tolerance_px;
-    let skyline = skyline(&cut, &full, limit_px);
-    if f64::from(skyline.max_shift_px) > limit_px {
-        findings.push(Finding {
-            measured: Some(f64::from(skyline.max_shift_px)),
-            limit: Some(limit_px),
-            ..Finding::at(
+    let skyline = skyline(&cut, &full, limit_px, |a, b| {
+        match (feature_of(ts, &offsets, a), feature_of(ts, &offsets, b)) {
+            (Some(a), Some(b)) => same_place(a, b),
+            _ => false,
+        }
+    });
+    // A narrow spike is an area change (bounded by δA), not a height error: only a skyline that
+    // breaks δH + tolerance over more than δA px² is a finding.
+    if skyline.excess_area_px2 > settings.tolerances.da_px {
+        findings.push(
+            Finding::at(
                 FindingKind::SkylineShift,
                 ts,
                 usize::MAX,
                 format!(
-                    "the cut's skyline moves up to {} px from full detail's in {} of {} columns \
-                     (limit δH + {} px)",
+                    "the cut's skyline moves up to {} px from full detail's; {} of {} columns \
+                     exceed δH + {} px by {:.0} px² in all (limit δA)",
                     skyline.max_shift_px,
                     skyline.columns_over_limit,
                     skyline.columns,
-                    settings.skyline_tolerance_px
+                    settings.skyline_tolerance_px,
+                    skyline.excess_area_px2
                 ),
             )
-        });
+            .values(skyline.excess_area_px2, settings.tolerances.da_px),
+        );
     }
 
     let sum = |tiles: &[usize], f: &dyn Fn(usize) -> u64| tiles.iter().map(|&i| f(i)).sum::<u64>();
@@ -137,6 +146,7 @@ pub fn check_view(
         full_tiles: in_view.len(),
         selection,
         findings,
+        criterion,
         cut: cut.colour,
         full: full.colour,
         metrics,
@@ -144,40 +154,86 @@ pub fn check_view(
     })
 }
 
-fn add_tile(scene: &mut Scene, ts: &LoadedTileset, i: usize) -> Result<(), CheckError> {
-    match &ts.tiles[i].mesh {
-        Some(mesh) => scene.add_mesh(mesh, BUILDING_COLOUR, i as u32),
-        None => Ok(()),
+/// Id drawn for triangles without a feature.
+const UNKNOWN_FEATURE: u32 = u32::MAX - 1;
+
+/// Global feature ids: tile `i`'s feature `f` is drawn with id `offsets[i] + f`.
+fn feature_offsets(ts: &LoadedTileset) -> Vec<u32> {
+    let mut acc = 0u32;
+    ts.tiles
+        .iter()
+        .map(|t| {
+            let o = acc;
+            acc = acc.saturating_add(t.features.len() as u32);
+            o
+        })
+        .collect()
+}
+
+/// The feature drawn with global id `id`.
+fn feature_of<'a>(ts: &'a LoadedTileset, offsets: &[u32], id: u32) -> Option<&'a FeatureInfo> {
+    let i = offsets.partition_point(|&o| o <= id).checked_sub(1)?;
+    ts.tiles[i].features.get((id - offsets[i]) as usize)
+}
+
+fn add_tile(
+    scene: &mut Scene,
+    ts: &LoadedTileset,
+    offsets: &[u32],
+    i: usize,
+) -> Result<(), CheckError> {
+    let t = &ts.tiles[i];
+    let Some(mesh) = &t.mesh else { return Ok(()) };
+    let ids: Vec<u32> = (0..mesh.triangles.len())
+        .map(|k| match t.triangle_features.get(k) {
+            Some(&f) if f != u32::MAX => offsets[i].saturating_add(f).min(UNKNOWN_FEATURE - 1),
+            _ => UNKNOWN_FEATURE,
+        })
+        .collect();
+    scene.add_mesh_with_ids(mesh, BUILDING_COLOUR, &ids)
+}
+
+/// Whether the cut's feature and full detail's building on top of a column are the same part of the
+/// city: the building is the feature itself, or stands within the block's ground extent (1 m slack).
+fn same_place(cut: &FeatureInfo, full: &FeatureInfo) -> bool {
+    match (cut.node, full.node, cut.bounds_m, full.bounds_m) {
+        (
+            NodeRef::Building { building_index: a },
+            NodeRef::Building { building_index: b },
+            _,
+            _,
+        ) => a == b,
+        (_, _, Some((lo_a, hi_a)), Some((lo_b, hi_b))) => {
+            (0..2).all(|k| lo_b[k] <= hi_a[k] + 1.0 && lo_a[k] <= hi_b[k] + 1.0)
+        }
+        _ => false,
     }
 }
 
-/// Two skyline pixels belong to the same surface when their depths differ by at most this share.
-pub const SAME_SURFACE_DEPTH_SHARE: f64 = 0.03;
-
-/// Per-column skyline comparison over columns where both renders show a building and the top
-/// pixels lie at about the same depth (within [`SAME_SURFACE_DEPTH_SHARE`]): the same part of the
-/// city, raised or lowered. Columns where only one render has a building, or the tops are different
-/// surfaces (a gap filled by merging, a far building now hidden), are area changes: the compare's
-/// added and removed regions measure those.
-pub fn skyline(cut: &RenderLayers, full: &RenderLayers, limit_px: f64) -> Skyline {
+/// Per-column skyline comparison over columns where both renders show a building on top and
+/// `same(cut_id, full_id)` says the two top pixels show the same part of the city (a block and a
+/// building standing in it): that block raised or lowered the skyline. Columns where only one render
+/// has a building, or the tops are different places (a gap filled by merging, a far building now
+/// hidden), are area changes, measured by the compare's added and removed regions.
+pub fn skyline(
+    cut: &RenderLayers,
+    full: &RenderLayers,
+    limit_px: f64,
+    same: impl Fn(u32, u32) -> bool,
+) -> Skyline {
     let (w, h) = (
         cut.colour.width.min(full.colour.width),
         cut.colour.height.min(full.colour.height),
     );
-    let top = |l: &RenderLayers, x: u32| -> Option<(u32, f64)> {
+    let top = |l: &RenderLayers, x: u32| -> Option<(u32, u32)> {
         (0..h).find_map(|y| {
-            let i = (y * l.colour.width + x) as usize;
-            let d = f64::from(*l.depth_m.get(i)?);
-            (l.colour.pixel(x, y).is_some_and(|p| p != SKY) && d.is_finite()).then_some((y, d))
+            let id = *l.feature_ids.get((y * l.colour.width + x) as usize)?;
+            (id != NO_FEATURE).then_some((y, id))
         })
     };
     let shifts: Vec<u32> = (0..w)
         .filter_map(|x| match (top(cut, x), top(full, x)) {
-            (Some((a, da)), Some((b, db)))
-                if (da - db).abs() <= SAME_SURFACE_DEPTH_SHARE * da.min(db) =>
-            {
-                Some(a.abs_diff(b))
-            }
+            (Some((a, ia)), Some((b, ib))) if same(ia, ib) => Some(a.abs_diff(b)),
             _ => None,
         })
         .collect();
@@ -190,6 +246,10 @@ pub fn skyline(cut: &RenderLayers, full: &RenderLayers, limit_px: f64) -> Skylin
             shifts.iter().map(|&s| f64::from(s)).sum::<f64>() / shifts.len() as f64
         },
         columns_over_limit: shifts.iter().filter(|&&s| f64::from(s) > limit_px).count() as u32,
+        excess_area_px2: shifts
+            .iter()
+            .map(|&s| (f64::from(s) - limit_px).max(0.0))
+            .sum(),
     }
 }
 
@@ -197,42 +257,77 @@ pub fn skyline(cut: &RenderLayers, full: &RenderLayers, limit_px: f64) -> Skylin
 mod tests {
     use super::*;
 
-    fn layers(img: Image, depth_m: f32) -> RenderLayers {
+    /// Layers whose feature id is the column's id where the image is not sky.
+    fn layers(img: Image, id_of_column: [u32; 3]) -> RenderLayers {
         let n = (img.width * img.height) as usize;
-        let depth_m = (0..n)
+        let feature_ids = (0..n)
             .map(|i| {
                 let (x, y) = (i as u32 % img.width, i as u32 / img.width);
                 if img.pixel(x, y) == Some(SKY) {
-                    f32::INFINITY
+                    NO_FEATURE
                 } else {
-                    depth_m
+                    id_of_column[x as usize]
                 }
             })
             .collect();
         RenderLayers {
             colour: img,
-            feature_ids: vec![0; n],
-            depth_m,
+            feature_ids,
+            depth_m: vec![1.0; n],
         }
     }
 
     #[test]
-    fn skyline_ignores_columns_with_one_side_empty_or_another_surface() {
+    fn skyline_ignores_columns_with_one_side_empty_or_another_place() {
         let mut cut = Image::filled(3, 10, SKY);
         let mut full = Image::filled(3, 10, SKY);
         let wall = [100, 100, 100, 255];
         for y in 2..10 {
             cut.set_pixel(0, y, wall); // column 0: cut top 2, full top 5 → shift 3
             cut.set_pixel(1, y, wall); // column 1: building in the cut only
+            cut.set_pixel(2, y, wall); // column 2: another place on top in the full render
         }
         for y in 5..10 {
             full.set_pixel(0, y, wall);
+            full.set_pixel(2, y, wall);
         }
-        let s = skyline(&layers(cut.clone(), 100.0), &layers(full.clone(), 102.0), 2.5);
+        let same = |a: u32, b: u32| a == b;
+        let s = skyline(&layers(cut, [7, 7, 7]), &layers(full, [7, 7, 8]), 2.5, same);
         assert_eq!((s.columns, s.max_shift_px, s.columns_over_limit), (1, 3, 1));
-        assert_eq!(s.mean_shift_px, 3.0);
-        // The full render's top is twice as far: a different surface, not a skyline shift.
-        let s = skyline(&layers(cut, 100.0), &layers(full, 200.0), 2.5);
-        assert_eq!(s.columns, 0);
+        assert_eq!((s.mean_shift_px, s.excess_area_px2), (3.0, 0.5));
+    }
+
+    #[test]
+    fn same_place_means_same_building_or_inside_the_block() {
+        let f = |node, lo: [f64; 3], hi: [f64; 3]| FeatureInfo {
+            node,
+            member_count: Some(1),
+            members: None,
+            dh_m: 0.0,
+            da_m2: 0.0,
+            fallback: false,
+            bounds_m: Some((lo, hi)),
+        };
+        let b = |i| NodeRef::Building { building_index: i };
+        let block = f(
+            NodeRef::Cluster {
+                level: 1,
+                node_index: 0,
+            },
+            [0.0; 3],
+            [50.0, 50.0, 20.0],
+        );
+        assert!(same_place(
+            &block,
+            &f(b(3), [10.0, 10.0, 0.0], [20.0, 20.0, 40.0])
+        ));
+        assert!(!same_place(
+            &block,
+            &f(b(3), [60.0, 10.0, 0.0], [70.0, 20.0, 40.0])
+        ));
+        assert!(!same_place(
+            &f(b(2), [0.0; 3], [1.0; 3]),
+            &f(b(3), [0.0; 3], [1.0; 3])
+        ));
     }
 }

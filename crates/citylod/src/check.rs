@@ -5,8 +5,8 @@
 
 use anyhow::{bail, Context, Result};
 use citylod_check::{
-    check_tree, check_view, contact_sheet, standard_views, Camera, CheckSettings, Finding, LoadedTileset,
-    Renderer, Tolerances, Viewport, SKYLINE_TOLERANCE_PX, STANDARD_FOVY_DEG,
+    check_tree, check_view, contact_sheet, standard_views, Camera, CheckSettings, Finding,
+    LoadedTileset, Renderer, Tolerances, Viewport, SKYLINE_TOLERANCE_PX, STANDARD_FOVY_DEG,
 };
 use citylod_model::{ecef_to_geodetic, LocalFrame};
 use clap::Args;
@@ -23,7 +23,12 @@ pub struct CheckArgs {
     pub tileset: PathBuf,
 
     /// Maximum screen-space error of the simulated client in pixels (CesiumJS `maximumScreenSpaceError`).
-    #[arg(long, value_name = "PX", default_value_t = 16.0, help_heading = "Check")]
+    #[arg(
+        long,
+        value_name = "PX",
+        default_value_t = 16.0,
+        help_heading = "Check"
+    )]
     pub sse: f64,
 
     /// Height tolerance δH of the seed criterion in pixels. Default: the tileset's `extras.citylod.dh_px`,
@@ -43,7 +48,12 @@ pub struct CheckArgs {
     /// A camera instead of the built-in views: longitude and latitude (degrees), ellipsoidal height (m),
     /// heading (degrees clockwise from north) and pitch (degrees, negative looks down), as in CesiumJS.
     /// Repeat for several views. Vertical field of view 45°.
-    #[arg(long, value_name = "LON,LAT,H,HEADING,PITCH", help_heading = "Views", allow_hyphen_values = true)]
+    #[arg(
+        long,
+        value_name = "LON,LAT,H,HEADING,PITCH",
+        help_heading = "Views",
+        allow_hyphen_values = true
+    )]
     pub camera: Vec<String>,
 
     /// Width of every render in pixels.
@@ -69,25 +79,45 @@ fn parse_camera(s: &str, frame: &LocalFrame) -> Result<Camera> {
         .split(',')
         .map(|x| x.trim().parse::<f64>())
         .collect::<Result<_, _>>()
-        .with_context(|| format!("--camera {s:?}: expected five numbers lon,lat,height,heading,pitch"))?;
+        .with_context(|| {
+            format!("--camera {s:?}: expected five numbers lon,lat,height,heading,pitch")
+        })?;
     let [lon, lat, h, heading, pitch] = v[..] else {
-        bail!("--camera {s:?}: expected five numbers lon,lat,height,heading,pitch, got {}", v.len());
+        bail!(
+            "--camera {s:?}: expected five numbers lon,lat,height,heading,pitch, got {}",
+            v.len()
+        );
     };
-    Camera::from_geodetic(lon, lat, h, heading, pitch, STANDARD_FOVY_DEG, frame).with_context(|| format!("--camera {s:?}"))
+    Camera::from_geodetic(lon, lat, h, heading, pitch, STANDARD_FOVY_DEG, frame)
+        .with_context(|| format!("--camera {s:?}"))
 }
 
 /// δH and δA: the flags, else the tileset's `extras.citylod`, else the seed defaults; with where they came from.
-fn tolerances(args: &CheckArgs, tileset_json: &Value) -> (Tolerances, &'static str) {
-    let extras = &tileset_json["extras"]["citylod"];
+fn tolerances(args: &CheckArgs, extras: Option<&Value>) -> (Tolerances, &'static str) {
+    let extras = extras.map_or(&Value::Null, |e| &e["citylod"]);
     let from_ts = |k: &str| extras[k].as_f64().filter(|v| v.is_finite() && *v > 0.0);
     let d = Tolerances::default();
-    let dh = args.dh_px.map(|v| (v, "flag")).or(from_ts("dh_px").map(|v| (v, "tileset"))).unwrap_or((d.dh_px, "default"));
-    let da = args.da_px.map(|v| (v, "flag")).or(from_ts("da_px").map(|v| (v, "tileset"))).unwrap_or((d.da_px, "default"));
+    let dh = args
+        .dh_px
+        .map(|v| (v, "flag"))
+        .or(from_ts("dh_px").map(|v| (v, "tileset")))
+        .unwrap_or((d.dh_px, "default"));
+    let da = args
+        .da_px
+        .map(|v| (v, "flag"))
+        .or(from_ts("da_px").map(|v| (v, "tileset")))
+        .unwrap_or((d.da_px, "default"));
     let source = match (dh.1, da.1) {
         (a, b) if a == b => a,
         _ => "mixed",
     };
-    (Tolerances { dh_px: dh.0, da_px: da.0 }, source)
+    (
+        Tolerances {
+            dh_px: dh.0,
+            da_px: da.0,
+        },
+        source,
+    )
 }
 
 fn camera_json(c: &Camera, frame: &LocalFrame, source: &str) -> Value {
@@ -112,7 +142,10 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
     std::env::set_var("NODEVICE_SELECT", "1");
     let t_all = Instant::now();
     if !(args.sse.is_finite() && args.sse > 0.0) {
-        bail!("--sse must be a positive number of pixels, got {}", args.sse);
+        bail!(
+            "--sse must be a positive number of pixels, got {}",
+            args.sse
+        );
     }
     for (name, v) in [("--dh-px", args.dh_px), ("--da-px", args.da_px)] {
         if v.is_some_and(|v| !(v.is_finite() && v > 0.0)) {
@@ -125,36 +158,52 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
     if args.camera.is_empty() && args.views == 0 {
         bail!("--views must be at least 1 (or give --camera)");
     }
-    let path = if args.tileset.is_dir() { args.tileset.join("tileset.json") } else { args.tileset.clone() };
-    let data = citylod_tiles::read::read_tileset(&path).with_context(|| format!("reading {}", path.display()))?;
+    let path = if args.tileset.is_dir() {
+        args.tileset.join("tileset.json")
+    } else {
+        args.tileset.clone()
+    };
+    let data = citylod_tiles::read::read_tileset(&path)
+        .with_context(|| format!("reading {}", path.display()))?;
     if data.tiles.is_empty() {
         bail!("{} has no tiles", path.display());
     }
-    let raw: Value = serde_json::from_slice(&std::fs::read(&path).with_context(|| format!("reading {}", path.display()))?)
-        .with_context(|| format!("parsing {}", path.display()))?;
-    let (tol, tol_source) = tolerances(&args, &raw);
+    let (tol, tol_source) = tolerances(&args, data.extras.as_ref());
     let base = path.parent().unwrap_or(Path::new("."));
     let ts = LoadedTileset::from_data(&data, Some(base));
 
-    let origin = [data.root_transform[12], data.root_transform[13], data.root_transform[14]];
+    let origin = [
+        data.root_transform[12],
+        data.root_transform[13],
+        data.root_transform[14],
+    ];
     let geo = ecef_to_geodetic(origin);
     let frame = LocalFrame::new(geo[0], geo[1], geo[2]);
     let georeferenced = origin.iter().map(|v| v * v).sum::<f64>().sqrt() > 1e6;
     let cameras: Vec<(Camera, &str)> = if args.camera.is_empty() {
         let (lo, hi) = ts.root_extent().context("the root tile has no bounds")?;
-        standard_views(lo, hi, args.views).into_iter().map(|c| (c, "standard")).collect()
+        standard_views(lo, hi, args.views)
+            .into_iter()
+            .map(|c| (c, "standard"))
+            .collect()
     } else {
         if !georeferenced {
-            bail!("--camera needs a georeferenced tileset (its root has no transform to the globe)");
+            bail!(
+                "--camera needs a georeferenced tileset (its root has no transform to the globe)"
+            );
         }
-        args.camera.iter().map(|s| Ok((parse_camera(s, &frame)?, "camera"))).collect::<Result<_>>()?
+        args.camera
+            .iter()
+            .map(|s| Ok((parse_camera(s, &frame)?, "camera")))
+            .collect::<Result<_>>()?
     };
     if cameras.is_empty() {
         bail!("no camera: the root bounds are not finite");
     }
 
     let renderer = Renderer::new().context("opening a Vulkan device for rendering")?;
-    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
     let settings = CheckSettings {
         sse_px: args.sse,
         tolerances: tol,
@@ -166,7 +215,10 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
     let mut by_kind: BTreeMap<String, usize> = BTreeMap::new();
     let count = |f: &[Finding], by_kind: &mut BTreeMap<String, usize>| {
         for f in f {
-            let k = serde_json::to_value(f.kind).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_default();
+            let k = serde_json::to_value(f.kind)
+                .ok()
+                .and_then(|v| v.as_str().map(str::to_string))
+                .unwrap_or_default();
             *by_kind.entry(k).or_default() += 1;
         }
     };
@@ -177,12 +229,18 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
     let mut findings_total = tree_findings.len();
     for (k, (camera, source)) in cameras.iter().enumerate() {
         let t = Instant::now();
-        let v = check_view(&ts, &renderer, camera, &settings).with_context(|| format!("view {k}"))?;
+        let v =
+            check_view(&ts, &renderer, camera, &settings).with_context(|| format!("view {k}"))?;
         let dir = args.out.join(format!("view-{k}"));
         std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-        for (name, img) in [("cut", &v.cut), ("full", &v.full), ("diff", &v.metrics.diff)] {
+        for (name, img) in [
+            ("cut", &v.cut),
+            ("full", &v.full),
+            ("diff", &v.metrics.diff),
+        ] {
             let p = dir.join(format!("{name}.png"));
-            img.save_png(&p).with_context(|| format!("writing {}", p.display()))?;
+            img.save_png(&p)
+                .with_context(|| format!("writing {}", p.display()))?;
         }
         let passed = v.findings.is_empty();
         views_passed += usize::from(passed);
@@ -224,6 +282,7 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
                 "skyline": v.skyline,
                 "skyline_limit_px": tol.dh_px + settings.skyline_tolerance_px,
             },
+            "criterion": v.criterion,
             "findings": findings_json(&v.findings),
             "passed": passed,
             "elapsed_s": t.elapsed().as_secs_f64(),
@@ -242,10 +301,13 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
         sheet_panels.push((format!("view {k} cut"), v.cut));
         sheet_panels.push((format!("view {k} diff"), v.metrics.diff));
     }
-    let panels: Vec<(&str, &citylod_check::Image)> = sheet_panels.iter().map(|(l, i)| (l.as_str(), i)).collect();
+    let panels: Vec<(&str, &citylod_check::Image)> =
+        sheet_panels.iter().map(|(l, i)| (l.as_str(), i)).collect();
     let sheet = contact_sheet(&panels, 4).context("building the contact sheet")?;
     let sheet_path = args.out.join("views.png");
-    sheet.save_png(&sheet_path).with_context(|| format!("writing {}", sheet_path.display()))?;
+    sheet
+        .save_png(&sheet_path)
+        .with_context(|| format!("writing {}", sheet_path.display()))?;
 
     let passed = findings_total == 0;
     let report = json!({
@@ -280,7 +342,8 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
         },
     });
     let report_path = args.out.join("report.json");
-    std::fs::write(&report_path, serde_json::to_vec_pretty(&report)?).with_context(|| format!("writing {}", report_path.display()))?;
+    std::fs::write(&report_path, serde_json::to_vec_pretty(&report)?)
+        .with_context(|| format!("writing {}", report_path.display()))?;
     if !args.quiet {
         eprintln!(
             "citylod check: {views_passed} of {} views passed, {findings_total} finding(s){}; report: {}",
@@ -289,5 +352,9 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
             report_path.display()
         );
     }
-    Ok(if passed { ExitCode::SUCCESS } else { ExitCode::from(1) })
+    Ok(if passed {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
 }
