@@ -19,14 +19,16 @@ setup:
 build:
 	$(CARGO) build --release --locked -p citylod
 
-## Builds a tileset of the bundled Lower East Side data and takes a screenshot of it in CesiumJS.
+## Builds a tileset of the bundled Lower East Side data, screenshots it in CesiumJS and checks its cuts.
 demo: setup build
 	$(BIN) build $(DEMO_IN) --out $(DEMO_OUT)
 	$(BIN) inspect $(DEMO_OUT)
 	node tools/screenshot.mjs --tileset $(DEMO_OUT) --out $(DEMO_OUT)-cesium.png --view mid
+	NODEVICE_SELECT=1 $(BIN) check $(DEMO_OUT) --out $(DEMO_OUT)-check
 	@echo
 	@echo "Tileset:     $(DEMO_OUT)/tileset.json   (build report: $(DEMO_OUT)/build-report.json)"
 	@echo "Screenshot:  $(DEMO_OUT)-cesium.png"
+	@echo "Check:       $(DEMO_OUT)-check/views.png  (cut, full detail and difference per view; report.json)"
 	@echo "Look around: node tools/serve.mjs --root $(DEMO_OUT)   then open the printed viewer address"
 
 ## Every test: Rust unit, property, integration and end-to-end tests, glTF-Validator, and the two browser clients.
