@@ -4,6 +4,7 @@
 //! node (KHR_mesh_quantization), BYTE-normalized normals, feature ids as a FLOAT `_FEATURE_ID_0`
 //! (EXT_mesh_features), property tables (EXT_structural_metadata), optionally EXT_meshopt_compression.
 
+use crate::draco::{self, DracoEncoded, DracoValues};
 use crate::glb::{write_glb, BinBuilder};
 use crate::gltf_json::*;
 use crate::metadata::{encode_column, schema_json};
@@ -13,6 +14,10 @@ use std::collections::BTreeMap;
 
 /// Largest quantized coordinate magnitude.
 const Q_MAX: f64 = 32767.0;
+
+/// Most features of one primitive whose ids fit an UNSIGNED_SHORT attribute (Draco content; above
+/// it the ids are FLOAT, exact up to 2^24).
+const FEATURE_IDS_U16: usize = 1 << 16;
 
 /// A tile's encoded glb and what is in it.
 pub(crate) struct EncodedContent {
@@ -188,108 +193,164 @@ pub(crate) fn encode_content(
         let hi_q: Vec<f64> = (0..3)
             .map(|i| pos.iter().map(|p| p[i]).max().unwrap() as f64)
             .collect();
-        let pos_bytes: Vec<u8> = pos.iter().flatten().flat_map(|c| c.to_le_bytes()).collect();
-        let fid_bytes: Vec<u8> = fid.iter().flat_map(|c| c.to_le_bytes()).collect();
-        let wide = n > u16::MAX as usize;
-        let idx_bytes: Vec<u8> = if wide {
-            idx.iter().flat_map(|i| i.to_le_bytes()).collect()
-        } else {
-            idx.iter().flat_map(|&i| (i as u16).to_le_bytes()).collect()
-        };
-        let idx_stride = if wide { 4 } else { 2 };
-        let nor_bytes: Option<Vec<u8>> = normals.then(|| {
-            nor.iter()
-                .flat_map(|v| [v[0], v[1], v[2], 0.0])
-                .map(|c| ((c * 127.0).round() as i8) as u8)
-                .collect()
-        });
-
-        let mut view = |raw: Vec<u8>, stride: usize, count: usize, target: u32, mode: &str| {
-            let byte_stride = (target == ARRAY_BUFFER).then_some(stride);
-            let bv = if meshopt {
-                let encoded =
-                    encode_meshopt(&raw, stride, count, mode, n).map_err(|e| TilesError::Tile {
-                        tile: tile.into(),
-                        msg: format!("meshopt encoding failed: {e:?}"),
-                    })?;
-                BufferView {
-                    buffer: 1,
-                    byte_offset: fallback.reserve(raw.len()),
-                    byte_length: raw.len(),
-                    byte_stride,
-                    target: Some(target),
-                    extensions: Some(BufferViewExtensions {
-                        meshopt: Some(MeshoptView {
-                            buffer: 0,
-                            byte_offset: bin.push(&encoded),
-                            byte_length: encoded.len(),
-                            byte_stride: stride,
-                            count,
-                            mode: mode.into(),
-                            filter: None,
-                        }),
-                    }),
-                }
-            } else {
-                BufferView {
-                    buffer: 0,
-                    byte_offset: bin.push(&raw),
-                    byte_length: raw.len(),
-                    byte_stride,
-                    target: Some(target),
-                    extensions: None,
-                }
-            };
-            doc.buffer_views.push(bv);
-            Ok::<usize, TilesError>(doc.buffer_views.len() - 1)
-        };
-        let pos_view = view(pos_bytes, 8, n, ARRAY_BUFFER, "ATTRIBUTES")?;
-        let normal_view = match nor_bytes {
-            Some(b) => Some(view(b, 4, n, ARRAY_BUFFER, "ATTRIBUTES")?),
-            None => None,
-        };
-        let fid_view = view(fid_bytes, 4, n, ARRAY_BUFFER, "ATTRIBUTES")?;
-        let idx_view = view(
-            idx_bytes,
-            idx_stride,
-            idx.len(),
-            ELEMENT_ARRAY_BUFFER,
-            "TRIANGLES",
-        )?;
-
         let acc = doc.accessors.len();
-        doc.accessors.push(Accessor {
-            buffer_view: Some(pos_view),
-            component_type: SHORT,
-            count: n,
-            r#type: "VEC3".into(),
-            min: Some(lo_q),
-            max: Some(hi_q),
-            ..Default::default()
-        });
-        doc.accessors.push(Accessor {
-            buffer_view: Some(fid_view),
-            component_type: FLOAT,
-            count: n,
-            r#type: "SCALAR".into(),
-            ..Default::default()
-        });
-        doc.accessors.push(Accessor {
-            buffer_view: Some(idx_view),
-            component_type: if wide { UNSIGNED_INT } else { UNSIGNED_SHORT },
-            count: idx.len(),
-            r#type: "SCALAR".into(),
-            ..Default::default()
-        });
-        if let Some(v) = normal_view {
-            doc.accessors.push(Accessor {
-                buffer_view: Some(v),
-                component_type: BYTE,
-                normalized: true,
-                count: n,
-                r#type: "VEC3".into(),
+        let mut draco_ext = None;
+        let with_normals;
+        if compression == Compression::Draco {
+            with_normals = normals;
+            let enc = encode_draco(&pos, &nor, &fid, &idx, members.len()).map_err(|msg| {
+                TilesError::Tile {
+                    tile: tile.into(),
+                    msg,
+                }
+            })?;
+            doc.buffer_views.push(BufferView {
+                buffer: 0,
+                byte_offset: bin.push(&enc.bytes),
+                byte_length: enc.bytes.len(),
                 ..Default::default()
             });
+            let m = enc.decoded_vertices;
+            let unbuffered = |component_type, count, ty: &str| Accessor {
+                component_type,
+                count,
+                r#type: ty.into(),
+                ..Default::default()
+            };
+            doc.accessors.push(Accessor {
+                min: Some(enc.first_min.clone()),
+                max: Some(enc.first_max.clone()),
+                ..unbuffered(SHORT, m, "VEC3")
+            });
+            let fid_type = if members.len() <= FEATURE_IDS_U16 {
+                UNSIGNED_SHORT
+            } else {
+                FLOAT
+            };
+            doc.accessors.push(unbuffered(fid_type, m, "SCALAR"));
+            let idx_type = if m > u16::MAX as usize {
+                UNSIGNED_INT
+            } else {
+                UNSIGNED_SHORT
+            };
+            doc.accessors
+                .push(unbuffered(idx_type, enc.decoded_indices, "SCALAR"));
+            if normals {
+                doc.accessors.push(Accessor {
+                    normalized: true,
+                    ..unbuffered(BYTE, m, "VEC3")
+                });
+            }
+            let names = ["POSITION", "_FEATURE_ID_0", "NORMAL"];
+            draco_ext = Some(DracoPrimitive {
+                buffer_view: doc.buffer_views.len() - 1,
+                attributes: names.iter().map(|s| s.to_string()).zip(enc.ids).collect(),
+            });
+        } else {
+            let pos_bytes: Vec<u8> = pos.iter().flatten().flat_map(|c| c.to_le_bytes()).collect();
+            let fid_bytes: Vec<u8> = fid.iter().flat_map(|c| c.to_le_bytes()).collect();
+            let wide = n > u16::MAX as usize;
+            let idx_bytes: Vec<u8> = if wide {
+                idx.iter().flat_map(|i| i.to_le_bytes()).collect()
+            } else {
+                idx.iter().flat_map(|&i| (i as u16).to_le_bytes()).collect()
+            };
+            let idx_stride = if wide { 4 } else { 2 };
+            let nor_bytes: Option<Vec<u8>> = normals.then(|| {
+                nor.iter()
+                    .flat_map(|v| [v[0], v[1], v[2], 0.0])
+                    .map(|c| ((c * 127.0).round() as i8) as u8)
+                    .collect()
+            });
+
+            let mut view = |raw: Vec<u8>, stride: usize, count: usize, target: u32, mode: &str| {
+                let byte_stride = (target == ARRAY_BUFFER).then_some(stride);
+                let bv = if meshopt {
+                    let encoded = encode_meshopt(&raw, stride, count, mode, n).map_err(|e| {
+                        TilesError::Tile {
+                            tile: tile.into(),
+                            msg: format!("meshopt encoding failed: {e:?}"),
+                        }
+                    })?;
+                    BufferView {
+                        buffer: 1,
+                        byte_offset: fallback.reserve(raw.len()),
+                        byte_length: raw.len(),
+                        byte_stride,
+                        target: Some(target),
+                        extensions: Some(BufferViewExtensions {
+                            meshopt: Some(MeshoptView {
+                                buffer: 0,
+                                byte_offset: bin.push(&encoded),
+                                byte_length: encoded.len(),
+                                byte_stride: stride,
+                                count,
+                                mode: mode.into(),
+                                filter: None,
+                            }),
+                        }),
+                    }
+                } else {
+                    BufferView {
+                        buffer: 0,
+                        byte_offset: bin.push(&raw),
+                        byte_length: raw.len(),
+                        byte_stride,
+                        target: Some(target),
+                        extensions: None,
+                    }
+                };
+                doc.buffer_views.push(bv);
+                Ok::<usize, TilesError>(doc.buffer_views.len() - 1)
+            };
+            let pos_view = view(pos_bytes, 8, n, ARRAY_BUFFER, "ATTRIBUTES")?;
+            let normal_view = match nor_bytes {
+                Some(b) => Some(view(b, 4, n, ARRAY_BUFFER, "ATTRIBUTES")?),
+                None => None,
+            };
+            let fid_view = view(fid_bytes, 4, n, ARRAY_BUFFER, "ATTRIBUTES")?;
+            let idx_view = view(
+                idx_bytes,
+                idx_stride,
+                idx.len(),
+                ELEMENT_ARRAY_BUFFER,
+                "TRIANGLES",
+            )?;
+
+            doc.accessors.push(Accessor {
+                buffer_view: Some(pos_view),
+                component_type: SHORT,
+                count: n,
+                r#type: "VEC3".into(),
+                min: Some(lo_q),
+                max: Some(hi_q),
+                ..Default::default()
+            });
+            doc.accessors.push(Accessor {
+                buffer_view: Some(fid_view),
+                component_type: FLOAT,
+                count: n,
+                r#type: "SCALAR".into(),
+                ..Default::default()
+            });
+            doc.accessors.push(Accessor {
+                buffer_view: Some(idx_view),
+                component_type: if wide { UNSIGNED_INT } else { UNSIGNED_SHORT },
+                count: idx.len(),
+                r#type: "SCALAR".into(),
+                ..Default::default()
+            });
+            if let Some(v) = normal_view {
+                doc.accessors.push(Accessor {
+                    buffer_view: Some(v),
+                    component_type: BYTE,
+                    normalized: true,
+                    count: n,
+                    r#type: "VEC3".into(),
+                    ..Default::default()
+                });
+            }
+            with_normals = normal_view.is_some();
         }
 
         let class_def = &schema.classes[class];
@@ -332,8 +393,8 @@ pub(crate) fn encode_content(
             properties,
         });
         primitives.push(Primitive {
-            attributes: normal_view
-                .map(|_| ("NORMAL".to_string(), acc + 3))
+            attributes: with_normals
+                .then(|| ("NORMAL".to_string(), acc + 3))
                 .into_iter()
                 .chain([("POSITION".into(), acc), ("_FEATURE_ID_0".into(), acc + 1)])
                 .collect(),
@@ -349,6 +410,7 @@ pub(crate) fn encode_content(
                         null_feature_id: None,
                     }],
                 }),
+                draco: draco_ext,
             }),
         });
     }
@@ -386,6 +448,11 @@ pub(crate) fn encode_content(
         });
         used.push(EXT_MESHOPT);
         required.push(EXT_MESHOPT);
+    }
+    if compression == Compression::Draco {
+        // No uncompressed copy of the geometry is written.
+        used.push(KHR_DRACO);
+        required.push(KHR_DRACO);
     }
     used.sort_unstable();
     required.sort_unstable();
@@ -430,6 +497,34 @@ fn vertex_normals_yup(m: &citylod_model::Mesh3d) -> Vec<[f64; 3]> {
             }
         })
         .collect()
+}
+
+/// Compresses one primitive with KHR_draco_mesh_compression: attributes in the order POSITION,
+/// _FEATURE_ID_0, NORMAL (when `nor` is not empty), normals as BYTE like the uncompressed layout.
+fn encode_draco(
+    pos: &[[i16; 4]],
+    nor: &[[f64; 3]],
+    fid: &[f32],
+    idx: &[u32],
+    features: usize,
+) -> Result<DracoEncoded, String> {
+    use draco_core::GeometryAttributeType as Kind;
+    let pos3: Vec<[i16; 3]> = pos.iter().map(|p| [p[0], p[1], p[2]]).collect();
+    let nor8: Vec<[i8; 3]> = nor
+        .iter()
+        .map(|v| v.map(|c| (c * 127.0).round() as i8))
+        .collect();
+    let fid16: Vec<u16> = fid.iter().map(|&k| k as u16).collect();
+    let mut attributes = vec![(Kind::Position, DracoValues::I16x3(&pos3))];
+    attributes.push(if features <= FEATURE_IDS_U16 {
+        (Kind::Generic, DracoValues::U16(&fid16))
+    } else {
+        (Kind::Generic, DracoValues::F32(fid))
+    });
+    if !nor.is_empty() {
+        attributes.push((Kind::Normal, DracoValues::I8x3(&nor8)));
+    }
+    draco::encode(&attributes, idx)
 }
 
 /// Compresses one buffer view (`count` elements of `stride` bytes) with the EXT_meshopt_compression

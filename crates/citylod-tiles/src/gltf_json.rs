@@ -1,5 +1,5 @@
 //! The subset of glTF 2.0 JSON citylod writes and reads, with the extensions it uses
-//! (KHR_mesh_quantization needs no JSON; EXT_meshopt_compression, EXT_mesh_features,
+//! (KHR_mesh_quantization needs no JSON; EXT_meshopt_compression, KHR_draco_mesh_compression, EXT_mesh_features,
 //! EXT_structural_metadata), as serde structs without logic. Maps are BTreeMaps: sorted, deterministic.
 
 use serde::{Deserialize, Serialize};
@@ -16,9 +16,14 @@ pub const FLOAT: u32 = 5126;
 pub const MODE_TRIANGLES: u32 = 4;
 
 pub const EXT_MESHOPT: &str = "EXT_meshopt_compression";
+pub const KHR_DRACO: &str = "KHR_draco_mesh_compression";
 pub const KHR_QUANTIZATION: &str = "KHR_mesh_quantization";
 pub const EXT_MESH_FEATURES: &str = "EXT_mesh_features";
 pub const EXT_STRUCTURAL_METADATA: &str = "EXT_structural_metadata";
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
+}
 
 fn is_false(b: &bool) -> bool {
     !*b
@@ -107,6 +112,21 @@ pub struct PrimitiveExtensions {
         skip_serializing_if = "Option::is_none"
     )]
     pub mesh_features: Option<MeshFeatures>,
+    #[serde(
+        rename = "KHR_draco_mesh_compression",
+        default,
+        skip_serializing_if = "Option::is_none"
+    )]
+    pub draco: Option<DracoPrimitive>,
+}
+
+/// KHR_draco_mesh_compression on a primitive: the compressed mesh and each glTF attribute's Draco
+/// unique id.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase")]
+pub struct DracoPrimitive {
+    pub buffer_view: usize,
+    pub attributes: BTreeMap<String, u32>,
 }
 
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -148,7 +168,7 @@ pub struct Pbr {
 pub struct Accessor {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub buffer_view: Option<usize>,
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "is_zero")]
     pub byte_offset: usize,
     pub component_type: u32,
     #[serde(default, skip_serializing_if = "is_false")]

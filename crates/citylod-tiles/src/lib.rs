@@ -1,5 +1,6 @@
-//! 3D Tiles 1.1 output: a tree of tiles ([`TileSpec`]) becomes `tileset.json` plus one glb per tile
-//! with content (KHR_mesh_quantization, EXT_meshopt_compression, EXT_mesh_features,
+//! 3D Tiles 1.1 output: a tree of tiles ([`TileSpec`]) becomes `tileset.json` (split into external
+//! tilesets past a size limit) plus one glb per tile with content (KHR_mesh_quantization,
+//! EXT_meshopt_compression or KHR_draco_mesh_compression, EXT_mesh_features,
 //! EXT_structural_metadata), written atomically through a [`Staging`] directory. [`read`] loads it
 //! back (tests and the checker). Frames: meshes in local ENU metres; DESIGN.md §2 and §5.
 //!
@@ -27,10 +28,12 @@
 //! ```
 
 mod content;
+mod draco;
 mod error;
+mod external;
 mod glb;
-pub mod hlod;
 mod gltf_json;
+pub mod hlod;
 mod metadata;
 pub mod read;
 mod spec;

@@ -1,5 +1,5 @@
 //! A tileset reader for tests and the checker: walks `tileset.json` (and external tilesets named by
-//! `content.uri` ending in `.json`), decodes glb content (plain or EXT_meshopt_compression buffers,
+//! `content.uri` ending in `.json`), decodes glb content (plain or EXT_meshopt_compression buffers, KHR_draco_mesh_compression primitives,
 //! any quantized or float positions, node transforms, feature ids, property tables).
 //! Output positions are in the root tile's frame (z up; for citylod: local ENU metres).
 
@@ -18,6 +18,8 @@ pub struct TilesetData {
     pub root_transform: [f64; 16],
     /// `tileset.geometricError` (m).
     pub geometric_error_m: f64,
+    /// The main `tileset.json`'s top-level `extras` (citylod writes `{"citylod": {…}}`), if any.
+    pub extras: Option<serde_json::Value>,
     pub tiles: Vec<TileData>,
 }
 
@@ -81,6 +83,7 @@ pub fn read_tileset(path: &Path) -> Result<TilesetData, TilesError> {
     Ok(TilesetData {
         root_transform,
         geometric_error_m: ts.geometric_error,
+        extras: ts.extras,
         tiles,
     })
 }
@@ -278,16 +281,24 @@ impl Decoder<'_> {
                 if prim.mode.unwrap_or(gj::MODE_TRIANGLES) != gj::MODE_TRIANGLES {
                     continue;
                 }
+                // Draco primitives: accessor values come from the decoded mesh.
+                let draco = self.draco(prim)?;
+                let get = |a: usize| -> Result<Vec<f64>, String> {
+                    match draco.as_ref().and_then(|d| d.get(&a)) {
+                        Some(v) => Ok(v.clone()),
+                        None => self.accessor(a),
+                    }
+                };
                 let pos_acc = *prim
                     .attributes
                     .get("POSITION")
                     .ok_or("primitive without POSITION")?;
-                let pos = self.accessor(pos_acc)?;
+                let pos = get(pos_acc)?;
                 let v0 = out.positions_local.len() as u32;
                 let nm = normal_matrix(&m);
                 match prim.attributes.get("NORMAL") {
                     Some(&a) if out.normals_local.len() == out.positions_local.len() => {
-                        for n in self.accessor(a)?.chunks_exact(3) {
+                        for n in get(a)?.chunks_exact(3) {
                             let g = transform_normal(&nm, [n[0], n[1], n[2]]);
                             out.normals_local.push([g[0], -g[2], g[1]]);
                         }
@@ -301,7 +312,7 @@ impl Decoder<'_> {
                 }
                 let n_vertices = pos.len() / 3;
                 let idx: Vec<u32> = match prim.indices {
-                    Some(a) => self.accessor(a)?.iter().map(|&i| i as u32).collect(),
+                    Some(a) => get(a)?.iter().map(|&i| i as u32).collect(),
                     None => (0..n_vertices as u32).collect(),
                 };
                 if idx.iter().any(|&i| i as usize >= n_vertices) {
@@ -335,7 +346,7 @@ impl Decoder<'_> {
                             })
                             .transpose()?
                             .unwrap_or(0);
-                        self.accessor(acc)?
+                        get(acc)?
                             .iter()
                             .map(|&f| {
                                 let id = f as u32;
@@ -408,6 +419,49 @@ impl Decoder<'_> {
             .ok_or_else(|| format!("buffer view {i} out of range"))
     }
 
+    /// For a KHR_draco_mesh_compression primitive, the decoded values of its attribute accessors
+    /// and its index accessor (by accessor index; normalization applied); `None` otherwise.
+    fn draco(
+        &self,
+        prim: &gj::Primitive,
+    ) -> Result<Option<std::collections::BTreeMap<usize, Vec<f64>>>, String> {
+        let Some(ext) = prim.extensions.as_ref().and_then(|e| e.draco.as_ref()) else {
+            return Ok(None);
+        };
+        let bytes = self.view(ext.buffer_view)?;
+        let names: Vec<&String> = ext.attributes.keys().collect();
+        let ids: Vec<u32> = ext.attributes.values().copied().collect();
+        let mesh = crate::draco::decode(&bytes, &ids)?;
+        let mut out = std::collections::BTreeMap::new();
+        for (name, values) in names.into_iter().zip(mesh.attributes) {
+            let Some(&a) = prim.attributes.get(name) else {
+                return Err(format!(
+                    "Draco attribute {name} is not an attribute of the primitive"
+                ));
+            };
+            let acc = self
+                .doc
+                .accessors
+                .get(a)
+                .ok_or("accessor index out of range")?;
+            if acc.count != mesh.vertices {
+                return Err(format!(
+                    "Draco {name}: {} vertices, accessor says {}",
+                    mesh.vertices, acc.count
+                ));
+            }
+            let v = values
+                .into_iter()
+                .map(|x| normalize(acc.component_type, acc.normalized, x as f64))
+                .collect();
+            out.insert(a, v);
+        }
+        if let Some(i) = prim.indices {
+            out.insert(i, mesh.indices.iter().map(|&k| k as f64).collect());
+        }
+        Ok(Some(out))
+    }
+
     /// Accessor elements as f64, components flattened, normalization applied.
     fn accessor(&self, i: usize) -> Result<Vec<f64>, String> {
         let a = self
@@ -469,6 +523,20 @@ impl Decoder<'_> {
             }
         }
         Ok(out)
+    }
+}
+
+/// A stored component value as the glTF accessor presents it (normalized integers to −1…1 or 0…1).
+fn normalize(component_type: u32, normalized: bool, x: f64) -> f64 {
+    if !normalized {
+        return x;
+    }
+    match component_type {
+        gj::BYTE => (x / 127.0).max(-1.0),
+        gj::UNSIGNED_BYTE => x / 255.0,
+        gj::SHORT => (x / 32767.0).max(-1.0),
+        gj::UNSIGNED_SHORT => x / 65535.0,
+        _ => x,
     }
 }
 
@@ -677,7 +745,11 @@ mod tests {
             class: 0,
             values: vec![PropValue::Str("x".into())],
         };
-        for c in [crate::Compression::Meshopt, crate::Compression::None] {
+        for c in [
+            crate::Compression::Meshopt,
+            crate::Compression::None,
+            crate::Compression::Draco,
+        ] {
             let glb = crate::content::encode_content(
                 "0",
                 std::slice::from_ref(&f),

@@ -9,6 +9,9 @@ use serde::{Deserialize, Serialize};
 pub struct Tileset {
     pub asset: Asset,
     pub geometric_error: f64,
+    /// Application data; citylod writes `{"citylod": {…}}` here when asked.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub extras: Option<serde_json::Value>,
     pub root: Tile,
 }
 

@@ -4,6 +4,7 @@
 //! Tile paths: the root is `0`, child k of tile `p` is `p/k`; content goes to `tiles/<path>.glb`.
 
 use crate::content::{bounds, encode_content};
+use crate::external::split_external;
 use crate::spec::{MetadataSchema, TileSpec};
 use crate::staging::Staging;
 use crate::tileset_json as tj;
@@ -19,10 +20,14 @@ pub enum Compression {
     Meshopt,
     /// Plain quantized buffers.
     None,
+    /// KHR_draco_mesh_compression (required extension, no uncompressed copy): the quantized
+    /// positions, normals and feature ids are Draco integer attributes (lossless), edgebreaker
+    /// connectivity. Property tables stay plain buffer views.
+    Draco,
 }
 
 /// Writer options.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct WriteOptions {
     pub compression: Compression,
     /// Leave out vertex normals (BYTE normalized, 4 bytes per vertex before compression). The glTF
@@ -33,6 +38,25 @@ pub struct WriteOptions {
     /// box diagonal, so the root is considered as soon as the city spans a few pixels. Never less than
     /// the root's geometric error.
     pub tileset_geometric_error_m: Option<f64>,
+    /// Largest `tileset.json` (bytes); subtrees beyond it go to external tilesets
+    /// `tiles/<path>.json`, each also within it. Default 4 MB. Too small to fit one tile with
+    /// stubs for all its children → an error.
+    pub max_tileset_json_bytes: usize,
+    /// Written as the top-level `extras` of `tileset.json` (an object, per the schema), read back
+    /// as `TilesetData::extras`.
+    pub extras: Option<serde_json::Value>,
+}
+
+impl Default for WriteOptions {
+    fn default() -> Self {
+        WriteOptions {
+            compression: Compression::default(),
+            omit_normals: false,
+            tileset_geometric_error_m: None,
+            max_tileset_json_bytes: 4_000_000,
+            extras: None,
+        }
+    }
 }
 
 /// What was written.
@@ -43,7 +67,10 @@ pub struct WriteStats {
     /// Tiles with a glb.
     pub content_tiles: usize,
     pub glb_bytes: u64,
+    /// Size of the main `tileset.json`.
     pub tileset_json_bytes: u64,
+    /// External tileset files written (0 when `tileset.json` fits the limit).
+    pub external_tilesets: u64,
     pub triangles: u64,
     pub vertices: u64,
     pub features: u64,
@@ -150,18 +177,37 @@ pub fn write_tileset(
     root_json.transform = Some(frame.enu_to_ecef_column_major());
     root_json.refine = Some("REPLACE".into());
     let diagonal = root_bounds.map_or(0.0, |(lo, hi)| dist(lo, hi));
-    let tileset = tj::Tileset {
+    let tileset_error_m = opts
+        .tileset_geometric_error_m
+        .unwrap_or(diagonal)
+        .max(root.geometric_error_m);
+    if opts.extras.as_ref().is_some_and(|e| !e.is_object()) {
+        return Err(TilesError::Tile {
+            tile: "0".into(),
+            msg: "tileset extras must be a JSON object".into(),
+        });
+    }
+    // The main file carries the tileset's error and the extras; an external one its root's error.
+    let wrap = |root: tj::Tile, main: bool| tj::Tileset {
         asset: tj::Asset {
             version: "1.1".into(),
-            generator: Some(generator),
+            generator: Some(generator.clone()),
         },
-        geometric_error: opts
-            .tileset_geometric_error_m
-            .unwrap_or(diagonal)
-            .max(root.geometric_error_m),
-        root: root_json,
+        geometric_error: if main {
+            tileset_error_m
+        } else {
+            root.geometric_error
+        },
+        extras: if main { opts.extras.clone() } else { None },
+        root,
     };
-    let json = serde_json::to_vec(&tileset).expect("tileset structs always serialize");
+    let externals = split_external(&mut root_json, opts.max_tileset_json_bytes, &wrap)?;
+    for (file, bytes) in &externals {
+        out.write_file(file, bytes)?;
+    }
+    stats.external_tilesets = externals.len() as u64;
+    let json =
+        serde_json::to_vec(&wrap(root_json, true)).expect("tileset structs always serialize");
     stats.tileset_json_bytes = json.len() as u64;
     out.write_file("tileset.json", &json)?;
     Ok(stats)
@@ -486,6 +532,239 @@ mod tests {
         }
     }
 
+    /// A tile's triangles as comparable keys: per corner the position, normal and feature id bits,
+    /// rotated to start at the smallest corner (orientation kept), sorted. Vertex order free.
+    fn triangle_keys(glb: &crate::read::GlbData) -> Vec<[(Vec<u64>, u32); 3]> {
+        let corner = |i: u32| {
+            let i = i as usize;
+            let mut bits: Vec<u64> = glb.positions_local[i].iter().map(|c| c.to_bits()).collect();
+            bits.extend(
+                glb.normals_local
+                    .get(i)
+                    .into_iter()
+                    .flatten()
+                    .map(|c| c.to_bits()),
+            );
+            (bits, glb.feature_ids[i])
+        };
+        let mut keys: Vec<[(Vec<u64>, u32); 3]> = glb
+            .triangles
+            .iter()
+            .map(|t| {
+                let c = t.map(corner);
+                let k = (0..3).min_by(|&a, &b| c[a].cmp(&c[b])).unwrap();
+                std::array::from_fn(|j| c[(k + j) % 3].clone())
+            })
+            .collect();
+        keys.sort();
+        keys
+    }
+
+    #[test]
+    fn draco_round_trip_equals_the_uncompressed_tiles() {
+        let root = city();
+        let dir = tempfile::tempdir().unwrap();
+        let plain = write(&dir.path().join("plain"), &root, Compression::None).unwrap();
+        let draco = write(&dir.path().join("draco"), &root, Compression::Draco).unwrap();
+        assert!(
+            draco.glb_bytes < plain.glb_bytes,
+            "{} vs {}",
+            draco.glb_bytes,
+            plain.glb_bytes
+        );
+        assert_eq!(
+            (draco.triangles, draco.features),
+            (plain.triangles, plain.features)
+        );
+        let a = read_tileset(&dir.path().join("plain/tileset.json")).unwrap();
+        let b = read_tileset(&dir.path().join("draco/tileset.json")).unwrap();
+        assert_eq!(a.tiles.len(), b.tiles.len());
+        let mut compared = 0;
+        for (ta, tb) in a.tiles.iter().zip(&b.tiles) {
+            assert_eq!(ta.bounding_box, tb.bounding_box);
+            let (Some(ga), Some(gb)) = (&ta.content, &tb.content) else {
+                assert_eq!(ta.content.is_some(), tb.content.is_some());
+                continue;
+            };
+            assert_eq!(ga.features, gb.features);
+            assert!(!gb.normals_local.is_empty());
+            assert_eq!(
+                triangle_keys(ga),
+                triangle_keys(gb),
+                "tile {}",
+                ta.path_in_tree
+            );
+            compared += 1;
+        }
+        assert!(compared >= 5);
+        let glb = std::fs::read(dir.path().join("draco/tiles/0.glb")).unwrap();
+        let (json, _) = crate::glb::parse_glb(&glb).unwrap();
+        let doc: crate::gltf_json::Gltf = serde_json::from_slice(json).unwrap();
+        assert_eq!(
+            doc.extensions_required,
+            ["KHR_draco_mesh_compression", "KHR_mesh_quantization"]
+        );
+        for prim in &doc.meshes[0].primitives {
+            let ext = prim.extensions.as_ref().unwrap();
+            let d = ext.draco.as_ref().unwrap();
+            assert_eq!(d.attributes.len(), prim.attributes.len());
+            assert!(ext.mesh_features.is_some(), "feature ids stay an attribute");
+            for &acc in prim.attributes.values().chain(&prim.indices) {
+                assert_eq!(
+                    doc.accessors[acc].buffer_view, None,
+                    "Draco accessors have no view"
+                );
+            }
+            let pos = &doc.accessors[prim.attributes["POSITION"]];
+            assert!(pos.min.is_some() && pos.max.is_some());
+        }
+    }
+
+    fn json_files(d: &Path, out: &mut Vec<(std::path::PathBuf, Vec<u8>)>) {
+        let mut entries: Vec<_> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect();
+        entries.sort();
+        for e in entries {
+            if e.is_dir() {
+                json_files(&e, out);
+            } else if e.extension().is_some_and(|x| x == "json") {
+                out.push((e.clone(), std::fs::read(&e).unwrap()));
+            }
+        }
+    }
+
+    #[test]
+    fn external_tilesets_keep_every_tile_and_stay_under_the_limit() {
+        let root = city();
+        let dir = tempfile::tempdir().unwrap();
+        let whole = write(&dir.path().join("whole"), &root, Compression::Meshopt).unwrap();
+        assert_eq!(whole.external_tilesets, 0);
+        let extras =
+            serde_json::json!({"citylod": {"dh_px": 20.0, "da_px": 200.0, "version": "x"}});
+        let opts = WriteOptions {
+            max_tileset_json_bytes: 1200,
+            extras: Some(extras.clone()),
+            ..Default::default()
+        };
+        let split_into = |name: &str| {
+            let out = Staging::create(&dir.path().join(name)).unwrap();
+            let stats = write_tileset(&out, &root, &frame(), &schema(), &opts).unwrap();
+            out.commit().unwrap();
+            stats
+        };
+        let stats = split_into("split");
+        split_into("again");
+        assert!(
+            whole.tileset_json_bytes > 2 * 1200,
+            "the test needs a tileset over the limit"
+        );
+        assert!(stats.external_tilesets >= 2, "{stats:?}");
+        let (mut files, mut again) = (Vec::new(), Vec::new());
+        json_files(&dir.path().join("split"), &mut files);
+        json_files(&dir.path().join("again"), &mut again);
+        assert_eq!(files.len() as u64, 1 + stats.external_tilesets);
+        let strip =
+            |v: &[(std::path::PathBuf, Vec<u8>)], d: &str| -> Vec<(std::path::PathBuf, Vec<u8>)> {
+                v.iter()
+                    .map(|(p, b)| {
+                        (
+                            p.strip_prefix(dir.path().join(d)).unwrap().to_path_buf(),
+                            b.clone(),
+                        )
+                    })
+                    .collect()
+            };
+        assert_eq!(
+            strip(&files, "split"),
+            strip(&again, "again"),
+            "deterministic"
+        );
+        for (path, bytes) in &files {
+            assert!(
+                bytes.len() <= 1200,
+                "{} has {} bytes",
+                path.display(),
+                bytes.len()
+            );
+            let ts: crate::tileset_json::Tileset = serde_json::from_slice(bytes).unwrap();
+            assert_eq!(ts.asset.version, "1.1");
+            assert_eq!(ts.root.refine.as_deref(), Some("REPLACE"));
+            let main = path.ends_with("split/tileset.json");
+            assert_eq!(
+                ts.root.transform.is_some(),
+                main,
+                "only the main root has a transform"
+            );
+            assert_eq!(ts.extras.is_some(), main);
+            if !main {
+                assert_eq!(ts.geometric_error, ts.root.geometric_error);
+                // A subtree's root keeps its glb (if it has one); uris stay inside the file's folder.
+                assert!(ts.root.content.iter().all(|c| c.uri.ends_with(".glb")));
+            }
+            let text = String::from_utf8_lossy(bytes);
+            assert!(!text.contains(".."), "{text}");
+        }
+        let a = read_tileset(&dir.path().join("whole/tileset.json")).unwrap();
+        let b = read_tileset(&dir.path().join("split/tileset.json")).unwrap();
+        assert_eq!(b.extras, Some(extras));
+        assert_eq!(a.extras, None);
+        assert_eq!(a.geometric_error_m, b.geometric_error_m);
+        let links: Vec<&crate::read::TileData> = b
+            .tiles
+            .iter()
+            .filter(|t| t.content_uri.as_ref().is_some_and(|u| u.ends_with(".json")))
+            .collect();
+        assert_eq!(links.len() as u64, stats.external_tilesets);
+        for l in &links {
+            // The referencing tile is a content-less copy of the subtree root it points to.
+            let sub = &b.tiles[l.children[0]];
+            assert_eq!(l.children.len(), 1);
+            assert_eq!(
+                (l.bounding_box, l.geometric_error_m),
+                (sub.bounding_box, sub.geometric_error_m)
+            );
+            assert!(l.content.is_none(), "a link has no glb");
+        }
+        let kept: Vec<&crate::read::TileData> = b
+            .tiles
+            .iter()
+            .filter(|t| !t.content_uri.as_ref().is_some_and(|u| u.ends_with(".json")))
+            .collect();
+        assert_eq!(kept.len(), a.tiles.len());
+        for (x, y) in a.tiles.iter().zip(kept) {
+            assert_eq!(x.geometric_error_m, y.geometric_error_m);
+            assert_eq!(x.bounding_box, y.bounding_box);
+            assert_eq!(
+                x.content, y.content,
+                "tile {} vs {}",
+                x.path_in_tree, y.path_in_tree
+            );
+            assert_eq!(x.children.len(), y.children.len());
+        }
+        // A limit no single tile can meet is an error, and the previous output stays.
+        let out = Staging::create(&dir.path().join("split")).unwrap();
+        let tiny = WriteOptions {
+            max_tileset_json_bytes: 300,
+            ..Default::default()
+        };
+        let err = write_tileset(&out, &root, &frame(), &schema(), &tiny).unwrap_err();
+        assert!(err.to_string().contains("300"), "{err}");
+        drop(out);
+        read_tileset(&dir.path().join("split/tileset.json")).unwrap();
+    }
+
+    #[test]
+    fn extras_must_be_an_object() {
+        let out = Staging::create(&tempfile::tempdir().unwrap().path().join("x")).unwrap();
+        let opts = WriteOptions {
+            extras: Some(serde_json::json!([1])),
+            ..Default::default()
+        };
+        assert!(write_tileset(&out, &city(), &frame(), &schema(), &opts).is_err());
+    }
+
     #[test]
     fn meshopt_is_smaller_and_uses_codec_version_0() {
         let root = tile_spatially((0..40).map(building).collect(), 100, 100_000);
@@ -532,6 +811,8 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         write(&dir.path().join("a"), &root, Compression::Meshopt).unwrap();
         write(&dir.path().join("b"), &root, Compression::Meshopt).unwrap();
+        write(&dir.path().join("a/draco"), &root, Compression::Draco).unwrap();
+        write(&dir.path().join("b/draco"), &root, Compression::Draco).unwrap();
         let files = |d: &Path| {
             let mut v = Vec::new();
             let mut stack = vec![d.to_path_buf()];
@@ -669,6 +950,7 @@ mod tests {
         for (name, c) in [
             ("meshopt", Compression::Meshopt),
             ("plain", Compression::None),
+            ("draco", Compression::Draco),
         ] {
             let out = dir.path().join(name);
             write(&out, &city(), c).unwrap();
@@ -794,7 +1076,7 @@ mod tests {
             features: (0..3300).map(building).collect(),
             ..Default::default()
         };
-        for compression in [Compression::Meshopt, Compression::None] {
+        for compression in [Compression::Meshopt, Compression::None, Compression::Draco] {
             let dir = tempfile::tempdir().unwrap();
             write(&dir.path().join("out"), &root, compression).unwrap();
             let glb = std::fs::read(dir.path().join("out/tiles/0.glb")).unwrap();
@@ -806,7 +1088,21 @@ mod tests {
             );
             assert_eq!(doc.accessors[0].count, 3300 * 20);
             let back = read_tileset(&dir.path().join("out/tileset.json")).unwrap();
-            check_round_trip(&root, &back);
+            if compression == Compression::Draco {
+                // Vertex order differs; draco_round_trip_equals_the_uncompressed_tiles checks values.
+                assert_eq!(
+                    back.tiles[0].content.as_ref().unwrap().triangles.len(),
+                    3300 * 10
+                );
+                write(&dir.path().join("again"), &root, compression).unwrap();
+                let again = std::fs::read(dir.path().join("again/tiles/0.glb")).unwrap();
+                assert!(
+                    glb == again,
+                    "a large Draco tile is byte-identical on a second write"
+                );
+            } else {
+                check_round_trip(&root, &back);
+            }
         }
     }
 
@@ -821,6 +1117,7 @@ mod tests {
                 generator: None,
             },
             geometric_error: 1e5,
+            extras: None,
             root: crate::tileset_json::Tile {
                 transform: None,
                 bounding_volume: crate::tileset_json::BoundingVolume {
