@@ -228,12 +228,56 @@ pub(crate) fn repair(polygons: Vec<Vec<Vec<Coord>>>, assemble: bool) -> Result<R
     }
     if rebuilt {
         rings_reoriented = 0; // rebuilt rings have no input winding to compare with
+        kept = canonical(kept);
     }
     Ok(Repaired {
         footprint: MultiPolygon(kept),
         issues,
         rings_reoriented,
     })
+}
+
+/// The boolean operations behind `make_valid` and `unary_union` do not promise where a ring starts nor in
+/// which order parts and holes come out, and in practice that varies from run to run. Rotate every ring to start
+/// at its smallest vertex (x, then y; winding kept) and sort holes and parts, so the same input always gives the
+/// same footprint.
+fn canonical(polygons: Vec<Polygon>) -> Vec<Polygon> {
+    fn key(c: &Coord) -> (u64, u64) {
+        // Total order on finite floats through their bit patterns, made monotone for negatives.
+        let k = |v: f64| {
+            let b = v.to_bits();
+            if b >> 63 == 1 {
+                !b
+            } else {
+                b | (1 << 63)
+            }
+        };
+        (k(c.x), k(c.y))
+    }
+    fn ring(r: &LineString) -> LineString {
+        let open = &r.0[..r.0.len().saturating_sub(1)];
+        let Some(start) = (0..open.len()).min_by_key(|&i| key(&open[i])) else {
+            return r.clone();
+        };
+        let mut pts: Vec<Coord> = open[start..]
+            .iter()
+            .chain(&open[..start])
+            .copied()
+            .collect();
+        pts.push(pts[0]);
+        LineString(pts)
+    }
+    let first = |r: &LineString| r.0.first().map(key).unwrap_or((0, 0));
+    let mut out: Vec<Polygon> = polygons
+        .iter()
+        .map(|p| {
+            let mut holes: Vec<LineString> = p.interiors().iter().map(ring).collect();
+            holes.sort_by_key(first);
+            Polygon::new(ring(p.exterior()), holes)
+        })
+        .collect();
+    out.sort_by_key(|p| first(p.exterior()));
+    out
 }
 
 /// Drops holes that do not overlap their shell (recording each); other holes are kept.
@@ -326,6 +370,27 @@ mod tests {
         assert!(r.issues.is_empty());
         check_footprint(&r.footprint).unwrap();
         assert!((r.footprint.unsigned_area() - 96.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn canonical_form_ignores_ring_start_and_part_order() {
+        let sq = |x: f64, start: usize| {
+            let mut pts = vec![
+                Coord { x, y: 0.0 },
+                Coord { x: x + 1.0, y: 0.0 },
+                Coord { x: x + 1.0, y: 1.0 },
+                Coord { x, y: 1.0 },
+            ];
+            pts.rotate_left(start);
+            pts.push(pts[0]);
+            Polygon::new(LineString(pts), vec![])
+        };
+        let a = canonical(vec![sq(0.0, 0), sq(-5.0, 2)]);
+        let b = canonical(vec![sq(-5.0, 3), sq(0.0, 1)]);
+        assert_eq!(a, b);
+        assert_eq!(a[0].exterior().0[0], Coord { x: -5.0, y: 0.0 });
+        // Winding is kept: the exterior stays counter-clockwise.
+        assert!(signed_area(a[1].exterior()) > 0.0);
     }
 
     #[test]
