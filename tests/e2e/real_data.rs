@@ -150,7 +150,7 @@ fn placement_error_m(geojson: &Path, ts: &TilesetData, sample_every: usize) -> (
             let Some(PropValue::Int(bi)) = row.values.get("building_index").cloned() else {
                 panic!("building_index missing")
             };
-            if bi as usize % sample_every != 0 {
+            if !(bi as usize).is_multiple_of(sample_every) {
                 continue;
             }
             let index = by_id
