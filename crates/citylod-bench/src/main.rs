@@ -31,7 +31,10 @@ fn measure(cmd: &mut Command) -> Result<Run> {
         bail!("{cmd:?} failed (status {status})");
     }
     std::mem::forget(child);
-    Ok(Run { wall_s, peak_rss_mb: usage.ru_maxrss as f64 / 1024.0 })
+    Ok(Run {
+        wall_s,
+        peak_rss_mb: usage.ru_maxrss as f64 / 1024.0,
+    })
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -39,7 +42,13 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
-fn bench_build(citylod: &Path, name: &str, inputs: &[PathBuf], extra: &[&str], runs: usize) -> Result<()> {
+fn bench_build(
+    citylod: &Path,
+    name: &str,
+    inputs: &[PathBuf],
+    extra: &[&str],
+    runs: usize,
+) -> Result<()> {
     if let Some(missing) = inputs.iter().find(|p| !p.exists()) {
         println!("{name:<28} skipped: {} not found", missing.display());
         return Ok(());
@@ -49,13 +58,19 @@ fn bench_build(citylod: &Path, name: &str, inputs: &[PathBuf], extra: &[&str], r
     let mut rss = Vec::new();
     for _ in 0..runs {
         let mut cmd = Command::new(citylod);
-        cmd.arg("build").args(inputs).args(extra).arg("--out").arg(&out).arg("--quiet");
+        cmd.arg("build")
+            .args(inputs)
+            .args(extra)
+            .arg("--out")
+            .arg(&out)
+            .arg("--quiet");
         let r = measure(&mut cmd)?;
         times.push(r.wall_s);
         rss.push(r.peak_rss_mb);
     }
-    let report: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("build-report.json")).context("reading build-report.json")?)?;
+    let report: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(out.join("build-report.json")).context("reading build-report.json")?,
+    )?;
     let n = report["counts"]["buildings_written"].as_u64().unwrap_or(0);
     let bytes = report["tiles"]["glb_bytes"].as_u64().unwrap_or(0);
     let t = median(times);
@@ -72,9 +87,15 @@ fn bench_build(citylod: &Path, name: &str, inputs: &[PathBuf], extra: &[&str], r
 /// Runs inside a child process: generalizes one input and prints `{"n": …, "seconds": …}` on stdout.
 fn run_case(kind: &str, arg: &str) -> Result<()> {
     let buildings = match kind {
-        "synth" => synth::city(arg.parse().context("case synth needs a building count")?, 42),
+        "synth" => synth::city(
+            arg.parse().context("case synth needs a building count")?,
+            42,
+        ),
         "file" => {
-            let opts = citylod_ingest::IngestOptions { storey_height_m: 3.5, ..Default::default() };
+            let opts = citylod_ingest::IngestOptions {
+                storey_height_m: 3.5,
+                ..Default::default()
+            };
             citylod_ingest::ingest(&[PathBuf::from(arg)], &opts)?.buildings
         }
         other => bail!("unknown case {other}"),
@@ -109,7 +130,10 @@ fn bench_generalize(kind: &str, arg: &str) -> Result<(usize, f64, f64, usize)> {
 fn fitted_exponent(points: &[(usize, f64)]) -> f64 {
     let xs: Vec<f64> = points.iter().map(|p| (p.0 as f64).ln()).collect();
     let ys: Vec<f64> = points.iter().map(|p| p.1.ln()).collect();
-    let (mx, my) = (xs.iter().sum::<f64>() / xs.len() as f64, ys.iter().sum::<f64>() / ys.len() as f64);
+    let (mx, my) = (
+        xs.iter().sum::<f64>() / xs.len() as f64,
+        ys.iter().sum::<f64>() / ys.len() as f64,
+    );
     let cov: f64 = xs.iter().zip(&ys).map(|(x, y)| (x - mx) * (y - my)).sum();
     let var: f64 = xs.iter().map(|x| (x - mx) * (x - mx)).sum();
     cov / var
@@ -132,15 +156,40 @@ fn main() -> Result<()> {
             other => bail!("unknown argument {other} (use --citylod BIN --data DIR --runs N)"),
         }
     }
-    println!("citylod-bench on {} cores; targets: DESIGN.md §9", std::thread::available_parallelism().map_or(1, |n| n.get()));
+    println!(
+        "citylod-bench on {} cores; targets: DESIGN.md §9",
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    );
     println!("== citylod build (ingest → mesh → tiles), end to end ==");
-    bench_build(&citylod, "boston (GeoJSON)", &[data.join("boston/boston_buildings.geojson")], &["--storey-height", "3.5"], runs)?;
-    bench_build(&citylod, "delft (CityJSONSeq)", &[data.join("delft-3dbag/delft.city.jsonl")], &[], runs)?;
-    bench_build(&citylod, "nyc-les (GeoJSON)", &[data.join("nyc-les/les_buildings.geojson")], &[], runs)?;
+    bench_build(
+        &citylod,
+        "boston (GeoJSON)",
+        &[data.join("boston/boston_buildings.geojson")],
+        &["--storey-height", "3.5"],
+        runs,
+    )?;
+    bench_build(
+        &citylod,
+        "delft (CityJSONSeq)",
+        &[data.join("delft-3dbag/delft.city.jsonl")],
+        &[],
+        runs,
+    )?;
+    bench_build(
+        &citylod,
+        "nyc-les (GeoJSON)",
+        &[data.join("nyc-les/les_buildings.geojson")],
+        &[],
+        runs,
+    )?;
 
     println!("== coarse levels cost: total glb bytes, levels of detail vs buildings only (target ≤ 1.25×) ==");
     for (name, rel, extra) in [
-        ("boston", "boston/boston_buildings.geojson", &["--storey-height", "3.5"][..]),
+        (
+            "boston",
+            "boston/boston_buildings.geojson",
+            &["--storey-height", "3.5"][..],
+        ),
         ("delft", "delft-3dbag/delft.city.jsonl", &[][..]),
         ("nyc-les", "nyc-les/les_buildings.geojson", &[][..]),
     ] {
@@ -150,9 +199,20 @@ fn main() -> Result<()> {
             continue;
         }
         let bytes = |flags: &[&str]| -> Result<u64> {
-            let out = std::env::temp_dir().join(format!("citylod-bench-bytes-{}", std::process::id()));
-            measure(Command::new(&citylod).arg("build").arg(&input).args(extra).args(flags).arg("--out").arg(&out).arg("--quiet"))?;
-            let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("build-report.json"))?)?;
+            let out =
+                std::env::temp_dir().join(format!("citylod-bench-bytes-{}", std::process::id()));
+            measure(
+                Command::new(&citylod)
+                    .arg("build")
+                    .arg(&input)
+                    .args(extra)
+                    .args(flags)
+                    .arg("--out")
+                    .arg(&out)
+                    .arg("--quiet"),
+            )?;
+            let report: serde_json::Value =
+                serde_json::from_slice(&std::fs::read(out.join("build-report.json"))?)?;
             let _ = std::fs::remove_dir_all(&out);
             Ok(report["tiles"]["glb_bytes"].as_u64().unwrap_or(0))
         };
@@ -177,6 +237,9 @@ fn main() -> Result<()> {
         println!("{:<28} {n:>9} buildings  {t:>7.3} s  {:>9.0} buildings/s  peak RSS {rss:>7.1} MB  {levels} levels", format!("generated city {n}"), n as f64 / t);
         points.push((n, t));
     }
-    println!("fitted exponent of time versus n (generated cities): {:.2}", fitted_exponent(&points));
+    println!(
+        "fitted exponent of time versus n (generated cities): {:.2}",
+        fitted_exponent(&points)
+    );
     Ok(())
 }

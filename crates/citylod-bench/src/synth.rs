@@ -36,7 +36,9 @@ pub fn city(n: usize, seed: u64) -> Vec<Building> {
     'grid: for by in 0..blocks_per_side {
         for bx in 0..blocks_per_side {
             let district = (bx / 8, by / 8);
-            let mut drng = Rng(seed ^ ((district.0 as u64) << 32 | district.1 as u64).wrapping_mul(0x2545_F491_4F6C_DD1D));
+            let mut drng = Rng(seed
+                ^ ((district.0 as u64) << 32 | district.1 as u64)
+                    .wrapping_mul(0x2545_F491_4F6C_DD1D));
             let angle = drng.range(-0.12, 0.12);
             let x0 = bx as f64 * (block_w + street);
             let y0 = by as f64 * (block_h + street);
@@ -49,11 +51,18 @@ pub fn city(n: usize, seed: u64) -> Vec<Building> {
                     .iter()
                     .map(|&(x, y)| {
                         let (x, y) = (x + x0, y + y0);
-                        Coord { x: c * x - s * y, y: s * x + c * y }
+                        Coord {
+                            x: c * x - s * y,
+                            y: s * x + c * y,
+                        }
                     })
                     .collect();
                 let tower = rng.chance(0.01);
-                let height_m = if tower { rng.range(60.0, 180.0) } else { (rng.range(2.0, 8.0)).floor() * 3.2 + 1.0 };
+                let height_m = if tower {
+                    rng.range(60.0, 180.0)
+                } else {
+                    (rng.range(2.0, 8.0)).floor() * 3.2 + 1.0
+                };
                 out.push(Building {
                     id: BuildingId(out.len() as u32),
                     source_id: format!("synth-{}", out.len()),
@@ -85,12 +94,23 @@ fn block(rng: &mut Rng, w: f64, h: f64) -> Vec<Vec<(f64, f64)>> {
         let mut t = 0.0;
         while t < len - 4.0 {
             let front = rng.range(6.0, 20.0).min(len - t);
-            let d = if rng.chance(0.15) { depth * rng.range(0.5, 0.9) } else { depth };
+            let d = if rng.chance(0.15) {
+                depth * rng.range(0.5, 0.9)
+            } else {
+                depth
+            };
             let p = |a: f64, b: f64| (sx + dx * a + nx * b, sy + dy * a + ny * b);
             let mut ring = if rng.chance(0.1) && front > 10.0 {
                 // An L-shape: a rear wing on half of the frontage.
                 let half = front / 2.0;
-                vec![p(t, 0.0), p(t + front, 0.0), p(t + front, d * 0.6), p(t + half, d * 0.6), p(t + half, d), p(t, d)]
+                vec![
+                    p(t, 0.0),
+                    p(t + front, 0.0),
+                    p(t + front, d * 0.6),
+                    p(t + half, d * 0.6),
+                    p(t + half, d),
+                    p(t, d),
+                ]
             } else {
                 vec![p(t, 0.0), p(t + front, 0.0), p(t + front, d), p(t, d)]
             };
@@ -101,7 +121,12 @@ fn block(rng: &mut Rng, w: f64, h: f64) -> Vec<Vec<(f64, f64)>> {
             ring.push(ring[0]);
             out.push(ring);
             // Mostly touching neighbours; sometimes a gap (a passage or an alley).
-            t += front + if rng.chance(0.2) { rng.range(1.0, 6.0) } else { 0.0 };
+            t += front
+                + if rng.chance(0.2) {
+                    rng.range(1.0, 6.0)
+                } else {
+                    0.0
+                };
         }
     }
     out
@@ -109,7 +134,10 @@ fn block(rng: &mut Rng, w: f64, h: f64) -> Vec<Vec<(f64, f64)>> {
 
 fn signed_area(r: &[(f64, f64)]) -> f64 {
     let n = r.len();
-    (0..n).map(|i| r[i].0 * r[(i + 1) % n].1 - r[(i + 1) % n].0 * r[i].1).sum::<f64>() / 2.0
+    (0..n)
+        .map(|i| r[i].0 * r[(i + 1) % n].1 - r[(i + 1) % n].0 * r[i].1)
+        .sum::<f64>()
+        / 2.0
 }
 
 #[cfg(test)]
@@ -125,8 +153,17 @@ mod tests {
             assert_eq!(x.footprint, y.footprint);
         }
         for bld in &a {
-            let ring: Vec<(f64, f64)> = bld.footprint.0[0].exterior().0.iter().map(|c| (c.x, c.y)).collect();
-            assert!(signed_area(&ring[..ring.len() - 1]) > 10.0, "{} not CCW or tiny", bld.source_id);
+            let ring: Vec<(f64, f64)> = bld.footprint.0[0]
+                .exterior()
+                .0
+                .iter()
+                .map(|c| (c.x, c.y))
+                .collect();
+            assert!(
+                signed_area(&ring[..ring.len() - 1]) > 10.0,
+                "{} not CCW or tiny",
+                bld.source_id
+            );
             assert!(bld.height_m > 0.0);
         }
         assert_ne!(city(100, 1)[5].footprint, city(100, 2)[5].footprint);

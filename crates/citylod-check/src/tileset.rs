@@ -132,10 +132,7 @@ impl LoadedTileset {
         let mut nodes: Vec<TileNode> = Vec::with_capacity(n);
         for (t, info) in data.tiles.iter().zip(&tiles) {
             nodes.push(TileNode {
-                bounds: t
-                    .bounding_box
-                    .map(box_from_array)
-                    .unwrap_or_else(zero_box),
+                bounds: t.bounding_box.map(box_from_array).unwrap_or_else(zero_box),
                 geometric_error_m: t.geometric_error_m,
                 children: t.children.clone(),
                 has_content: info.mesh.as_ref().is_some_and(|m| !m.triangles.is_empty()),

@@ -9,11 +9,13 @@
 //! - `graph`        — sparse candidate graph: R-tree neighbours plus Delaunay edges between buildings
 //! - `single_link`  — Kruskal single-link clustering → dendrogram
 //! - `levels`       — condensing the dendrogram into levels and balancing them (§3.3.2)
-//! - `merge`        — merging footprints through constrained-Delaunay connection pairs (§3.2)
-//! - `simplify`     — removing small concave triangles and near-collinear vertices (§3.2)
+//! - `merge`        — merging footprints through constrained-Delaunay connection pairs (§3.2), then
+//!   bridging any islands left so a cluster has one outline
+//! - `simplify`     — removing small or sliver concave triangles and near-collinear vertices (§3.2)
 //! - `stats`        — per-node height (Eq. 5), h_min, h_max, Δh, Δa
 //! - `dump`         — GeoJSON and PNG pictures of every level
-//! - `hierarchy`    — the `generalize` entry point tying the stages together
+//! - `hierarchy`    — the `generalize` entry point tying the stages together, and the landmark rule
+//!   (seed 001: members far taller than their block are drawn apart and left out of its Δh)
 //!
 //! ```
 //! use citylod_generalize::{generalize, GeneralizeOptions};
@@ -48,11 +50,11 @@ pub use graph::{
     GraphStats,
 };
 pub use hierarchy::{
-    cluster, generalize, GeneralizeError, GeneralizeOptions, GeneralizeReport, Generalized,
-    LevelReport, PhaseTimings,
+    cluster, generalize, landmarks_of, GeneralizeError, GeneralizeOptions, GeneralizeReport,
+    Generalized, LevelReport, PhaseTimings,
 };
 pub use levels::{condense, target_levels, LevelKind, LevelOptions, LevelPlan, PlannedLevel};
 pub use merge::{merge_footprints, MergeResult};
-pub use simplify::{simplify_footprint, CONVEX_COLLINEAR_TOL_M};
+pub use simplify::{simplify_footprint, CONVEX_COLLINEAR_TOL_M, SLIVER_FACTOR};
 pub use single_link::{single_link, Merge};
 pub use stats::{node_stats, NodeStats};

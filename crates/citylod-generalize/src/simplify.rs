@@ -17,13 +17,19 @@ use std::collections::BinaryHeap;
 /// this far (m) from the chord of its neighbours, so the area given up is a sliver of at most this width.
 pub const CONVEX_COLLINEAR_TOL_M: f64 = 0.02;
 
+/// A concave triangle thinner than `SLIVER_FACTOR`·√δa (m; smallest altitude) is filled whatever its
+/// area: it is part of a sliver (a hairline gap between row houses bridged at one
+/// end, a deep narrow notch). The width grows with δa, so with the level.
+pub const SLIVER_FACTOR: f64 = 0.25;
+
 /// Simplifies `fp` (local ENU m) in two passes, each removing one vertex at a time from a priority queue:
 ///
 /// 1. *Concave triangles*: a vertex is concave when, walking its ring with the solid on the left (exterior
 ///    CCW, holes CW), the turn there is clockwise — a notch in the exterior, or a corner of a hole that
 ///    points into the hole. Removing it fills the triangle, so the footprint only grows. The vertex with
-///    the smallest such triangle goes first while its area < `delta_a_m2` (m²). Holes whose whole area is
-///    below `delta_a_m2` are filled.
+///    the smallest such triangle goes first while its area < `delta_a_m2` (m²), or at any area when the
+///    triangle is thinner than `SLIVER_FACTOR`·√`delta_a_m2` (a sliver). Holes whose
+///    whole area is below `delta_a_m2` are filled.
 /// 2. *Near-collinear vertices*: vertices whose inner angle > `max_angle_deg` (175° in the paper), most
 ///    collinear first; a concave one always qualifies, a convex one only within `CONVEX_COLLINEAR_TOL_M`
 ///    of its neighbours' chord.
@@ -63,7 +69,7 @@ pub fn simplify_footprint(fp: &Footprint, delta_a_m2: f64, max_angle_deg: f64) -
     }
     let mut net = Net::new(&rings);
     if delta_a_m2 > 0.0 {
-        net.remove_concave(delta_a_m2);
+        net.remove_concave(delta_a_m2, SLIVER_FACTOR * delta_a_m2.sqrt());
     }
     let max_angle_rad = max_angle_deg.to_radians();
     if max_angle_rad.is_finite() && max_angle_rad < std::f64::consts::PI {
@@ -225,12 +231,20 @@ impl Net {
         debug_assert!(removed.is_some(), "vertex {id} missing from the index");
     }
 
-    /// Pass 1: smallest concave triangle first while its area < `delta_a_m2`.
-    fn remove_concave(&mut self, delta_a_m2: f64) {
+    /// Pass 1: smallest concave triangle first, for triangles of area < `delta_a_m2` or slivers (thinner
+    /// than `sliver_m`).
+    fn remove_concave(&mut self, delta_a_m2: f64, sliver_m: f64) {
         let mut heap = BinaryHeap::new();
         let push = |net: &Net, heap: &mut BinaryHeap<std::cmp::Reverse<Entry>>, id: u32| {
             let t2 = net.turn2(id);
-            if t2 < 0.0 {
+            // A sliver: the triangle's smallest altitude, 2·area / longest side, is below `sliver_m`.
+            let qualifies = || {
+                let [p, x, n] = net.triangle(id);
+                let d = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]);
+                let longest_m = d(p, x).max(d(x, n)).max(d(p, n));
+                -t2 / 2.0 < delta_a_m2 || -t2 < sliver_m * longest_m
+            };
+            if t2 < 0.0 && qualifies() {
                 heap.push(std::cmp::Reverse(Entry {
                     key: -t2 / 2.0,
                     id,
@@ -242,9 +256,6 @@ impl Net {
             push(self, &mut heap, id);
         }
         while let Some(std::cmp::Reverse(e)) = heap.pop() {
-            if e.key >= delta_a_m2 {
-                break;
-            }
             let x = &self.v[e.id as usize];
             if !x.alive || x.version != e.version || !self.can_remove(e.id) {
                 continue;
@@ -341,6 +352,20 @@ mod tests {
     use geo::{Area, Validation};
     use geo_types::{polygon, LineString};
     use proptest::prelude::*;
+
+    #[test]
+    fn hairline_slit_is_filled_though_its_triangles_exceed_delta_a() {
+        // A 30 × 30 block with a 0.2 m wide, 20 m deep slit from its top edge (two row houses bridged
+        // at one end): each slit triangle is 2 m², above δa = 1 m², but 0.2 m < 0.25·√1 m.
+        let fp = MultiPolygon(vec![polygon![
+            (x: 0.0, y: 0.0), (x: 30.0, y: 0.0), (x: 30.0, y: 30.0), (x: 15.2, y: 30.0),
+            (x: 15.2, y: 10.0), (x: 15.0, y: 10.0), (x: 15.0, y: 30.0), (x: 0.0, y: 30.0)
+        ]]);
+        let s = simplify_footprint(&fp, 1.0, 175.0);
+        assert_eq!(vertex_count(&s), 4, "{s:?}");
+        assert!(uncovered_m2(&[&fp], &s) < 1e-9);
+        assert!((s.unsigned_area() - 900.0).abs() < 1e-9);
+    }
 
     fn vertex_count(fp: &Footprint) -> usize {
         fp.0.iter()

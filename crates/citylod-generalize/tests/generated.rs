@@ -69,8 +69,15 @@ proptest! {
             for node in &lv.nodes {
                 prop_assert!(node.children.len() <= g.report.delta_p);
                 prop_assert!(node.dh_m >= 0.0 && node.da_m2 >= 0.0);
+                // Δh grows up the tree once the node's landmarks (drawn apart) leave the child's spread too.
                 for c in &node.children {
-                    prop_assert!(node.dh_m >= below.nodes[c.0 as usize].dh_m);
+                    let hs: Vec<f64> = below.nodes[c.0 as usize].members.iter()
+                        .filter(|b| !node.landmarks.contains(b))
+                        .map(|b| bs[b.0 as usize].height_m)
+                        .collect();
+                    let spread = hs.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+                        - hs.iter().copied().fold(f64::INFINITY, f64::min);
+                    prop_assert!(hs.is_empty() || node.dh_m >= spread - 1e-9);
                 }
             }
         }

@@ -76,14 +76,20 @@ fn check_hierarchy(name: &str, buildings: &[Building]) -> Generalized {
                 node.dh_m,
                 node.da_m2
             );
-            let max_child_dh = node
-                .children
-                .iter()
-                .map(|c| below.nodes[c.0 as usize].dh_m)
-                .fold(0.0, f64::max);
+            // Δh is the spread of the non-landmark members, so it grows going up once the node's landmarks
+            // (drawn apart) leave the children's spread too.
+            let heights = || {
+                node.members
+                    .iter()
+                    .filter(|b| !node.landmarks.contains(b))
+                    .map(|b| buildings[b.0 as usize].height_m)
+            };
+            let spread = heights().fold(f64::NEG_INFINITY, f64::max)
+                - heights().fold(f64::INFINITY, f64::min);
             assert!(
-                node.dh_m >= max_child_dh,
-                "{name}: level {li}: Δh decreases going up"
+                (node.dh_m - spread).abs() < 1e-9,
+                "{name}: level {li}: Δh {} is not the spread {spread} of the non-landmarks",
+                node.dh_m
             );
             assert!(!node.footprint.0.is_empty());
         }

@@ -31,27 +31,51 @@ pub struct Packing {
 }
 
 /// Packs `h` into tiles. `triangles(level, node)` is the triangle count of that node's mesh.
-pub fn pack(h: &Hierarchy, triangles: &dyn Fn(usize, NodeId) -> usize, budget: TileBudget) -> Packing {
+pub fn pack(
+    h: &Hierarchy,
+    triangles: &dyn Fn(usize, NodeId) -> usize,
+    budget: TileBudget,
+) -> Packing {
     let mut tiles = Vec::new();
-    let Some(top) = h.levels.len().checked_sub(1) else { return Packing { tiles } };
+    let Some(top) = h.levels.len().checked_sub(1) else {
+        return Packing { tiles };
+    };
     let top_nodes: Vec<NodeId> = (0..h.levels[top].nodes.len() as u32).map(NodeId).collect();
     let groups = split(h, top, top_nodes, triangles, budget);
     if groups.len() == 1 {
-        tiles.push(PackedTile { level: top, nodes: groups.into_iter().next().unwrap(), children: vec![] });
+        tiles.push(PackedTile {
+            level: top,
+            nodes: groups.into_iter().next().unwrap(),
+            children: vec![],
+        });
     } else {
-        tiles.push(PackedTile { level: top + 1, nodes: vec![], children: (1..=groups.len()).collect() });
-        tiles.extend(groups.into_iter().map(|nodes| PackedTile { level: top, nodes, children: vec![] }));
+        tiles.push(PackedTile {
+            level: top + 1,
+            nodes: vec![],
+            children: (1..=groups.len()).collect(),
+        });
+        tiles.extend(groups.into_iter().map(|nodes| PackedTile {
+            level: top,
+            nodes,
+            children: vec![],
+        }));
     }
     // Breadth-first, so tile indices (and so file names) follow a stable order.
     let mut next = if tiles[0].nodes.is_empty() { 1 } else { 0 };
     while next < tiles.len() {
         let (level, parent_nodes) = (tiles[next].level, tiles[next].nodes.clone());
         if level > 0 {
-            let child_nodes: Vec<NodeId> =
-                parent_nodes.iter().flat_map(|n| h.levels[level].nodes[n.0 as usize].children.iter().copied()).collect();
+            let child_nodes: Vec<NodeId> = parent_nodes
+                .iter()
+                .flat_map(|n| h.levels[level].nodes[n.0 as usize].children.iter().copied())
+                .collect();
             let first = tiles.len();
             for nodes in split(h, level - 1, child_nodes, triangles, budget) {
-                tiles.push(PackedTile { level: level - 1, nodes, children: vec![] });
+                tiles.push(PackedTile {
+                    level: level - 1,
+                    nodes,
+                    children: vec![],
+                });
             }
             tiles[next].children = (first..tiles.len()).collect();
         }
@@ -71,7 +95,13 @@ fn split(
 ) -> Vec<Vec<NodeId>> {
     let mut items: Vec<(NodeId, [f64; 2], usize)> = nodes
         .into_iter()
-        .map(|n| (n, bbox_centre(&h.levels[level].nodes[n.0 as usize].footprint), triangles(level, n)))
+        .map(|n| {
+            (
+                n,
+                bbox_centre(&h.levels[level].nodes[n.0 as usize].footprint),
+                triangles(level, n),
+            )
+        })
         .collect();
     items.sort_by_key(|i| i.0);
     let mut out = Vec::new();
@@ -79,7 +109,11 @@ fn split(
     out
 }
 
-fn split_rec(items: &mut [(NodeId, [f64; 2], usize)], budget: TileBudget, out: &mut Vec<Vec<NodeId>>) {
+fn split_rec(
+    items: &mut [(NodeId, [f64; 2], usize)],
+    budget: TileBudget,
+    out: &mut Vec<Vec<NodeId>>,
+) {
     let tris: usize = items.iter().map(|i| i.2).sum();
     if items.len() <= 1 || (items.len() <= budget.max_features && tris <= budget.max_triangles) {
         if !items.is_empty() {
@@ -131,11 +165,24 @@ pub fn tile_errors(p: &Packing, node_error: &dyn Fn(usize, NodeId) -> f64) -> Ve
     let mut err: Vec<f64> = p
         .tiles
         .iter()
-        .map(|t| if t.level == 0 { 0.0 } else { t.nodes.iter().map(|&n| node_error(t.level, n)).fold(0.0, f64::max) })
+        .map(|t| {
+            if t.level == 0 {
+                0.0
+            } else {
+                t.nodes
+                    .iter()
+                    .map(|&n| node_error(t.level, n))
+                    .fold(0.0, f64::max)
+            }
+        })
         .collect();
     // Children always have larger indices than their parent (breadth-first), so one backward pass suffices.
     for i in (0..p.tiles.len()).rev() {
-        let m = p.tiles[i].children.iter().map(|&c| err[c]).fold(err[i], f64::max);
+        let m = p.tiles[i]
+            .children
+            .iter()
+            .map(|&c| err[c])
+            .fold(err[i], f64::max);
         err[i] = m;
     }
     err
@@ -157,7 +204,11 @@ pub fn assemble(
         let t = &p.tiles[i];
         TileSpec {
             features: t.nodes.iter().flat_map(|&n| features(t.level, n)).collect(),
-            children: t.children.iter().map(|&c| rec(p, c, errors, features)).collect(),
+            children: t
+                .children
+                .iter()
+                .map(|&c| rec(p, c, errors, features))
+                .collect(),
             geometric_error_m: errors[i],
         }
     }
@@ -175,17 +226,34 @@ pub fn check_packing(h: &Hierarchy, p: &Packing) -> Vec<String> {
         for n in &t.nodes {
             match seen.get_mut(t.level).and_then(|s| s.get_mut(n.0 as usize)) {
                 Some(c) => *c += 1,
-                None => errs.push(format!("tile {ti}: node {} of level {} does not exist", n.0, t.level)),
+                None => errs.push(format!(
+                    "tile {ti}: node {} of level {} does not exist",
+                    n.0, t.level
+                )),
             }
         }
         if t.level > 0 && !t.nodes.is_empty() {
-            let mut want: Vec<NodeId> =
-                t.nodes.iter().flat_map(|n| h.levels[t.level].nodes[n.0 as usize].children.iter().copied()).collect();
-            let mut got: Vec<NodeId> = t.children.iter().flat_map(|&c| p.tiles[c].nodes.iter().copied()).collect();
+            let mut want: Vec<NodeId> = t
+                .nodes
+                .iter()
+                .flat_map(|n| {
+                    h.levels[t.level].nodes[n.0 as usize]
+                        .children
+                        .iter()
+                        .copied()
+                })
+                .collect();
+            let mut got: Vec<NodeId> = t
+                .children
+                .iter()
+                .flat_map(|&c| p.tiles[c].nodes.iter().copied())
+                .collect();
             want.sort();
             got.sort();
             if want != got {
-                errs.push(format!("tile {ti}: children tiles do not hold exactly the children of its nodes"));
+                errs.push(format!(
+                    "tile {ti}: children tiles do not hold exactly the children of its nodes"
+                ));
             }
         }
         if t.level == 0 && !t.children.is_empty() {
@@ -210,7 +278,9 @@ mod tests {
         Node {
             children: children.into_iter().map(NodeId).collect(),
             members: members.into_iter().map(BuildingId).collect(),
-            footprint: MultiPolygon(vec![polygon![(x: x, y: 0.0), (x: x + 5.0, y: 0.0), (x: x + 5.0, y: 5.0), (x: x, y: 5.0)]]),
+            footprint: MultiPolygon(vec![
+                polygon![(x: x, y: 0.0), (x: x + 5.0, y: 0.0), (x: x + 5.0, y: 5.0), (x: x, y: 5.0)],
+            ]),
             height_m: 10.0,
             base_z_m: 0.0,
             h_min_m: 10.0,
@@ -224,12 +294,38 @@ mod tests {
 
     /// 8 buildings in a row → 4 pairs → 2 blocks → 1 top node.
     fn row_hierarchy() -> Hierarchy {
-        let l0 = (0..8).map(|i| node(10.0 * i as f64, vec![], vec![i], 0.0)).collect();
-        let l1 = (0..4).map(|i| node(20.0 * i as f64, vec![2 * i, 2 * i + 1], vec![2 * i, 2 * i + 1], 1.0)).collect();
-        let l2 = (0..2).map(|i| node(40.0 * i as f64, vec![2 * i, 2 * i + 1], (4 * i..4 * i + 4).collect(), 2.0)).collect();
+        let l0 = (0..8)
+            .map(|i| node(10.0 * i as f64, vec![], vec![i], 0.0))
+            .collect();
+        let l1 = (0..4)
+            .map(|i| {
+                node(
+                    20.0 * i as f64,
+                    vec![2 * i, 2 * i + 1],
+                    vec![2 * i, 2 * i + 1],
+                    1.0,
+                )
+            })
+            .collect();
+        let l2 = (0..2)
+            .map(|i| {
+                node(
+                    40.0 * i as f64,
+                    vec![2 * i, 2 * i + 1],
+                    (4 * i..4 * i + 4).collect(),
+                    2.0,
+                )
+            })
+            .collect();
         let l3 = vec![node(0.0, vec![0, 1], (0..8).collect(), 3.0)];
         Hierarchy {
-            levels: [l0, l1, l2, l3].into_iter().map(|nodes| Level { threshold_m: 0.0, nodes }).collect(),
+            levels: [l0, l1, l2, l3]
+                .into_iter()
+                .map(|nodes| Level {
+                    threshold_m: 0.0,
+                    nodes,
+                })
+                .collect(),
         }
     }
 
@@ -237,8 +333,19 @@ mod tests {
     fn every_node_in_exactly_one_tile_and_children_partition() {
         let h = row_hierarchy();
         for max_features in [1, 2, 3, 100] {
-            let p = pack(&h, &|_, _| 10, TileBudget { max_features, max_triangles: 1000 });
-            assert_eq!(check_packing(&h, &p), Vec::<String>::new(), "max_features {max_features}");
+            let p = pack(
+                &h,
+                &|_, _| 10,
+                TileBudget {
+                    max_features,
+                    max_triangles: 1000,
+                },
+            );
+            assert_eq!(
+                check_packing(&h, &p),
+                Vec::<String>::new(),
+                "max_features {max_features}"
+            );
             assert_eq!(p.tiles[0].level, 3);
         }
     }
@@ -246,11 +353,25 @@ mod tests {
     #[test]
     fn budget_splits_spatially_and_leaves_are_buildings() {
         let h = row_hierarchy();
-        let p = pack(&h, &|_, _| 10, TileBudget { max_features: 2, max_triangles: 1000 });
+        let p = pack(
+            &h,
+            &|_, _| 10,
+            TileBudget {
+                max_features: 2,
+                max_triangles: 1000,
+            },
+        );
         let leaves: Vec<&PackedTile> = p.tiles.iter().filter(|t| t.children.is_empty()).collect();
         assert!(leaves.iter().all(|t| t.level == 0 && t.nodes.len() <= 2));
         // A triangle budget of one node per tile forces single-node tiles.
-        let p = pack(&h, &|_, _| 10, TileBudget { max_features: 100, max_triangles: 10 });
+        let p = pack(
+            &h,
+            &|_, _| 10,
+            TileBudget {
+                max_features: 100,
+                max_triangles: 10,
+            },
+        );
         assert!(p.tiles.iter().all(|t| t.nodes.len() <= 1));
         assert_eq!(check_packing(&h, &p), Vec::<String>::new());
     }
@@ -258,12 +379,24 @@ mod tests {
     #[test]
     fn parent_error_at_least_children() {
         let h = row_hierarchy();
-        let p = pack(&h, &|_, _| 10, TileBudget { max_features: 2, max_triangles: 1000 });
+        let p = pack(
+            &h,
+            &|_, _| 10,
+            TileBudget {
+                max_features: 2,
+                max_triangles: 1000,
+            },
+        );
         // A deliberately non-monotone node error: level 1 claims more than level 2.
         let e = tile_errors(&p, &|level, _| if level == 1 { 9.0 } else { level as f64 });
         for (i, t) in p.tiles.iter().enumerate() {
             for &c in &t.children {
-                assert!(e[i] >= e[c], "tile {i} error {} < child {c} error {}", e[i], e[c]);
+                assert!(
+                    e[i] >= e[c],
+                    "tile {i} error {} < child {c} error {}",
+                    e[i],
+                    e[c]
+                );
             }
             if t.level == 0 {
                 assert_eq!(e[i], 0.0);
@@ -275,7 +408,10 @@ mod tests {
     #[test]
     fn packing_is_deterministic() {
         let h = row_hierarchy();
-        let b = TileBudget { max_features: 3, max_triangles: 1000 };
+        let b = TileBudget {
+            max_features: 3,
+            max_triangles: 1000,
+        };
         assert_eq!(pack(&h, &|_, _| 7, b), pack(&h, &|_, _| 7, b));
     }
 }

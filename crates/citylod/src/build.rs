@@ -42,20 +42,60 @@ pub struct BuildArgs {
     pub default_height: f64,
 
     /// Weight λ of the side orientation in the adjacent distance d = d_min·(1 − N·λ), 0–1.
-    #[arg(long, value_name = "λ", default_value_t = 0.6, help_heading = "Generalization")]
+    #[arg(
+        long,
+        value_name = "λ",
+        default_value_t = 0.6,
+        help_heading = "Generalization"
+    )]
     pub lambda_adjacent: f64,
 
     /// Levels above the buildings: L = max(1, ⌊log₂ n / DIV⌋) before balancing (more levels for smaller DIV).
-    #[arg(long, value_name = "DIV", default_value_t = 1.5, help_heading = "Generalization")]
+    #[arg(
+        long,
+        value_name = "DIV",
+        default_value_t = 1.5,
+        help_heading = "Generalization"
+    )]
     pub depth_divisor: f64,
 
     /// Simplification removes concave notches smaller than δa = (mean child footprint area) / λa (m²).
-    #[arg(long, value_name = "λa", default_value_t = 50.0, help_heading = "Generalization")]
+    #[arg(
+        long,
+        value_name = "λa",
+        default_value_t = 50.0,
+        help_heading = "Generalization"
+    )]
     pub lambda_area: f64,
 
     /// Simplification drops vertices whose angle exceeds this many degrees (nearly straight).
-    #[arg(long, value_name = "DEG", default_value_t = 175.0, help_heading = "Generalization")]
+    #[arg(
+        long,
+        value_name = "DEG",
+        default_value_t = 175.0,
+        help_heading = "Generalization"
+    )]
     pub collinear_angle: f64,
+
+    /// A building at least this many metres taller than the rest of its block (their area-weighted mean
+    /// height) is a landmark: drawn at full detail on top of the block and left out of the block's height
+    /// and Δh, at every level where it still stands out. `inf` turns landmarks off.
+    #[arg(
+        long,
+        value_name = "M",
+        default_value_t = 30.0,
+        help_heading = "Generalization"
+    )]
+    pub landmark_min_excess: f64,
+
+    /// At most this fraction of a block's buildings are landmarks (tallest first), 0–1 (exclusive).
+    #[arg(
+        long,
+        value_name = "SHARE",
+        default_value_t = 0.34,
+        help_heading = "Generalization"
+    )]
+    pub landmark_max_share: f64,
 
     /// No generalization: only the buildings, in leaf tiles (for comparisons; coarse views then load everything).
     #[arg(long, help_heading = "Generalization")]
@@ -66,12 +106,22 @@ pub struct BuildArgs {
     pub dump_levels: Option<PathBuf>,
 
     /// Height tolerance δH in screen pixels: a block is drawn only while its height spread Δh appears smaller.
-    #[arg(long, value_name = "PX", default_value_t = 20.0, help_heading = "Level of detail")]
+    #[arg(
+        long,
+        value_name = "PX",
+        default_value_t = 20.0,
+        help_heading = "Level of detail"
+    )]
     pub dh_px: f64,
 
     /// Area tolerance δA in screen pixels²: a block is drawn only while the ground it adds, Δa, appears smaller.
     /// Tile geometricError = max(Δh, √Δa · δH/√δA) metres, so a client refining at SSE = δH honours both.
-    #[arg(long, value_name = "PX²", default_value_t = 200.0, help_heading = "Level of detail")]
+    #[arg(
+        long,
+        value_name = "PX²",
+        default_value_t = 200.0,
+        help_heading = "Level of detail"
+    )]
     pub da_px: f64,
 
     /// Most features (buildings or blocks) in one tile.
@@ -79,12 +129,27 @@ pub struct BuildArgs {
     pub tile_max_features: usize,
 
     /// Most triangles in one tile (a single larger feature gets a tile of its own).
-    #[arg(long, value_name = "N", default_value_t = 200_000, help_heading = "Tiles")]
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 200_000,
+        help_heading = "Tiles"
+    )]
     pub tile_max_triangles: usize,
 
     /// Geometry compression of the glb content.
     #[arg(long, value_enum, default_value_t = CompressionArg::Meshopt, help_heading = "Tiles")]
     pub compression: CompressionArg,
+
+    /// Largest tileset.json in bytes; larger trees are split into external tilesets (tiles/<path>.json), each
+    /// within the same limit.
+    #[arg(
+        long,
+        value_name = "BYTES",
+        default_value_t = 4_000_000,
+        help_heading = "Tiles"
+    )]
+    pub max_tileset_json_bytes: usize,
 
     /// Output folder; replaced atomically when the build succeeds.
     #[arg(long, short, value_name = "DIR", help_heading = "Output")]
@@ -101,6 +166,8 @@ pub enum CompressionArg {
     Meshopt,
     /// Quantized geometry without compression
     None,
+    /// KHR_draco_mesh_compression (lossless on the quantized geometry; clients need a Draco decoder)
+    Draco,
 }
 
 #[derive(Serialize)]
@@ -161,7 +228,11 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
             bail!("{name} must be a positive number of metres, got {v}");
         }
     }
-    for (name, v) in [("--dh-px", args.dh_px), ("--da-px", args.da_px), ("--lambda-area", args.lambda_area)] {
+    for (name, v) in [
+        ("--dh-px", args.dh_px),
+        ("--da-px", args.da_px),
+        ("--lambda-area", args.lambda_area),
+    ] {
         if !(v.is_finite() && v > 0.0) {
             bail!("{name} must be a positive number, got {v}");
         }
@@ -201,13 +272,21 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
             depth_divisor: args.depth_divisor,
             lambda_area: args.lambda_area,
             collinear_angle_deg: args.collinear_angle,
+            landmark_min_excess_m: args.landmark_min_excess,
+            landmark_max_share: args.landmark_max_share,
             ..Default::default()
         };
-        let g = citylod_generalize::generalize(&ingested.buildings, &opts).context("generalizing the footprints")?;
+        let g = citylod_generalize::generalize(&ingested.buildings, &opts)
+            .context("generalizing the footprints")?;
         timings.generalize = t.elapsed().as_millis() as u64;
         if let Some(dir) = &args.dump_levels {
-            citylod_generalize::dump_levels(dir, &g.hierarchy, &ingested.buildings, &ingested.frame)
-                .with_context(|| format!("writing the level pictures to {}", dir.display()))?;
+            citylod_generalize::dump_levels(
+                dir,
+                &g.hierarchy,
+                &ingested.buildings,
+                &ingested.frame,
+            )
+            .with_context(|| format!("writing the level pictures to {}", dir.display()))?;
         }
         generalized = Some(g);
     }
@@ -215,7 +294,11 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
     progress.stage("meshing");
     let t = Instant::now();
     let kappa = args.dh_px / args.da_px.sqrt();
-    let lod = crate::lod::LodTree::build(&ingested.buildings, generalized.as_ref().map(|g| &g.hierarchy), kappa);
+    let lod = crate::lod::LodTree::build(
+        &ingested.buildings,
+        generalized.as_ref().map(|g| &g.hierarchy),
+        kappa,
+    );
     timings.mesh = t.elapsed().as_millis() as u64;
     let mesh_skipped: Vec<FeatureIssue> = lod
         .failed_buildings
@@ -240,7 +323,13 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         compression: match args.compression {
             CompressionArg::Meshopt => Compression::Meshopt,
             CompressionArg::None => Compression::None,
+            CompressionArg::Draco => Compression::Draco,
         },
+        max_tileset_json_bytes: args.max_tileset_json_bytes,
+        // The pixel tolerances the errors were made for, so `citylod check` can read them back.
+        extras: Some(serde_json::json!({"citylod": {
+            "dh_px": args.dh_px, "da_px": args.da_px, "kappa": kappa, "version": env!("CARGO_PKG_VERSION"),
+        }})),
         ..Default::default()
     };
     let staging =
@@ -255,8 +344,13 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
     .with_context(|| format!("writing the tileset to {}", args.out.display()))?;
     timings.tiles = t.elapsed().as_millis() as u64;
     timings.total = t_all.elapsed().as_millis() as u64;
-    let mut generalize_report = generalized.as_ref().map(|g| serde_json::to_value(&g.report)).transpose()?;
-    timings.generalize_phases = generalize_report.as_mut().and_then(|v| v.as_object_mut()?.remove("timings"));
+    let mut generalize_report = generalized
+        .as_ref()
+        .map(|g| serde_json::to_value(&g.report))
+        .transpose()?;
+    timings.generalize_phases = generalize_report
+        .as_mut()
+        .and_then(|v| v.as_object_mut()?.remove("timings"));
     let r = &ingested.report;
     let report = BuildReport {
         citylod_version: env!("CARGO_PKG_VERSION"),
@@ -271,8 +365,10 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
             "tile_max_features": args.tile_max_features, "tile_max_triangles": args.tile_max_triangles,
             "lambda_adjacent": args.lambda_adjacent, "depth_divisor": args.depth_divisor,
             "lambda_area": args.lambda_area, "collinear_angle_deg": args.collinear_angle,
+            "landmark_min_excess_m": args.landmark_min_excess, "landmark_max_share": args.landmark_max_share,
             "leaves_only": args.leaves_only, "dh_px": args.dh_px, "da_px": args.da_px,
             "compression": format!("{:?}", args.compression).to_lowercase(),
+            "max_tileset_json_bytes": args.max_tileset_json_bytes,
         }),
         frame: &ingested.frame,
         counts: Counts {

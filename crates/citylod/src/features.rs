@@ -124,20 +124,74 @@ impl BuildingTable {
 }
 
 /// Properties of the `cluster` class: a block of buildings at some level of the hierarchy (a single building
-/// that stays alone at that level is a cluster of one and keeps its source id).
-const CLUSTER: [(&str, PropertyKind, &str); 12] = [
-    ("level", PropertyKind::UInt32, "hierarchy level (0 = the buildings)"),
-    ("node_index", PropertyKind::UInt32, "index of the block within its level"),
-    ("member_count", PropertyKind::UInt32, "buildings in the block"),
-    ("source_id", PropertyKind::String, "the building's source id when the block is a single building"),
-    ("height_m", PropertyKind::Float64, "area-weighted mean height of the buildings, metres"),
-    ("h_min_m", PropertyKind::Float64, "lowest building height, metres"),
-    ("h_max_m", PropertyKind::Float64, "highest building height, metres"),
-    ("dh_m", PropertyKind::Float64, "height spread Δh = h_max − h_min, metres"),
-    ("da_m2", PropertyKind::Float64, "ground added by merging Δa = area(block) − Σ area(buildings), m²"),
-    ("area_m2", PropertyKind::Float64, "footprint area of the block, m²"),
-    ("geometric_error_m", PropertyKind::Float64, "max(Δh, κ·√Δa): the error of drawing the block, metres"),
-    ("fallback", PropertyKind::Boolean, "the merged footprint could not be extruded; the buildings are shown"),
+/// that stays alone at that level is a cluster of one and keeps its source id). The block's landmarks are
+/// separate features of the `building` class in the same content.
+const CLUSTER: [(&str, PropertyKind, &str); 13] = [
+    (
+        "level",
+        PropertyKind::UInt32,
+        "hierarchy level (0 = the buildings)",
+    ),
+    (
+        "node_index",
+        PropertyKind::UInt32,
+        "index of the block within its level",
+    ),
+    (
+        "member_count",
+        PropertyKind::UInt32,
+        "buildings in the block",
+    ),
+    (
+        "source_id",
+        PropertyKind::String,
+        "the building's source id when the block is a single building",
+    ),
+    (
+        "height_m",
+        PropertyKind::Float64,
+        "area-weighted mean height of the buildings, metres",
+    ),
+    (
+        "h_min_m",
+        PropertyKind::Float64,
+        "lowest building height, metres",
+    ),
+    (
+        "h_max_m",
+        PropertyKind::Float64,
+        "highest building height, metres",
+    ),
+    (
+        "dh_m",
+        PropertyKind::Float64,
+        "height spread Δh = h_max − h_min, metres",
+    ),
+    (
+        "da_m2",
+        PropertyKind::Float64,
+        "ground added by merging Δa = area(block) − Σ area(buildings), m²",
+    ),
+    (
+        "area_m2",
+        PropertyKind::Float64,
+        "footprint area of the block, m²",
+    ),
+    (
+        "geometric_error_m",
+        PropertyKind::Float64,
+        "max(Δh, κ·√Δa): the error of drawing the block, metres",
+    ),
+    (
+        "fallback",
+        PropertyKind::Boolean,
+        "the merged footprint could not be extruded; the buildings are shown",
+    ),
+    (
+        "landmark_count",
+        PropertyKind::UInt32,
+        "buildings drawn at full detail on top of the block (class building)",
+    ),
 ];
 
 /// Index of the cluster class in [`schema`].
@@ -149,10 +203,17 @@ pub fn schema(buildings: &BuildingTable) -> MetadataSchema {
         id: "cluster".into(),
         properties: CLUSTER
             .iter()
-            .map(|&(name, kind, d)| PropertyDef { name: name.into(), kind, description: Some(d.into()) })
+            .map(|&(name, kind, d)| PropertyDef {
+                name: name.into(),
+                kind,
+                description: Some(d.into()),
+            })
             .collect(),
     };
-    MetadataSchema { id: "citylod".into(), classes: vec![buildings.class.clone(), cluster] }
+    MetadataSchema {
+        id: "citylod".into(),
+        classes: vec![buildings.class.clone(), cluster],
+    }
 }
 
 /// One feature of the cluster class; `values` in the order of [`CLUSTER`].
@@ -171,7 +232,8 @@ pub fn cluster_feature(row: ClusterRow<'_>, mesh: Mesh3d) -> ContentFeature {
         PropValue::Int(row.level as i64),
         PropValue::Int(row.node_index as i64),
         PropValue::Int(n.members.len() as i64),
-        row.source_id.map_or(PropValue::Null, |s| PropValue::Str(s.to_string())),
+        row.source_id
+            .map_or(PropValue::Null, |s| PropValue::Str(s.to_string())),
         PropValue::Float(n.height_m),
         PropValue::Float(n.h_min_m),
         PropValue::Float(n.h_max_m),
@@ -180,9 +242,14 @@ pub fn cluster_feature(row: ClusterRow<'_>, mesh: Mesh3d) -> ContentFeature {
         PropValue::Float(n.area_m2),
         PropValue::Float(row.geometric_error_m),
         PropValue::Bool(row.fallback),
+        PropValue::Int(n.landmarks.len() as i64),
     ];
     debug_assert_eq!(values.len(), CLUSTER.len());
-    ContentFeature { mesh, class: CLUSTER_CLASS, values }
+    ContentFeature {
+        mesh,
+        class: CLUSTER_CLASS,
+        values,
+    }
 }
 
 fn as_text(v: &AttrValue) -> String {
