@@ -107,6 +107,12 @@ export function geodeticView({ lon, lat, height, heading = 0, pitch = -45 }) {
   return orientedView(geodeticToEcef(lon, lat, height), heading, pitch);
 }
 
+/** A camera distanceM metres from the root extent's centre, looking north at it at pitchDeg (degrees). */
+export function centredView(extent, distanceM, pitchDeg = -45) {
+  const probe = orientedView(extent.center, 0, pitchDeg);
+  return orientedView(add(extent.center, scale(probe.direction, -distanceM)), 0, pitchDeg);
+}
+
 /**
  * Named views from the root extent, for a perspective camera with vertical field of view fovyRad and the
  * given aspect (width / height):
@@ -121,12 +127,8 @@ export function namedView(extent, name, fovyRad, aspect) {
   const half = Math.min(fovyRad, fovx) / 2;
   const radius = Math.max(Math.hypot(ex, ey, ez), 1);
   const farDistance = (radius / Math.sin(half)) * 1.05;
-  const lookingAt = (target, distance, pitch) => {
-    const probe = orientedView(target, 0, pitch);
-    return orientedView(add(target, scale(probe.direction, -distance)), 0, pitch);
-  };
-  if (name === 'far') return { name, ...lookingAt(center, farDistance, -45) };
-  if (name === 'mid') return { name, ...lookingAt(center, farDistance / 2, -40) };
+  if (name === 'far') return { name, ...centredView(extent, farDistance, -45) };
+  if (name === 'mid') return { name, ...centredView(extent, farDistance / 2, -40) };
   if (name === 'street') {
     const ground = add(center, scale(up, -ez));
     const back = Math.min(ey / 2, 250);
@@ -136,10 +138,14 @@ export function namedView(extent, name, fovyRad, aspect) {
 }
 
 
-/** Query parameters of the page: tileset URL (required), optional initial view. */
+/**
+ * Query parameters of the page: tileset URL (required), optional initial view: a name (far, mid, street;
+ * default far) or a number, the camera's distance in metres from the tileset's centre at pitch -45 degrees.
+ */
 export function pageParams() {
   const q = new URLSearchParams(location.search);
-  return { tileset: q.get('tileset'), view: q.get('view') ?? 'far' };
+  const view = q.get('view') ?? 'far';
+  return { tileset: q.get('tileset'), view: /^\d+(\.\d+)?$/.test(view) ? { distance: Number(view), pitch: -45 } : view };
 }
 
 /** Records page errors (window error / unhandled rejection) into the returned array. */
@@ -153,16 +159,21 @@ export function recordPageErrors() {
 // Keep every resource timing entry (the default buffer holds 250): they are the request and byte counts.
 performance.setResourceTimingBufferSize(1000000);
 
-/** Requests and bytes (encoded body sizes) fetched so far from below the tileset's directory. */
+/**
+ * Requests and bytes (encoded body sizes) fetched so far from below the tileset's directory, and the
+ * requested paths (relative to that directory, sorted, one entry per request: repeats show re-fetches).
+ */
 export function resourceStats(tilesetUrl) {
   const base = new URL('.', new URL(tilesetUrl, location.href)).href;
   let requests = 0, bytes = 0;
+  const requestedUris = [];
   for (const e of performance.getEntriesByType('resource')) {
     if (!e.name.startsWith(base)) continue;
     requests += 1;
     bytes += e.encodedBodySize || e.transferSize || 0;
+    requestedUris.push(decodeURIComponent(e.name.slice(base.length).split(/[?#]/)[0]));
   }
-  return { requests, bytes };
+  return { requests, bytes, requestedUris: requestedUris.sort() };
 }
 
 /** A tile URI relative to the tileset's directory (absolute URLs elsewhere are kept). */

@@ -39,7 +39,7 @@ for (const { dir, name, present } of dirs) {
           client,
           outDir: path.join(REPO, 'target', 'browser', name),
           log: (rec) => {
-            const { selectedTileUris, ...rest } = rec.stats ?? {};
+            const { selectedTileUris, requestedUris, ...rest } = rec.stats ?? {};
             process.stdout.write(JSON.stringify({
               tileset: name, client, view: rec.view, idleMs: rec.idleMs, diffPixels: rec.diffPixels, shadeLevels: rec.shadeLevels, ...rest,
               selectedTileUris: (selectedTileUris ?? []).slice(0, 20), selectedTileUrisTotal: (selectedTileUris ?? []).length,

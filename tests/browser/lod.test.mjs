@@ -1,0 +1,286 @@
+// Levels of detail in real clients (DESIGN.md §8): the bundled Lower East Side data is built three times with
+// target/debug/citylod (LOD, --leaves-only, --compression draco into target/e2e/browser-nyc-*) and opened in
+// CesiumJS and 3d-tiles-renderer. Measured per client: requests and bytes of the far view, LOD against
+// leaves-only; which tiles, depths and feature classes each view draws; that the `clusters` view (camera
+// distance at which tileset.json's geometric errors select a tile holding clusters, predictSelection in
+// tools/browser.mjs) draws cluster tiles; picks on a cluster and on a landmark there; the Draco tileset loads
+// and draws. CITYLOD_BIN overrides the binary (default target/debug/citylod). One JSON line per measurement on stdout; screenshots in target/browser/browser-nyc-*/. Known
+// shortfalls of the current tilesets are `todo` tests: they run, print their figures and are reported as TODO.
+import { after, before, describe, test } from 'node:test';
+import assert from 'node:assert/strict';
+import fs from 'node:fs';
+import path from 'node:path';
+import {
+  CLIENTS, FOVY_RAD, REPO, VIEWPORT, buildTileset, distanceShowing, drawnPoints, glbClasses, glbJson, launchBrowser, pickPoints, predictSelection,
+  runClient, startServer,
+} from '../../tools/browser.mjs';
+
+const INPUT = 'examples/nyc-les/les_buildings.geojson';
+const TILESETS = {
+  lod: { out: 'target/e2e/browser-nyc-lod', args: [] },
+  leaves: { out: 'target/e2e/browser-nyc-leaves', args: ['--leaves-only'] },
+  draco: { out: 'target/e2e/browser-nyc-draco', args: ['--compression', 'draco'] },
+};
+/** The issue's target: the LOD far view loads at most this share of the leaves-only far view's bytes. */
+const FAR_BYTES_TARGET = 0.2;
+const clients = (process.env.CITYLOD_CLIENTS ?? Object.keys(CLIENTS).join(',')).split(',').filter((c) => c in CLIENTS);
+const print = (obj) => process.stdout.write(JSON.stringify(obj) + '\n');
+
+let browser = null;
+const servers = {};
+const tilesetJson = {};
+const classCache = new Map();
+/** Feature classes of a tile of tileset `name` ({building: n, cluster: m}). */
+const classesOf = (name, uri) => {
+  const key = `${name}/${uri}`;
+  if (!classCache.has(key)) classCache.set(key, glbClasses(path.join(REPO, TILESETS[name].out, uri)));
+  return classCache.get(key);
+};
+const depthOf = (uri) => uri.replace(/\.glb$/, '').split('/').length - 2; // tiles/0.glb is the root: 0
+/** Measurements shared between tests: results[client][key]. */
+const results = Object.fromEntries(clients.map((c) => [c, {}]));
+let clusterDistanceM = null;
+
+before(async () => {
+  for (const [name, { out, args }] of Object.entries(TILESETS)) {
+    const t0 = Date.now();
+    buildTileset(INPUT, out, args);
+    tilesetJson[name] = JSON.parse(fs.readFileSync(path.join(REPO, out, 'tileset.json'), 'utf8'));
+    print({ build: name, out, args, ms: Date.now() - t0 });
+  }
+  const lod = tilesetJson.lod;
+  const radiusM = Math.hypot(...[3, 6, 9].map((k) => Math.hypot(...lod.root.boundingVolume.box.slice(k, k + 3))));
+  clusterDistanceM = distanceShowing(lod, (uri) => classesOf('lod', uri), 'cluster', radiusM);
+  print({ clusterView: { distanceM: clusterDistanceM, predicted: clusterDistanceM && predictSelection(lod, clusterDistanceM) } });
+  browser = await launchBrowser();
+  for (const name of Object.keys(TILESETS)) servers[name] = await startServer(path.join(REPO, TILESETS[name].out));
+});
+after(async () => {
+  for (const s of Object.values(servers)) await s.close();
+  if (browser) await browser.close();
+});
+
+/** What a view drew: selected tiles with their depth and classes, and the requested paths. */
+function drawn(name, rec) {
+  const tiles = (rec.stats?.selectedTileUris ?? []).map((uri) => ({ uri, depth: depthOf(uri), classes: classesOf(name, uri) }));
+  return {
+    tiles,
+    depths: [...new Set(tiles.map((t) => t.depth))].sort((a, b) => a - b),
+    classes: [...new Set(tiles.flatMap((t) => Object.keys(t.classes)))].sort(),
+  };
+}
+
+function logView(name, client, rec, extra = {}) {
+  const { selectedTileUris, requestedUris, ...stats } = rec.stats ?? {};
+  const d = drawn(name, rec);
+  print({
+    tileset: `browser-nyc-${name}`, client, view: rec.view, idleMs: rec.idleMs, diffPixels: rec.diffPixels, shadeLevels: rec.shadeLevels,
+    ...stats, requestedUris, selected: d.tiles, drawnDepths: d.depths, drawnClasses: d.classes,
+    camera: rec.camera, problems: rec.problems,
+    shadingProblem: rec.shadingProblem, ...extra,
+  });
+}
+
+/** predictSelection for the far and mid views (the distances of namedView in viewer/citylod-common.js). */
+function namedPrediction(view) {
+  const box = tilesetJson.lod.root.boundingVolume.box;
+  const radiusM = Math.hypot(...[3, 6, 9].map((k) => Math.hypot(...box.slice(k, k + 3))));
+  const farM = (radiusM / Math.sin(Math.min(FOVY_RAD, 2 * Math.atan(Math.tan(FOVY_RAD / 2) * VIEWPORT.width / VIEWPORT.height)) / 2)) * 1.05;
+  if (view === 'far') return predictSelection(tilesetJson.lod, farM, -45).map((t) => t.uri);
+  if (view === 'mid') return predictSelection(tilesetJson.lod, farM / 2, -40).map((t) => t.uri);
+  return undefined;
+}
+
+const problemsOf = (result) => result.records.flatMap((r) =>
+  [...r.problems, ...(r.shadingProblem ? [r.shadingProblem] : [])].map((p) => `${r.view}: ${p}`));
+
+/** Picks are taken on a grid of this step over the pixels the tileset draws in the clusters view. */
+const PICK_STEP_PX = 4;
+const isCluster = (f) => f && 'member_count' in f.properties;
+const isBuilding = (f) => f && 'height_m' in f.properties && !('member_count' in f.properties);
+const pickKey = (f) => `${f.tile}#${f.featureId}#${isCluster(f) ? 'cluster' : isBuilding(f) ? 'building' : '?'}`;
+
+describe('NYC Lower East Side, LOD in the browser', () => {
+  for (const client of clients) {
+    test(`${client}: LOD tileset far, mid and street views load and draw`, { timeout: 180000 }, async () => {
+      const name = 'lod';
+      const result = await runClient({
+        browser, baseUrl: servers[name].url, client, outDir: path.join(REPO, 'target', 'browser', 'browser-nyc-lod'),
+        log: (rec) => logView(name, client, rec, { predicted: namedPrediction(rec.view) }),
+      });
+      print({ tileset: 'browser-nyc-lod', client, totalMs: result.ms });
+      results[client].lodViews = result.records;
+      assert.deepEqual(problemsOf(result), [], `browser-nyc-lod in ${client}:\n  ${problemsOf(result).join('\n  ')}`);
+      for (const rec of result.records) assert.ok(drawn(name, rec).tiles.length > 0, `${rec.view}: no tile selected`);
+    });
+
+    test(`${client}: LOD tileset, a view chosen from the geometric errors draws cluster tiles`, { timeout: 180000 }, async () => {
+      assert.ok(clusterDistanceM, 'no camera distance draws cluster tiles by the geometric errors in tileset.json');
+      const picks = {};
+      const result = await runClient({
+        browser, baseUrl: servers.lod.url, client, outDir: path.join(REPO, 'target', 'browser', 'browser-nyc-lod'),
+        views: [{ name: 'clusters', distance: clusterDistanceM }],
+        onView: async (page, _rec, mask) => {
+          const t0 = Date.now();
+          picks.all = (await pickPoints(page, drawnPoints(mask, PICK_STEP_PX))).filter(Boolean);
+          picks.ms = Date.now() - t0;
+          return { pickMs: picks.ms };
+        },
+        log: (rec) => logView('lod', client, rec, { distanceM: clusterDistanceM, predicted: predictSelection(tilesetJson.lod, clusterDistanceM), pickMs: rec.extra?.pickMs }),
+      });
+      results[client].clusterView = result.records[0];
+      results[client].picks = picks.all ?? null;
+      assert.deepEqual(problemsOf(result), [], `clusters view in ${client}:\n  ${problemsOf(result).join('\n  ')}`);
+      const d = drawn('lod', result.records[0]);
+      assert.ok(d.classes.includes('cluster'), `no selected tile holds clusters: ${JSON.stringify(d.tiles)}`);
+    });
+
+    test(`${client}: leaves-only tileset far view loads and draws`, { timeout: 120000 }, async () => {
+      const result = await runClient({
+        browser, baseUrl: servers.leaves.url, client, views: ['far'], outDir: path.join(REPO, 'target', 'browser', 'browser-nyc-leaves'),
+        log: (rec) => logView('leaves', client, rec),
+      });
+      results[client].leavesFar = result.records[0];
+      assert.deepEqual(problemsOf(result), [], `browser-nyc-leaves in ${client}:\n  ${problemsOf(result).join('\n  ')}`);
+    });
+
+    test(`${client}: Draco tileset loads and draws shaded in every view`, { timeout: 180000 }, async () => {
+      const glbs = fs.readdirSync(path.join(REPO, TILESETS.draco.out), { recursive: true }).filter((f) => String(f).endsWith('.glb'));
+      for (const f of glbs) {
+        const used = glbJson(path.join(REPO, TILESETS.draco.out, String(f))).extensionsUsed ?? [];
+        assert.ok(used.includes('KHR_draco_mesh_compression'), `${f} does not use KHR_draco_mesh_compression: ${used}`);
+      }
+      const result = await runClient({
+        browser, baseUrl: servers.draco.url, client, outDir: path.join(REPO, 'target', 'browser', 'browser-nyc-draco'),
+        log: (rec) => logView('draco', client, rec),
+      });
+      print({ tileset: 'browser-nyc-draco', client, totalMs: result.ms, glbs: glbs.length });
+      assert.deepEqual(problemsOf(result), [], `browser-nyc-draco in ${client}:\n  ${problemsOf(result).join('\n  ')}`);
+    });
+  }
+
+  /** Far-view bytes and requests, LOD against leaves-only, per client (null when a run is missing). */
+  const farComparison = (client) => {
+    const lod = results[client].lodViews?.find((r) => r.view === 'far');
+    const leaves = results[client].leavesFar;
+    if (!lod?.stats || !leaves?.stats) return null;
+    return {
+      client,
+      lodBytes: lod.stats.bytes, leavesBytes: leaves.stats.bytes, bytesRatio: lod.stats.bytes / leaves.stats.bytes,
+      lodRequests: lod.stats.requests, leavesRequests: leaves.stats.requests,
+      lodRequested: lod.stats.requestedUris, leavesRequested: leaves.stats.requestedUris,
+      lodDrawnDepths: drawn('lod', lod).depths, lodDrawnClasses: drawn('lod', lod).classes,
+    };
+  };
+
+  test('far view: requests and bytes, LOD against leaves-only (printed)', () => {
+    for (const client of clients) {
+      const c = farComparison(client);
+      assert.ok(c, `${client}: the far views did not run`);
+      print({ measurement: 'far-bytes-ratio', ...c, bytesRatio: Number(c.bytesRatio.toFixed(4)) });
+    }
+  });
+
+  // Known shortfall (measured 2026-11-21, both clients): the far view refines to the leaves, because level 4's
+  // geometric error is 77 m and the camera is about 1.5 km from the tileset's box (screen-space error ≈ 36 px
+  // > 16). The LOD far view then loads every level: 1,084,140 B in 10 requests against 534,938 B in 3 requests
+  // for leaves-only, ratio 2.03 (203 %), so neither "fewer bytes" nor the issue's ≤ 20 % holds.
+  const SHORTFALL = 'known shortfall: the LOD far view draws the leaves and loads every ancestor (measured ratio 2.03 ' +
+    'in both clients: 1,084,140 B vs 534,938 B)';
+  test('far view: LOD loads fewer bytes than leaves-only', { todo: SHORTFALL }, () => {
+    for (const client of clients) {
+      const c = farComparison(client);
+      assert.ok(c && c.lodBytes < c.leavesBytes, `${client}: LOD far ${c?.lodBytes} B >= leaves-only far ${c?.leavesBytes} B (ratio ${c?.bytesRatio.toFixed(3)})`);
+    }
+  });
+  test(`far view: LOD loads at most ${FAR_BYTES_TARGET * 100} % of the leaves-only bytes`, { todo: SHORTFALL }, () => {
+    for (const client of clients) {
+      const c = farComparison(client);
+      assert.ok(c && c.bytesRatio <= FAR_BYTES_TARGET, `${client}: ratio ${c?.bytesRatio.toFixed(3)} > ${FAR_BYTES_TARGET}`);
+    }
+  });
+  test('far view: at least one selected tile holds clusters', { todo: 'known shortfall: the far view selects only the leaf tile (depth 7) in both clients' }, () => {
+    for (const client of clients) {
+      const far = results[client].lodViews?.find((r) => r.view === 'far');
+      assert.ok(far, `${client}: the far view did not run`);
+      const d = drawn('lod', far);
+      assert.ok(d.classes.includes('cluster'), `${client}: far view draws depths ${d.depths} with classes ${d.classes}`);
+    }
+  });
+
+  test('clusters view: fewer bytes than the leaves-only far view (printed)', () => {
+    for (const client of clients) {
+      const v = results[client].clusterView, leaves = results[client].leavesFar;
+      assert.ok(v?.stats && leaves?.stats, `${client}: the clusters or leaves-only view did not run`);
+      const ratio = v.stats.bytes / leaves.stats.bytes;
+      print({ measurement: 'clusters-view-bytes-ratio', client, distanceM: clusterDistanceM, lodBytes: v.stats.bytes, leavesFarBytes: leaves.stats.bytes,
+        bytesRatio: Number(ratio.toFixed(4)), lodRequested: v.stats.requestedUris, drawnDepths: drawn('lod', v).depths });
+      assert.ok(v.stats.bytes < leaves.stats.bytes, `${client}: clusters view ${v.stats.bytes} B >= leaves-only far ${leaves.stats.bytes} B`);
+    }
+  });
+
+  /** The clusters-view picks of a client as a map 'x,y' -> pick (null when that view did not run). */
+  const picksAt = (client) => (results[client]?.picks ? new Map(results[client].picks.map((f) => [`${f.x},${f.y}`, f])) : null);
+  const clusterTilesOf = (client) =>
+    new Set((results[client].clusterView?.stats?.selectedTileUris ?? []).filter((u) => classesOf('lod', u).cluster));
+
+  function assertCluster(client) {
+    const picks = results[client].picks;
+    assert.ok(picks, `${client}: the clusters view did not run`);
+    const cluster = picks.find(isCluster);
+    print({ measurement: 'pick-cluster', client, distanceM: clusterDistanceM, picked: picks.length,
+      clusters: new Set(picks.filter(isCluster).map(pickKey)).size, buildings: new Set(picks.filter(isBuilding).map(pickKey)).size, cluster: cluster ?? null });
+    assert.ok(cluster, `${client}: no cluster feature among ${picks.length} picks`);
+    assert.ok(Number(cluster.properties.member_count) > 1, `member_count ${cluster.properties.member_count}`);
+    for (const k of ['dh_m', 'da_m2', 'area_m2']) {
+      assert.equal(typeof cluster.properties[k], 'number', `cluster ${k} = ${JSON.stringify(cluster.properties[k])}`);
+      assert.ok(Number.isFinite(cluster.properties[k]), `cluster ${k} = ${cluster.properties[k]}`);
+    }
+  }
+
+  // Known shortfall (CesiumJS 1.140): a glb content has one feature table for picking, styling and showing
+  // features (Model.featureTableId, the first primitive's property table; PickingPipelineStage uses it for
+  // every primitive). citylod's cluster tiles hold two property tables (building landmarks first, then
+  // clusters), so a click on a cluster returns nothing (feature id beyond the landmark table) or the
+  // landmark with the same feature id. Measured at the clusters view: of the points where 3d-tiles-renderer
+  // picks a cluster, CesiumJS returns a building at 109 and nothing at 216 (step 4 px).
+  const CESIUM_ONE_TABLE = 'known shortfall: CesiumJS picks through one property table per glb (the landmark ' +
+    'table), so clusters in a tile that also holds landmarks are not pickable or pick the wrong landmark';
+  for (const client of clients) {
+    test(`${client}: a click on a cluster at the clusters view returns its properties`,
+      client === 'cesium' ? { todo: CESIUM_ONE_TABLE } : {}, () => assertCluster(client));
+
+    test(`${client}: a click on a landmark at the clusters view returns its building properties`, () => {
+      const picks = results[client].picks;
+      assert.ok(picks, `${client}: the clusters view did not run`);
+      const clusterTiles = clusterTilesOf(client);
+      // In CesiumJS a cluster pixel can report a landmark (see CESIUM_ONE_TABLE): when 3d-tiles-renderer ran,
+      // only a pixel where both clients pick the same building counts.
+      const other = client === 'cesium' ? picksAt('3dtr') : null;
+      const agrees = (f) => !other || (other.get(`${f.x},${f.y}`) && pickKey(other.get(`${f.x},${f.y}`)) === pickKey(f));
+      const candidates = picks.filter((f) => isBuilding(f) && clusterTiles.has(f.tile));
+      const landmark = candidates.find(agrees);
+      print({ measurement: 'pick-landmark', client, distanceM: clusterDistanceM, buildingPicksInClusterTiles: candidates.length,
+        confirmedBy3dtr: other ? candidates.filter(agrees).length : null, landmark: landmark ?? null });
+      assert.ok(landmark, `${client}: no building-class feature picked in a tile holding clusters (${[...clusterTiles]})` +
+        (other ? ' where 3d-tiles-renderer picks the same feature' : ''));
+      assert.equal(typeof landmark.properties.source_id, 'string');
+      assert.ok(landmark.properties.source_id.length > 0, 'landmark source_id is empty');
+      assert.equal(typeof landmark.properties.height_m, 'number');
+      assert.ok(landmark.properties.height_m > 0, `landmark height_m ${landmark.properties.height_m}`);
+    });
+  }
+
+  test('the two clients pick the same feature class at the same pixel', { todo: CESIUM_ONE_TABLE }, () => {
+    const a = picksAt('cesium'), b = picksAt('3dtr');
+    assert.ok(a && b, 'both clients must have run the clusters view');
+    const tally = {};
+    for (const key of new Set([...a.keys(), ...b.keys()])) {
+      const k = `3dtr:${b.get(key) ? (isCluster(b.get(key)) ? 'cluster' : 'building') : 'none'}/cesium:${a.get(key) ? (isCluster(a.get(key)) ? 'cluster' : 'building') : 'none'}`;
+      tally[k] = (tally[k] ?? 0) + 1;
+    }
+    print({ measurement: 'pick-agreement', stepPx: PICK_STEP_PX, tally });
+    const disagree = Object.entries(tally).filter(([k]) => k.startsWith('3dtr:cluster') && !k.endsWith('cesium:cluster'));
+    assert.deepEqual(disagree, [], 'pixels where 3d-tiles-renderer picks a cluster and CesiumJS does not');
+  });
+});
