@@ -274,7 +274,9 @@ fn feature_info(
     bounds_m: Option<(Vec3, Vec3)>,
 ) -> FeatureInfo {
     let get = |name: &str| values.get(name);
-    let building = as_u32(get("building_index")).filter(|_| class == "building");
+    // citylod writes a block's landmarks as `cluster` features flagged `landmark`; they stand for one building.
+    let is_landmark = matches!(get("landmark"), Some(PropValue::Bool(true)));
+    let building = as_u32(get("building_index")).filter(|_| class == "building" || is_landmark);
     let cluster = match (class, as_u32(get("level")), as_u32(get("node_index"))) {
         ("cluster", Some(level), Some(node_index)) => Some((level, node_index)),
         _ => None,

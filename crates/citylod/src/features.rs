@@ -126,7 +126,9 @@ impl BuildingTable {
 /// Properties of the `cluster` class: a block of buildings at some level of the hierarchy (a single building
 /// that stays alone at that level is a cluster of one and keeps its source id). The block's landmarks are
 /// separate features of the `building` class in the same content.
-const CLUSTER: [(&str, PropertyKind, &str); 13] = [
+/// Landmarks are features of this class too (`landmark` = true, `building_index` set): CesiumJS picks through one
+/// property table per glb, so a tile must hold a single class for clicks to find the right feature.
+const CLUSTER: [(&str, PropertyKind, &str); 15] = [
     (
         "level",
         PropertyKind::UInt32,
@@ -190,7 +192,17 @@ const CLUSTER: [(&str, PropertyKind, &str); 13] = [
     (
         "landmark_count",
         PropertyKind::UInt32,
-        "buildings drawn at full detail on top of the block (class building)",
+        "buildings drawn at full detail on top of the block (features with landmark = true)",
+    ),
+    (
+        "landmark",
+        PropertyKind::Boolean,
+        "this feature is one building drawn at full detail on top of its block, not a block",
+    ),
+    (
+        "building_index",
+        PropertyKind::UInt32,
+        "for a landmark: citylod's index of the building (as in the building class)",
     ),
 ];
 
@@ -243,6 +255,41 @@ pub fn cluster_feature(row: ClusterRow<'_>, mesh: Mesh3d) -> ContentFeature {
         PropValue::Float(row.geometric_error_m),
         PropValue::Bool(row.fallback),
         PropValue::Int(n.landmarks.len() as i64),
+        PropValue::Bool(false),
+        PropValue::Null,
+    ];
+    debug_assert_eq!(values.len(), CLUSTER.len());
+    ContentFeature {
+        mesh,
+        class: CLUSTER_CLASS,
+        values,
+    }
+}
+
+/// A landmark of the block at (`level`, `node_index`): the building at full detail, as a `cluster`-class feature
+/// of one member with no height spread and no added area (it is exact).
+pub fn landmark_feature(
+    level: usize,
+    node_index: u32,
+    b: &Building,
+    mesh: Mesh3d,
+) -> ContentFeature {
+    let values = vec![
+        PropValue::Int(level as i64),
+        PropValue::Int(node_index as i64),
+        PropValue::Int(1),
+        PropValue::Str(b.source_id.clone()),
+        PropValue::Float(b.height_m),
+        PropValue::Float(b.height_m),
+        PropValue::Float(b.height_m),
+        PropValue::Float(0.0),
+        PropValue::Float(0.0),
+        PropValue::Float(b.area_m2()),
+        PropValue::Float(0.0),
+        PropValue::Bool(false),
+        PropValue::Int(0),
+        PropValue::Bool(true),
+        PropValue::Int(b.id.0 as i64),
     ];
     debug_assert_eq!(values.len(), CLUSTER.len());
     ContentFeature {

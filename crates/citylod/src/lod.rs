@@ -1,10 +1,10 @@
 //! The level-of-detail tree of a build: every level of the hierarchy meshed (buildings as prisms, blocks as prisms
 //! of their merged footprints), packed into tiles within the budget, with each tile's geometric error from the
-//! measured Δh and Δa (DESIGN.md §4); a block's landmarks (seed 001) are `building` features beside it, in the same
+//! measured Δh and Δa (DESIGN.md §4); a block's landmarks (seed 001) are `cluster` features flagged `landmark` beside it, in the same
 //! content. Without a hierarchy (`--leaves-only`) the buildings alone, in leaf tiles.
 
 use crate::build::LevelSummary;
-use crate::features::{cluster_feature, BuildingTable, ClusterRow};
+use crate::features::{cluster_feature, landmark_feature, BuildingTable, ClusterRow};
 use citylod_model::{Building, BuildingId, Hierarchy, Mesh3d, Node, NodeId};
 use citylod_tiles::hlod::{assemble, pack, tile_errors, TileBudget};
 use citylod_tiles::{tile_spatially, ContentFeature, TileSpec};
@@ -193,10 +193,10 @@ impl<'h> LodTree<'h> {
                 fallback: nm.fallback,
             };
             let mut out = vec![cluster_feature(row, nm.mesh.clone())];
-            out.extend(
-                self.landmarks_of(node, nm)
-                    .filter_map(|b| self.building_feature(buildings, b)),
-            );
+            out.extend(self.landmarks_of(node, nm).filter_map(|b| {
+                let mesh = self.buildings[b.0 as usize].clone()?;
+                Some(landmark_feature(level, n.0, &buildings[b.0 as usize], mesh))
+            }));
             out
         };
         let root = assemble(&packing, &errors, &features);
