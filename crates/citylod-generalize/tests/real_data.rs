@@ -125,3 +125,43 @@ fn boston_hierarchy_is_sound() {
     // Touching row houses of Back Bay and the South End must have needed spatial splits.
     assert!(g.report.tie_splits > 0);
 }
+
+/// With landmarks off, Δh is the spread of all members, so it never decreases from a node to its parent.
+#[test]
+fn dh_never_decreases_going_up_without_landmarks() {
+    let opts = GeneralizeOptions {
+        landmark_min_excess_m: f64::INFINITY,
+        ..Default::default()
+    };
+    let sets = [
+        (
+            "nyc-les",
+            common::load_geojson("nyc-les/les_buildings.geojson").map(|(bs, _)| bs),
+        ),
+        (
+            "delft",
+            common::load_cityjsonseq("delft-3dbag/delft.city.jsonl"),
+        ),
+    ];
+    for (name, bs) in sets {
+        let Some(bs) = bs else { continue };
+        let h = generalize(&bs, &opts).unwrap().hierarchy;
+        let mut checked = 0;
+        for li in 1..h.levels.len() {
+            for node in &h.levels[li].nodes {
+                assert!(node.landmarks.is_empty());
+                for c in &node.children {
+                    let child = &h.levels[li - 1].nodes[c.0 as usize];
+                    assert!(
+                        node.dh_m >= child.dh_m,
+                        "{name}: level {li}: Δh {} below a child's {}",
+                        node.dh_m,
+                        child.dh_m
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 1000, "{name}: only {checked} parent–child pairs");
+    }
+}
