@@ -225,6 +225,48 @@ fn main() -> Result<()> {
         );
     }
 
+    println!("== citylod check, 8 built-in views at 800×600 (target for Boston ≤ 30 s) ==");
+    for (name, rel, extra) in [
+        (
+            "boston",
+            "boston/boston_buildings.geojson",
+            &["--storey-height", "3.5"][..],
+        ),
+        ("nyc-les", "nyc-les/les_buildings.geojson", &[][..]),
+    ] {
+        let input = data.join(rel);
+        if !input.exists() {
+            println!("{name:<28} skipped: {} not found", input.display());
+            continue;
+        }
+        let tiles =
+            std::env::temp_dir().join(format!("citylod-bench-check-tiles-{}", std::process::id()));
+        let out =
+            std::env::temp_dir().join(format!("citylod-bench-check-out-{}", std::process::id()));
+        measure(
+            Command::new(&citylod)
+                .arg("build")
+                .arg(&input)
+                .args(extra)
+                .arg("--out")
+                .arg(&tiles)
+                .arg("--quiet"),
+        )?;
+        let r = measure(
+            Command::new(&citylod)
+                .env("NODEVICE_SELECT", "1")
+                .args(["check", "--views", "8", "--quiet", "--out"])
+                .arg(&out)
+                .arg(&tiles),
+        )?;
+        println!(
+            "{name:<28} {:>7.3} s  peak RSS {:>7.1} MB",
+            r.wall_s, r.peak_rss_mb
+        );
+        let _ = std::fs::remove_dir_all(&tiles);
+        let _ = std::fs::remove_dir_all(&out);
+    }
+
     println!("== generalization alone (target: Boston ≤ 1 s; 1M ≤ 60 s and ≤ 4 GB; time ∝ n^k with k ≤ 1.2) ==");
     let boston = data.join("boston/boston_buildings.geojson");
     if boston.exists() {
