@@ -394,6 +394,7 @@ mod tests {
             geometric_error_m: e,
             children,
             has_content: true,
+            external_tileset: false,
         };
         LoadedTileset {
             tree: TileTree {

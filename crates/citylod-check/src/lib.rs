@@ -12,6 +12,7 @@
 //!         geometric_error_m: 0.0,
 //!         children: vec![],
 //!         has_content: true,
+//!         external_tileset: false,
 //!     }],
 //!     root: 0,
 //!     tileset_geometric_error_m: 500.0,
@@ -37,7 +38,7 @@ mod vec3;
 mod view_check;
 mod views;
 
-pub use camera::{Camera, Viewport, NEAR_M};
+pub use camera::{globe_enu_axes, Camera, Viewport, NEAR_M};
 pub use compare::{
     compare, ImageMetrics, COLOUR_TOLERANCE, DIFF_ADDED, DIFF_RECOLOURED, DIFF_REMOVED,
 };

@@ -1,8 +1,9 @@
-//! The standard 3D Tiles REPLACE selection (as CesiumJS's base traversal, without skip-LOD), assuming
-//! every tile is loaded: frustum culling against oriented boxes, SSE = geometricError·H/(2·d·tan(fovy/2))
-//! with d the distance from the eye to the box (0 inside), refine while SSE > threshold.
-//! Frame: boxes are in the tileset root frame, metres; SSE in pixels.
-//! Invariant: no tile is both selected and refined; every tile reported is reachable from the root.
+//! The standard 3D Tiles REPLACE selection, as CesiumJS 1.140's base traversal (no skip-LOD) once every
+//! tile is loaded: frustum culling of oriented boxes (with its parent plane masks and children-bounds
+//! culling), SSE = geometricError·H/(2·d·tan(fovy/2)), d the distance from the eye to the box (0 inside),
+//! refine while SSE > threshold, always through external-tileset links. See SELECTION.md.
+//! Frame: boxes in the tileset root frame, metres; SSE in pixels. Invariant: no tile is both selected and
+//! refined; every tile reported is reachable from the root.
 
 use std::collections::BTreeMap;
 
@@ -47,33 +48,9 @@ impl OrientedBox {
         (excess_sq + rest_sq).sqrt()
     }
 
-    /// Whether `inner` lies inside this box, within 1 µm per metre of half-axis (CesiumJS's
-    /// children-within-parent test). False when this box has more than one zero-length half-axis.
-    pub fn contains(&self, inner: &OrientedBox) -> bool {
-        let lens = self.half_axes_m.map(vec3::norm);
-        let mut units = self.half_axes_m.map(vec3::normalize);
-        match lens.iter().filter(|&&l| l == 0.0).count() {
-            0 => {}
-            1 => {
-                let k = lens.iter().position(|&l| l == 0.0).unwrap_or(0);
-                units[k] = vec3::normalize(vec3::cross(units[(k + 1) % 3], units[(k + 2) % 3]));
-            }
-            _ => return false,
-        }
-        let offset = vec3::sub(inner.center_m, self.center_m);
-        (0..3).all(|i| {
-            let reach: f64 = vec3::dot(offset, units[i]).abs()
-                + inner
-                    .half_axes_m
-                    .iter()
-                    .map(|h| vec3::dot(*h, units[i]).abs())
-                    .sum::<f64>();
-            reach <= lens[i] + 1e-6 * lens[i].max(1.0)
-        })
-    }
-
     /// Whether any part of the box may be inside the view frustum of `camera` (near plane and four
-    /// sides, no far plane) — the culling test of [`select`]; conservative near frustum corners.
+    /// sides, no far plane): the plane test of [`select`] on its own, without the parent's plane mask
+    /// or children's bounds; conservative near frustum corners.
     pub fn is_visible(&self, camera: &Camera, viewport: Viewport) -> bool {
         !camera
             .frustum_planes(viewport)
@@ -81,16 +58,75 @@ impl OrientedBox {
             .any(|p| self.outside(p))
     }
 
-    /// Whether the box lies entirely on the outside of `plane`.
-    fn outside(&self, plane: &Plane) -> bool {
+    /// Which side of `plane` the box is on, as CesiumJS's `OrientedBoundingBox.intersectPlane`: with s
+    /// the signed distance of the centre and r = Σ|n·hᵢ|, outside when s ≤ −r, inside when s ≥ r.
+    fn side(&self, plane: &Plane) -> Side {
         let s = vec3::dot(plane.n, self.center_m) + plane.d;
         let r: f64 = self
             .half_axes_m
             .iter()
             .map(|h| vec3::dot(plane.n, *h).abs())
             .sum();
-        s < -r
+        if s <= -r {
+            Side::Outside
+        } else if s >= r {
+            Side::Inside
+        } else {
+            Side::Straddling
+        }
     }
+
+    fn outside(&self, plane: &Plane) -> bool {
+        self.side(plane) == Side::Outside
+    }
+
+    /// Bit k set when the box straddles plane k, testing only the planes set in `parent_mask` (the box
+    /// counts as inside the others, as its parent is: CesiumJS's plane-mask shortcut). `None` when it
+    /// is outside one of them.
+    fn plane_mask(&self, planes: &[Plane], parent_mask: u8) -> Option<u8> {
+        let mut mask = 0;
+        for (k, plane) in planes.iter().enumerate() {
+            if parent_mask & (1 << k) == 0 {
+                continue;
+            }
+            match self.side(plane) {
+                Side::Outside => return None,
+                Side::Straddling => mask |= 1 << k,
+                Side::Inside => {}
+            }
+        }
+        Some(mask)
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Side {
+    Outside,
+    Straddling,
+    Inside,
+}
+
+/// Whether a tile may be culled when none of its children is visible: CesiumJS's children-within-parent
+/// hint (`Cesium3DTileOptimizations.checkChildrenWithinParent`, on with `cullWithChildrenBounds`). For each
+/// child, along the unit axis a from the parent's centre to the child's, the parent's reach Σ|a·hᵢ| must
+/// exceed the child's reach plus the centres' distance — strictly: a child touching the parent's boundary
+/// where that axis leaves it (a child in a corner of its parent, or a half of it) turns the hint off. Such
+/// touching is common in tight trees and then rounding decides: CesiumJS computes in ECEF (≈1e-9 m of noise),
+/// this in the root frame, so the two may differ there (tests/browser/selection.test.mjs explains such
+/// differences). A child with the parent's centre passes (CesiumJS's axis is then NaN and its test fails
+/// to reject). True without children.
+pub fn children_within_parent(parent: &OrientedBox, children: &[&OrientedBox]) -> bool {
+    children.iter().all(|child| {
+        let axis = vec3::sub(child.center_m, parent.center_m);
+        let len = vec3::norm(axis);
+        if len == 0.0 {
+            return true;
+        }
+        let a = vec3::scale(axis, 1.0 / len);
+        let reach =
+            |b: &OrientedBox| -> f64 { b.half_axes_m.iter().map(|h| vec3::dot(a, *h).abs()).sum() };
+        reach(parent) > reach(child) + len
+    })
 }
 
 /// One tile as the selection sees it.
@@ -104,6 +140,9 @@ pub struct TileNode {
     pub children: Vec<usize>,
     /// Whether the tile has content to draw (an empty tile that is selected draws nothing).
     pub has_content: bool,
+    /// Whether the content is an external tileset: a client always descends into it (its one child
+    /// is that tileset's root), whatever its own screen-space error.
+    pub external_tileset: bool,
 }
 
 /// A minimal view of a tileset for selection: tiles in a flat list, the root index, and the
@@ -125,10 +164,12 @@ pub struct Selection {
     pub selected_empty: Vec<usize>,
     /// Tiles replaced by their visible children.
     pub refined: Vec<usize>,
-    /// Tiles outside the frustum, or culled because all their children are invisible and inside
-    /// them (CesiumJS `cullWithChildrenBounds`); their subtrees are not visited.
+    /// Tiles outside the frustum, or culled because none of their children is in it and the children
+    /// lie within them ([`children_within_parent`], CesiumJS `cullWithChildrenBounds`); their subtrees
+    /// are not visited.
     pub culled: Vec<usize>,
-    /// SSE (px) of every visible tile visited, selected or refined.
+    /// SSE (px) of every visible tile visited, selected or refined (an external-tileset link's is listed
+    /// but not used).
     pub sse_px: BTreeMap<usize, f64>,
     /// True when the tileset's own geometricError, seen at the root's distance, already meets the
     /// threshold: a client then draws nothing (CesiumJS does this).
@@ -178,11 +219,13 @@ pub fn select(
     sse_threshold_px: f64,
 ) -> Selection {
     let mut out = Selection::default();
-    let Some(root) = tree.tiles.get(tree.root) else {
+    if tree.root >= tree.tiles.len() {
         return out;
+    }
+    let walk = Walk {
+        tree,
+        planes: camera.frustum_planes(viewport),
     };
-    let planes = camera.frustum_planes(viewport);
-    let visible = |t: &TileNode| !planes.iter().any(|p| t.bounds.outside(p));
     let sse_of = |error_m: f64, t: &TileNode| {
         compute_sse(
             error_m,
@@ -192,10 +235,14 @@ pub fn select(
         )
     };
 
-    if !visible(root) {
-        out.culled.push(tree.root);
-        return out;
-    }
+    let root_mask = match walk.visibility(tree.root, ALL_PLANES, 0) {
+        Visibility::Visible(mask) => mask,
+        _ => {
+            out.culled.push(tree.root);
+            return out;
+        }
+    };
+    let root = &tree.tiles[tree.root];
     if meets_threshold(
         sse_of(tree.tileset_geometric_error_m, root),
         sse_threshold_px,
@@ -206,34 +253,31 @@ pub fn select(
 
     let mut seen = vec![false; tree.tiles.len()];
     seen[tree.root] = true;
-    let mut stack = vec![tree.root];
-    while let Some(i) = stack.pop() {
+    let mut stack = vec![(tree.root, root_mask)];
+    while let Some((i, mask)) = stack.pop() {
         let tile = &tree.tiles[i];
-        let mut children = Vec::with_capacity(tile.children.len());
-        for &c in &tile.children {
-            if c >= tree.tiles.len() || seen[c] {
-                out.bad_links.push((i, c));
-            } else {
-                seen[c] = true;
-                children.push((c, visible(&tree.tiles[c])));
-            }
-        }
-        let any_child_visible = children.iter().any(|&(_, v)| v);
-        // CesiumJS's cullWithChildrenBounds (on by default): a tile whose children's boxes lie inside
-        // its own and are all invisible is culled, whatever its SSE.
-        if !children.is_empty()
-            && !any_child_visible
-            && children
-                .iter()
-                .all(|&(c, _)| tile.bounds.contains(&tree.tiles[c].bounds))
-        {
-            out.culled.push(i);
-            continue;
-        }
         let sse = sse_of(tile.geometric_error_m, tile);
         out.sse_px.insert(i, sse);
-        // A tile whose children are all invisible (but not inside it) is drawn itself.
-        if meets_threshold(sse, sse_threshold_px) || !any_child_visible {
+        // A client always descends through an external-tileset link; other tiles stop at the threshold.
+        let descend = !tile.children.is_empty()
+            && (tile.external_tileset || !meets_threshold(sse, sse_threshold_px));
+        let mut visible_children = Vec::new();
+        let mut invisible_children = Vec::new();
+        if descend {
+            for &c in &tile.children {
+                if c >= tree.tiles.len() || seen[c] {
+                    out.bad_links.push((i, c));
+                    continue;
+                }
+                seen[c] = true;
+                match walk.visibility(c, mask, 0) {
+                    Visibility::Visible(m) => visible_children.push((c, m)),
+                    _ => invisible_children.push(c),
+                }
+            }
+        }
+        // A tile none of whose children is visible is drawn itself, as CesiumJS does.
+        if visible_children.is_empty() {
             if tile.has_content {
                 out.selected.push(i);
             } else {
@@ -241,13 +285,8 @@ pub fn select(
             }
         } else {
             out.refined.push(i);
-            for &(c, v) in children.iter().rev() {
-                if v {
-                    stack.push(c);
-                } else {
-                    out.culled.push(c);
-                }
-            }
+            out.culled.extend(invisible_children);
+            stack.extend(visible_children.into_iter().rev());
         }
     }
     out.selected.sort_unstable();
@@ -260,6 +299,62 @@ pub fn select(
         .all(|s| out.refined.binary_search(s).is_err()));
     out
 }
+
+/// Plane masks cover the five frustum planes of [`Camera::frustum_planes`].
+const ALL_PLANES: u8 = 0b1_1111;
+
+/// A tile's visibility for the traversal: in the frustum with the mask of planes its box straddles, or
+/// culled by the frustum, or culled by its children's bounds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Visibility {
+    Visible(u8),
+    OutsideFrustum,
+    ChildrenOutside,
+}
+
+struct Walk<'a> {
+    tree: &'a TileTree,
+    planes: [Plane; 5],
+}
+
+impl Walk<'_> {
+    /// CesiumJS's `updateTileVisibility`: the tile's box against the planes its parent straddles; an
+    /// external-tileset link is as visible as the root it links to; a tile with children within its
+    /// bounds ([`children_within_parent`]), none of them in the frustum, is culled. `depth` guards
+    /// against chains of links that loop.
+    fn visibility(&self, i: usize, parent_mask: u8, depth: usize) -> Visibility {
+        let tiles = &self.tree.tiles;
+        let tile = &tiles[i];
+        let Some(mask) = tile.bounds.plane_mask(&self.planes, parent_mask) else {
+            return Visibility::OutsideFrustum;
+        };
+        let children: Vec<&TileNode> = tile.children.iter().filter_map(|&c| tiles.get(c)).collect();
+        if tile.external_tileset {
+            return match tile.children.first() {
+                Some(&c) if c < tiles.len() && c != i && depth < MAX_LINK_DEPTH => {
+                    match self.visibility(c, mask, depth + 1) {
+                        Visibility::Visible(_) => Visibility::Visible(mask),
+                        other => other,
+                    }
+                }
+                _ => Visibility::Visible(mask),
+            };
+        }
+        let boxes: Vec<&OrientedBox> = children.iter().map(|c| &c.bounds).collect();
+        if !children.is_empty()
+            && children_within_parent(&tile.bounds, &boxes)
+            && children
+                .iter()
+                .all(|c| c.bounds.plane_mask(&self.planes, mask).is_none())
+        {
+            return Visibility::ChildrenOutside;
+        }
+        Visibility::Visible(mask)
+    }
+}
+
+/// Nested external-tileset links followed when judging a link's visibility.
+const MAX_LINK_DEPTH: usize = 64;
 
 #[cfg(test)]
 mod tests {
@@ -276,6 +371,7 @@ mod tests {
             geometric_error_m: e,
             children,
             has_content: true,
+            external_tileset: false,
         };
         TileTree {
             tiles: vec![
@@ -364,40 +460,178 @@ mod tests {
         assert!(!s.selected.is_empty());
     }
 
-    /// Looking north at the horizon from 150 m with a 10° fov: the root box (made 200 m tall) is seen,
-    /// none of its children (≤ 50 m) is.
-    fn above_children_camera() -> (TileTree, Camera) {
-        let mut t = tree();
-        t.tiles[0].bounds = OrientedBox::from_min_max([-500.0, -500.0, 0.0], [500.0, 500.0, 200.0]);
-        let cam = Camera::from_enu([0.0, -600.0, 150.0], 0.0, 0.0, 10.0).unwrap();
-        (t, cam)
+    /// Looking north at the horizon from 170 m with a 10° fov, from 100 m south of the root box: the
+    /// root (made 200 m tall) is seen, none of its children (≤ 50 m high) is.
+    fn above_children_camera() -> Camera {
+        Camera::from_enu([0.0, -700.0, 170.0], 0.0, 0.0, 10.0).unwrap()
     }
 
     #[test]
-    fn tile_with_only_invisible_children_inside_it_is_culled() {
-        let (t, cam) = above_children_camera();
-        let s = select(&t, &cam, VIEW, 16.0);
+    fn tile_with_only_invisible_children_strictly_inside_it_is_culled() {
+        let mut t = tree();
+        t.tiles[0].bounds =
+            OrientedBox::from_min_max([-600.0, -600.0, -10.0], [600.0, 600.0, 200.0]);
+        let s = select(&t, &above_children_camera(), VIEW, 16.0);
         assert!(s.selected.is_empty(), "{s:?}");
         assert_eq!(s.culled, vec![0]);
     }
 
     #[test]
-    fn tile_with_invisible_children_reaching_outside_it_is_drawn() {
-        let (mut t, cam) = above_children_camera();
-        t.tiles[1].bounds = OrientedBox::from_min_max([-600.0, -500.0, 0.0], [0.0, 500.0, 50.0]);
-        let s = select(&t, &cam, VIEW, 16.0);
+    fn tile_whose_children_touch_its_faces_is_drawn_when_they_are_invisible() {
+        // Children at both ends of the root in x, touching its faces where their axes (±x) leave it: the
+        // children-within-parent hint is off, so the root, seen only through the gap between them,
+        // draws itself rather than being culled.
+        let b = |x0: f64, x1: f64| OrientedBox::from_min_max([x0, -500.0, 0.0], [x1, 500.0, 50.0]);
+        let t = |bounds, e, children: Vec<usize>| TileNode {
+            bounds,
+            geometric_error_m: e,
+            children,
+            has_content: true,
+            external_tileset: false,
+        };
+        let mut tree = TileTree {
+            tiles: vec![
+                t(b(-500.0, 500.0), 64.0, vec![1, 2]),
+                t(b(-500.0, -100.0), 0.0, vec![]),
+                t(b(100.0, 500.0), 0.0, vec![]),
+            ],
+            root: 0,
+            tileset_geometric_error_m: 1000.0,
+        };
+        let cam = Camera::from_enu([0.0, 0.0, 300.0], 0.0, -90.0, 10.0).unwrap();
+        let s = select(&tree, &cam, VIEW, 16.0);
         assert_eq!(s.selected, vec![0], "{s:?}");
+        assert!(s.culled.is_empty() && s.refined.is_empty()); // children of a drawn tile are not listed
         assert!(s.sse_px[&0] > 16.0);
+        // Shrunk by a metre, the children lie strictly within the root, which is then culled.
+        tree.tiles[1].bounds = b(-499.0, -100.0);
+        tree.tiles[2].bounds = b(100.0, 499.0);
+        let s = select(&tree, &cam, VIEW, 16.0);
+        assert!(s.selected.is_empty(), "{s:?}");
+        assert_eq!(s.culled, vec![0]);
     }
 
     #[test]
-    fn box_containment_allows_shared_faces_only() {
-        let outer = OrientedBox::from_min_max([0.0; 3], [10.0; 3]);
-        assert!(outer.contains(&OrientedBox::from_min_max([0.0; 3], [5.0, 10.0, 10.0])));
-        assert!(!outer.contains(&OrientedBox::from_min_max([0.0; 3], [5.0, 10.0, 10.01])));
-        let flat = OrientedBox::from_min_max([0.0; 3], [10.0, 10.0, 0.0]);
-        assert!(flat.contains(&OrientedBox::from_min_max([1.0, 1.0, 0.0], [2.0, 2.0, 0.0])));
-        assert!(!flat.contains(&OrientedBox::from_min_max([1.0, 1.0, 0.0], [2.0, 2.0, 1.0])));
+    fn child_culled_by_its_own_children_bounds_counts_as_invisible() {
+        // 0 (tall) → 1 (tall, strictly inside 0) → leaves 2, 3 (low, strictly inside 1, out of view):
+        // 1 is culled by its children's bounds, so 0 has no visible child and is drawn.
+        let b = OrientedBox::from_min_max;
+        let t = |bounds, e, children: Vec<usize>| TileNode {
+            bounds,
+            geometric_error_m: e,
+            children,
+            has_content: true,
+            external_tileset: false,
+        };
+        let tree = TileTree {
+            tiles: vec![
+                t(
+                    b([-600.0, -600.0, -10.0], [600.0, 600.0, 200.0]),
+                    64.0,
+                    vec![1],
+                ),
+                t(
+                    b([-550.0, -550.0, -5.0], [550.0, 550.0, 190.0]),
+                    32.0,
+                    vec![2, 3],
+                ),
+                t(b([-500.0, -500.0, 0.0], [-10.0, 500.0, 50.0]), 0.0, vec![]),
+                t(b([10.0, -500.0, 0.0], [500.0, 500.0, 50.0]), 0.0, vec![]),
+            ],
+            root: 0,
+            tileset_geometric_error_m: 1000.0,
+        };
+        let cam = above_children_camera();
+        assert!(tree.tiles[1].bounds.is_visible(&cam, VIEW));
+        assert!(!tree.tiles[2].bounds.is_visible(&cam, VIEW));
+        let s = select(&tree, &cam, VIEW, 16.0);
+        assert_eq!(s.selected, vec![0], "{s:?}");
+        assert!(s.refined.is_empty() && s.sse_px[&0] > 16.0);
+    }
+
+    #[test]
+    fn children_within_parent_is_strict_and_passes_concentric_children() {
+        let parent = OrientedBox::from_min_max([0.0; 3], [10.0; 3]);
+        let within = |lo: [f64; 3], hi: [f64; 3]| {
+            children_within_parent(&parent, &[&OrientedBox::from_min_max(lo, hi)])
+        };
+        assert!(within([1.0, 1.0, 1.0], [9.0, 9.0, 5.0]));
+        assert!(!within([0.0; 3], [5.0, 10.0, 10.0])); // a half: touches where its axis leaves
+        assert!(!within([0.0, 1.0, 1.0], [5.0, 9.0, 9.0])); // axis along x, touching x = 0
+        assert!(within([1.0, 0.0, 0.0], [4.0, 5.0, 6.0])); // touching faces away from its axis
+        assert!(!within([8.0, 8.0, 8.0], [12.0, 12.0, 12.0])); // sticking out
+        assert!(within([-5.0; 3], [15.0; 3])); // concentric, even larger
+        assert!(children_within_parent(&parent, &[]));
+    }
+
+    #[test]
+    fn external_tileset_link_is_always_descended_and_as_visible_as_its_root() {
+        // 0 → 1 (link to an external tileset, error 8 m: within the threshold 600 m up) → 2 (its root) → 3.
+        // From 600 m the 1 km wide root straddles the frustum's sides, so its children are tested.
+        let b = |x: f64| OrientedBox::from_min_max([-x, -x, 0.0], [x, x, 50.0]);
+        let t = |bounds, e, children: Vec<usize>, link: bool| TileNode {
+            bounds,
+            geometric_error_m: e,
+            children,
+            has_content: !link,
+            external_tileset: link,
+        };
+        let mut tree = TileTree {
+            tiles: vec![
+                t(b(500.0), 64.0, vec![1], false),
+                t(b(500.0), 8.0, vec![2], true),
+                t(b(400.0), 8.0, vec![3], false),
+                t(b(400.0), 0.0, vec![], false),
+            ],
+            root: 0,
+            tileset_geometric_error_m: 1000.0,
+        };
+        let s = select(&tree, &down_at(600.0), VIEW, 16.0);
+        assert_eq!(
+            (s.selected.clone(), s.refined.clone()),
+            (vec![2], vec![0, 1]),
+            "{s:?}"
+        );
+        assert!(s.sse_px[&1] <= 16.0);
+        // The linked root out of view hides the link, though the link's own box is in view.
+        tree.tiles[2].bounds =
+            OrientedBox::from_min_max([5_000.0, 5_000.0, 0.0], [5_100.0, 5_100.0, 50.0]);
+        tree.tiles[3].bounds = tree.tiles[2].bounds;
+        let s = select(&tree, &down_at(600.0), VIEW, 16.0);
+        assert_eq!(
+            (s.selected.clone(), s.refined.clone()),
+            (vec![0], vec![]),
+            "{s:?}"
+        );
+    }
+
+    #[test]
+    fn child_of_a_tile_wholly_in_view_counts_as_in_view() {
+        // CesiumJS tests a child only against the planes its parent straddles: a (malformed) child far
+        // outside its parent, whose parent is wholly in view, is drawn.
+        let b = OrientedBox::from_min_max;
+        let t = |bounds, e, children: Vec<usize>| TileNode {
+            bounds,
+            geometric_error_m: e,
+            children,
+            has_content: true,
+            external_tileset: false,
+        };
+        let tree = TileTree {
+            tiles: vec![
+                t(b([-10.0, -10.0, 0.0], [10.0, 10.0, 10.0]), 64.0, vec![1]),
+                t(
+                    b([5_000.0, 5_000.0, 0.0], [5_100.0, 5_100.0, 10.0]),
+                    0.0,
+                    vec![],
+                ),
+            ],
+            root: 0,
+            tileset_geometric_error_m: 1000.0,
+        };
+        let s = select(&tree, &down_at(1_000.0), VIEW, 16.0);
+        assert!(!tree.tiles[1].bounds.is_visible(&down_at(1_000.0), VIEW));
+        assert_eq!(s.selected, vec![1], "{s:?}");
     }
 
     #[test]

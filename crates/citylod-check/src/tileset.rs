@@ -50,6 +50,9 @@ pub struct FeatureInfo {
 pub struct TileInfo {
     /// `0`, `0/1`, … as in [`TileData::path_in_tree`].
     pub path_in_tree: String,
+    /// The content's URI relative to the folder of the main `tileset.json` (`/`-separated, `.` and
+    /// `..` resolved; URIs inside an external tileset are prefixed with its folder), as a client
+    /// resolves it. Absolute URIs are kept as written.
     pub content_uri: Option<String>,
     /// Size of the content file (0 when unknown).
     pub content_bytes: u64,
@@ -102,7 +105,13 @@ impl LoadedTileset {
     /// child link out of range is kept (selection reports it). Never panics on odd input.
     pub fn from_data(data: &TilesetData, base_dir: Option<&Path>) -> LoadedTileset {
         let n = data.tiles.len();
-        let mut tiles: Vec<TileInfo> = data.tiles.iter().map(|t| tile_info(t, base_dir)).collect();
+        let uris = resolved_uris(data);
+        let mut tiles: Vec<TileInfo> = data
+            .tiles
+            .iter()
+            .zip(uris)
+            .map(|(t, uri)| tile_info(t, uri, base_dir))
+            .collect();
         let buildings: BTreeSet<u32> = tiles
             .iter()
             .zip(&data.tiles)
@@ -136,6 +145,10 @@ impl LoadedTileset {
                 geometric_error_m: t.geometric_error_m,
                 children: t.children.clone(),
                 has_content: info.mesh.as_ref().is_some_and(|m| !m.triangles.is_empty()),
+                external_tileset: t
+                    .content_uri
+                    .as_deref()
+                    .is_some_and(|u| u.ends_with(".json")),
             });
         }
         // Missing boxes: content bounds joined with the children's boxes, bottom-up.
@@ -186,8 +199,53 @@ fn leaf_buildings(t: &TileInfo) -> Vec<u32> {
         .collect()
 }
 
-fn tile_info(t: &TileData, base_dir: Option<&Path>) -> TileInfo {
-    let content_bytes = match (base_dir, &t.content_uri) {
+/// Content URIs relative to the main tileset's folder: a tile inside an external tileset resolves its
+/// URI against the folder of that tileset's JSON (the reader names its root `p/ext` under link `p`).
+fn resolved_uris(data: &TilesetData) -> Vec<Option<String>> {
+    let n = data.tiles.len();
+    let mut folder: Vec<String> = vec![String::new(); n];
+    for (i, t) in data.tiles.iter().enumerate() {
+        let link_folder = t
+            .content_uri
+            .as_deref()
+            .filter(|u| u.ends_with(".json"))
+            .map(|u| join_uri(&folder[i], u.rsplit_once('/').map_or("", |(dir, _)| dir)));
+        for &c in t.children.iter().filter(|&&c| c > i && c < n) {
+            let is_ext_root = data.tiles[c].path_in_tree == format!("{}/ext", t.path_in_tree);
+            folder[c] = match (&link_folder, is_ext_root) {
+                (Some(f), true) => f.clone(),
+                _ => folder[i].clone(),
+            };
+        }
+    }
+    data.tiles
+        .iter()
+        .zip(&folder)
+        .map(|(t, f)| t.content_uri.as_deref().map(|u| join_uri(f, u)))
+        .collect()
+}
+
+/// `uri` resolved against the relative folder `folder` (`/`-separated, `.` and `..` removed where
+/// possible). Absolute URIs (`scheme://…`, `/…`) are returned unchanged.
+fn join_uri(folder: &str, uri: &str) -> String {
+    if uri.contains("://") || uri.starts_with('/') {
+        return uri.to_string();
+    }
+    let mut parts: Vec<&str> = Vec::new();
+    for p in folder.split('/').chain(uri.split('/')) {
+        match p {
+            "" | "." => {}
+            ".." if parts.last().is_some_and(|&l| l != "..") => {
+                parts.pop();
+            }
+            _ => parts.push(p),
+        }
+    }
+    parts.join("/")
+}
+
+fn tile_info(t: &TileData, uri: Option<String>, base_dir: Option<&Path>) -> TileInfo {
+    let content_bytes = match (base_dir, &uri) {
         (Some(dir), Some(uri)) => std::fs::metadata(dir.join(uri)).map_or(0, |m| m.len()),
         _ => 0,
     };
@@ -227,7 +285,7 @@ fn tile_info(t: &TileData, base_dir: Option<&Path>) -> TileInfo {
     };
     TileInfo {
         path_in_tree: t.path_in_tree.clone(),
-        content_uri: t.content_uri.clone(),
+        content_uri: uri,
         content_bytes,
         mesh,
         features,
@@ -425,6 +483,45 @@ mod tests {
         );
         let (lo, hi) = box_aabb(&t.tree.tiles[1].bounds);
         assert_eq!((lo, hi), ([0.0, 0.0, 0.0], [15.0, 5.0, 8.0]));
+    }
+
+    #[test]
+    fn content_uris_inside_external_tilesets_resolve_against_their_folder() {
+        let with_uri = |path: &str, uri: &str, children: Vec<usize>| TileData {
+            content_uri: Some(uri.into()),
+            content: None,
+            ..tile(path, vec![], children)
+        };
+        // 0 (tiles/0.glb) → 0/0 links ./sub/a/tileset.json → its root 0/0/ext (../b/x.glb) → 0/0/ext/0
+        // (./y.glb); 0/1 beside the link keeps the main folder.
+        let data = TilesetData {
+            root_transform: [0.0; 16],
+            geometric_error_m: 100.0,
+            extras: None,
+            tiles: vec![
+                with_uri("0", "tiles/0.glb", vec![1, 4]),
+                with_uri("0/0", "./sub/a/tileset.json", vec![2]),
+                with_uri("0/0/ext", "../b/x.glb", vec![3]),
+                with_uri("0/0/ext/0", "./y.glb", vec![]),
+                with_uri("0/1", "tiles/1.glb", vec![]),
+            ],
+        };
+        let t = LoadedTileset::from_data(&data, None);
+        let uris: Vec<_> = t.tiles.iter().map(|t| t.content_uri.as_deref()).collect();
+        assert_eq!(
+            uris,
+            [
+                Some("tiles/0.glb"),
+                Some("sub/a/tileset.json"),
+                Some("sub/b/x.glb"),
+                Some("sub/a/y.glb"),
+                Some("tiles/1.glb")
+            ]
+        );
+        let links: Vec<bool> = t.tree.tiles.iter().map(|n| n.external_tileset).collect();
+        assert_eq!(links, [false, true, false, false, false]);
+        assert_eq!(join_uri("a/b", "../../../c.glb"), "../c.glb");
+        assert_eq!(join_uri("a", "https://x.org/t.glb"), "https://x.org/t.glb");
     }
 
     #[test]

@@ -78,6 +78,58 @@ pub fn simplify_footprint(fp: &Footprint, delta_a_m2: f64, max_angle_deg: f64) -
     net.into_footprint(fp.0.len(), delta_a_m2)
 }
 
+/// Fills concave triangles of `fp` (local ENU m), smallest first, for as long as the area they add stays within
+/// `budget_m2` in total (m²): the error-budgeted pass that lets a block drop outline detail its
+/// geometricError already pays for (DESIGN.md §4: a node whose error is e may change area by (e/κ)² without
+/// raising it). Only concave vertices go, so the result still covers `fp`; the same simplicity and ring-size
+/// guards as [`simplify_footprint`] apply, and near-collinear vertices then go as in its pass 2 (`max_angle_deg`).
+/// Returns the footprint and the area the fill added (≤ `budget_m2`).
+/// A budget ≤ 0 or not finite returns `fp` unchanged.
+///
+/// # Examples
+/// ```
+/// use citylod_generalize::fill_concave_within;
+/// use geo_types::{polygon, MultiPolygon};
+/// let fp = MultiPolygon(vec![polygon![(x: 0.0, y: 0.0), (x: 10.0, y: 0.0), (x: 10.0, y: 10.0),
+///     (x: 6.0, y: 10.0), (x: 6.0, y: 9.0), (x: 5.0, y: 9.0), (x: 5.0, y: 10.0), (x: 0.0, y: 10.0)]]);
+/// let (s, added_m2) = fill_concave_within(&fp, 1.0, 175.0);
+/// assert_eq!(s.0[0].exterior().0.len(), 5); // both notch triangles (0.5 m² each) fit in 1 m²
+/// assert!((added_m2 - 1.0).abs() < 1e-9);
+/// let (same, _) = fill_concave_within(&fp, 0.4, 175.0);
+/// assert_eq!(same, fp);
+/// ```
+pub fn fill_concave_within(fp: &Footprint, budget_m2: f64, max_angle_deg: f64) -> (Footprint, f64) {
+    if !(budget_m2 > 0.0 && budget_m2.is_finite()) {
+        return (fp.clone(), 0.0);
+    }
+    let mut rings: Vec<RingSpec> = Vec::new();
+    for (k, poly) in fp.0.iter().enumerate() {
+        let Some(ext) = open_ring(poly.exterior(), true).filter(|r| signed_area2(r) != 0.0) else {
+            continue;
+        };
+        rings.push(RingSpec { poly: k, pts: ext });
+        for h in poly
+            .interiors()
+            .iter()
+            .filter_map(|r| open_ring(r, false))
+            .filter(|h| signed_area2(h) != 0.0)
+        {
+            rings.push(RingSpec { poly: k, pts: h });
+        }
+    }
+    let mut net = Net::new(&rings);
+    let added_m2 = net.fill_concave_budget(budget_m2);
+    if added_m2 == 0.0 {
+        return (fp.clone(), 0.0);
+    }
+    // Filling leaves straight vertices behind (the mouth of a filled notch).
+    let max_angle_rad = max_angle_deg.to_radians();
+    if max_angle_rad.is_finite() && max_angle_rad < std::f64::consts::PI {
+        net.remove_collinear(max_angle_rad);
+    }
+    (net.into_footprint(fp.0.len(), 0.0), added_m2)
+}
+
 struct RingSpec {
     poly: usize,
     pts: Vec<[f64; 2]>,
@@ -267,6 +319,42 @@ impl Net {
         }
     }
 
+    /// The error-budgeted pass: smallest concave triangle first while the running total of filled area stays
+    /// within `budget_m2`; returns that total (m²).
+    fn fill_concave_budget(&mut self, budget_m2: f64) -> f64 {
+        let mut heap = BinaryHeap::new();
+        let push = |net: &Net, heap: &mut BinaryHeap<std::cmp::Reverse<Entry>>, id: u32| {
+            let t2 = net.turn2(id);
+            if t2 < 0.0 && -t2 / 2.0 <= budget_m2 {
+                heap.push(std::cmp::Reverse(Entry {
+                    key: -t2 / 2.0,
+                    id,
+                    version: net.v[id as usize].version,
+                }));
+            }
+        };
+        for id in 0..self.v.len() as u32 {
+            push(self, &mut heap, id);
+        }
+        let mut spent_m2 = 0.0;
+        while let Some(std::cmp::Reverse(e)) = heap.pop() {
+            let x = &self.v[e.id as usize];
+            if !x.alive || x.version != e.version || !self.can_remove(e.id) {
+                continue;
+            }
+            // The heap is ordered by area, so the first triangle that does not fit ends the pass.
+            if spent_m2 + e.key > budget_m2 {
+                break;
+            }
+            spent_m2 += e.key;
+            let (p, n) = (x.prev, x.next);
+            self.remove(e.id);
+            push(self, &mut heap, p);
+            push(self, &mut heap, n);
+        }
+        spent_m2
+    }
+
     /// True when the vertex may go in pass 2: its angle exceeds the threshold, and it is concave, straight,
     /// or convex within `CONVEX_COLLINEAR_TOL_M` of the chord.
     fn collinear_candidate(&self, id: u32, max_angle_rad: f64) -> Option<f64> {
@@ -352,6 +440,36 @@ mod tests {
     use geo::{Area, Validation};
     use geo_types::{polygon, LineString};
     use proptest::prelude::*;
+
+    #[test]
+    fn budgeted_fill_covers_the_input_and_stays_within_its_budget() {
+        // A comb: a 40 × 10 bar with five 2 × 4 teeth cut into its top edge, each tooth gap 8 m².
+        let mut ring = vec![(0.0, 0.0), (40.0, 0.0), (40.0, 10.0)];
+        for k in (0..5).rev() {
+            let x = 4.0 + 8.0 * k as f64;
+            ring.extend([(x + 2.0, 10.0), (x + 2.0, 6.0), (x, 6.0), (x, 10.0)]);
+        }
+        ring.push((0.0, 10.0));
+        let fp = MultiPolygon(vec![Polygon::new(LineString::from(ring), vec![])]);
+        for budget in [0.0, 5.0, 17.0, 40.0, 1e6] {
+            let (s, added) = fill_concave_within(&fp, budget, 175.0);
+            assert!(added <= budget + 1e-9, "budget {budget}: added {added}");
+            assert!(
+                uncovered_m2(&[&fp], &s) < 1e-9,
+                "budget {budget}: lost area"
+            );
+            assert!((s.unsigned_area() - fp.unsigned_area() - added).abs() < 1e-6);
+            assert!(s.is_valid(), "budget {budget}: {s:?}");
+        }
+        // Each gap is two 4 m² triangles and leaves two straight vertices behind once filled: 17 m² fills
+        // exactly two gaps; a huge budget fills all five, leaving the bar's 4 corners.
+        let n = vertex_count(&fp);
+        assert_eq!(
+            vertex_count(&fill_concave_within(&fp, 17.0, 175.0).0),
+            n - 8
+        );
+        assert_eq!(vertex_count(&fill_concave_within(&fp, 1e6, 175.0).0), 4);
+    }
 
     #[test]
     fn hairline_slit_is_filled_though_its_triangles_exceed_delta_a() {

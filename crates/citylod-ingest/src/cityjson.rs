@@ -2,8 +2,11 @@
 //! LoD0 footprint, else the GroundSurface of its lowest-LoD 3D geometry, else that geometry's
 //! lowest horizontal surfaces; a building whose geometry lives only in `BuildingPart` children gets
 //! the pieces of all parts, to be unioned. Vertices are decoded with `transform` (scale, translate).
+//! When a 3D model is asked for, the building and its BuildingParts also go to [`crate::model3d`].
 
 use crate::feature::{attributes, RawFeature, RawPolygon};
+use crate::lod::Target;
+use crate::model3d;
 use crate::report::IssueReason;
 use serde_json::{Map, Value};
 use std::collections::HashMap;
@@ -75,8 +78,9 @@ fn header_crs(doc: &Value) -> Option<String> {
         .map(str::to_string)
 }
 
-/// Reads a whole CityJSON document (`"type": "CityJSON"`).
-pub(crate) fn read_document(doc: &Value) -> Result<CityDoc, String> {
+/// Reads a whole CityJSON document (`"type": "CityJSON"`); with `model_target`, each building also
+/// gets its 3D model at that LoD.
+pub(crate) fn read_document(doc: &Value, model_target: Option<Target>) -> Result<CityDoc, String> {
     let transform = Transform::of(doc)?;
     let vertices = transform.vertices(doc.get("vertices"))?;
     let objects = doc
@@ -92,7 +96,7 @@ pub(crate) fn read_document(doc: &Value) -> Result<CityDoc, String> {
             .map(str::to_string),
         non_building_objects: 0,
     };
-    read_objects(objects, Ok(&vertices), &mut out);
+    read_objects(objects, Ok(&vertices), model_target, &mut out);
     Ok(out)
 }
 
@@ -100,6 +104,7 @@ pub(crate) fn read_document(doc: &Value) -> Result<CityDoc, String> {
 /// `Err((line, error))` for a line that is not JSON; `Ok(Err(detail))` for a broken structure.
 pub(crate) fn read_sequence(
     text: &str,
+    model_target: Option<Target>,
 ) -> Result<Result<CityDoc, String>, (usize, serde_json::Error)> {
     let mut lines = text
         .lines()
@@ -140,6 +145,7 @@ pub(crate) fn read_sequence(
         read_objects(
             objects,
             vertices.as_deref().map_err(|e| e.as_str()),
+            model_target,
             &mut out,
         );
     }
@@ -157,6 +163,7 @@ fn parents(o: &Value) -> Vec<&str> {
 fn read_objects(
     objects: &Map<String, Value>,
     vertices: Result<&[[f64; 3]], &str>,
+    model_target: Option<Target>,
     out: &mut CityDoc,
 ) {
     // Children listed by the parent, plus those that only name their parent (both spellings).
@@ -193,7 +200,7 @@ fn read_objects(
         };
         match vertices {
             Err(e) => f.skip = Some((IssueReason::MalformedGeometry, e.to_string())),
-            Ok(v) => fill_building(&mut f, key, objects, &children, v),
+            Ok(v) => fill_building(&mut f, key, objects, &children, v, model_target),
         }
         out.features.push(f);
     }
@@ -215,6 +222,7 @@ fn fill_building(
     objects: &Map<String, Value>,
     children: &HashMap<&str, Vec<&str>>,
     vertices: &[[f64; 3]],
+    model_target: Option<Target>,
 ) {
     let mut own = match object_geometry(&objects[key], vertices) {
         Ok(g) => g,
@@ -223,19 +231,9 @@ fn fill_building(
             return;
         }
     };
-    // Descendants (BuildingParts, nested), depth-first in file order; `seen` guards against cycles.
-    let mut stack: Vec<&str> = children
-        .get(key)
-        .map(|c| c.iter().rev().copied().collect())
-        .unwrap_or_default();
-    let mut seen = vec![key];
+    let family = descendants(key, objects, children);
     let mut parts_footprint = Vec::new();
-    while let Some(c) = stack.pop() {
-        if seen.contains(&c) {
-            continue;
-        }
-        seen.push(c);
-        let Some(o) = objects.get(c) else { continue };
+    for (c, o) in &family {
         match object_geometry(o, vertices) {
             Ok(g) => {
                 own.has_geometry |= g.has_geometry;
@@ -246,9 +244,6 @@ fn fill_building(
                 f.skip = Some((IssueReason::MalformedGeometry, format!("{c}: {e}")));
                 return;
             }
-        }
-        if let Some(cc) = children.get(c) {
-            stack.extend(cc.iter().rev().copied());
         }
     }
     let footprint = if own.footprint.is_empty() {
@@ -285,6 +280,43 @@ fn fill_building(
                 .collect::<RawPolygon>()
         })
         .collect();
+    if let Some(target) = model_target {
+        let members: Vec<(&str, &Value)> = std::iter::once((key, &objects[key]))
+            .chain(
+                family
+                    .into_iter()
+                    .filter(|(_, o)| o.get("type").and_then(Value::as_str) == Some("BuildingPart")),
+            )
+            .collect();
+        f.model = Some(model3d::collect(&members, vertices, target));
+    }
+}
+
+/// The descendants of `key` (BuildingParts, installations, nested), depth-first in file order,
+/// each once even when the parent links form a cycle.
+fn descendants<'a>(
+    key: &'a str,
+    objects: &'a Map<String, Value>,
+    children: &HashMap<&'a str, Vec<&'a str>>,
+) -> Vec<(&'a str, &'a Value)> {
+    let mut stack: Vec<&str> = children
+        .get(key)
+        .map(|c| c.iter().rev().copied().collect())
+        .unwrap_or_default();
+    let mut seen = vec![key];
+    let mut out = Vec::new();
+    while let Some(c) = stack.pop() {
+        if seen.contains(&c) {
+            continue;
+        }
+        seen.push(c);
+        let Some(o) = objects.get(c) else { continue };
+        out.push((c, o));
+        if let Some(cc) = children.get(c) {
+            stack.extend(cc.iter().rev().copied());
+        }
+    }
+    out
 }
 
 fn max_opt(a: Option<f64>, b: Option<f64>) -> Option<f64> {
@@ -303,13 +335,13 @@ fn lod_of(g: &Value) -> f64 {
 }
 
 /// One surface of a geometry: rings of vertex indices and its semantic type.
-struct Surface<'a> {
-    rings: &'a [Value],
-    semantic: Option<&'a str>,
+pub(crate) struct Surface<'a> {
+    pub rings: &'a [Value],
+    pub semantic: Option<&'a str>,
 }
 
 /// The surfaces of any CityJSON geometry type, with semantic surface types where given.
-fn surfaces(g: &Value) -> Result<Vec<Surface<'_>>, String> {
+pub(crate) fn surfaces(g: &Value) -> Result<Vec<Surface<'_>>, String> {
     let depth = match g.get("type").and_then(Value::as_str) {
         Some("MultiSurface" | "CompositeSurface") => 0,
         Some("Solid") => 1,
@@ -416,12 +448,23 @@ fn object_geometry(o: &Value, vertices: &[[f64; 3]]) -> Result<ObjectGeometry, S
         }
     }
     // The lowest LoD above 0 with surfaces gives the top height and, without LoD0, the footprint.
+    // Malformed geometries of higher LoDs are not the footprint's concern (3D models report them).
     let mut best: Option<(f64, Vec<Surface>)> = None;
+    let mut malformed: Option<(f64, String)> = None;
     for x in geoms.iter().filter(|x| lod_of(x) != 0.0) {
         let l = lod_of(x);
-        let s = surfaces(x)?;
-        if !s.is_empty() && best.as_ref().is_none_or(|(bl, _)| l < *bl) {
-            best = Some((l, s));
+        match surfaces(x) {
+            Ok(s) if !s.is_empty() && best.as_ref().is_none_or(|(bl, _)| l < *bl) => {
+                best = Some((l, s));
+            }
+            Ok(_) => {}
+            Err(e) if malformed.as_ref().is_none_or(|(ml, _)| l < *ml) => malformed = Some((l, e)),
+            Err(_) => {}
+        }
+    }
+    if let Some((ml, e)) = malformed {
+        if best.as_ref().is_none_or(|(bl, _)| ml <= *bl) {
+            return Err(e);
         }
     }
     let Some((_, surfs)) = best else { return Ok(g) };
@@ -500,10 +543,13 @@ mod tests {
 
     #[test]
     fn ground_surface_gives_the_footprint_and_vertices_are_decoded() {
-        let d = read_document(&doc(
-            json!({"type": "Building", "geometry": [cube(true)]}),
-            json!({}),
-        ))
+        let d = read_document(
+            &doc(
+                json!({"type": "Building", "geometry": [cube(true)]}),
+                json!({}),
+            ),
+            None,
+        )
         .unwrap();
         let f = &d.features[0];
         assert!(f.skip.is_none(), "{:?}", f.skip);
@@ -523,10 +569,13 @@ mod tests {
 
     #[test]
     fn without_semantics_the_lowest_horizontal_surface_is_the_footprint() {
-        let d = read_document(&doc(
-            json!({"type": "Building", "geometry": [cube(false)]}),
-            json!({}),
-        ))
+        let d = read_document(
+            &doc(
+                json!({"type": "Building", "geometry": [cube(false)]}),
+                json!({}),
+            ),
+            None,
+        )
         .unwrap();
         let f = &d.features[0];
         assert_eq!(f.polygons.len(), 1);
@@ -541,7 +590,7 @@ mod tests {
             "P2": {"type": "BuildingPart", "parent": "B1", "geometry": [cube(false)]},
             "T": {"type": "TINRelief", "geometry": []}
         });
-        let d = read_document(&doc(b, parts)).unwrap();
+        let d = read_document(&doc(b, parts), None).unwrap();
         assert_eq!(d.features.len(), 1, "parts are not buildings");
         assert_eq!(d.features[0].polygons.len(), 2);
         assert!(d.features[0].assemble);
@@ -552,10 +601,10 @@ mod tests {
     fn bad_vertex_index_skips_the_building_not_the_file() {
         let mut g = cube(true);
         g["boundaries"][0][0][0][0] = json!(99);
-        let d = read_document(&doc(
-            json!({"type": "Building", "geometry": [g]}),
-            json!({}),
-        ))
+        let d = read_document(
+            &doc(json!({"type": "Building", "geometry": [g]}), json!({})),
+            None,
+        )
         .unwrap();
         assert_eq!(
             d.features[0].skip.as_ref().unwrap().0,
@@ -574,7 +623,7 @@ mod tests {
             r#""A-0":{"type":"BuildingPart","parents":["A"],"geometry":[]}},"vertices":[[0,0,2],[8,0,2],[8,6,2],[0,6,2]]}"#,
             "\n"
         );
-        let d = read_sequence(text).unwrap().unwrap();
+        let d = read_sequence(text, None).unwrap().unwrap();
         assert_eq!(d.features.len(), 1);
         let f = &d.features[0];
         assert_eq!(f.source_id, "A");
@@ -589,13 +638,13 @@ mod tests {
         );
         assert_eq!(f.footprint_min_z, Some(1.0));
         assert_eq!(d.version.as_deref(), Some("2.0"));
-        let e = read_sequence("{\"type\":\"CityJSON\"}\n{broken").unwrap_err();
+        let e = read_sequence("{\"type\":\"CityJSON\"}\n{broken", None).unwrap_err();
         assert_eq!(e.0, 2);
     }
 
     #[test]
     fn building_without_geometry_is_skipped_with_a_reason() {
-        let d = read_document(&doc(json!({"type": "Building"}), json!({}))).unwrap();
+        let d = read_document(&doc(json!({"type": "Building"}), json!({})), None).unwrap();
         assert_eq!(
             d.features[0].skip.as_ref().unwrap().0,
             IssueReason::NoGeometry

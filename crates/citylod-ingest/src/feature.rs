@@ -2,6 +2,7 @@
 //! polygon rings in source CRS coordinates (open rings: the closing point is not repeated).
 //! Readers never fail on one bad feature: they mark it with a skip reason instead.
 
+use crate::model3d::RawModel;
 use crate::report::IssueReason;
 use citylod_model::{AttrValue, Attributes};
 
@@ -27,6 +28,8 @@ pub(crate) struct RawFeature {
     pub skip: Option<(IssueReason, String)>,
     /// OSM `building:part` tag present.
     pub is_building_part: bool,
+    /// The 3D model (CityJSON, when `IngestOptions::lod` asks for one), or why there is none.
+    pub model: Option<Result<RawModel, (IssueReason, String)>>,
 }
 
 /// JSON value → attribute value; nested objects and arrays become compact JSON text.

@@ -1,13 +1,27 @@
 //! The ingest stage (DESIGN.md §2): read building files (GeoJSON, CityJSON, CityJSONSeq), convert
 //! their CRS to WGS84 and then to one local east-north-up frame, resolve heights, repair or skip
 //! every feature, and report each skip and repair. Never panics on bad data: a broken feature is
-//! skipped with a reason, a broken file is an [`IngestError`].
+//! skipped with a reason, a broken file is an [`IngestError`]. With [`IngestOptions::lod`], CityJSON
+//! buildings also carry their 3D model (`Building::mesh`, DESIGN.md §7) in the same frame.
 //!
 //! ```no_run
 //! use citylod_ingest::{ingest, IngestOptions};
 //! let out = ingest(&["boston_buildings.geojson".into()], &IngestOptions::default())?;
 //! let r = &out.report;
 //! assert_eq!(r.features_read, r.buildings_written + r.skipped.len());
+//! # Ok::<(), citylod_ingest::IngestError>(())
+//! ```
+//!
+//! ```no_run
+//! use citylod_ingest::{ingest, IngestOptions, LodChoice};
+//! let opts = IngestOptions { lod: Some(LodChoice::Exact("2.2".into())), ..Default::default() };
+//! let out = ingest(&["delft.city.jsonl".into()], &opts)?;
+//! for b in &out.buildings {
+//!     if let Some(model) = &b.mesh {
+//!         assert_eq!(model.surfaces.len(), model.mesh.triangles.len());
+//!     }
+//! }
+//! println!("{} meshes, {:?}", out.report.buildings_with_mesh, out.report.mesh_issues_by_reason);
 //! # Ok::<(), citylod_ingest::IngestError>(())
 //! ```
 
@@ -17,6 +31,8 @@ mod error;
 mod feature;
 mod geojson;
 mod height;
+mod lod;
+mod model3d;
 mod place;
 mod repair;
 mod report;
@@ -24,6 +40,7 @@ mod report;
 pub use crs::{CoordError, Crs, CrsError};
 pub use error::IngestError;
 pub use height::{DEFAULT_STOREY_ATTRS, KNOWN_HEIGHT_ATTRS, MAX_HEIGHT_M};
+pub use lod::LodChoice;
 pub use place::FRAME_RULE;
 pub use repair::{check_footprint, MIN_AREA_M2};
 pub use report::{FeatureIssue, FileReport, IngestReport, InputFormat, IssueReason};
@@ -51,6 +68,10 @@ pub struct IngestOptions {
     pub storey_height_m: f64,
     /// Height of a building with no height information (m). Default 10.0.
     pub default_height_m: f64,
+    /// When set, every CityJSON building also gets its 3D model (`Building::mesh`) at this LoD,
+    /// with its BuildingParts merged in; GeoJSON input is unaffected. Default `None`: footprints only.
+    /// Footprints and heights are the same either way.
+    pub lod: Option<LodChoice>,
 }
 
 impl Default for IngestOptions {
@@ -61,6 +82,7 @@ impl Default for IngestOptions {
             storey_attr: None,
             storey_height_m: 3.0,
             default_height_m: 10.0,
+            lod: None,
         }
     }
 }
@@ -87,6 +109,8 @@ struct LoadedFile {
 
 /// A feature ready for placement: its footprint in its own plane and its heights.
 struct Prepared {
+    /// The 3D model's vertices as (lon°, lat°, h m), when the feature has a model.
+    model_lon_lat_h: Option<Result<Vec<[f64; 3]>, Skip>>,
     plane: Plane,
     footprint: MultiPolygon<f64>,
     heights: Heights,
@@ -100,8 +124,10 @@ type Skip = (IssueReason, String);
 /// Reads `paths` in order and returns every building in one local ENU frame.
 ///
 /// Errors only for a whole file (unreadable, invalid JSON, unknown format, unknown CRS, CityJSON
-/// without CRS and no `opts.crs`) or an option out of range (heights must be in (0, 1000] m).
-/// Features are repaired or skipped; see [`IngestReport`].
+/// without CRS and no `opts.crs`) or an option out of range (heights must be in (0, 1000] m, an
+/// LoD must read as 1, 1.2, 2.2, …). Features are repaired or skipped; see [`IngestReport`]. With
+/// `opts.lod`, a building whose 3D geometry is missing or broken keeps its footprint and the
+/// problem is listed in `IngestReport::mesh_issues`.
 /// An empty `paths` gives no buildings and the frame (0°, 0°, 0 m).
 pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, IngestError> {
     for (name, v) in [
@@ -115,6 +141,15 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
             });
         }
     }
+    let model_target = opts
+        .lod
+        .as_ref()
+        .map(lod::Target::of)
+        .transpose()
+        .map_err(|detail| IngestError::InvalidOption {
+            name: "lod",
+            detail,
+        })?;
     if let Some(c) = &opts.crs {
         Crs::parse(c).map_err(|e| IngestError::UnknownCrs {
             origin: "--crs".into(),
@@ -124,7 +159,7 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
     }
     let files: Vec<LoadedFile> = paths
         .par_iter()
-        .map(|p| load(p, opts))
+        .map(|p| load(p, opts, model_target))
         .collect::<Result<_, _>>()?;
 
     let outcomes: Vec<Vec<Result<Prepared, Skip>>> = files
@@ -152,19 +187,24 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
 
     let mut report = IngestReport {
         frame_rule: FRAME_RULE.to_string(),
+        mesh_lod_asked: opts.lod.as_ref().map(LodChoice::to_string),
         ..Default::default()
     };
     let mut buildings = Vec::new();
     for (file, outs) in files.iter().zip(&outcomes) {
         let file_label = file.path.display().to_string();
-        let placed: Vec<Result<(&Prepared, citylod_model::Footprint, f64), &Skip>> = outs
+        type Placed<'a> = (&'a Prepared, citylod_model::Footprint, f64, model3d::Meshed);
+        let placed: Vec<Result<Placed, &Skip>> = outs
             .par_iter()
-            .map(|o| {
+            .zip(&file.features)
+            .map(|(o, raw)| {
                 o.as_ref().map(|p| {
                     let base_h_m = p.heights.ground_m + p.heights.base_offset_m;
                     let (footprint, base_z_m) =
                         place::to_enu(&enu_map, &p.plane, &p.footprint, base_h_m);
-                    (p, footprint, base_z_m)
+                    let meshed =
+                        model3d::mesh(raw.model.as_ref(), p.model_lon_lat_h.as_ref(), &enu_map);
+                    (p, footprint, base_z_m, meshed)
                 })
             })
             .collect();
@@ -186,7 +226,7 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
                 detail: detail.to_string(),
             };
             match placed {
-                Ok((p, footprint, base_z_m)) => {
+                Ok((p, footprint, base_z_m, meshed)) => {
                     debug_assert!(footprint.0.iter().all(|q| winding(q.exterior()) > 0.0));
                     if !p.repairs.is_empty() {
                         report.features_repaired += 1;
@@ -211,6 +251,15 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
                     report.building_parts += usize::from(raw.is_building_part);
                     report.min_height_bases += usize::from(p.heights.base_offset_m > 0.0);
                     report.rings_reoriented += p.rings_reoriented;
+                    for (reason, detail) in &meshed.issues {
+                        report.mesh_issues.push(issue(*reason, detail));
+                    }
+                    if let Some(m) = &meshed.model {
+                        report.buildings_with_mesh += 1;
+                        report.mesh_triangles += m.mesh.triangles.len();
+                        *report.mesh_lods.entry(m.lod.clone()).or_default() += 1;
+                        report.mesh_lod_fallbacks += usize::from(meshed.fell_back);
+                    }
                     buildings.push(Building {
                         id: BuildingId(buildings.len() as u32),
                         source_id: raw.source_id.clone(),
@@ -219,7 +268,7 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
                         height_m: p.heights.height_m,
                         height_source: p.heights.source,
                         attributes: raw.attributes.clone(),
-                        mesh: None,
+                        mesh: meshed.model,
                     });
                     fr.buildings_written += 1;
                 }
@@ -245,6 +294,12 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
             .entry(i.reason.as_str().into())
             .or_default() += 1;
     }
+    for i in &report.mesh_issues {
+        *report
+            .mesh_issues_by_reason
+            .entry(i.reason.as_str().into())
+            .or_default() += 1;
+    }
     debug_assert_eq!(report.check_invariants(), Ok(()));
     Ok(Ingested {
         buildings,
@@ -260,7 +315,11 @@ fn winding(r: &geo_types::LineString) -> f64 {
 }
 
 /// Reads, detects and parses one file, and settles its CRS.
-fn load(path: &Path, opts: &IngestOptions) -> Result<LoadedFile, IngestError> {
+fn load(
+    path: &Path,
+    opts: &IngestOptions,
+    model_target: Option<lod::Target>,
+) -> Result<LoadedFile, IngestError> {
     let text = std::fs::read_to_string(path).map_err(|source| IngestError::Read {
         path: path.into(),
         source,
@@ -324,7 +383,7 @@ fn load(path: &Path, opts: &IngestOptions) -> Result<LoadedFile, IngestError> {
             )
         }
         None => {
-            let doc = cityjson::read_sequence(&text)
+            let doc = cityjson::read_sequence(&text, model_target)
                 .map_err(|(line, source)| IngestError::Json {
                     path: path.into(),
                     line,
@@ -340,7 +399,7 @@ fn load(path: &Path, opts: &IngestOptions) -> Result<LoadedFile, IngestError> {
             )
         }
         Some(v) if v.get("type").and_then(|t| t.as_str()) == Some("CityJSON") => {
-            let doc = cityjson::read_document(&v).map_err(invalid)?;
+            let doc = cityjson::read_document(&v, model_target).map_err(invalid)?;
             (
                 InputFormat::CityJson,
                 doc.declared_crs,
@@ -459,7 +518,12 @@ fn prepare(raw: &RawFeature, crs: &Crs, opts: &IngestOptions) -> Result<Prepared
     repairs.extend(fixed.issues);
     let heights = height::resolve(&raw.attributes, raw.footprint_min_z, raw.top_z, opts);
     let bbox = place::lon_lat_box(&plane, &fixed.footprint);
+    let model_lon_lat_h = match &raw.model {
+        Some(Ok(m)) => Some(model3d::geolocate(m, crs)),
+        _ => None,
+    };
     Ok(Prepared {
+        model_lon_lat_h,
         plane,
         footprint: fixed.footprint,
         heights,

@@ -1,6 +1,8 @@
 //! The ingest report: every file read, every feature skipped or repaired (file, feature id, a
 //! machine-readable reason and a human detail), and counts of height and ground sources.
 //! Invariant: `features_read == buildings_written + skipped.len()`; a repaired feature is written.
+//! 3D models (when asked) are extra: a building whose model is missing or broken is still written,
+//! and its model's problems are listed apart (`mesh_issues`).
 
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -49,6 +51,16 @@ pub enum IssueReason {
     SelfIntersection,
     /// Overlapping or edge-sharing polygons of one multi-polygon were merged by union.
     OverlappingPartsMerged,
+    // --- 3D models (building written, listed in `mesh_issues`) ---
+    /// No Solid or surface geometry at the asked LoD or below: no mesh. When only one part lacks
+    /// it, the mesh is built from the other parts.
+    ModelMissing,
+    /// The chosen 3D geometry is malformed (vertex index out of range, non-finite or
+    /// untransformable vertex, boundaries not nested arrays) or no surface gave a triangle: no mesh.
+    ModelInvalid,
+    /// Surfaces with fewer than 3 distinct points or no area, or such holes, were left out of the
+    /// mesh; the rest is kept.
+    ModelSurfaceDropped,
 }
 
 impl IssueReason {
@@ -75,6 +87,9 @@ impl IssueReason {
             HoleOutsideShell => "hole_outside_shell",
             SelfIntersection => "self_intersection",
             OverlappingPartsMerged => "overlapping_parts_merged",
+            ModelMissing => "model_missing",
+            ModelInvalid => "model_invalid",
+            ModelSurfaceDropped => "model_surface_dropped",
         }
     }
 }
@@ -146,6 +161,21 @@ pub struct IngestReport {
     pub rings_reoriented: usize,
     /// How the local frame origin was chosen.
     pub frame_rule: String,
+    /// The LoD asked for 3D models (`highest`, `2.2`, …); `None` when none were asked.
+    pub mesh_lod_asked: Option<String>,
+    /// Written buildings that carry a 3D model.
+    pub buildings_with_mesh: usize,
+    /// Triangles in all of those models.
+    pub mesh_triangles: usize,
+    /// Buildings with a model, per LoD used (as the source writes it; the lowest when parts differ).
+    pub mesh_lods: BTreeMap<String, usize>,
+    /// Buildings with a model where the building or a part lacked the target LoD (the asked one,
+    /// or with `highest` the building's highest) and the highest LoD below it was used.
+    pub mesh_lod_fallbacks: usize,
+    /// Problems with the 3D models of written buildings (reasons `model_*`); a building may have
+    /// several, and keeps its footprint whatever they are.
+    pub mesh_issues: Vec<FeatureIssue>,
+    pub mesh_issues_by_reason: BTreeMap<String, usize>,
 }
 
 impl IngestReport {
@@ -170,6 +200,19 @@ impl IngestReport {
         let rep_sum: usize = self.repaired_by_reason.values().sum();
         if skip_sum != self.skipped.len() || rep_sum != self.repaired.len() {
             return Err("by-reason counts disagree with the issue lists".into());
+        }
+        let lods: usize = self.mesh_lods.values().sum();
+        if lods != self.buildings_with_mesh
+            || self.buildings_with_mesh > self.buildings_written
+            || self.mesh_lod_fallbacks > self.buildings_with_mesh
+        {
+            return Err(format!(
+                "{} buildings with a mesh, {lods} by LoD, {} fallbacks, {} written",
+                self.buildings_with_mesh, self.mesh_lod_fallbacks, self.buildings_written
+            ));
+        }
+        if self.mesh_issues_by_reason.values().sum::<usize>() != self.mesh_issues.len() {
+            return Err("mesh issue counts disagree with the issue list".into());
         }
         let h: usize = self.height_sources.values().sum();
         if h != self.buildings_written {

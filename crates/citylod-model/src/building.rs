@@ -37,6 +37,54 @@ pub struct Mesh3d {
     pub triangles: Vec<[u32; 3]>,
 }
 
+/// What a triangle of a building model is part of, from CityJSON semantic surfaces: `Roof`
+/// (RoofSurface, OuterFloorSurface), `Wall` (WallSurface, Window, Door), `Ground` (GroundSurface),
+/// `Other` (ClosureSurface, OuterCeilingSurface, interior surfaces, unknown or no semantics).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SurfaceKind {
+    Roof,
+    Wall,
+    Ground,
+    Other,
+}
+
+/// A building's own 3D model (e.g. CityJSON LoD2.2): one mesh for the building and its parts, in the
+/// same local ENU metres and vertical frame as its footprint, with the surface kind of every triangle.
+/// Invariant: `surfaces.len() == mesh.triangles.len()`, every index < `mesh.positions.len()`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BuildingModel {
+    pub mesh: Mesh3d,
+    /// One per triangle, in triangle order.
+    pub surfaces: Vec<SurfaceKind>,
+    /// The LoD the mesh was taken from, as the source writes it (`"2.2"`, `"2"`).
+    pub lod: String,
+}
+
+impl BuildingModel {
+    /// Checks the invariant above; tests call it.
+    pub fn check_invariants(&self) -> Result<(), String> {
+        if self.surfaces.len() != self.mesh.triangles.len() {
+            return Err(format!(
+                "{} surface kinds for {} triangles",
+                self.surfaces.len(),
+                self.mesh.triangles.len()
+            ));
+        }
+        let n = self.mesh.positions.len();
+        match self
+            .mesh
+            .triangles
+            .iter()
+            .flatten()
+            .find(|&&i| i as usize >= n)
+        {
+            Some(i) => Err(format!("vertex index {i} out of range ({n} positions)")),
+            None => Ok(()),
+        }
+    }
+}
+
 /// One input building.
 #[derive(Debug, Clone)]
 pub struct Building {
@@ -50,8 +98,9 @@ pub struct Building {
     pub height_m: f64,
     pub height_source: HeightSource,
     pub attributes: Attributes,
-    /// Full 3D geometry (CityJSON solids) when the input has it and it was asked for.
-    pub mesh: Option<Mesh3d>,
+    /// The building's 3D model (CityJSON solids and surfaces) when the input has one and it was
+    /// asked for; the footprint and heights above do not depend on it.
+    pub mesh: Option<BuildingModel>,
 }
 
 impl Building {

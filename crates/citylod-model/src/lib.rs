@@ -14,6 +14,8 @@ mod frame;
 mod hierarchy;
 
 pub use attr::{AttrValue, Attributes};
-pub use building::{Building, BuildingId, Footprint, HeightSource, Mesh3d};
+pub use building::{
+    Building, BuildingId, BuildingModel, Footprint, HeightSource, Mesh3d, SurfaceKind,
+};
 pub use frame::{ecef_to_geodetic, geodetic_to_ecef, LocalFrame, WGS84_A_M, WGS84_F};
 pub use hierarchy::{Hierarchy, Level, Node, NodeId};

@@ -418,9 +418,10 @@ pub(crate) fn encode_content(
         return Ok(None);
     }
     doc.meshes = vec![Mesh { primitives }];
+    let used: Vec<&str> = tables.iter().map(|t| t.class.as_str()).collect();
     doc.extensions = Some(RootExtensions {
         structural_metadata: Some(StructuralMetadata {
-            schema: Some(schema_json(schema)),
+            schema: Some(schema_json(schema, &used)),
             property_tables: tables,
         }),
     });

@@ -15,6 +15,20 @@ pub struct TileBudget {
     pub max_triangles: usize,
 }
 
+/// A group of level-k nodes (k ≥ 1) is also split, though within the budget, when its error (the max over its
+/// nodes) exceeds its median node error by this factor: a few rough nodes would otherwise make the client
+/// refine the whole group. Recursive cuts then isolate the rough nodes in small tiles.
+pub const ERROR_SPLIT_RATIO: f64 = 2.0;
+
+/// … or when the group spans more than this many times its error (m per m): a client refines a tile once its
+/// nearest corner is within about 50× its error (16 px on a 1000 px high 60° view), so a tile much wider than
+/// that is refined for a far corner's sake while the rest of it is still far away.
+pub const EXTENT_SPLIT_FACTOR: f64 = 25.0;
+
+/// Error and extent splits stop at groups of fewer triangles than this: below it a request costs more than
+/// the bytes it saves (see the README's tile-budget measurement).
+pub const MIN_SPLIT_TRIANGLES: usize = 1_000;
+
 /// One tile of the packing: the level its nodes belong to, the nodes, and child tiles (indices into `tiles`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PackedTile {
@@ -30,18 +44,33 @@ pub struct Packing {
     pub tiles: Vec<PackedTile>,
 }
 
-/// Packs `h` into tiles. `triangles(level, node)` is the triangle count of that node's mesh.
-pub fn pack(
-    h: &Hierarchy,
-    triangles: &dyn Fn(usize, NodeId) -> usize,
-    budget: TileBudget,
-) -> Packing {
+/// What [`pack`] needs to know about a node of a level: its triangles and its geometric error (m).
+pub struct NodeCost<'a> {
+    pub triangles: &'a dyn Fn(usize, NodeId) -> usize,
+    pub error_m: &'a dyn Fn(usize, NodeId) -> f64,
+}
+
+/// Packs the levels `levels` of `h` (ascending level indices; must start with 0 and end with the top level,
+/// otherwise they are added) into tiles. A tile of level `levels[i]` has children of level `levels[i − 1]`
+/// holding its nodes' descendants there, so skipped levels cost nothing. Groups are split spatially to stay
+/// within `budget` and, on levels above 0, where that localizes the error (see [`ERROR_SPLIT_RATIO`],
+/// [`EXTENT_SPLIT_FACTOR`]).
+pub fn pack(h: &Hierarchy, levels: &[usize], cost: &NodeCost, budget: TileBudget) -> Packing {
     let mut tiles = Vec::new();
     let Some(top) = h.levels.len().checked_sub(1) else {
         return Packing { tiles };
     };
+    let mut kept: Vec<usize> = levels.iter().copied().filter(|&l| l <= top).collect();
+    kept.extend([0, top]);
+    kept.sort_unstable();
+    kept.dedup();
+    // below[l] = the kept level under kept level l.
+    let mut below = vec![None; top + 1];
+    for w in kept.windows(2) {
+        below[w[1]] = Some(w[0]);
+    }
     let top_nodes: Vec<NodeId> = (0..h.levels[top].nodes.len() as u32).map(NodeId).collect();
-    let groups = split(h, top, top_nodes, triangles, budget);
+    let groups = split(h, top, top_nodes, cost, budget);
     if groups.len() == 1 {
         tiles.push(PackedTile {
             level: top,
@@ -64,15 +93,15 @@ pub fn pack(
     let mut next = if tiles[0].nodes.is_empty() { 1 } else { 0 };
     while next < tiles.len() {
         let (level, parent_nodes) = (tiles[next].level, tiles[next].nodes.clone());
-        if level > 0 {
+        if let Some(to) = below.get(level).copied().flatten() {
             let child_nodes: Vec<NodeId> = parent_nodes
                 .iter()
-                .flat_map(|n| h.levels[level].nodes[n.0 as usize].children.iter().copied())
+                .flat_map(|&n| descendants(h, level, n, to))
                 .collect();
             let first = tiles.len();
-            for nodes in split(h, level - 1, child_nodes, triangles, budget) {
+            for nodes in split(h, to, child_nodes, cost, budget) {
                 tiles.push(PackedTile {
-                    level: level - 1,
+                    level: to,
                     nodes,
                     children: vec![],
                 });
@@ -84,96 +113,160 @@ pub fn pack(
     Packing { tiles }
 }
 
-/// Splits `nodes` of `level` into spatially compact groups within the budget: recursive median cuts across the
-/// longer side of the nodes' centre extent, ties broken by node id so the result is deterministic.
+/// The nodes of level `to` (< `level`) under node `n` of `level`, in child order.
+fn descendants(h: &Hierarchy, level: usize, n: NodeId, to: usize) -> Vec<NodeId> {
+    let mut cur = vec![n];
+    for l in (to + 1..=level).rev() {
+        cur = cur
+            .iter()
+            .flat_map(|m| h.levels[l].nodes[m.0 as usize].children.iter().copied())
+            .collect();
+    }
+    cur
+}
+
+struct Item {
+    node: NodeId,
+    centre: [f64; 2],
+    /// The node's bounding box: min x, min y, max x, max y.
+    bbox: [f64; 4],
+    triangles: usize,
+    error_m: f64,
+}
+
+/// Splits `nodes` of `level` into spatially compact groups: recursive median cuts across the longer side of
+/// the nodes' centre extent, ties broken by node id so the result is deterministic.
 fn split(
     h: &Hierarchy,
     level: usize,
     nodes: Vec<NodeId>,
-    triangles: &dyn Fn(usize, NodeId) -> usize,
+    cost: &NodeCost,
     budget: TileBudget,
 ) -> Vec<Vec<NodeId>> {
-    let mut items: Vec<(NodeId, [f64; 2], usize)> = nodes
+    let mut items: Vec<Item> = nodes
         .into_iter()
         .map(|n| {
-            (
-                n,
-                bbox_centre(&h.levels[level].nodes[n.0 as usize].footprint),
-                triangles(level, n),
-            )
+            let bbox = bbox_of(&h.levels[level].nodes[n.0 as usize].footprint);
+            Item {
+                node: n,
+                centre: [(bbox[0] + bbox[2]) / 2.0, (bbox[1] + bbox[3]) / 2.0],
+                bbox,
+                triangles: (cost.triangles)(level, n),
+                error_m: if level == 0 {
+                    0.0
+                } else {
+                    (cost.error_m)(level, n)
+                },
+            }
         })
         .collect();
-    items.sort_by_key(|i| i.0);
+    items.sort_by_key(|i| i.node);
     let mut out = Vec::new();
     split_rec(&mut items, budget, &mut out);
     out
 }
 
-fn split_rec(
-    items: &mut [(NodeId, [f64; 2], usize)],
-    budget: TileBudget,
-    out: &mut Vec<Vec<NodeId>>,
-) {
-    let tris: usize = items.iter().map(|i| i.2).sum();
-    if items.len() <= 1 || (items.len() <= budget.max_features && tris <= budget.max_triangles) {
-        if !items.is_empty() {
-            let mut g: Vec<NodeId> = items.iter().map(|i| i.0).collect();
-            g.sort();
-            out.push(g);
-        }
+fn split_rec(items: &mut [Item], budget: TileBudget, out: &mut Vec<Vec<NodeId>>) {
+    let tris: usize = items.iter().map(|i| i.triangles).sum();
+    let over_budget = items.len() > budget.max_features || tris > budget.max_triangles;
+    if items.len() <= 1 || (!over_budget && tris < 2 * MIN_SPLIT_TRIANGLES) {
+        emit(items, out);
         return;
     }
     let (mut lo, mut hi) = ([f64::MAX; 2], [f64::MIN; 2]);
     for i in items.iter() {
         for a in 0..2 {
-            lo[a] = lo[a].min(i.1[a]);
-            hi[a] = hi[a].max(i.1[a]);
+            lo[a] = lo[a].min(i.centre[a]);
+            hi[a] = hi[a].max(i.centre[a]);
         }
     }
     let axis = usize::from(hi[1] - lo[1] > hi[0] - lo[0]);
-    items.sort_by(|a, b| a.1[axis].total_cmp(&b.1[axis]).then(a.0.cmp(&b.0)));
+    items.sort_by(|a, b| {
+        a.centre[axis]
+            .total_cmp(&b.centre[axis])
+            .then(a.node.cmp(&b.node))
+    });
     // Cut where half the triangles lie, so both halves weigh about the same.
     let mut acc = 0;
     let mut cut = items.len() / 2;
     for (k, i) in items.iter().enumerate() {
-        acc += i.2;
+        acc += i.triangles;
         if acc * 2 >= tris {
             cut = (k + 1).clamp(1, items.len() - 1);
             break;
         }
+    }
+    if !over_budget && !worth_splitting(items, cut) {
+        emit(items, out);
+        return;
     }
     let (a, b) = items.split_at_mut(cut);
     split_rec(a, budget, out);
     split_rec(b, budget, out);
 }
 
-fn bbox_centre(fp: &Footprint) -> [f64; 2] {
+/// Whether a group within the budget still gains from the cut at `cut`: both halves keep at least
+/// [`MIN_SPLIT_TRIANGLES`], and the group's error is over [`ERROR_SPLIT_RATIO`] × its median or it is wider than
+/// [`EXTENT_SPLIT_FACTOR`] × its error.
+fn worth_splitting(items: &[Item], cut: usize) -> bool {
+    let (a, b) = items.split_at(cut);
+    let tris = |s: &[Item]| s.iter().map(|i| i.triangles).sum::<usize>();
+    if tris(a) < MIN_SPLIT_TRIANGLES || tris(b) < MIN_SPLIT_TRIANGLES {
+        return false;
+    }
+    let mut errors: Vec<f64> = items.iter().map(|i| i.error_m).collect();
+    errors.sort_by(f64::total_cmp);
+    let e = errors.last().copied().unwrap_or(0.0);
+    if e <= 0.0 {
+        return false;
+    }
+    if e > ERROR_SPLIT_RATIO * errors[errors.len() / 2] {
+        return true;
+    }
+    let mut bb = [f64::MAX, f64::MAX, f64::MIN, f64::MIN];
+    for i in items {
+        bb = [
+            bb[0].min(i.bbox[0]),
+            bb[1].min(i.bbox[1]),
+            bb[2].max(i.bbox[2]),
+            bb[3].max(i.bbox[3]),
+        ];
+    }
+    (bb[2] - bb[0]).hypot(bb[3] - bb[1]) > EXTENT_SPLIT_FACTOR * e
+}
+
+fn emit(items: &[Item], out: &mut Vec<Vec<NodeId>>) {
+    if !items.is_empty() {
+        let mut g: Vec<NodeId> = items.iter().map(|i| i.node).collect();
+        g.sort();
+        out.push(g);
+    }
+}
+
+fn bbox_of(fp: &Footprint) -> [f64; 4] {
     let (mut lo, mut hi) = ([f64::MAX; 2], [f64::MIN; 2]);
     for c in fp.0.iter().flat_map(|p| p.exterior().0.iter()) {
         lo = [lo[0].min(c.x), lo[1].min(c.y)];
         hi = [hi[0].max(c.x), hi[1].max(c.y)];
     }
     if lo[0] > hi[0] {
-        return [0.0, 0.0];
+        return [0.0; 4];
     }
-    [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0]
+    [lo[0], lo[1], hi[0], hi[1]]
 }
 
 /// Each tile's geometric error (m): the max of `node_error(level, node)` over its nodes, then raised to the max of
-/// its children's so errors never grow downward. Tiles of level 0 (the buildings) are exact: 0.
+/// its children's so errors never grow downward. Tiles of level 0 hold the buildings' footprint prisms: exact (0)
+/// for footprint input, the prism's measured error when the buildings have 3D models below them.
 pub fn tile_errors(p: &Packing, node_error: &dyn Fn(usize, NodeId) -> f64) -> Vec<f64> {
     let mut err: Vec<f64> = p
         .tiles
         .iter()
         .map(|t| {
-            if t.level == 0 {
-                0.0
-            } else {
-                t.nodes
-                    .iter()
-                    .map(|&n| node_error(t.level, n))
-                    .fold(0.0, f64::max)
-            }
+            t.nodes
+                .iter()
+                .map(|&n| node_error(t.level, n))
+                .fold(0.0, f64::max)
         })
         .collect();
     // Children always have larger indices than their parent (breadth-first), so one backward pass suffices.
@@ -188,41 +281,54 @@ pub fn tile_errors(p: &Packing, node_error: &dyn Fn(usize, NodeId) -> f64) -> Ve
     err
 }
 
-/// The writer's tile tree for a packing: each tile gets the features `features(level, node)` of its nodes (a
-/// node may give several: its block and its landmarks) and the geometric error `errors[tile]`.
-pub fn assemble(
-    p: &Packing,
-    errors: &[f64],
-    features: &(dyn Fn(usize, NodeId) -> Vec<ContentFeature> + Sync),
-) -> TileSpec {
-    fn rec(
-        p: &Packing,
-        i: usize,
-        errors: &[f64],
-        features: &(dyn Fn(usize, NodeId) -> Vec<ContentFeature> + Sync),
-    ) -> TileSpec {
+/// What [`assemble`] puts into tiles: the features `nodes(level, node)` of a node (a node may give several: its
+/// block and its landmarks), and the tiles `below_buildings(nodes)` to hang under a tile of level-0 nodes (the
+/// finer versions of those buildings, e.g. their 3D models; none for footprint input).
+pub struct TileContent<'a> {
+    pub nodes: &'a (dyn Fn(usize, NodeId) -> Vec<ContentFeature> + Sync),
+    pub below_buildings: &'a (dyn Fn(&[NodeId]) -> Vec<TileSpec> + Sync),
+}
+
+/// The writer's tile tree for a packing: each tile gets its nodes' features and the geometric error
+/// `errors[tile]`; level-0 tiles get `below_buildings` as children.
+pub fn assemble(p: &Packing, errors: &[f64], content: &TileContent) -> TileSpec {
+    fn rec(p: &Packing, i: usize, errors: &[f64], content: &TileContent) -> TileSpec {
         let t = &p.tiles[i];
+        let mut children: Vec<TileSpec> = t
+            .children
+            .iter()
+            .map(|&c| rec(p, c, errors, content))
+            .collect();
+        if t.level == 0 {
+            children.extend((content.below_buildings)(&t.nodes));
+        }
         TileSpec {
-            features: t.nodes.iter().flat_map(|&n| features(t.level, n)).collect(),
-            children: t
-                .children
+            features: t
+                .nodes
                 .iter()
-                .map(|&c| rec(p, c, errors, features))
+                .flat_map(|&n| (content.nodes)(t.level, n))
                 .collect(),
+            children,
             geometric_error_m: errors[i],
         }
     }
     if p.tiles.is_empty() {
         return TileSpec::default();
     }
-    rec(p, 0, errors, features)
+    rec(p, 0, errors, content)
 }
 
-/// Checks the packing invariants against `h`; returns every violation found.
+/// Checks the packing invariants against `h`; returns every violation found: on every level that has tiles each
+/// node is in exactly one tile, level 0 has tiles, and the nodes of a tile's children are exactly its nodes'
+/// descendants on the children's (single, lower) level.
 pub fn check_packing(h: &Hierarchy, p: &Packing) -> Vec<String> {
     let mut errs = Vec::new();
     let mut seen: Vec<Vec<u32>> = h.levels.iter().map(|l| vec![0; l.nodes.len()]).collect();
+    let mut level_used = vec![false; h.levels.len()];
     for (ti, t) in p.tiles.iter().enumerate() {
+        if let Some(u) = level_used.get_mut(t.level) {
+            *u = true;
+        }
         for n in &t.nodes {
             match seen.get_mut(t.level).and_then(|s| s.get_mut(n.0 as usize)) {
                 Some(c) => *c += 1,
@@ -232,35 +338,52 @@ pub fn check_packing(h: &Hierarchy, p: &Packing) -> Vec<String> {
                 )),
             }
         }
-        if t.level > 0 && !t.nodes.is_empty() {
-            let mut want: Vec<NodeId> = t
-                .nodes
-                .iter()
-                .flat_map(|n| {
-                    h.levels[t.level].nodes[n.0 as usize]
-                        .children
-                        .iter()
-                        .copied()
-                })
-                .collect();
-            let mut got: Vec<NodeId> = t
-                .children
-                .iter()
-                .flat_map(|&c| p.tiles[c].nodes.iter().copied())
-                .collect();
-            want.sort();
-            got.sort();
-            if want != got {
-                errs.push(format!(
-                    "tile {ti}: children tiles do not hold exactly the children of its nodes"
-                ));
+        if t.level == 0 {
+            if !t.children.is_empty() {
+                errs.push(format!("tile {ti}: a building tile has children"));
             }
+            continue;
         }
-        if t.level == 0 && !t.children.is_empty() {
-            errs.push(format!("tile {ti}: a building tile has children"));
+        if t.nodes.is_empty() || t.level >= h.levels.len() {
+            continue;
+        }
+        let child_levels: std::collections::BTreeSet<usize> =
+            t.children.iter().map(|&c| p.tiles[c].level).collect();
+        let [to] = child_levels.into_iter().collect::<Vec<_>>()[..] else {
+            errs.push(format!(
+                "tile {ti}: children are missing or on more than one level"
+            ));
+            continue;
+        };
+        if to >= t.level {
+            errs.push(format!("tile {ti}: a child tile is not on a lower level"));
+            continue;
+        }
+        let mut want: Vec<NodeId> = t
+            .nodes
+            .iter()
+            .flat_map(|&n| descendants(h, t.level, n, to))
+            .collect();
+        let mut got: Vec<NodeId> = t
+            .children
+            .iter()
+            .flat_map(|&c| p.tiles[c].nodes.iter().copied())
+            .collect();
+        want.sort();
+        got.sort();
+        if want != got {
+            errs.push(format!(
+                "tile {ti}: children tiles do not hold exactly the descendants of its nodes"
+            ));
         }
     }
+    if !level_used.first().copied().unwrap_or(true) {
+        errs.push("level 0 (the buildings) has no tiles".into());
+    }
     for (l, s) in seen.iter().enumerate() {
+        if !level_used[l] {
+            continue;
+        }
         if let Some(n) = s.iter().position(|&c| c != 1) {
             errs.push(format!("level {l}: node {n} is in {} tiles", s[n]));
         }
@@ -329,13 +452,29 @@ mod tests {
         }
     }
 
+    fn all_levels(h: &Hierarchy) -> Vec<usize> {
+        (0..h.levels.len()).collect()
+    }
+
+    fn tris(n: usize) -> impl Fn(usize, NodeId) -> usize {
+        move |_, _| n
+    }
+
+    fn by_level(level: usize, _: NodeId) -> f64 {
+        level as f64
+    }
+
     #[test]
     fn every_node_in_exactly_one_tile_and_children_partition() {
         let h = row_hierarchy();
         for max_features in [1, 2, 3, 100] {
             let p = pack(
                 &h,
-                &|_, _| 10,
+                &all_levels(&h),
+                &NodeCost {
+                    triangles: &tris(10),
+                    error_m: &by_level,
+                },
                 TileBudget {
                     max_features,
                     max_triangles: 1000,
@@ -355,7 +494,11 @@ mod tests {
         let h = row_hierarchy();
         let p = pack(
             &h,
-            &|_, _| 10,
+            &all_levels(&h),
+            &NodeCost {
+                triangles: &tris(10),
+                error_m: &by_level,
+            },
             TileBudget {
                 max_features: 2,
                 max_triangles: 1000,
@@ -366,7 +509,11 @@ mod tests {
         // A triangle budget of one node per tile forces single-node tiles.
         let p = pack(
             &h,
-            &|_, _| 10,
+            &all_levels(&h),
+            &NodeCost {
+                triangles: &tris(10),
+                error_m: &by_level,
+            },
             TileBudget {
                 max_features: 100,
                 max_triangles: 10,
@@ -381,7 +528,11 @@ mod tests {
         let h = row_hierarchy();
         let p = pack(
             &h,
-            &|_, _| 10,
+            &all_levels(&h),
+            &NodeCost {
+                triangles: &tris(10),
+                error_m: &by_level,
+            },
             TileBudget {
                 max_features: 2,
                 max_triangles: 1000,
@@ -412,6 +563,132 @@ mod tests {
             max_features: 3,
             max_triangles: 1000,
         };
-        assert_eq!(pack(&h, &|_, _| 7, b), pack(&h, &|_, _| 7, b));
+        assert_eq!(
+            pack(
+                &h,
+                &all_levels(&h),
+                &NodeCost {
+                    triangles: &tris(7),
+                    error_m: &by_level
+                },
+                b
+            ),
+            pack(
+                &h,
+                &all_levels(&h),
+                &NodeCost {
+                    triangles: &tris(7),
+                    error_m: &by_level
+                },
+                b
+            )
+        );
+    }
+
+    #[test]
+    fn skipped_levels_give_children_the_descendants() {
+        let h = row_hierarchy();
+        let c = NodeCost {
+            triangles: &tris(10),
+            error_m: &by_level,
+        };
+        let budget = TileBudget {
+            max_features: 2,
+            max_triangles: 1000,
+        };
+        let p = pack(&h, &[0, 2], &c, budget);
+        assert_eq!(check_packing(&h, &p), Vec::<String>::new());
+        let levels: std::collections::BTreeSet<usize> = p.tiles.iter().map(|t| t.level).collect();
+        assert_eq!(levels.into_iter().collect::<Vec<_>>(), vec![0, 2, 3]);
+        // Every building lands in exactly one leaf tile.
+        let mut leaves: Vec<NodeId> = p
+            .tiles
+            .iter()
+            .filter(|t| t.level == 0)
+            .flat_map(|t| t.nodes.clone())
+            .collect();
+        leaves.sort();
+        assert_eq!(leaves, (0..8).map(NodeId).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn check_packing_catches_a_lost_child() {
+        let h = row_hierarchy();
+        let c = NodeCost {
+            triangles: &tris(10),
+            error_m: &by_level,
+        };
+        let mut p = pack(
+            &h,
+            &all_levels(&h),
+            &c,
+            TileBudget {
+                max_features: 2,
+                max_triangles: 1000,
+            },
+        );
+        let leaf = p.tiles.iter().position(|t| t.level == 0).unwrap();
+        p.tiles[leaf].nodes.pop();
+        assert!(!check_packing(&h, &p).is_empty());
+    }
+
+    #[test]
+    fn a_rough_node_gets_its_own_tile_within_the_budget() {
+        // Level 1: node 0 (x 0..20) is rough (error 50 m), nodes 1–3 calm (5 m); each has 2,500
+        // triangles, so all four fit the budget, but the max is 10× the median: worth splitting.
+        let h = row_hierarchy();
+        let err = |level: usize, n: NodeId| {
+            if level == 1 {
+                if n.0 == 0 {
+                    50.0
+                } else {
+                    5.0
+                }
+            } else {
+                level as f64
+            }
+        };
+        let c = NodeCost {
+            triangles: &tris(2_500),
+            error_m: &err,
+        };
+        let budget = TileBudget {
+            max_features: 100,
+            max_triangles: 1_000_000,
+        };
+        let p = pack(&h, &[0, 1], &c, budget);
+        assert_eq!(check_packing(&h, &p), Vec::<String>::new());
+        let l1: Vec<&PackedTile> = p.tiles.iter().filter(|t| t.level == 1).collect();
+        assert_eq!(l1.len(), 2, "{p:?}");
+        let e = tile_errors(&p, &err);
+        let calm = p
+            .tiles
+            .iter()
+            .position(|t| t.level == 1 && t.nodes == vec![NodeId(2), NodeId(3)])
+            .unwrap();
+        assert_eq!(e[calm], 5.0);
+        // Equal errors and a small extent: no reason to split.
+        let even = |_: usize, _: NodeId| 50.0;
+        let c = NodeCost {
+            triangles: &tris(2_500),
+            error_m: &even,
+        };
+        let p = pack(&h, &[0, 1], &c, budget);
+        assert_eq!(p.tiles.iter().filter(|t| t.level == 1).count(), 1);
+        // … unless the group is wider than EXTENT_SPLIT_FACTOR × its error (65 m wide, error 1 m).
+        let tiny = |_: usize, _: NodeId| 1.0;
+        let c = NodeCost {
+            triangles: &tris(2_500),
+            error_m: &tiny,
+        };
+        let p = pack(&h, &[0, 1], &c, budget);
+        assert!(p.tiles.iter().filter(|t| t.level == 1).count() >= 2);
+        // Small groups are never split for error or extent: fewer than MIN_SPLIT_TRIANGLES a side.
+        let c = NodeCost {
+            triangles: &tris(10),
+            error_m: &err,
+        };
+        let p = pack(&h, &[0, 1], &c, budget);
+        assert_eq!(p.tiles.iter().filter(|t| t.level == 1).count(), 1);
     }
 }

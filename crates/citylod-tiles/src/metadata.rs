@@ -11,11 +11,13 @@ pub(crate) const NO_DATA_F64: f64 = f64::MIN;
 pub(crate) const NO_DATA_I64: i64 = i64::MIN;
 pub(crate) const NO_DATA_U32: u32 = u32::MAX;
 
-/// The schema as written inline in every glb.
-pub(crate) fn schema_json(schema: &MetadataSchema) -> Schema {
+/// The schema as written inline in a glb: only the classes `used` (by the glb's property tables), so a tile of
+/// blocks does not carry the building class's many attribute properties.
+pub(crate) fn schema_json(schema: &MetadataSchema, used: &[&str]) -> Schema {
     let classes = schema
         .classes
         .iter()
+        .filter(|c| used.contains(&c.id.as_str()))
         .map(|c| {
             let properties = c
                 .properties
@@ -275,7 +277,7 @@ mod tests {
                 }],
             }],
         };
-        let prop = schema_json(&schema).classes["c"].properties["p"].clone();
+        let prop = schema_json(&schema, &["c"]).classes["c"].properties["p"].clone();
         let col = encode_column(kind, vals.iter()).unwrap();
         let offs = col.string_offsets.as_deref().map(|o| (o, "UINT32"));
         decode_column(&prop, vals.len(), &col.values, offs).unwrap()

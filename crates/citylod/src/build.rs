@@ -41,6 +41,32 @@ pub struct BuildArgs {
     #[arg(long, value_name = "M", default_value_t = 10.0, help_heading = "Input")]
     pub default_height: f64,
 
+    /// Read the 3D geometry of CityJSON buildings at this LoD (`2.2`, `2`, `1.3`, … or `highest`) and give every
+    /// building a chain of detail below its footprint prism: the full model (error 0), a simplified model and the
+    /// prism, each with its measured error (sampled two-sided Hausdorff distance to the full model, metres).
+    /// Without it, buildings are prisms of their footprints. GeoJSON input ignores it.
+    #[arg(long, value_name = "LOD", help_heading = "3D buildings")]
+    pub lod: Option<String>,
+
+    /// How the 3D models are simplified: `topo-qem` (seed 003: QEM that keeps touching parts together),
+    /// `profile` (seed 004: horizontal profiles) or `qem` (plain QEM, for comparison only).
+    #[arg(long, value_enum, default_value_t = SimplifierArg::TopoQem, help_heading = "3D buildings")]
+    pub building_simplifier: SimplifierArg,
+
+    /// Share of a model's triangles the simplified level removes (0–1; the seed's rates are 0.5, 0.6, 0.8).
+    #[arg(
+        long,
+        value_name = "RATE",
+        default_value_t = 0.6,
+        help_heading = "3D buildings"
+    )]
+    pub building_rate: f64,
+
+    /// Basic cost ratio `a` of topo-qem for vertices where parts touch (≥ 1; seed 003 suggests 1–3 for
+    /// simple and 2–8 for complex models).
+    #[arg(long, value_name = "A", default_value_t = citylod_mesh::simplify::DEFAULT_TOPO_QEM_A, help_heading = "3D buildings")]
+    pub topo_qem_a: f64,
+
     /// Weight λ of the side orientation in the adjacent distance d = d_min·(1 − N·λ), 0–1.
     #[arg(
         long,
@@ -137,6 +163,13 @@ pub struct BuildArgs {
     )]
     pub tile_max_triangles: usize,
 
+    /// Write a level of the hierarchy only when it has at most this share of the triangles of the last level
+    /// written below it (1 = every level). Lower values shrink the tileset (fewer, cheaper coarse levels) but
+    /// make clients jump further between levels, so middle views load more detail: on Boston, 1 gives 2.5× the
+    /// bytes of --leaves-only and a far view 4× lighter than full detail; 0.25 gives 1.18× and 2×.
+    #[arg(long, value_name = "R", default_value_t = 1.0, help_heading = "Tiles")]
+    pub level_ratio: f64,
+
     /// Geometry compression of the glb content.
     #[arg(long, value_enum, default_value_t = CompressionArg::Meshopt, help_heading = "Tiles")]
     pub compression: CompressionArg,
@@ -170,6 +203,32 @@ pub enum CompressionArg {
     Draco,
 }
 
+/// `--building-simplifier`.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SimplifierArg {
+    /// Seed 003: QEM half-edge collapse that keeps touching parts of a building together (default)
+    TopoQem,
+    /// Seed 004: horizontal profiles every 1 m, a new profile kept where the outline moves by over 0.5 m
+    Profile,
+    /// Plain QEM (meshoptimizer), for comparison: may tear parts apart
+    Qem,
+}
+
+impl SimplifierArg {
+    pub fn to_simplifier(self, a: f64) -> citylod_mesh::simplify::Simplifier {
+        use citylod_mesh::simplify::Simplifier;
+        match self {
+            SimplifierArg::TopoQem => Simplifier::TopoQem { a },
+            SimplifierArg::Profile => Simplifier::Profile {
+                step_m: 1.0,
+                threshold_m: 0.5,
+            },
+            SimplifierArg::Qem => Simplifier::Qem,
+        }
+    }
+}
+
 #[derive(Serialize)]
 struct BuildReport<'a> {
     citylod_version: &'static str,
@@ -183,6 +242,9 @@ struct BuildReport<'a> {
     #[serde(skip_serializing_if = "Option::is_none")]
     generalize: Option<serde_json::Value>,
     lod: Vec<LevelSummary>,
+    /// The 3D models' chain (with `--lod`): triangles, rates reached, measured errors.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    models: Option<&'a crate::lod::ModelSummary>,
     tiles: &'a citylod_tiles::WriteStats,
     timings_ms: Timings,
 }
@@ -237,6 +299,18 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
             bail!("{name} must be a positive number, got {v}");
         }
     }
+    if !(args.building_rate > 0.0 && args.building_rate < 1.0) {
+        bail!(
+            "--building-rate must be in (0, 1), got {}",
+            args.building_rate
+        );
+    }
+    if !(args.topo_qem_a >= 1.0 && args.topo_qem_a.is_finite()) {
+        bail!("--topo-qem-a must be at least 1, got {}", args.topo_qem_a);
+    }
+    if !(args.level_ratio > 0.0 && args.level_ratio <= 1.0) {
+        bail!("--level-ratio must be in (0, 1], got {}", args.level_ratio);
+    }
     if args.tile_max_features == 0 || args.tile_max_triangles == 0 {
         bail!("--tile-max-features and --tile-max-triangles must be at least 1");
     }
@@ -252,6 +326,12 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         storey_attr: args.storey_attr.clone(),
         storey_height_m: args.storey_height,
         default_height_m: args.default_height,
+        lod: args
+            .lod
+            .as_deref()
+            .map(str::parse::<citylod_ingest::LodChoice>)
+            .transpose()
+            .map_err(|e| anyhow::anyhow!("--lod: {e}"))?,
     };
     let ingested = ingest(&args.inputs, &opts).context("reading the input")?;
     timings.ingest = t.elapsed().as_millis() as u64;
@@ -274,6 +354,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
             collinear_angle_deg: args.collinear_angle,
             landmark_min_excess_m: args.landmark_min_excess,
             landmark_max_share: args.landmark_max_share,
+            error_kappa: args.dh_px / args.da_px.sqrt(),
             ..Default::default()
         };
         let g = citylod_generalize::generalize(&ingested.buildings, &opts)
@@ -294,10 +375,15 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
     progress.stage("meshing");
     let t = Instant::now();
     let kappa = args.dh_px / args.da_px.sqrt();
+    let models = crate::lod::ModelOptions {
+        simplifier: args.building_simplifier.to_simplifier(args.topo_qem_a),
+        rate: args.building_rate,
+    };
     let lod = crate::lod::LodTree::build(
         &ingested.buildings,
         generalized.as_ref().map(|g| &g.hierarchy),
         kappa,
+        &models,
     );
     timings.mesh = t.elapsed().as_millis() as u64;
     let mesh_skipped: Vec<FeatureIssue> = lod
@@ -318,7 +404,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         max_features: args.tile_max_features,
         max_triangles: args.tile_max_triangles,
     };
-    let (root, lod_summary) = lod.tiles(&ingested.buildings, budget);
+    let (root, lod_summary) = lod.tiles(&ingested.buildings, budget, args.level_ratio);
     let write_opts = WriteOptions {
         compression: match args.compression {
             CompressionArg::Meshopt => Compression::Meshopt,
@@ -363,6 +449,9 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
             "crs": args.crs, "height_attr": args.height_attr, "storey_attr": args.storey_attr,
             "storey_height_m": args.storey_height, "default_height_m": args.default_height,
             "tile_max_features": args.tile_max_features, "tile_max_triangles": args.tile_max_triangles,
+            "lod": args.lod, "building_simplifier": args.building_simplifier, "building_rate": args.building_rate,
+            "topo_qem_a": args.topo_qem_a,
+            "level_ratio": args.level_ratio,
             "lambda_adjacent": args.lambda_adjacent, "depth_divisor": args.depth_divisor,
             "lambda_area": args.lambda_area, "collinear_angle_deg": args.collinear_angle,
             "landmark_min_excess_m": args.landmark_min_excess, "landmark_max_share": args.landmark_max_share,
@@ -381,6 +470,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         mesh_skipped,
         generalize: generalize_report,
         lod: lod_summary,
+        models: lod.model_summary.as_ref(),
         tiles: &stats,
         timings_ms: timings,
     };

@@ -5,10 +5,11 @@
 
 use anyhow::{bail, Context, Result};
 use citylod_check::{
-    check_tree, check_view, contact_sheet, standard_views, Camera, CheckSettings, Finding,
-    LoadedTileset, Renderer, Tolerances, Viewport, SKYLINE_TOLERANCE_PX, STANDARD_FOVY_DEG,
+    check_tree, check_view, compute_sse, contact_sheet, standard_views, Camera, CheckSettings,
+    Finding, LoadedTileset, Renderer, Selection, Tolerances, Viewport, NEAR_M,
+    SKYLINE_TOLERANCE_PX, STANDARD_FOVY_DEG,
 };
-use citylod_model::{ecef_to_geodetic, LocalFrame};
+use citylod_model::ecef_to_geodetic;
 use clap::Args;
 use serde_json::{json, Value};
 use std::collections::BTreeMap;
@@ -46,8 +47,8 @@ pub struct CheckArgs {
     pub views: usize,
 
     /// A camera instead of the built-in views: longitude and latitude (degrees), ellipsoidal height (m),
-    /// heading (degrees clockwise from north) and pitch (degrees, negative looks down), as in CesiumJS.
-    /// Repeat for several views. Vertical field of view 45°.
+    /// heading (degrees clockwise from north) and pitch (degrees, negative looks down) in the east-north-up
+    /// frame at the eye, as CesiumJS's `Camera.setView`. Repeat for several views.
     #[arg(
         long,
         value_name = "LON,LAT,H,HEADING,PITCH",
@@ -55,6 +56,11 @@ pub struct CheckArgs {
         allow_hyphen_values = true
     )]
     pub camera: Vec<String>,
+
+    /// Vertical field of view of every camera in degrees. CesiumJS's `frustum.fov` is the field of view
+    /// across the wider side: on a landscape viewport it is 2·atan(width/height · tan(fovy/2)).
+    #[arg(long, value_name = "DEG", default_value_t = STANDARD_FOVY_DEG, help_heading = "Views")]
+    pub fovy: f64,
 
     /// Width of every render in pixels.
     #[arg(long, value_name = "PX", default_value_t = 800, help_heading = "Views")]
@@ -73,8 +79,8 @@ pub struct CheckArgs {
     pub quiet: bool,
 }
 
-/// Parses `lon,lat,height,heading,pitch`.
-fn parse_camera(s: &str, frame: &LocalFrame) -> Result<Camera> {
+/// Parses `lon,lat,height,heading,pitch` into a camera in the root frame (`root_to_ecef`: the root transform).
+fn parse_camera(s: &str, fovy_deg: f64, root_to_ecef: &[f64; 16]) -> Result<Camera> {
     let v: Vec<f64> = s
         .split(',')
         .map(|x| x.trim().parse::<f64>())
@@ -88,7 +94,7 @@ fn parse_camera(s: &str, frame: &LocalFrame) -> Result<Camera> {
             v.len()
         );
     };
-    Camera::from_geodetic(lon, lat, h, heading, pitch, STANDARD_FOVY_DEG, frame)
+    Camera::from_geodetic(lon, lat, h, heading, pitch, fovy_deg, root_to_ecef)
         .with_context(|| format!("--camera {s:?}"))
 }
 
@@ -120,17 +126,77 @@ fn tolerances(args: &CheckArgs, extras: Option<&Value>) -> (Tolerances, &'static
     )
 }
 
-fn camera_json(c: &Camera, frame: &LocalFrame, source: &str) -> Value {
-    let [lon, lat, h] = frame.enu_to_geodetic(c.eye_m);
-    let f = c.forward;
+/// The camera in the root frame, on the globe (heading and pitch in the east-north-up frame at the eye, as
+/// `--camera` takes them) and in ECEF, as a globe client is given it.
+fn camera_json(c: &Camera, root_to_ecef: &[f64; 16], source: &str) -> Value {
+    let (eye, forward, up) = c.in_ecef(root_to_ecef);
+    let [lon, lat, h] = ecef_to_geodetic(eye);
+    let (heading_deg, pitch_deg) = c.heading_pitch_on_globe(root_to_ecef);
     json!({
         "source": source,
         "eye_enu_m": c.eye_m,
         "lon_deg": lon, "lat_deg": lat, "height_m": h,
-        "heading_deg": f[0].atan2(f[1]).to_degrees().rem_euclid(360.0),
-        "pitch_deg": f[2].clamp(-1.0, 1.0).asin().to_degrees(),
+        "heading_deg": heading_deg,
+        "pitch_deg": pitch_deg,
         "fovy_deg": c.fovy_deg,
+        "eye_ecef_m": eye,
+        "direction_ecef": forward,
+        "up_ecef": up,
     })
+}
+
+/// What the traversal did with each tile it reached, in tree order: `selected` (drawn, or
+/// `selected_empty` without triangles), `refined`, or `culled`; with the distance from the eye to the tile's
+/// box (m) and its screen-space error (px; null when infinite: the eye inside the box). The content URIs of
+/// the selected tiles, sorted, are the set a client such as CesiumJS selects (external-tileset links and
+/// tiles without content excluded).
+fn traversal_json<'a>(
+    ts: &'a LoadedTileset,
+    sel: &Selection,
+    camera: &Camera,
+    viewport: Viewport,
+) -> (Vec<&'a str>, Vec<Value>) {
+    let mut state: BTreeMap<usize, &str> = BTreeMap::new();
+    for (list, name) in [
+        (&sel.selected, "selected"),
+        (&sel.selected_empty, "selected_empty"),
+        (&sel.refined, "refined"),
+        (&sel.culled, "culled"),
+    ] {
+        for &i in list {
+            state.insert(i, name);
+        }
+    }
+    let mut uris: Vec<&str> = sel
+        .selected
+        .iter()
+        .chain(&sel.selected_empty)
+        .filter_map(|&i| ts.tiles[i].content_uri.as_deref())
+        .filter(|u| !u.ends_with(".json"))
+        .collect();
+    uris.sort_unstable();
+    let visited = state
+        .iter()
+        .map(|(&i, &st)| {
+            let node = &ts.tree.tiles[i];
+            let distance_m = node.bounds.distance_to(camera.eye_m);
+            let sse_px = compute_sse(
+                node.geometric_error_m,
+                distance_m,
+                viewport.height_px,
+                camera.fovy_deg,
+            );
+            json!({
+                "path": ts.tiles[i].path_in_tree,
+                "uri": ts.tiles[i].content_uri,
+                "state": st,
+                "geometric_error_m": node.geometric_error_m,
+                "distance_m": distance_m,
+                "sse_px": sse_px.is_finite().then_some(sse_px),
+            })
+        })
+        .collect();
+    (uris, visited)
 }
 
 fn findings_json(f: &[Finding]) -> Value {
@@ -155,6 +221,9 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
     if args.width == 0 || args.height == 0 {
         bail!("--width and --height must be at least 1 pixel");
     }
+    if !(args.fovy > 0.0 && args.fovy < 180.0) {
+        bail!("--fovy must be in (0, 180) degrees, got {}", args.fovy);
+    }
     if args.camera.is_empty() && args.views == 0 {
         bail!("--views must be at least 1 (or give --camera)");
     }
@@ -177,14 +246,22 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
         data.root_transform[13],
         data.root_transform[14],
     ];
-    let geo = ecef_to_geodetic(origin);
-    let frame = LocalFrame::new(geo[0], geo[1], geo[2]);
+    let root_to_ecef = data.root_transform;
     let georeferenced = origin.iter().map(|v| v * v).sum::<f64>().sqrt() > 1e6;
     let cameras: Vec<(Camera, &str)> = if args.camera.is_empty() {
         let (lo, hi) = ts.root_extent().context("the root tile has no bounds")?;
+        // The built-in views are placed for STANDARD_FOVY_DEG; --fovy only widens or narrows them.
         standard_views(lo, hi, args.views)
             .into_iter()
-            .map(|c| (c, "standard"))
+            .map(|c| {
+                (
+                    Camera {
+                        fovy_deg: args.fovy,
+                        ..c
+                    },
+                    "standard",
+                )
+            })
             .collect()
     } else {
         if !georeferenced {
@@ -194,7 +271,7 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
         }
         args.camera
             .iter()
-            .map(|s| Ok((parse_camera(s, &frame)?, "camera")))
+            .map(|s| Ok((parse_camera(s, args.fovy, &root_to_ecef)?, "camera")))
             .collect::<Result<_>>()?
     };
     if cameras.is_empty() {
@@ -249,9 +326,10 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
         let m = &v.metrics;
         let ratio = (v.cut_triangles > 0).then(|| v.full_triangles as f64 / v.cut_triangles as f64);
         let sel = &v.selection;
+        let (selected_uris, traversal) = traversal_json(&ts, sel, camera, settings.viewport);
         views_json.push(json!({
             "index": k,
-            "camera": camera_json(camera, &frame, source),
+            "camera": camera_json(camera, &root_to_ecef, source),
             "tiles": {
                 "selected": sel.selected.len(),
                 "selected_empty": sel.selected_empty.len(),
@@ -259,6 +337,9 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
                 "culled": sel.culled.len(),
                 "full_detail_in_view": v.full_tiles,
                 "selected_paths": sel.selected.iter().map(|&i| ts.tiles[i].path_in_tree.as_str()).collect::<Vec<_>>(),
+                "selected_uris": selected_uris,
+                "root_below_threshold": sel.root_below_threshold,
+                "traversal": traversal,
             },
             "triangles": {
                 "cut": v.cut_triangles,
@@ -321,7 +402,8 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
             "tolerance_source": tol_source,
             "width_px": args.width,
             "height_px": args.height,
-            "fovy_deg": cameras[0].0.fovy_deg,
+            "fovy_deg": args.fovy,
+            "near_m": NEAR_M,
             "skyline_tolerance_px": settings.skyline_tolerance_px,
         },
         "tileset_stats": {

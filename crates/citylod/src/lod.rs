@@ -1,12 +1,15 @@
 //! The level-of-detail tree of a build: every level of the hierarchy meshed (buildings as prisms, blocks as prisms
 //! of their merged footprints), packed into tiles within the budget, with each tile's geometric error from the
-//! measured Δh and Δa (DESIGN.md §4); a block's landmarks (seed 001) are `cluster` features flagged `landmark` beside it, in the same
-//! content. Without a hierarchy (`--leaves-only`) the buildings alone, in leaf tiles.
+//! measured Δh and Δa (DESIGN.md §4); a block's landmarks (seed 001) are `cluster` features flagged `landmark`
+//! beside it, in the same content. Buildings with 3D models get a chain below their prism (DESIGN.md §7): the
+//! simplified model, then the full model, each tile's error the sampled Hausdorff distance (m) to the full model.
+//! Without a hierarchy (`--leaves-only`) the buildings alone (their full models when they have them), in leaf tiles.
 
 use crate::build::LevelSummary;
 use crate::features::{cluster_feature, landmark_feature, BuildingTable, ClusterRow};
+use citylod_mesh::simplify::Simplifier;
 use citylod_model::{Building, BuildingId, Hierarchy, Mesh3d, Node, NodeId};
-use citylod_tiles::hlod::{assemble, pack, tile_errors, TileBudget};
+use citylod_tiles::hlod::{assemble, pack, tile_errors, NodeCost, TileBudget, TileContent};
 use citylod_tiles::{tile_spatially, ContentFeature, TileSpec};
 use rayon::prelude::*;
 
@@ -14,6 +17,42 @@ use rayon::prelude::*;
 struct NodeMesh {
     mesh: Mesh3d,
     fallback: bool,
+}
+
+/// How buildings' 3D models are simplified for the level between the full model and the prism.
+pub struct ModelOptions {
+    pub simplifier: Simplifier,
+    /// Share of the triangles to remove, in (0, 1).
+    pub rate: f64,
+}
+
+/// A building's chain below its prism: the simplified and the full model, with their errors (m) against the full.
+struct ModelChain {
+    full: Mesh3d,
+    simplified: Mesh3d,
+    simplified_error_m: f64,
+    prism_error_m: f64,
+    rate_reached: f64,
+    note: Option<String>,
+}
+
+/// What the 3D chain did, for the build report.
+#[derive(serde::Serialize, Default)]
+pub struct ModelSummary {
+    pub buildings: usize,
+    pub triangles_full: usize,
+    pub triangles_simplified: usize,
+    pub rate_target: f64,
+    pub rate_reached_median: f64,
+    /// Buildings whose simplification stopped more than 1 % short of the target, with the simplifier's reason.
+    pub short_of_target: usize,
+    pub short_of_target_examples: Vec<(String, String)>,
+    pub simplified_error_median_m: f64,
+    pub simplified_error_max_m: f64,
+    pub prism_error_median_m: f64,
+    pub prism_error_max_m: f64,
+    /// The buildings whose prisms are furthest from their models (source id, m), largest first, at most 5.
+    pub prism_error_largest: Vec<(String, f64)>,
 }
 
 pub struct LodTree<'h> {
@@ -26,6 +65,9 @@ pub struct LodTree<'h> {
     nodes: Vec<Vec<NodeMesh>>,
     /// κ = δH / √δA (m per √m²).
     kappa: f64,
+    /// By building id: the 3D chain, for buildings with a model and a prism.
+    models: Vec<Option<ModelChain>>,
+    pub model_summary: Option<ModelSummary>,
 }
 
 fn concat(meshes: impl Iterator<Item = Mesh3d>) -> Mesh3d {
@@ -40,7 +82,12 @@ fn concat(meshes: impl Iterator<Item = Mesh3d>) -> Mesh3d {
 }
 
 impl<'h> LodTree<'h> {
-    pub fn build(buildings: &[Building], hierarchy: Option<&'h Hierarchy>, kappa: f64) -> Self {
+    pub fn build(
+        buildings: &[Building],
+        hierarchy: Option<&'h Hierarchy>,
+        kappa: f64,
+        model_opts: &ModelOptions,
+    ) -> Self {
         let meshed: Vec<Result<Mesh3d, String>> = buildings
             .par_iter()
             .map(|b| {
@@ -90,6 +137,31 @@ impl<'h> LodTree<'h> {
                         .collect()
                 })
                 .unwrap_or_default();
+        let models: Vec<Option<ModelChain>> = buildings
+            .par_iter()
+            .zip(building_meshes.par_iter())
+            .map(|(b, prism)| {
+                let (model, prism) = (b.mesh.as_ref()?, prism.as_ref()?);
+                if model.mesh.triangles.is_empty() {
+                    return None;
+                }
+                let full = model.mesh.clone();
+                let s = citylod_mesh::simplify::simplify(
+                    &full,
+                    &model_opts.simplifier,
+                    model_opts.rate,
+                );
+                Some(ModelChain {
+                    simplified_error_m: citylod_mesh::hausdorff::measured_error_m(&full, &s.mesh),
+                    prism_error_m: citylod_mesh::hausdorff::measured_error_m(&full, prism),
+                    simplified: s.mesh,
+                    rate_reached: s.rate_reached,
+                    note: s.note,
+                    full,
+                })
+            })
+            .collect();
+        let model_summary = summarize_models(buildings, &models, model_opts.rate);
         Self {
             building_table: BuildingTable::new(buildings),
             buildings: building_meshes,
@@ -97,7 +169,61 @@ impl<'h> LodTree<'h> {
             hierarchy,
             nodes,
             kappa,
+            models,
+            model_summary,
         }
+    }
+
+    /// The building's feature with `mesh` as its geometry.
+    fn building_feature_with(
+        &self,
+        buildings: &[Building],
+        b: BuildingId,
+        mesh: Mesh3d,
+    ) -> ContentFeature {
+        self.building_table.feature(&buildings[b.0 as usize], mesh)
+    }
+
+    /// The chain below a tile of buildings `ids`: a tile of their simplified models (prisms for buildings
+    /// without a model) whose error is the largest simplified model's, holding a tile of the full models (error 0).
+    /// Empty when none of them has a model.
+    fn model_chain(&self, buildings: &[Building], ids: &[BuildingId]) -> Vec<TileSpec> {
+        if !ids.iter().any(|b| self.models[b.0 as usize].is_some()) {
+            return Vec::new();
+        }
+        let version = |full: bool| -> Vec<ContentFeature> {
+            ids.iter()
+                .filter_map(|&b| {
+                    let mesh = match &self.models[b.0 as usize] {
+                        Some(m) if full => m.full.clone(),
+                        Some(m) => m.simplified.clone(),
+                        None => self.buildings[b.0 as usize].clone()?,
+                    };
+                    Some(self.building_feature_with(buildings, b, mesh))
+                })
+                .collect()
+        };
+        let simplified_error_m = ids
+            .iter()
+            .filter_map(|b| self.models[b.0 as usize].as_ref())
+            .map(|m| m.simplified_error_m)
+            .fold(0.0, f64::max);
+        vec![TileSpec {
+            features: version(false),
+            children: vec![TileSpec {
+                features: version(true),
+                children: vec![],
+                geometric_error_m: 0.0,
+            }],
+            geometric_error_m: simplified_error_m,
+        }]
+    }
+
+    /// A building prism's error (m): its distance from the 3D model when there is one, else 0 (exact).
+    fn prism_error(&self, b: BuildingId) -> f64 {
+        self.models[b.0 as usize]
+            .as_ref()
+            .map_or(0.0, |m| m.prism_error_m)
     }
 
     /// The landmarks drawn on top of a block (none when the block fell back to its buildings' prisms,
@@ -126,10 +252,16 @@ impl<'h> LodTree<'h> {
         &self,
         buildings: &[Building],
         budget: TileBudget,
+        level_ratio: f64,
     ) -> (TileSpec, Vec<LevelSummary>) {
         let Some(h) = self.hierarchy else {
             let features: Vec<ContentFeature> = (0..buildings.len() as u32)
-                .filter_map(|i| self.building_feature(buildings, BuildingId(i)))
+                .filter_map(|i| match &self.models[i as usize] {
+                    Some(m) => {
+                        Some(self.building_feature_with(buildings, BuildingId(i), m.full.clone()))
+                    }
+                    None => self.building_feature(buildings, BuildingId(i)),
+                })
                 .collect();
             let triangles = features.iter().map(|f| f.mesh.triangles.len()).sum();
             let nodes = features.len();
@@ -165,12 +297,35 @@ impl<'h> LodTree<'h> {
         };
         let error = |level: usize, n: NodeId| -> f64 {
             if level == 0 {
-                0.0
+                self.prism_error(h.levels[0].nodes[n.0 as usize].members[0])
             } else {
                 self.node_error(&h.levels[level].nodes[n.0 as usize])
             }
         };
-        let packing = pack(h, &triangles, budget);
+        let level_tris: Vec<usize> = (0..h.levels.len())
+            .map(|l| {
+                (0..h.levels[l].nodes.len() as u32)
+                    .map(|i| triangles(l, NodeId(i)))
+                    .sum()
+            })
+            .collect();
+        // The levels written: the buildings, then each level light enough against the last one kept (the
+        // top is always written by `pack`, so the root has content).
+        let mut kept = vec![0];
+        for l in 1..h.levels.len() {
+            if level_tris[l] as f64 <= level_ratio * level_tris[*kept.last().unwrap()] as f64 {
+                kept.push(l);
+            }
+        }
+        let packing = pack(
+            h,
+            &kept,
+            &NodeCost {
+                triangles: &triangles,
+                error_m: &error,
+            },
+            budget,
+        );
         debug_assert!(citylod_tiles::hlod::check_packing(h, &packing).is_empty());
         let errors = tile_errors(&packing, &error);
         let features = |level: usize, n: NodeId| -> Vec<ContentFeature> {
@@ -199,7 +354,21 @@ impl<'h> LodTree<'h> {
             }));
             out
         };
-        let root = assemble(&packing, &errors, &features);
+        let below = |nodes: &[NodeId]| -> Vec<TileSpec> {
+            let ids: Vec<BuildingId> = nodes
+                .iter()
+                .map(|n| h.levels[0].nodes[n.0 as usize].members[0])
+                .collect();
+            self.model_chain(buildings, &ids)
+        };
+        let root = assemble(
+            &packing,
+            &errors,
+            &TileContent {
+                nodes: &features,
+                below_buildings: &below,
+            },
+        );
         let summary = (0..h.levels.len())
             .map(|level| {
                 let tiles: Vec<usize> = (0..packing.tiles.len())
@@ -228,4 +397,70 @@ impl<'h> LodTree<'h> {
             .collect();
         (root, summary)
     }
+}
+
+fn summarize_models(
+    buildings: &[Building],
+    models: &[Option<ModelChain>],
+    rate: f64,
+) -> Option<ModelSummary> {
+    let chains: Vec<(usize, &ModelChain)> = models
+        .iter()
+        .enumerate()
+        .filter_map(|(i, m)| Some((i, m.as_ref()?)))
+        .collect();
+    if chains.is_empty() {
+        return None;
+    }
+    let median = |mut v: Vec<f64>| -> f64 {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let short: Vec<(usize, &ModelChain)> = chains
+        .iter()
+        .copied()
+        .filter(|(_, m)| m.rate_reached < rate - 0.01)
+        .collect();
+    Some(ModelSummary {
+        buildings: chains.len(),
+        triangles_full: chains.iter().map(|(_, m)| m.full.triangles.len()).sum(),
+        triangles_simplified: chains
+            .iter()
+            .map(|(_, m)| m.simplified.triangles.len())
+            .sum(),
+        rate_target: rate,
+        rate_reached_median: median(chains.iter().map(|(_, m)| m.rate_reached).collect()),
+        short_of_target: short.len(),
+        short_of_target_examples: short
+            .iter()
+            .take(10)
+            .map(|(i, m)| {
+                (
+                    buildings[*i].source_id.clone(),
+                    m.note.clone().unwrap_or_else(|| "no reason given".into()),
+                )
+            })
+            .collect(),
+        simplified_error_median_m: median(
+            chains.iter().map(|(_, m)| m.simplified_error_m).collect(),
+        ),
+        simplified_error_max_m: chains
+            .iter()
+            .map(|(_, m)| m.simplified_error_m)
+            .fold(0.0, f64::max),
+        prism_error_median_m: median(chains.iter().map(|(_, m)| m.prism_error_m).collect()),
+        prism_error_max_m: chains
+            .iter()
+            .map(|(_, m)| m.prism_error_m)
+            .fold(0.0, f64::max),
+        prism_error_largest: {
+            let mut v: Vec<(String, f64)> = chains
+                .iter()
+                .map(|(i, m)| (buildings[*i].source_id.clone(), m.prism_error_m))
+                .collect();
+            v.sort_by(|a, b| b.1.total_cmp(&a.1).then_with(|| a.0.cmp(&b.0)));
+            v.truncate(5);
+            v
+        },
+    })
 }

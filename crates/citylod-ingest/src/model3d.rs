@@ -1,0 +1,824 @@
+//! A building's 3D model from CityJSON (1.1 §3 geometry objects, 0.8–2.0): the Solid, MultiSolid,
+//! CompositeSolid, MultiSurface and CompositeSurface geometries of the building and its BuildingParts
+//! at one LoD, merged into one mesh in local ENU metres with a surface kind per triangle.
+//! Vertices at identical source positions become one vertex, so touching parts share corners.
+//! Triangles wind like their source rings (CCW from outside); bad geometry is reported, never a panic.
+
+use crate::crs::Crs;
+use crate::lod::{lod_of_geometry, LodKey, Target};
+use crate::place::EnuMap;
+use crate::report::IssueReason;
+use citylod_mesh::simplify::triangulate_polygon_3d;
+use citylod_model::{BuildingModel, Mesh3d, SurfaceKind};
+use serde_json::Value;
+use std::collections::HashMap;
+
+type Issue = (IssueReason, String);
+
+/// One surface: rings (exterior first, then holes) of vertex ids into [`RawModel::positions_src`].
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct RawSurface {
+    pub rings: Vec<Vec<u32>>,
+    pub kind: SurfaceKind,
+}
+
+/// A building's surfaces at the chosen LoD, before CRS conversion.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct RawModel {
+    /// Distinct vertices in source CRS (x, y, and z in metres of the data's vertical datum).
+    pub positions_src: Vec<[f64; 3]>,
+    pub surfaces: Vec<RawSurface>,
+    /// The LoD used, as written in the file; the lowest one when parts differ.
+    pub lod: String,
+    /// Some object used an LoD below the target (the asked one, or the building's highest).
+    pub fell_back: bool,
+    /// Non-fatal problems: a part with no geometry at or below the target.
+    pub notes: Vec<Issue>,
+}
+
+/// The mesh of one written building and what went wrong on the way.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Meshed {
+    pub model: Option<BuildingModel>,
+    pub fell_back: bool,
+    pub issues: Vec<Issue>,
+}
+
+/// CityJSON semantic surface type → [`SurfaceKind`] (see its doc for the table).
+pub(crate) fn surface_kind(semantic: Option<&str>) -> SurfaceKind {
+    match semantic {
+        Some("RoofSurface" | "OuterFloorSurface") => SurfaceKind::Roof,
+        Some("WallSurface" | "Window" | "Door") => SurfaceKind::Wall,
+        Some("GroundSurface") => SurfaceKind::Ground,
+        _ => SurfaceKind::Other,
+    }
+}
+
+/// The surfaces of `members` (the building first, then its BuildingParts, as `(id, object)`) at the
+/// LoD `target` picks, with vertices decoded into `vertices`. `Err` when no member has a 3D geometry
+/// at or below the target, or when a chosen geometry is malformed (bad index, non-finite vertex).
+pub(crate) fn collect(
+    members: &[(&str, &Value)],
+    vertices: &[[f64; 3]],
+    target: Target,
+) -> Result<RawModel, Issue> {
+    // Per member: its surface-bearing geometries of LoD ≥ 1, with their LoD.
+    let per_member: Vec<Vec<(LodKey, String, &Value)>> = members
+        .iter()
+        .map(|(_, o)| {
+            o.get("geometry")
+                .and_then(Value::as_array)
+                .into_iter()
+                .flatten()
+                .filter(|g| {
+                    matches!(
+                        g.get("type").and_then(Value::as_str),
+                        Some(
+                            "Solid"
+                                | "MultiSolid"
+                                | "CompositeSolid"
+                                | "MultiSurface"
+                                | "CompositeSurface"
+                        )
+                    )
+                })
+                .filter_map(|g| lod_of_geometry(g).map(|(k, t)| (k, t, g)))
+                .filter(|(k, _, _)| *k >= LodKey::ONE)
+                .collect()
+        })
+        .collect();
+    let all: Vec<LodKey> = per_member.iter().flatten().map(|g| g.0).collect();
+    if all.is_empty() {
+        return Err((
+            IssueReason::ModelMissing,
+            "no Solid or surface geometry of LoD 1 or more in the building or its parts".into(),
+        ));
+    }
+    let target = target.for_building(&all);
+    let mut model = RawModel {
+        positions_src: Vec::new(),
+        surfaces: Vec::new(),
+        lod: String::new(),
+        fell_back: false,
+        notes: Vec::new(),
+    };
+    let mut lowest_used: Option<LodKey> = None;
+    let mut ids: HashMap<[u64; 3], u32> = HashMap::new();
+    for ((name, _), geoms) in members.iter().zip(&per_member) {
+        if geoms.is_empty() {
+            continue;
+        }
+        let present: Vec<LodKey> = geoms.iter().map(|g| g.0).collect();
+        let Some((used, fell_back)) = target.pick(&present) else {
+            let texts: Vec<&str> = geoms.iter().map(|g| g.1.as_str()).collect();
+            model.notes.push((
+                IssueReason::ModelMissing,
+                format!("{name}: no geometry at or below the asked LoD (has {texts:?})"),
+            ));
+            continue;
+        };
+        model.fell_back |= fell_back;
+        for (_, text, g) in geoms.iter().filter(|g| g.0 == used) {
+            if lowest_used.is_none_or(|l| used < l) {
+                lowest_used = Some(used);
+                model.lod = text.clone();
+            }
+            let invalid = |e: String| {
+                let t = g.get("type").and_then(Value::as_str).unwrap_or("?");
+                (
+                    IssueReason::ModelInvalid,
+                    format!("{name}: LoD {text} {t}: {e}"),
+                )
+            };
+            for s in crate::cityjson::surfaces(g).map_err(invalid)? {
+                let rings = s
+                    .rings
+                    .iter()
+                    .map(|r| ring_ids(r, vertices, &mut ids, &mut model.positions_src))
+                    .collect::<Result<_, _>>()
+                    .map_err(invalid)?;
+                model.surfaces.push(RawSurface {
+                    rings,
+                    kind: surface_kind(s.semantic),
+                });
+            }
+        }
+    }
+    if model.surfaces.is_empty() {
+        let mut texts: Vec<&str> = per_member.iter().flatten().map(|g| g.1.as_str()).collect();
+        texts.sort_unstable();
+        texts.dedup();
+        return Err((
+            IssueReason::ModelMissing,
+            format!("no surfaces at or below the asked LoD (the building has LoD {texts:?})"),
+        ));
+    }
+    Ok(model)
+}
+
+/// One ring's vertex ids: vertices at identical positions get one id, numbered in order of use.
+fn ring_ids(
+    ring: &Value,
+    vertices: &[[f64; 3]],
+    ids: &mut HashMap<[u64; 3], u32>,
+    positions: &mut Vec<[f64; 3]>,
+) -> Result<Vec<u32>, String> {
+    let ring = ring
+        .as_array()
+        .ok_or("a ring is not an array of vertex indices")?;
+    ring.iter()
+        .map(|v| {
+            let p = v
+                .as_u64()
+                .and_then(|i| vertices.get(usize::try_from(i).ok()?))
+                .ok_or_else(|| {
+                    format!(
+                        "vertex index {v} is not one of the {} vertices",
+                        vertices.len()
+                    )
+                })?;
+            if !p.iter().all(|c| c.is_finite()) {
+                return Err(format!("vertex {v} is not finite: {p:?}"));
+            }
+            // +0.0 turns −0.0 into 0.0 so equal positions have equal bits.
+            let key = p.map(|c| (c + 0.0).to_bits());
+            let next = positions.len() as u32;
+            Ok(*ids.entry(key).or_insert_with(|| {
+                positions.push(*p);
+                next
+            }))
+        })
+        .collect()
+}
+
+/// Source-CRS vertices → (lon°, lat°, h m); the height is taken as it is, like footprint heights.
+pub(crate) fn geolocate(model: &RawModel, crs: &Crs) -> Result<Vec<[f64; 3]>, Issue> {
+    model
+        .positions_src
+        .iter()
+        .map(|p| {
+            crs.to_lon_lat(p[0], p[1])
+                .map(|(lon, lat)| [lon, lat, p[2]])
+                .map_err(|e| {
+                    (
+                        IssueReason::ModelInvalid,
+                        format!(
+                            "vertex ({}, {}, {}) in {}: {e:?}",
+                            p[0], p[1], p[2], crs.label
+                        ),
+                    )
+                })
+        })
+        .collect()
+}
+
+/// Triangulates every surface (with holes) in ENU metres and merges them into one mesh.
+/// Surfaces with fewer than 3 distinct points or that give no triangle are left out (and holes with
+/// fewer than 3 distinct points dropped), reported as one `ModelSurfaceDropped` note;
+/// `Err(ModelInvalid)` when nothing is left.
+pub(crate) fn triangulate(
+    model: &RawModel,
+    lon_lat_h: &[[f64; 3]],
+    enu: &EnuMap,
+) -> Result<(BuildingModel, Vec<Issue>), Issue> {
+    debug_assert_eq!(lon_lat_h.len(), model.positions_src.len());
+    let pos_enu: Vec<[f64; 3]> = lon_lat_h
+        .iter()
+        .map(|p| enu.geodetic_to_enu(p[0], p[1], p[2]))
+        .collect();
+    let mut triangles = Vec::new();
+    let mut surfaces = Vec::new();
+    let (mut too_few, mut no_triangles, mut holes_dropped) = (0usize, 0usize, 0usize);
+    for s in &model.surfaces {
+        let mut rings: Vec<Vec<u32>> = Vec::with_capacity(s.rings.len());
+        for (k, r) in s.rings.iter().enumerate() {
+            let r = clean_ring(r);
+            if distinct(&r) >= 3 {
+                rings.push(r);
+            } else if k == 0 {
+                break;
+            } else {
+                holes_dropped += 1;
+            }
+        }
+        if rings.is_empty() {
+            too_few += 1;
+            continue;
+        }
+        let pts: Vec<Vec<[f64; 3]>> = rings
+            .iter()
+            .map(|r| r.iter().map(|&i| pos_enu[i as usize]).collect())
+            .collect();
+        let flat: Vec<u32> = rings.concat();
+        let before = triangles.len();
+        for t in triangulate_polygon_3d(&pts) {
+            let t = t.map(|i| flat[i as usize]);
+            if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
+                triangles.push(t);
+                surfaces.push(s.kind);
+            }
+        }
+        no_triangles += usize::from(triangles.len() == before);
+    }
+    if triangles.is_empty() {
+        return Err((
+            IssueReason::ModelInvalid,
+            format!(
+                "none of the {} surfaces gave a triangle ({too_few} with fewer than 3 distinct points)",
+                model.surfaces.len()
+            ),
+        ));
+    }
+    let mut notes = Vec::new();
+    if too_few + no_triangles + holes_dropped > 0 {
+        notes.push((
+            IssueReason::ModelSurfaceDropped,
+            format!(
+                "{} of {} surfaces left out ({too_few} with fewer than 3 distinct points, {no_triangles} \
+                 without area or self-intersecting); {holes_dropped} degenerate hole(s) dropped",
+                too_few + no_triangles,
+                model.surfaces.len()
+            ),
+        ));
+    }
+    // Keep only the vertices triangles use, numbered in order of first use.
+    let mut new_id = vec![u32::MAX; pos_enu.len()];
+    let mut positions = Vec::new();
+    for t in &mut triangles {
+        for i in t.iter_mut() {
+            if new_id[*i as usize] == u32::MAX {
+                new_id[*i as usize] = positions.len() as u32;
+                positions.push(pos_enu[*i as usize]);
+            }
+            *i = new_id[*i as usize];
+        }
+    }
+    let built = BuildingModel {
+        mesh: Mesh3d {
+            positions,
+            triangles,
+        },
+        surfaces,
+        lod: model.lod.clone(),
+    };
+    debug_assert_eq!(built.check_invariants(), Ok(()));
+    Ok((built, notes))
+}
+
+/// The whole 3D path of one building once its frame is known: the reader's result, CRS conversion
+/// (done earlier, `lon_lat_h`) and triangulation.
+pub(crate) fn mesh(
+    raw: Option<&Result<RawModel, Issue>>,
+    lon_lat_h: Option<&Result<Vec<[f64; 3]>, Issue>>,
+    enu: &EnuMap,
+) -> Meshed {
+    let mut out = Meshed::default();
+    let model = match raw {
+        None => return out,
+        Some(Err(issue)) => {
+            out.issues.push(issue.clone());
+            return out;
+        }
+        Some(Ok(m)) => m,
+    };
+    out.issues.extend(model.notes.iter().cloned());
+    let built = match lon_lat_h {
+        Some(Ok(ll)) => triangulate(model, ll, enu),
+        Some(Err(issue)) => Err(issue.clone()),
+        None => {
+            debug_assert!(false, "a raw model without its geolocated vertices");
+            return out;
+        }
+    };
+    match built {
+        Ok((model3d, notes)) => {
+            out.model = Some(model3d);
+            out.fell_back = model.fell_back;
+            out.issues.extend(notes);
+        }
+        Err(issue) => out.issues.push(issue),
+    }
+    out
+}
+
+/// Drops consecutive repeated vertices and a closing repeat of the first.
+fn clean_ring(r: &[u32]) -> Vec<u32> {
+    let mut r = r.to_vec();
+    r.dedup();
+    while r.len() > 1 && r.first() == r.last() {
+        r.pop();
+    }
+    r
+}
+
+fn distinct(r: &[u32]) -> usize {
+    let mut s = r.to_vec();
+    s.sort_unstable();
+    s.dedup();
+    s.len()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{ingest, IngestOptions, Ingested, LodChoice};
+    use citylod_mesh::simplify::components::components;
+    use citylod_mesh::topology::mesh_report;
+    use serde_json::json;
+
+    /// Corners of a box [x0, x1] × [0, 3] × [0, 5] m, as integer vertices (scale 0.001).
+    fn box_vertices(x0: i64, x1: i64) -> Vec<[i64; 3]> {
+        let (a, b) = (x0 * 1000, x1 * 1000);
+        vec![
+            [a, 0, 0],
+            [b, 0, 0],
+            [b, 3000, 0],
+            [a, 3000, 0],
+            [a, 0, 5000],
+            [b, 0, 5000],
+            [b, 3000, 5000],
+            [a, 3000, 5000],
+        ]
+    }
+
+    /// A closed box Solid over vertices `o..o+8` (see [`box_vertices`]), faces CCW from outside,
+    /// with ground, roof and wall semantics.
+    fn box_solid(o: u64, lod: Value) -> Value {
+        let f = |v: [u64; 4]| json!([v.map(|i| i + o)]);
+        json!({"type": "Solid", "lod": lod, "boundaries": [[
+            f([0, 3, 2, 1]), f([4, 5, 6, 7]), f([0, 1, 5, 4]), f([1, 2, 6, 5]), f([2, 3, 7, 6]), f([3, 0, 4, 7])
+        ]], "semantics": {"surfaces": [{"type": "GroundSurface"}, {"type": "RoofSurface"},
+            {"type": "WallSurface"}], "values": [[0, 1, 2, 2, 2, 2]]}})
+    }
+
+    /// A CityJSON document near Delft (EPSG:7415) with these objects and integer vertices.
+    fn doc(version: &str, objects: Value, vertices: &[[i64; 3]]) -> Value {
+        let mut d = json!({"type": "CityJSON", "version": version,
+            "transform": {"scale": [0.001, 0.001, 0.001], "translate": [85000.0, 446000.0, -1.0]},
+            "CityObjects": objects, "vertices": vertices});
+        if version != "0.8" {
+            d["metadata"] =
+                json!({"referenceSystem": "https://www.opengis.net/def/crs/EPSG/0/7415"});
+        }
+        d
+    }
+
+    fn run(d: &Value, lod: Option<&str>) -> Ingested {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("city.json");
+        std::fs::write(&p, d.to_string()).unwrap();
+        let opts = IngestOptions {
+            crs: (d["version"] == "0.8").then(|| "EPSG:28992".into()),
+            lod: lod.map(|l| l.parse().unwrap()),
+            ..Default::default()
+        };
+        let out = ingest(&[p], &opts).unwrap();
+        out.report.check_invariants().unwrap();
+        out
+    }
+
+    fn signed_volume_m3(m: &Mesh3d) -> f64 {
+        m.triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| m.positions[i as usize]);
+                (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+                    + a[2] * (b[0] * c[1] - b[1] * c[0]))
+                    / 6.0
+            })
+            .sum()
+    }
+
+    fn count(m: &BuildingModel, k: SurfaceKind) -> usize {
+        m.surfaces.iter().filter(|&&s| s == k).count()
+    }
+
+    #[test]
+    fn cube_solid_becomes_a_closed_outward_mesh_on_the_footprint() {
+        let d = doc(
+            "2.0",
+            json!({"B": {"type": "Building", "geometry": [box_solid(0, json!("2.2"))]}}),
+            &box_vertices(0, 4),
+        );
+        let out = run(&d, Some("2.2"));
+        let b = &out.buildings[0];
+        let m = b.mesh.as_ref().expect("a mesh");
+        m.check_invariants().unwrap();
+        assert_eq!(m.lod, "2.2");
+        assert_eq!((m.mesh.positions.len(), m.mesh.triangles.len()), (8, 12));
+        let r = mesh_report(&m.mesh);
+        assert!(
+            r.watertight && r.orientation_consistent && r.degenerate == 0,
+            "{r:?}"
+        );
+        let v = signed_volume_m3(&m.mesh);
+        assert!(
+            (v - 60.0).abs() < 0.05,
+            "volume {v} m³ (4 × 3 × 5, positive = outward)"
+        );
+        assert_eq!(count(m, SurfaceKind::Ground), 2);
+        assert_eq!(count(m, SurfaceKind::Roof), 2);
+        assert_eq!(count(m, SurfaceKind::Wall), 8);
+        // Same frame as the footprint: xy on its corners, lowest z on its base.
+        let min_z = m
+            .mesh
+            .positions
+            .iter()
+            .map(|p| p[2])
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            (min_z - b.base_z_m).abs() < 1e-3,
+            "{min_z} vs base {}",
+            b.base_z_m
+        );
+        for c in &b.footprint.0[0].exterior().0 {
+            let near = m
+                .mesh
+                .positions
+                .iter()
+                .any(|p| (p[0] - c.x).hypot(p[1] - c.y) < 1e-6);
+            assert!(near, "footprint corner {c:?} is not a mesh corner");
+        }
+        let r = &out.report;
+        assert_eq!(
+            (
+                r.buildings_with_mesh,
+                r.mesh_triangles,
+                r.mesh_lod_fallbacks
+            ),
+            (1, 12, 0)
+        );
+        assert_eq!(r.mesh_lods.get("2.2"), Some(&1));
+        assert!(r.mesh_issues.is_empty(), "{:?}", r.mesh_issues);
+        assert_eq!(r.mesh_lod_asked.as_deref(), Some("2.2"));
+    }
+
+    #[test]
+    fn without_lod_option_there_is_no_mesh_and_the_footprint_is_unchanged() {
+        let d = doc(
+            "2.0",
+            json!({"B": {"type": "Building", "geometry": [box_solid(0, json!("2.2"))]}}),
+            &box_vertices(0, 4),
+        );
+        let (plain, with) = (run(&d, None), run(&d, Some("highest")));
+        assert!(plain.buildings[0].mesh.is_none());
+        assert_eq!(plain.report.buildings_with_mesh, 0);
+        assert_eq!(plain.report.mesh_lod_asked, None);
+        let (a, b) = (&plain.buildings[0], &with.buildings[0]);
+        assert_eq!(
+            (&a.footprint, a.base_z_m, a.height_m),
+            (&b.footprint, b.base_z_m, b.height_m)
+        );
+        assert!(b.mesh.is_some());
+    }
+
+    #[test]
+    fn multisurface_hole_is_left_open_and_its_area_kept() {
+        // A 10 m × 10 m roof at z = 3 with a 2 m × 2 m hole (ring CW), LoD 2 as a number.
+        let v: Vec<[i64; 3]> = [
+            [0, 0],
+            [10, 0],
+            [10, 10],
+            [0, 10],
+            [4, 4],
+            [4, 6],
+            [6, 6],
+            [6, 4],
+        ]
+        .iter()
+        .map(|p| [p[0] * 1000, p[1] * 1000, 3000])
+        .collect();
+        let g = json!({"type": "MultiSurface", "lod": 2,
+            "boundaries": [[[0, 1, 2, 3], [4, 5, 6, 7]]],
+            "semantics": {"surfaces": [{"type": "RoofSurface"}], "values": [0]}});
+        let out = run(
+            &doc(
+                "1.1",
+                json!({"B": {"type": "Building", "geometry": [g]}}),
+                &v,
+            ),
+            Some("2"),
+        );
+        let m = out.buildings[0].mesh.as_ref().unwrap();
+        let p = &m.mesh.positions;
+        let mut area = 0.0;
+        for t in &m.mesh.triangles {
+            let [a, b, c] = t.map(|i| p[i as usize]);
+            let z = (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]);
+            assert!(z > 0.0, "roof triangle faces down");
+            area += z / 2.0;
+            let centre = [(a[0] + b[0] + c[0]) / 3.0, (a[1] + b[1] + c[1]) / 3.0];
+            let (lo, hi) = (p[4], p[6]); // the hole's corners
+            let in_hole =
+                (lo[0]..hi[0]).contains(&centre[0]) && (lo[1]..hi[1]).contains(&centre[1]);
+            assert!(!in_hole, "a triangle covers the hole");
+        }
+        assert!((area - 96.0).abs() < 0.05, "{area}");
+        assert_eq!(m.lod, "2");
+        assert_eq!(count(m, SurfaceKind::Roof), m.surfaces.len());
+    }
+
+    #[test]
+    fn building_parts_merge_and_touching_parts_share_corners() {
+        // Two boxes side by side; the second lists the shared corners again under new indices.
+        let mut v = box_vertices(0, 4);
+        v.extend(box_vertices(4, 9));
+        let d = doc(
+            "2.0",
+            json!({
+                "B": {"type": "Building", "children": ["P1", "P2"],
+                      "geometry": [{"type": "MultiSurface", "lod": "0", "boundaries": [[[0, 1, 2, 3]]]}]},
+                "P1": {"type": "BuildingPart", "parents": ["B"], "geometry": [box_solid(0, json!("2.2"))]},
+                "P2": {"type": "BuildingPart", "parents": ["B"], "geometry": [box_solid(8, json!("2.2"))]}
+            }),
+            &v,
+        );
+        let out = run(&d, Some("highest"));
+        assert_eq!(out.buildings.len(), 1);
+        let m = out.buildings[0].mesh.as_ref().unwrap();
+        assert_eq!(m.mesh.triangles.len(), 24);
+        assert_eq!(
+            m.mesh.positions.len(),
+            12,
+            "the 4 shared corners are merged"
+        );
+        assert_eq!(
+            components(m.mesh.positions.len(), &m.mesh.triangles).count,
+            1
+        );
+        let v = signed_volume_m3(&m.mesh);
+        assert!((v - 135.0).abs() < 0.1, "{v}");
+    }
+
+    #[test]
+    fn composite_solid_keeps_per_solid_semantics() {
+        let mut v = box_vertices(0, 4);
+        v.extend(box_vertices(4, 9));
+        let (a, b) = (box_solid(0, json!("2.2")), box_solid(8, json!("2.2")));
+        let g = json!({"type": "CompositeSolid", "lod": "2.2",
+            "boundaries": [a["boundaries"], b["boundaries"]],
+            "semantics": {"surfaces": [{"type": "GroundSurface"}, {"type": "RoofSurface"},
+                {"type": "WallSurface"}, {"type": "ClosureSurface"}],
+                "values": [[[0, 1, 2, 2, 2, 2]], [[0, 1, 3, 3, 3, 3]]]}});
+        let out = run(
+            &doc(
+                "1.1",
+                json!({"B": {"type": "Building", "geometry": [g]}}),
+                &v,
+            ),
+            Some("highest"),
+        );
+        let m = out.buildings[0].mesh.as_ref().unwrap();
+        assert_eq!((m.mesh.positions.len(), m.mesh.triangles.len()), (12, 24));
+        assert_eq!(count(m, SurfaceKind::Wall), 8);
+        assert_eq!(count(m, SurfaceKind::Other), 8);
+        assert_eq!(count(m, SurfaceKind::Roof), 4);
+    }
+
+    #[test]
+    fn cityjson_08_numeric_lods_fall_back_below_and_never_above() {
+        let d = doc(
+            "0.8",
+            json!({"B": {"type": "Building", "geometry": [box_solid(0, json!(2))]}}),
+            &box_vertices(0, 4),
+        );
+        let r = run(&d, Some("2.2")).report;
+        assert_eq!((r.buildings_with_mesh, r.mesh_lod_fallbacks), (1, 1));
+        assert_eq!(r.mesh_lods.get("2"), Some(&1));
+        let r = run(&d, Some("highest")).report;
+        assert_eq!((r.buildings_with_mesh, r.mesh_lod_fallbacks), (1, 0));
+        let out = run(&d, Some("1.3"));
+        assert_eq!(out.buildings.len(), 1, "the building keeps its footprint");
+        assert!(out.buildings[0].mesh.is_none());
+        assert_eq!(out.report.mesh_issues[0].reason, IssueReason::ModelMissing);
+        assert_eq!(out.report.mesh_issues[0].feature_id, "B");
+    }
+
+    #[test]
+    fn with_highest_a_part_lacking_it_uses_its_own_highest_and_counts_as_fallback() {
+        let mut v = box_vertices(0, 4);
+        v.extend(box_vertices(4, 9));
+        let d = doc(
+            "2.0",
+            json!({
+                "B": {"type": "Building", "children": ["P1", "P2"]},
+                "P1": {"type": "BuildingPart", "parents": ["B"],
+                       "geometry": [box_solid(0, json!("1.2")), box_solid(0, json!("2.2"))]},
+                "P2": {"type": "BuildingPart", "parents": ["B"], "geometry": [box_solid(8, json!("1.2"))]}
+            }),
+            &v,
+        );
+        let out = run(&d, Some("highest"));
+        let m = out.buildings[0].mesh.as_ref().unwrap();
+        assert_eq!(m.mesh.triangles.len(), 24, "both parts are in the mesh");
+        assert_eq!(m.lod, "1.2", "the lowest LoD used names the mesh");
+        assert_eq!(out.report.mesh_lod_fallbacks, 1);
+    }
+
+    #[test]
+    fn bad_vertex_index_keeps_the_footprint_and_records_the_mesh_issue() {
+        let mut g = box_solid(0, json!("2.2"));
+        g["boundaries"][0][1][0][2] = json!(99);
+        let d = doc(
+            "2.0",
+            json!({
+                "A": {"type": "Building", "geometry": [box_solid(0, json!("1.2")), g]},
+                "B": {"type": "Building", "geometry": [box_solid(0, json!("2.2"))]}
+            }),
+            &box_vertices(0, 4),
+        );
+        let out = run(&d, Some("2.2"));
+        assert_eq!(out.buildings.len(), 2);
+        let a = out.buildings.iter().find(|b| b.source_id == "A").unwrap();
+        assert!(a.mesh.is_none() && a.height_m > 0.0);
+        let r = &out.report;
+        assert_eq!(r.buildings_with_mesh, 1);
+        assert_eq!(r.mesh_issues.len(), 1, "{:?}", r.mesh_issues);
+        let i = &r.mesh_issues[0];
+        assert_eq!(
+            (i.feature_id.as_str(), i.reason),
+            ("A", IssueReason::ModelInvalid)
+        );
+        assert!(
+            i.detail.contains("99") && i.detail.contains("2.2"),
+            "{}",
+            i.detail
+        );
+        assert_eq!(r.mesh_issues_by_reason.get("model_invalid"), Some(&1));
+    }
+
+    #[test]
+    fn degenerate_surfaces_are_left_out_and_reported() {
+        let mut g = box_solid(0, json!("2.2"));
+        let shell = g["boundaries"][0].as_array_mut().unwrap();
+        shell.push(json!([[0, 1, 1, 0]])); // two distinct points
+        shell.push(json!([[0, 1, 1]]));
+        shell.push(json!([[4, 5, 6, 7], [0, 0, 1]])); // a good roof with a degenerate hole
+        let d = doc(
+            "2.0",
+            json!({"B": {"type": "Building", "geometry": [g]}}),
+            &box_vertices(0, 4),
+        );
+        let out = run(&d, Some("2.2"));
+        let m = out.buildings[0].mesh.as_ref().unwrap();
+        assert_eq!(m.mesh.triangles.len(), 14);
+        m.check_invariants().unwrap();
+        let i = &out.report.mesh_issues;
+        assert_eq!(i.len(), 1, "{i:?}");
+        assert_eq!(i[0].reason, IssueReason::ModelSurfaceDropped);
+        assert!(
+            i[0].detail.starts_with("2 of 9 surfaces"),
+            "{}",
+            i[0].detail
+        );
+        assert!(i[0].detail.contains("1 degenerate hole"), "{}", i[0].detail);
+    }
+
+    #[test]
+    fn malformed_boundaries_are_model_issues_not_panics() {
+        let bad = [
+            json!("nope"),
+            json!([["x"]]),
+            json!([[[[0, 1, -1]]]]),
+            json!([[[[0.5, 1, 2]]]]),
+            json!([[[[18446744073709551615u64, 1, 2]]]]),
+            json!([[[]]]),
+            json!([]),
+        ];
+        for b in bad {
+            let g = json!({"type": "Solid", "lod": "2.2", "boundaries": b});
+            let d = doc(
+                "2.0",
+                json!({"B": {"type": "Building", "geometry": [box_solid(0, json!("1.2")), g]}}),
+                &box_vertices(0, 4),
+            );
+            let out = run(&d, Some("2.2"));
+            assert_eq!(out.buildings.len(), 1, "{b}");
+            assert!(out.buildings[0].mesh.is_none(), "{b}");
+            let reasons: Vec<IssueReason> =
+                out.report.mesh_issues.iter().map(|i| i.reason).collect();
+            assert!(
+                matches!(
+                    reasons.as_slice(),
+                    [IssueReason::ModelInvalid] | [IssueReason::ModelMissing]
+                ),
+                "{b}: {reasons:?}"
+            );
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(48))]
+        /// Random rings over 8 vertices with indices up to 11: the building is always written, and
+        /// either carries a valid mesh or has a mesh issue.
+        #[test]
+        fn random_surfaces_give_a_valid_mesh_or_an_issue_never_a_panic(
+            surfaces in proptest::collection::vec(
+                proptest::collection::vec(proptest::collection::vec(0u64..12, 0..7), 1..3), 0..8),
+        ) {
+            let g = json!({"type": "Solid", "lod": "2.2", "boundaries": [surfaces]});
+            let d = doc(
+                "2.0",
+                json!({"B": {"type": "Building", "geometry": [box_solid(0, json!("1.2")), g]}}),
+                &box_vertices(0, 4),
+            );
+            let out = run(&d, Some("2.2"));
+            proptest::prop_assert_eq!(out.buildings.len(), 1);
+            match &out.buildings[0].mesh {
+                Some(m) => {
+                    proptest::prop_assert!(m.check_invariants().is_ok());
+                    proptest::prop_assert!(m.mesh.triangles.iter().all(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2]));
+                }
+                None => proptest::prop_assert!(!out.report.mesh_issues.is_empty()),
+            }
+        }
+    }
+
+    #[test]
+    fn semantic_types_map_to_surface_kinds() {
+        use SurfaceKind::*;
+        for (t, k) in [
+            ("RoofSurface", Roof),
+            ("OuterFloorSurface", Roof),
+            ("WallSurface", Wall),
+            ("Window", Wall),
+            ("Door", Wall),
+            ("GroundSurface", Ground),
+            ("ClosureSurface", Other),
+            ("OuterCeilingSurface", Other),
+            ("InteriorWallSurface", Other),
+            ("+Custom", Other),
+        ] {
+            assert_eq!(surface_kind(Some(t)), k, "{t}");
+        }
+        assert_eq!(surface_kind(None), Other);
+    }
+
+    #[test]
+    fn geojson_input_ignores_the_lod_option() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("b.geojson");
+        std::fs::write(&p, r#"{"type":"FeatureCollection","features":[{"type":"Feature","properties":{},
+            "geometry":{"type":"Polygon","coordinates":[[[4.36,52.0],[4.3601,52.0],[4.3601,52.0001],[4.36,52.0]]]}}]}"#).unwrap();
+        let opts = IngestOptions {
+            lod: Some(LodChoice::Highest),
+            ..Default::default()
+        };
+        let out = ingest(&[p], &opts).unwrap();
+        assert_eq!(out.buildings.len(), 1);
+        assert!(out.buildings[0].mesh.is_none() && out.report.mesh_issues.is_empty());
+    }
+
+    #[test]
+    fn an_unreadable_lod_option_is_an_option_error() {
+        let opts = IngestOptions {
+            lod: Some(LodChoice::Exact("2,2".into())),
+            ..Default::default()
+        };
+        let e = ingest(&[], &opts).unwrap_err();
+        assert!(
+            matches!(e, crate::IngestError::InvalidOption { name: "lod", .. }),
+            "{e}"
+        );
+    }
+}

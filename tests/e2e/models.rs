@@ -1,0 +1,100 @@
+//! 3D buildings (issue 6, DESIGN.md §7): the Delft LoD2.2 tileset built with `--lod 2.2` is valid, complete,
+//! carries every building's chain (prism → simplified → full model) with measured errors that shrink down the
+//! chain, and passes `citylod check`.
+
+use crate::common::{
+    build, citylod, e2e_dir, gltf_validator, read_json, schema_errors, shared_data,
+};
+use citylod_tiles::read::read_tileset;
+use citylod_tiles::PropValue;
+use std::collections::BTreeMap;
+
+#[test]
+fn delft_lod22_tileset_has_the_model_chain_and_passes_check() {
+    let Some(input) = shared_data("delft-3dbag/delft.city.jsonl") else {
+        return;
+    };
+    let out = e2e_dir("delft-lod22");
+    let report = build(&[&input], &out, &["--lod", "2.2"]);
+    assert_eq!(report["counts"]["buildings_written"], 1115);
+    let models = &report["models"];
+    assert_eq!(models["buildings"], 1115, "every building has a 3D model");
+    let full = models["triangles_full"].as_u64().unwrap();
+    let simplified = models["triangles_simplified"].as_u64().unwrap();
+    assert!(
+        full > 100_000,
+        "Delft LoD2.2 has ~109k triangles, got {full}"
+    );
+    assert!(
+        (simplified as f64) < 0.5 * full as f64,
+        "the simplified level should remove ~60 % of the triangles: {simplified} of {full}"
+    );
+    assert!(models["simplified_error_median_m"].as_f64().unwrap() > 0.0);
+    assert!(
+        models["simplified_error_median_m"].as_f64().unwrap()
+            <= models["prism_error_median_m"].as_f64().unwrap(),
+        "the simplified model should sit closer to the full model than the prism: {models:#}"
+    );
+    let errs = schema_errors("build-report.schema.json", &report);
+    assert!(errs.is_empty(), "build report: {}", errs.join("\n"));
+    let ts_json = read_json(&out.join("tileset.json"));
+    let errs = schema_errors("tileset.schema.json", &ts_json);
+    assert!(errs.is_empty(), "tileset.json: {}", errs.join("\n"));
+    let v = gltf_validator(&out);
+    assert_eq!(
+        v["errors"].as_u64(),
+        Some(0),
+        "glTF-Validator: {:#}",
+        v["messages"]
+    );
+
+    // Every building appears three times below the clusters — prism, simplified, full — and exactly once in
+    // the leaves (the full models), whose error is 0; the tiles above them have positive errors.
+    let ts = read_tileset(&out.join("tileset.json")).expect("read back");
+    let mut per_building: BTreeMap<i64, Vec<(usize, bool)>> = BTreeMap::new();
+    for (i, tile) in ts.tiles.iter().enumerate() {
+        let Some(content) = &tile.content else {
+            continue;
+        };
+        for row in &content.features {
+            let id = match row.values.get("building_index") {
+                Some(PropValue::Int(i)) => *i,
+                Some(PropValue::Float(f)) => *f as i64,
+                _ => continue,
+            };
+            per_building
+                .entry(id)
+                .or_default()
+                .push((i, tile.children.is_empty()));
+        }
+    }
+    assert_eq!(per_building.len(), 1115);
+    for (b, tiles) in &per_building {
+        let leaves = tiles.iter().filter(|t| t.1).count();
+        assert_eq!(leaves, 1, "building {b} in {leaves} leaf tiles");
+        assert!(
+            tiles.len() >= 3,
+            "building {b} in only {} tiles",
+            tiles.len()
+        );
+        let leaf = tiles.iter().find(|t| t.1).unwrap().0;
+        assert_eq!(ts.tiles[leaf].geometric_error_m, 0.0);
+    }
+
+    // citylod check: every built-in view passes.
+    let check_out = e2e_dir("delft-lod22-check");
+    let o = citylod(&[
+        "check",
+        &out.display().to_string(),
+        "--out",
+        &check_out.display().to_string(),
+        "--quiet",
+    ]);
+    let check = read_json(&check_out.join("report.json"));
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "citylod check failed on Delft LoD2.2: {:#}",
+        check["summary"]
+    );
+}
