@@ -193,7 +193,7 @@ export async function runClient({ browser, baseUrl, client, outDir, views = VIEW
 export function tilesetDirs() {
   const env = process.env.CITYLOD_TILESETS;
   const dirs = env ? env.split(',').map((s) => s.trim()).filter(Boolean)
-    : ['target/e2e/delft', 'target/e2e/nyc'].map((d) => path.join(REPO, d));
+    : ['target/e2e/delft', 'target/e2e/nyc', 'target/e2e/delft-lod22'].map((d) => path.join(REPO, d));
   return dirs.map((d) => path.resolve(REPO, d));
 }
 

@@ -1,5 +1,6 @@
 // Real-browser check of citylod tilesets (DESIGN.md §8): every tileset in CITYLOD_TILESETS (comma-separated
-// directories; default target/e2e/delft and target/e2e/nyc, built by the Makefile) is served by
+// directories; default target/e2e/delft, target/e2e/nyc and target/e2e/delft-lod22 (3D models, --lod 2.2), built by the
+// Rust end-to-end tests) is served by
 // tools/serve.mjs and opened in CesiumJS and in 3d-tiles-renderer in Debian's Chromium (SwiftShader WebGL).
 // For the views far, mid and street: loading finishes within the time-out, no tile fails, no page error,
 // at least one tile is selected, showing the tileset changes at least MIN_DIFF_PIXELS pixels, and those

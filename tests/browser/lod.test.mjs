@@ -184,12 +184,13 @@ describe('NYC Lower East Side, LOD in the browser', () => {
     }
   });
 
-  // Known shortfall (measured 2026-11-21, both clients): the far view refines to the leaves, because level 4's
-  // geometric error is 77 m and the camera is about 1.5 km from the tileset's box (screen-space error ≈ 36 px
-  // > 16). The LOD far view then loads every level: 1,084,140 B in 10 requests against 534,938 B in 3 requests
-  // for leaves-only, ratio 2.03 (203 %), so neither "fewer bytes" nor the issue's ≤ 20 % holds.
-  const SHORTFALL = 'known shortfall: the LOD far view draws the leaves and loads every ancestor (measured ratio 2.03 ' +
-    'in both clients: 1,084,140 B vs 534,938 B)';
+  // Known shortfall (measured 2026-11-22, both clients): with error-localizing tiles the far view now draws level-1
+  // blocks where they are calm enough and leaves elsewhere (depths 6 and 7), but NYC's level-1 blocks carry 21–77 m of
+  // Δh (row houses of very different heights), above the ~35 m the far camera allows, so most of the city still
+  // refines to the leaves and every ancestor tile on the way is loaded: 945,226 B in 28 requests against 533,090 B in
+  // 3 requests for leaves-only, ratio 1.77 (was 2.03). Neither "fewer bytes" nor the issue's ≤ 20 % holds.
+  const SHORTFALL = 'known shortfall: the LOD far view refines most blocks to the leaves and loads their ancestors ' +
+    '(measured ratio 1.77 in both clients: 945,226 B vs 533,090 B)';
   test('far view: LOD loads fewer bytes than leaves-only', { todo: SHORTFALL }, () => {
     for (const client of clients) {
       const c = farComparison(client);
@@ -202,7 +203,7 @@ describe('NYC Lower East Side, LOD in the browser', () => {
       assert.ok(c && c.bytesRatio <= FAR_BYTES_TARGET, `${client}: ratio ${c?.bytesRatio.toFixed(3)} > ${FAR_BYTES_TARGET}`);
     }
   });
-  test('far view: at least one selected tile holds clusters', { todo: 'known shortfall: the far view selects only the leaf tile (depth 7) in both clients' }, () => {
+  test('far view: at least one selected tile holds clusters', () => {
     for (const client of clients) {
       const far = results[client].lodViews?.find((r) => r.view === 'far');
       assert.ok(far, `${client}: the far view did not run`);
@@ -230,7 +231,8 @@ describe('NYC Lower East Side, LOD in the browser', () => {
   function assertCluster(client) {
     const picks = results[client].picks;
     assert.ok(picks, `${client}: the clusters view did not run`);
-    const cluster = picks.find(isCluster);
+    // A block: a cluster of several buildings (a level may also hold single buildings as one-member clusters).
+    const cluster = picks.find((f) => isCluster(f) && Number(f.properties.member_count) > 1);
     print({ measurement: 'pick-cluster', client, distanceM: clusterDistanceM, picked: picks.length,
       clusters: new Set(picks.filter(isCluster).map(pickKey)).size, buildings: new Set(picks.filter(isBuilding).map(pickKey)).size, cluster: cluster ?? null });
     assert.ok(cluster, `${client}: no cluster feature among ${picks.length} picks`);

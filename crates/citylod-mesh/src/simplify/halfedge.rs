@@ -2,7 +2,8 @@
 //! A collapse is refused when it would break the link condition (so closed 2-manifolds stay closed),
 //! touch a non-manifold edge, pinch two borders, flip a triangle against its current or its original
 //! normal, create a degenerate triangle (see [`crate::topology::is_degenerate`]) or empty a component.
-//! Collapses run cheapest first (cost from the caller) until a triangle budget is met.
+//! Collapses run cheapest first until a triangle budget is met; a [`CollapsePolicy`] prices moves, has the
+//! last word on each and hears of every collapse.
 
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
@@ -268,46 +269,64 @@ impl PartialOrd for Entry {
     }
 }
 
-/// Cost of moving `u` onto `v` given the current quadrics; `None` forbids the move.
-pub(crate) type CostFn<'a> = dyn Fn(&CollapseMesh, &[Quadric], u32, u32) -> Option<f64> + 'a;
+/// What a caller decides in a collapse run: the cost of each move, a final say on a popped move, and a
+/// hook after each collapse. A plain `Fn(&CollapseMesh, &[Quadric], u, v) -> Option<f64>` is a policy
+/// with only a cost.
+pub(crate) trait CollapsePolicy {
+    /// Cost of moving `u` onto `v` given the current quadrics; `None` forbids the move.
+    fn cost(&self, m: &CollapseMesh, q: &[Quadric], u: u32, v: u32) -> Option<f64>;
+    /// Final say on a cheapest move that passed [`CollapseMesh::can_collapse`] (true = do it).
+    fn allow(&self, _m: &CollapseMesh, _u: u32, _v: u32) -> bool {
+        true
+    }
+    /// Called after `u` moved onto `v` (the mesh is already updated); `star` lists the triangles that were
+    /// around `u` (now moved to `v`, or removed).
+    fn collapsed(&mut self, _m: &CollapseMesh, _u: u32, _v: u32, _star: &[u32]) {}
+}
 
-/// Extra rule a caller may impose on a valid collapse `u → v` (true = allowed).
-pub(crate) type VetoFn<'a> = dyn Fn(&CollapseMesh, u32, u32) -> bool + 'a;
+impl<F: Fn(&CollapseMesh, &[Quadric], u32, u32) -> Option<f64>> CollapsePolicy for F {
+    fn cost(&self, m: &CollapseMesh, q: &[Quadric], u: u32, v: u32) -> Option<f64> {
+        self(m, q, u, v)
+    }
+}
 
 /// Collapses cheapest-first until at least `remove_target` triangles are gone or nothing valid is left.
 /// Quadrics accumulate: after `u → v`, `q[v] += q[u]`.
 pub(crate) fn collapse_until(
     m: &mut CollapseMesh,
     q: &mut [Quadric],
-    cost: &CostFn,
-    allow: Option<&VetoFn>,
+    policy: &mut dyn CollapsePolicy,
     remove_target: usize,
 ) -> Stop {
     let start = m.alive_tris;
     let mut stamp = vec![0u32; m.pos.len()];
     let mut heap = BinaryHeap::new();
-    let push_vertex =
-        |m: &CollapseMesh, q: &[Quadric], heap: &mut BinaryHeap<Entry>, w: u32, s: u32| {
-            if !m.vert_alive[w as usize] || m.locked[w as usize] {
-                return;
-            }
-            for x in m.neighbours(w) {
-                if let Some(c) = cost(m, q, w, x) {
-                    if c.is_finite() {
-                        heap.push(Entry {
-                            cost: c,
-                            u: w,
-                            v: x,
-                            stamp: s,
-                        });
-                    }
+    let push_vertex = |m: &CollapseMesh,
+                       q: &[Quadric],
+                       policy: &dyn CollapsePolicy,
+                       heap: &mut BinaryHeap<Entry>,
+                       w: u32,
+                       s: u32| {
+        if !m.vert_alive[w as usize] || m.locked[w as usize] {
+            return;
+        }
+        for x in m.neighbours(w) {
+            if let Some(c) = policy.cost(m, q, w, x) {
+                if c.is_finite() {
+                    heap.push(Entry {
+                        cost: c,
+                        u: w,
+                        v: x,
+                        stamp: s,
+                    });
                 }
             }
-        };
+        }
+    };
     loop {
         for w in 0..m.pos.len() as u32 {
             stamp[w as usize] += 1;
-            push_vertex(m, q, &mut heap, w, stamp[w as usize]);
+            push_vertex(m, q, policy, &mut heap, w, stamp[w as usize]);
         }
         let mut progressed = false;
         while let Some(e) = heap.pop() {
@@ -316,7 +335,7 @@ pub(crate) fn collapse_until(
             }
             if stamp[e.u as usize] != e.stamp
                 || !m.can_collapse(e.u, e.v)
-                || allow.is_some_and(|f| !f(m, e.u, e.v))
+                || !policy.allow(m, e.u, e.v)
             {
                 continue;
             }
@@ -325,19 +344,17 @@ pub(crate) fn collapse_until(
                 s.add(&q[e.u as usize]);
                 s
             };
+            let star = m.vtris[e.u as usize].clone();
             m.collapse(e.u, e.v);
+            policy.collapsed(m, e.u, e.v, &star);
             progressed = true;
-            // Re-queue the two-ring: validity (link condition, flips) of moves there may have changed.
+            // Re-price the one-ring, whose stars changed. Queued moves further out are re-validated when
+            // popped; one refused earlier that became valid is found by the next full pass.
             let mut ring = m.neighbours(e.v);
-            for w in ring.clone() {
-                ring.extend(m.neighbours(w));
-            }
             ring.push(e.v);
-            ring.sort_unstable();
-            ring.dedup();
             for w in ring {
                 stamp[w as usize] += 1;
-                push_vertex(m, q, &mut heap, w, stamp[w as usize]);
+                push_vertex(m, q, policy, &mut heap, w, stamp[w as usize]);
             }
         }
         if start - m.alive_tris >= remove_target {
@@ -411,11 +428,11 @@ pub(crate) mod tests {
         );
         let mut q = vertex_quadrics(&mesh.positions, &mesh.triangles);
         let pos = mesh.positions.clone();
-        let cost = move |_: &CollapseMesh, q: &[Quadric], u: u32, v: u32| {
+        let mut cost = move |_: &CollapseMesh, q: &[Quadric], u: u32, v: u32| {
             Some(q[u as usize].eval(pos[v as usize]))
         };
         let n0 = m.alive_tris;
-        collapse_until(&mut m, &mut q, &cost, None, n0 - 12);
+        collapse_until(&mut m, &mut q, &mut cost, n0 - 12);
         m.check_invariants();
         let tris: Vec<[u32; 3]> = (0..m.tris.len())
             .filter(|&t| m.tri_alive[t])

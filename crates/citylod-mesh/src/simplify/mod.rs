@@ -4,15 +4,17 @@
 //! reached (fraction of triangles removed) plus a note when it stopped short of the target.
 //!
 //! - [`components`] — connected components by BFS over shared vertices (seed 003 §3.1)
-//! - [`qem`] — area-weighted quadric error metric (Garland–Heckbert, seed 003 eq. 1)
-//! - [`halfedge`] — half-edge collapse engine with link condition, flip and degeneracy checks
+//! - `qem` — area-weighted quadric error metric (Garland–Heckbert, seed 003 eq. 1)
+//! - `error_bound` — local two-sided Hausdorff bound on collapses (sampled input surface)
+//! - `halfedge` — half-edge collapse engine with link condition, flip and degeneracy checks
 //! - [`topo_qem`] — seed 003: boundary/hole/ordinary vertices and the E–C-angle cost
-//! - [`profile`] — seed 004: horizontal profiles every `step_m`, kept where they change
-//! - [`baseline`] — plain QEM through meshoptimizer, for comparison only
+//! - `profile` — seed 004: horizontal profiles every `step_m`, kept where they change
+//! - `baseline` — plain QEM through meshoptimizer, for comparison only
 //! - [`polygon`] — triangulation of planar polygons with holes (used by `profile`, useful to readers)
 
 pub(crate) mod baseline;
 pub mod components;
+pub(crate) mod error_bound;
 pub(crate) mod geom;
 pub(crate) mod halfedge;
 pub mod polygon;
@@ -23,15 +25,23 @@ pub mod topo_qem;
 use citylod_model::Mesh3d;
 
 pub use polygon::{triangulate_polygon_2d, triangulate_polygon_3d};
+pub use topo_qem::TopoQemOptions;
 
 /// Default basic cost ratio `a` of seed 003 (§4.2 suggests [1, 3] for simple and [2, 8] for complex models).
 pub const DEFAULT_TOPO_QEM_A: f64 = 2.0;
+
+/// Default error bound (m) of [`Simplifier::TopoQem`]: no collapse takes the surface further than this from
+/// the input. LoD2 buildings of 12–100 triangles are near their minimal shape, so a rate of 80 % reached at
+/// any cost turns boxes into tetrahedra and opens sight lines through whole blocks (seed 003 §4.3 asks for
+/// the opposite); with 0.5 m the Den Haag street-level visibility test sees no change.
+pub const DEFAULT_TOPO_QEM_MAX_ERROR_M: f64 = 0.5;
 
 /// Which simplification method to run.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Simplifier {
     /// Seed 003: QEM half-edge collapse constrained by component topology; `a` is the basic cost ratio
-    /// applied to boundary vertices (≥ 1; [`DEFAULT_TOPO_QEM_A`] is a good start).
+    /// applied to boundary vertices (≥ 1; [`DEFAULT_TOPO_QEM_A`] is a good start). Collapses stay within
+    /// [`DEFAULT_TOPO_QEM_MAX_ERROR_M`] of the input; [`simplify_topo_qem`] takes another bound.
     TopoQem { a: f64 },
     /// Seed 004: horizontal profiles every `step_m` metres; a profile is kept only where it differs from the
     /// last kept one by more than `threshold_m` metres (plan distance). Driven by these, not by the rate.
@@ -76,6 +86,89 @@ pub struct SimplifyResult {
 /// assert!(out.note.is_none());
 /// ```
 pub fn simplify(mesh: &Mesh3d, simplifier: &Simplifier, target_rate: f64) -> SimplifyResult {
+    checked(mesh, target_rate, |mesh, target_rate| match *simplifier {
+        Simplifier::TopoQem { a } => {
+            let options = TopoQemOptions {
+                a,
+                ..TopoQemOptions::default()
+            };
+            topo_qem::simplify_topo_qem(mesh, &options, target_rate)
+        }
+        Simplifier::Profile {
+            step_m,
+            threshold_m,
+        } => profile::simplify_profile(mesh, step_m, threshold_m, target_rate),
+        Simplifier::Qem => baseline::simplify_meshopt(mesh, target_rate),
+    })
+}
+
+/// [`simplify`] over many buildings at once, spread over all cores (rayon); results in input order,
+/// identical to calling [`simplify`] on each mesh.
+///
+/// ```
+/// use citylod_mesh::simplify::{simplify, simplify_all, Simplifier, DEFAULT_TOPO_QEM_A};
+/// use citylod_model::Mesh3d;
+/// let plate = Mesh3d {
+///     positions: vec![[0.0, 0.0, 5.0], [10.0, 0.0, 5.0], [10.0, 10.0, 5.0], [0.0, 10.0, 5.0], [5.0, 5.0, 5.0]],
+///     triangles: vec![[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]],
+/// };
+/// let method = Simplifier::TopoQem { a: DEFAULT_TOPO_QEM_A };
+/// let out = simplify_all(&[&plate, &plate], &method, 0.5);
+/// assert_eq!(out, vec![simplify(&plate, &method, 0.5); 2]);
+/// assert_eq!(out[0].mesh.triangles.len(), 2);
+/// ```
+pub fn simplify_all(
+    meshes: &[&Mesh3d],
+    simplifier: &Simplifier,
+    target_rate: f64,
+) -> Vec<SimplifyResult> {
+    use rayon::prelude::*;
+    meshes
+        .par_iter()
+        .map(|m| simplify(m, simplifier, target_rate))
+        .collect()
+}
+
+/// Seed 003 with every parameter explicit; otherwise as [`simplify`] with [`Simplifier::TopoQem`]. The
+/// rate stops short (with a note) where going on would move the surface more than
+/// `options.max_error_m` from the input.
+///
+/// ```
+/// use citylod_mesh::simplify::{simplify_topo_qem, TopoQemOptions};
+/// use citylod_model::Mesh3d;
+/// // A 10 m × 6 m × 4 m box: every collapse would cut off a corner by metres.
+/// let positions = vec![
+///     [0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [10.0, 6.0, 0.0], [0.0, 6.0, 0.0],
+///     [0.0, 0.0, 4.0], [10.0, 0.0, 4.0], [10.0, 6.0, 4.0], [0.0, 6.0, 4.0],
+/// ];
+/// let triangles = vec![
+///     [0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7], [0, 1, 5], [0, 5, 4],
+///     [1, 2, 6], [1, 6, 5], [2, 3, 7], [2, 7, 6], [3, 0, 4], [3, 4, 7],
+/// ];
+/// let mesh = Mesh3d { positions, triangles };
+/// let kept = simplify_topo_qem(&mesh, &TopoQemOptions::default(), 0.5);
+/// assert_eq!(kept.mesh, mesh);
+/// assert!(kept.note.unwrap().contains("max_error_m"));
+/// let free = TopoQemOptions { max_error_m: f64::INFINITY, ..TopoQemOptions::default() };
+/// assert_eq!(simplify_topo_qem(&mesh, &free, 0.5).mesh.triangles.len(), 6);
+/// ```
+pub fn simplify_topo_qem(
+    mesh: &Mesh3d,
+    options: &TopoQemOptions,
+    target_rate: f64,
+) -> SimplifyResult {
+    checked(mesh, target_rate, |mesh, target_rate| {
+        topo_qem::simplify_topo_qem(mesh, options, target_rate)
+    })
+}
+
+/// Runs `method` on a valid mesh with the rate clamped to [0, 1]; invalid input and a result with more
+/// triangles than the input give the input back with a note.
+fn checked(
+    mesh: &Mesh3d,
+    target_rate: f64,
+    method: impl FnOnce(&Mesh3d, f64) -> SimplifyResult,
+) -> SimplifyResult {
     let target_rate = if target_rate.is_finite() {
         target_rate.clamp(0.0, 1.0)
     } else {
@@ -91,14 +184,7 @@ pub fn simplify(mesh: &Mesh3d, simplifier: &Simplifier, target_rate: f64) -> Sim
     if mesh.positions.iter().flatten().any(|c| !c.is_finite()) {
         return unchanged(mesh, "non-finite vertex coordinate: returned unchanged");
     }
-    let result = match *simplifier {
-        Simplifier::TopoQem { a } => topo_qem::simplify_topo_qem(mesh, a, target_rate),
-        Simplifier::Profile {
-            step_m,
-            threshold_m,
-        } => profile::simplify_profile(mesh, step_m, threshold_m, target_rate),
-        Simplifier::Qem => baseline::simplify_meshopt(mesh, target_rate),
-    };
+    let result = method(mesh, target_rate);
     if result.mesh.triangles.len() > mesh.triangles.len() {
         return unchanged(
             mesh,
