@@ -79,6 +79,11 @@ fn delft_lod22_tileset_has_the_model_chain_and_passes_check() {
         }
     }
     assert_eq!(per_building.len(), 1115);
+    let with_simplified = per_building.values().filter(|t| t.len() >= 3).count();
+    assert!(
+        with_simplified > 1000,
+        "only {with_simplified} of 1115 buildings have the simplified level"
+    );
     for (b, tiles) in &per_building {
         let leaves = tiles.iter().filter(|t| t.1).count();
         assert_eq!(leaves, 1, "building {b} in {leaves} leaf tiles");

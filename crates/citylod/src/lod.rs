@@ -185,8 +185,8 @@ impl<'h> LodTree<'h> {
     }
 
     /// The chain below a tile of buildings `ids`: a tile of their simplified models (prisms for buildings
-    /// without a model) whose error is the largest simplified model's, holding a tile of the full models (error 0).
-    /// Empty when none of them has a model.
+    /// without a model) whose error is the largest simplified model's, holding a tile of the full models (error 0);
+    /// just the full models' tile when the simplifier changed none of them. Empty when none of them has a model.
     fn model_chain(&self, buildings: &[Building], ids: &[BuildingId]) -> Vec<TileSpec> {
         if !ids.iter().any(|b| self.models[b.0 as usize].is_some()) {
             return Vec::new();
@@ -194,9 +194,10 @@ impl<'h> LodTree<'h> {
         let version = |full: bool| -> Vec<ContentFeature> {
             ids.iter()
                 .filter_map(|&b| {
+                    // Model corners are shared between faces: split them so clients shade faces flat.
                     let mesh = match &self.models[b.0 as usize] {
-                        Some(m) if full => m.full.clone(),
-                        Some(m) => m.simplified.clone(),
+                        Some(m) if full => citylod_mesh::split_by_face(&m.full),
+                        Some(m) => citylod_mesh::split_by_face(&m.simplified),
                         None => self.buildings[b.0 as usize].clone()?,
                     };
                     Some(self.building_feature_with(buildings, b, mesh))
@@ -208,13 +209,18 @@ impl<'h> LodTree<'h> {
             .filter_map(|b| self.models[b.0 as usize].as_ref())
             .map(|m| m.simplified_error_m)
             .fold(0.0, f64::max);
+        let full = TileSpec {
+            features: version(true),
+            children: vec![],
+            geometric_error_m: 0.0,
+        };
+        // Models the simplifier left as they were (error 0): no simplified tile, the prisms refine to the full models.
+        if simplified_error_m == 0.0 {
+            return vec![full];
+        }
         vec![TileSpec {
             features: version(false),
-            children: vec![TileSpec {
-                features: version(true),
-                children: vec![],
-                geometric_error_m: 0.0,
-            }],
+            children: vec![full],
             geometric_error_m: simplified_error_m,
         }]
     }
