@@ -50,24 +50,7 @@ pub const SLIVER_FACTOR: f64 = 0.25;
 /// assert_eq!(s.0[0].exterior().0.len(), 5); // the notch is filled: a plain square
 /// ```
 pub fn simplify_footprint(fp: &Footprint, delta_a_m2: f64, max_angle_deg: f64) -> Footprint {
-    let mut rings: Vec<RingSpec> = Vec::new();
-    for (k, poly) in fp.0.iter().enumerate() {
-        let Some(ext) = open_ring(poly.exterior(), true).filter(|r| signed_area2(r) != 0.0) else {
-            continue;
-        };
-        rings.push(RingSpec { poly: k, pts: ext });
-        for h in poly
-            .interiors()
-            .iter()
-            .filter_map(|r| open_ring(r, false))
-            .filter(|h| signed_area2(h) != 0.0)
-        {
-            if signed_area2(&h).abs() / 2.0 >= delta_a_m2 {
-                rings.push(RingSpec { poly: k, pts: h });
-            }
-        }
-    }
-    let mut net = Net::new(&rings);
+    let mut net = Net::new(&ring_specs(fp, delta_a_m2));
     if delta_a_m2 > 0.0 {
         net.remove_concave(delta_a_m2, SLIVER_FACTOR * delta_a_m2.sqrt());
     }
@@ -102,6 +85,22 @@ pub fn fill_concave_within(fp: &Footprint, budget_m2: f64, max_angle_deg: f64) -
     if !(budget_m2 > 0.0 && budget_m2.is_finite()) {
         return (fp.clone(), 0.0);
     }
+    let mut net = Net::new(&ring_specs(fp, 0.0));
+    let added_m2 = net.fill_concave_budget(budget_m2);
+    if added_m2 == 0.0 {
+        return (fp.clone(), 0.0);
+    }
+    // Filling leaves straight vertices behind (the mouth of a filled notch).
+    let max_angle_rad = max_angle_deg.to_radians();
+    if max_angle_rad.is_finite() && max_angle_rad < std::f64::consts::PI {
+        net.remove_collinear(max_angle_rad);
+    }
+    (net.into_footprint(fp.0.len(), 0.0), added_m2)
+}
+
+/// The usable rings of `fp`, open and oriented (exteriors CCW, holes CW): rings with zero area are dropped, a
+/// polygon without a usable exterior is dropped, and holes smaller than `min_hole_m2` (m²) are left out (filled).
+fn ring_specs(fp: &Footprint, min_hole_m2: f64) -> Vec<RingSpec> {
     let mut rings: Vec<RingSpec> = Vec::new();
     for (k, poly) in fp.0.iter().enumerate() {
         let Some(ext) = open_ring(poly.exterior(), true).filter(|r| signed_area2(r) != 0.0) else {
@@ -114,20 +113,12 @@ pub fn fill_concave_within(fp: &Footprint, budget_m2: f64, max_angle_deg: f64) -
             .filter_map(|r| open_ring(r, false))
             .filter(|h| signed_area2(h) != 0.0)
         {
-            rings.push(RingSpec { poly: k, pts: h });
+            if signed_area2(&h).abs() / 2.0 >= min_hole_m2 {
+                rings.push(RingSpec { poly: k, pts: h });
+            }
         }
     }
-    let mut net = Net::new(&rings);
-    let added_m2 = net.fill_concave_budget(budget_m2);
-    if added_m2 == 0.0 {
-        return (fp.clone(), 0.0);
-    }
-    // Filling leaves straight vertices behind (the mouth of a filled notch).
-    let max_angle_rad = max_angle_deg.to_radians();
-    if max_angle_rad.is_finite() && max_angle_rad < std::f64::consts::PI {
-        net.remove_collinear(max_angle_rad);
-    }
-    (net.into_footprint(fp.0.len(), 0.0), added_m2)
+    rings
 }
 
 struct RingSpec {
