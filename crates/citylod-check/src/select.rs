@@ -360,18 +360,22 @@ const MAX_LINK_DEPTH: usize = 64;
 mod tests {
     use super::*;
 
+    /// A tile with content: its box, geometric error (m) and children.
+    fn t(bounds: OrientedBox, geometric_error_m: f64, children: Vec<usize>) -> TileNode {
+        TileNode {
+            bounds,
+            geometric_error_m,
+            children,
+            has_content: true,
+            external_tileset: false,
+        }
+    }
+
     /// Root 0 (1000 m box, error 64 m) → tiles 1, 2 (500 m halves, error 8 m) → leaves 3,4 under 1 and
     /// 5,6 under 2 (error 0). The city spans x ∈ [−500, 500], y ∈ [−500, 500], z ∈ [0, 50].
     fn tree() -> TileTree {
         let b = |x0: f64, x1: f64, y0: f64, y1: f64| {
             OrientedBox::from_min_max([x0, y0, 0.0], [x1, y1, 50.0])
-        };
-        let t = |bounds, e, children: Vec<usize>| TileNode {
-            bounds,
-            geometric_error_m: e,
-            children,
-            has_content: true,
-            external_tileset: false,
         };
         TileTree {
             tiles: vec![
@@ -482,13 +486,6 @@ mod tests {
         // children-within-parent hint is off, so the root, seen only through the gap between them,
         // draws itself rather than being culled.
         let b = |x0: f64, x1: f64| OrientedBox::from_min_max([x0, -500.0, 0.0], [x1, 500.0, 50.0]);
-        let t = |bounds, e, children: Vec<usize>| TileNode {
-            bounds,
-            geometric_error_m: e,
-            children,
-            has_content: true,
-            external_tileset: false,
-        };
         let mut tree = TileTree {
             tiles: vec![
                 t(b(-500.0, 500.0), 64.0, vec![1, 2]),
@@ -516,13 +513,6 @@ mod tests {
         // 0 (tall) → 1 (tall, strictly inside 0) → leaves 2, 3 (low, strictly inside 1, out of view):
         // 1 is culled by its children's bounds, so 0 has no visible child and is drawn.
         let b = OrientedBox::from_min_max;
-        let t = |bounds, e, children: Vec<usize>| TileNode {
-            bounds,
-            geometric_error_m: e,
-            children,
-            has_content: true,
-            external_tileset: false,
-        };
         let tree = TileTree {
             tiles: vec![
                 t(
@@ -610,13 +600,6 @@ mod tests {
         // CesiumJS tests a child only against the planes its parent straddles: a (malformed) child far
         // outside its parent, whose parent is wholly in view, is drawn.
         let b = OrientedBox::from_min_max;
-        let t = |bounds, e, children: Vec<usize>| TileNode {
-            bounds,
-            geometric_error_m: e,
-            children,
-            has_content: true,
-            external_tileset: false,
-        };
         let tree = TileTree {
             tiles: vec![
                 t(b([-10.0, -10.0, 0.0], [10.0, 10.0, 10.0]), 64.0, vec![1]),

@@ -277,48 +277,31 @@ impl Net {
     /// Pass 1: smallest concave triangle first, for triangles of area < `delta_a_m2` or slivers (thinner
     /// than `sliver_m`).
     fn remove_concave(&mut self, delta_a_m2: f64, sliver_m: f64) {
-        let mut heap = BinaryHeap::new();
-        let push = |net: &Net, heap: &mut BinaryHeap<std::cmp::Reverse<Entry>>, id: u32| {
-            let t2 = net.turn2(id);
-            // A sliver: the triangle's smallest altitude, 2·area / longest side, is below `sliver_m`.
-            let qualifies = || {
-                let [p, x, n] = net.triangle(id);
-                let d = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]);
-                let longest_m = d(p, x).max(d(x, n)).max(d(p, n));
-                -t2 / 2.0 < delta_a_m2 || -t2 < sliver_m * longest_m
-            };
-            if t2 < 0.0 && qualifies() {
-                heap.push(std::cmp::Reverse(Entry {
-                    key: -t2 / 2.0,
-                    id,
-                    version: net.v[id as usize].version,
-                }));
-            }
+        // A sliver: the triangle's smallest altitude, 2·area / longest side, is below `sliver_m`.
+        let qualifies = |net: &Net, id: u32, area_m2: f64| {
+            let [p, x, n] = net.triangle(id);
+            let d = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]);
+            let longest_m = d(p, x).max(d(x, n)).max(d(p, n));
+            area_m2 < delta_a_m2 || 2.0 * area_m2 < sliver_m * longest_m
         };
-        for id in 0..self.v.len() as u32 {
-            push(self, &mut heap, id);
-        }
-        while let Some(std::cmp::Reverse(e)) = heap.pop() {
-            let x = &self.v[e.id as usize];
-            if !x.alive || x.version != e.version || !self.can_remove(e.id) {
-                continue;
-            }
-            let (p, n) = (x.prev, x.next);
-            self.remove(e.id);
-            push(self, &mut heap, p);
-            push(self, &mut heap, n);
-        }
+        self.fill_concave(qualifies, f64::INFINITY);
     }
 
     /// The error-budgeted pass: smallest concave triangle first while the running total of filled area stays
     /// within `budget_m2`; returns that total (m²).
     fn fill_concave_budget(&mut self, budget_m2: f64) -> f64 {
+        self.fill_concave(|_, _, area_m2| area_m2 <= budget_m2, budget_m2)
+    }
+
+    /// Removes concave vertices, smallest triangle first, among those `qualifies(net, vertex, area m²)` accepts,
+    /// until the next one would take the filled area past `budget_m2`; returns the area filled (m²).
+    fn fill_concave(&mut self, qualifies: impl Fn(&Net, u32, f64) -> bool, budget_m2: f64) -> f64 {
         let mut heap = BinaryHeap::new();
         let push = |net: &Net, heap: &mut BinaryHeap<std::cmp::Reverse<Entry>>, id: u32| {
-            let t2 = net.turn2(id);
-            if t2 < 0.0 && -t2 / 2.0 <= budget_m2 {
+            let area_m2 = -net.turn2(id) / 2.0;
+            if area_m2 > 0.0 && qualifies(net, id, area_m2) {
                 heap.push(std::cmp::Reverse(Entry {
-                    key: -t2 / 2.0,
+                    key: area_m2,
                     id,
                     version: net.v[id as usize].version,
                 }));

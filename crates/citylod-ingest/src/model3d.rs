@@ -363,7 +363,7 @@ mod tests {
     use super::*;
     use crate::{ingest, IngestOptions, Ingested, LodChoice};
     use citylod_mesh::simplify::components::components;
-    use citylod_mesh::topology::mesh_report;
+    use citylod_mesh::topology::{mesh_report, signed_volume_m3};
     use serde_json::json;
 
     /// Corners of a box [x0, x1] × [0, 3] × [0, 5] m, as integer vertices (scale 0.001).
@@ -415,18 +415,6 @@ mod tests {
         let out = ingest(&[p], &opts).unwrap();
         out.report.check_invariants().unwrap();
         out
-    }
-
-    fn signed_volume_m3(m: &Mesh3d) -> f64 {
-        m.triangles
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| m.positions[i as usize]);
-                (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
-                    + a[2] * (b[0] * c[1] - b[1] * c[0]))
-                    / 6.0
-            })
-            .sum()
     }
 
     fn count(m: &BuildingModel, k: SurfaceKind) -> usize {

@@ -2,6 +2,7 @@
 //! and placement on the globe. Each test skips with a message when the data folder is absent.
 
 use citylod_ingest::{check_footprint, ingest, IngestOptions, IssueReason};
+use citylod_mesh::topology::signed_volume_m3;
 use citylod_model::HeightSource;
 use std::path::PathBuf;
 
@@ -340,18 +341,6 @@ fn boston_repairs_are_identical_across_runs() {
 }
 
 // ---- 3D models (IngestOptions::lod) ----
-
-fn signed_volume_m3(m: &citylod_model::Mesh3d) -> f64 {
-    m.triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| m.positions[i as usize]);
-            (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
-                + a[2] * (b[0] * c[1] - b[1] * c[0]))
-                / 6.0
-        })
-        .sum()
-}
 
 /// How far the mesh's xy bounding box reaches beyond the footprint's (`.0`) and falls short of it
 /// (`.1`), the largest over the four sides (m, ≥ 0).

@@ -14,9 +14,7 @@
 mod extrude;
 pub mod hausdorff;
 mod ring;
-mod shading;
 pub mod simplify;
 pub mod topology;
 
 pub use extrude::{extrude, MeshError};
-pub use shading::split_by_face;

@@ -20,6 +20,32 @@ pub const DEGENERATE_HEIGHT_M: f64 = 1e-4;
 /// Default distance (m) under which two components count as touching.
 pub const TOUCH_TOLERANCE_M: f64 = 0.01;
 
+/// Signed volume (m³) enclosed by a closed mesh: positive when its triangles wind counter-clockwise seen from
+/// outside, negative when it is inside out (divergence theorem over the triangles' tetrahedra with the origin).
+/// Meaningless for an open mesh; triangles with an out-of-range index are skipped.
+///
+/// ```
+/// use citylod_model::Mesh3d;
+/// // A right tetrahedron with unit legs, faces outward: volume 1/6 m³.
+/// let m = Mesh3d { positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+///                  triangles: vec![[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]] };
+/// assert!((citylod_mesh::topology::signed_volume_m3(&m) - 1.0 / 6.0).abs() < 1e-12);
+/// ```
+pub fn signed_volume_m3(mesh: &Mesh3d) -> f64 {
+    mesh.triangles
+        .iter()
+        .filter_map(|t| {
+            let p = t.map(|i| mesh.positions.get(i as usize).copied());
+            let [a, b, c] = [p[0]?, p[1]?, p[2]?];
+            Some(
+                (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+                    + a[2] * (b[0] * c[1] - b[1] * c[0]))
+                    / 6.0,
+            )
+        })
+        .sum()
+}
+
 /// Whether triangle abc is degenerate: repeated corners or a height below [`DEGENERATE_HEIGHT_M`].
 pub fn is_degenerate(a: V3, b: V3, c: V3) -> bool {
     let longest2 = dist2(a, b).max(dist2(b, c)).max(dist2(c, a));

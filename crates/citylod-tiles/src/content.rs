@@ -8,8 +8,10 @@ use crate::draco::{self, DracoEncoded, DracoValues};
 use crate::glb::{write_glb, BinBuilder};
 use crate::gltf_json::*;
 use crate::metadata::{encode_column, schema_json};
+use crate::shading::split_by_face;
 use crate::spec::{ContentFeature, MetadataSchema};
 use crate::{Compression, TilesError};
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 
 /// Largest quantized coordinate magnitude.
@@ -150,7 +152,13 @@ pub(crate) fn encode_content(
         let mut nor: Vec<[f64; 3]> = Vec::new();
         let mut idx: Vec<u32> = Vec::new();
         for (k, &fi) in members.iter().enumerate() {
-            let m = &features[fi].mesh;
+            // Vertex normals are written: corners shared by several planes are split so they are face normals.
+            let m = if normals {
+                split_by_face(&features[fi].mesh)
+            } else {
+                Cow::Borrowed(&features[fi].mesh)
+            };
+            let m = m.as_ref();
             let v0 = pos.len() as u32;
             for &p in &m.positions {
                 let q = quantize(p);
@@ -471,8 +479,8 @@ pub(crate) fn encode_content(
     }))
 }
 
-/// Unit vertex normals in glTF y-up axes: the area-weighted sum of the incident triangles' normals
-/// (for the flat-shaded meshes of citylod-mesh, the face normal). Unused vertices point up.
+/// Unit vertex normals in glTF y-up axes: the area-weighted sum of the incident triangles' normals (after
+/// [`split_by_face`], the face normal). Unused vertices point up.
 fn vertex_normals_yup(m: &citylod_model::Mesh3d) -> Vec<[f64; 3]> {
     let mut acc = vec![[0.0f64; 3]; m.positions.len()];
     for t in &m.triangles {

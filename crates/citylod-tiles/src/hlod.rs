@@ -464,22 +464,29 @@ mod tests {
         level as f64
     }
 
+    /// Every level of `h` packed with `triangles` per node, errors by level, and the given budget.
+    fn pack_all(
+        h: &Hierarchy,
+        triangles: usize,
+        max_features: usize,
+        max_triangles: usize,
+    ) -> Packing {
+        let cost = NodeCost {
+            triangles: &tris(triangles),
+            error_m: &by_level,
+        };
+        let budget = TileBudget {
+            max_features,
+            max_triangles,
+        };
+        pack(h, &all_levels(h), &cost, budget)
+    }
+
     #[test]
     fn every_node_in_exactly_one_tile_and_children_partition() {
         let h = row_hierarchy();
         for max_features in [1, 2, 3, 100] {
-            let p = pack(
-                &h,
-                &all_levels(&h),
-                &NodeCost {
-                    triangles: &tris(10),
-                    error_m: &by_level,
-                },
-                TileBudget {
-                    max_features,
-                    max_triangles: 1000,
-                },
-            );
+            let p = pack_all(&h, 10, max_features, 1000);
             assert_eq!(
                 check_packing(&h, &p),
                 Vec::<String>::new(),
@@ -492,33 +499,11 @@ mod tests {
     #[test]
     fn budget_splits_spatially_and_leaves_are_buildings() {
         let h = row_hierarchy();
-        let p = pack(
-            &h,
-            &all_levels(&h),
-            &NodeCost {
-                triangles: &tris(10),
-                error_m: &by_level,
-            },
-            TileBudget {
-                max_features: 2,
-                max_triangles: 1000,
-            },
-        );
+        let p = pack_all(&h, 10, 2, 1000);
         let leaves: Vec<&PackedTile> = p.tiles.iter().filter(|t| t.children.is_empty()).collect();
         assert!(leaves.iter().all(|t| t.level == 0 && t.nodes.len() <= 2));
         // A triangle budget of one node per tile forces single-node tiles.
-        let p = pack(
-            &h,
-            &all_levels(&h),
-            &NodeCost {
-                triangles: &tris(10),
-                error_m: &by_level,
-            },
-            TileBudget {
-                max_features: 100,
-                max_triangles: 10,
-            },
-        );
+        let p = pack_all(&h, 10, 100, 10);
         assert!(p.tiles.iter().all(|t| t.nodes.len() <= 1));
         assert_eq!(check_packing(&h, &p), Vec::<String>::new());
     }
@@ -526,18 +511,7 @@ mod tests {
     #[test]
     fn parent_error_at_least_children() {
         let h = row_hierarchy();
-        let p = pack(
-            &h,
-            &all_levels(&h),
-            &NodeCost {
-                triangles: &tris(10),
-                error_m: &by_level,
-            },
-            TileBudget {
-                max_features: 2,
-                max_triangles: 1000,
-            },
-        );
+        let p = pack_all(&h, 10, 2, 1000);
         // A deliberately non-monotone node error: level 1 claims more than level 2.
         let e = tile_errors(&p, &|level, _| if level == 1 { 9.0 } else { level as f64 });
         for (i, t) in p.tiles.iter().enumerate() {
@@ -559,30 +533,7 @@ mod tests {
     #[test]
     fn packing_is_deterministic() {
         let h = row_hierarchy();
-        let b = TileBudget {
-            max_features: 3,
-            max_triangles: 1000,
-        };
-        assert_eq!(
-            pack(
-                &h,
-                &all_levels(&h),
-                &NodeCost {
-                    triangles: &tris(7),
-                    error_m: &by_level
-                },
-                b
-            ),
-            pack(
-                &h,
-                &all_levels(&h),
-                &NodeCost {
-                    triangles: &tris(7),
-                    error_m: &by_level
-                },
-                b
-            )
-        );
+        assert_eq!(pack_all(&h, 7, 3, 1000), pack_all(&h, 7, 3, 1000));
     }
 
     #[test]
@@ -614,19 +565,7 @@ mod tests {
     #[test]
     fn check_packing_catches_a_lost_child() {
         let h = row_hierarchy();
-        let c = NodeCost {
-            triangles: &tris(10),
-            error_m: &by_level,
-        };
-        let mut p = pack(
-            &h,
-            &all_levels(&h),
-            &c,
-            TileBudget {
-                max_features: 2,
-                max_triangles: 1000,
-            },
-        );
+        let mut p = pack_all(&h, 10, 2, 1000);
         let leaf = p.tiles.iter().position(|t| t.level == 0).unwrap();
         p.tiles[leaf].nodes.pop();
         assert!(!check_packing(&h, &p).is_empty());

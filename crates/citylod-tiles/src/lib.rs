@@ -36,6 +36,7 @@ mod gltf_json;
 pub mod hlod;
 mod metadata;
 pub mod read;
+mod shading;
 mod spec;
 mod staging;
 pub mod tileset_json;

@@ -174,16 +174,6 @@ impl<'h> LodTree<'h> {
         }
     }
 
-    /// The building's feature with `mesh` as its geometry.
-    fn building_feature_with(
-        &self,
-        buildings: &[Building],
-        b: BuildingId,
-        mesh: Mesh3d,
-    ) -> ContentFeature {
-        self.building_table.feature(&buildings[b.0 as usize], mesh)
-    }
-
     /// The chain below a tile of buildings `ids`: a tile of their simplified models (prisms for buildings
     /// without a model) whose error is the largest simplified model's, holding a tile of the full models (error 0);
     /// just the full models' tile when the simplifier changed none of them. Empty when none of them has a model.
@@ -194,13 +184,12 @@ impl<'h> LodTree<'h> {
         let version = |full: bool| -> Vec<ContentFeature> {
             ids.iter()
                 .filter_map(|&b| {
-                    // Model corners are shared between faces: split them so clients shade faces flat.
                     let mesh = match &self.models[b.0 as usize] {
-                        Some(m) if full => citylod_mesh::split_by_face(&m.full),
-                        Some(m) => citylod_mesh::split_by_face(&m.simplified),
+                        Some(m) if full => m.full.clone(),
+                        Some(m) => m.simplified.clone(),
                         None => self.buildings[b.0 as usize].clone()?,
                     };
-                    Some(self.building_feature_with(buildings, b, mesh))
+                    Some(self.building_table.feature(&buildings[b.0 as usize], mesh))
                 })
                 .collect()
         };
@@ -263,9 +252,10 @@ impl<'h> LodTree<'h> {
         let Some(h) = self.hierarchy else {
             let features: Vec<ContentFeature> = (0..buildings.len() as u32)
                 .filter_map(|i| match &self.models[i as usize] {
-                    Some(m) => {
-                        Some(self.building_feature_with(buildings, BuildingId(i), m.full.clone()))
-                    }
+                    Some(m) => Some(
+                        self.building_table
+                            .feature(&buildings[i as usize], m.full.clone()),
+                    ),
                     None => self.building_feature(buildings, BuildingId(i)),
                 })
                 .collect();

@@ -1,45 +1,51 @@
-//! Flat shading for meshes whose faces share corners (CityJSON models, simplified models): glTF clients shade
-//! with per-vertex normals, and a corner shared by a wall and a roof would get their average — a box drawn as a
-//! blob. Local ENU metres. Invariant: same triangles and positions, vertices only duplicated, never moved.
+//! Flat shading for the glb writer: clients shade with per-vertex normals, and a corner shared by a wall and a roof
+//! (CityJSON models, simplified models) would get their average — a box drawn as a blob. Local ENU metres.
+//! Invariant: same triangles and positions; vertices only duplicated, never moved; a mesh whose corners each lie on
+//! one plane (citylod's prisms) comes back as it is.
 
 use citylod_model::Mesh3d;
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 
 /// `mesh` with each vertex split per plane of the triangles around it: triangles whose unit normals agree to
-/// within ~0.5° (components rounded to 1/128) keep sharing the vertex, others get their own copy, so a client's
-/// vertex normals are face normals. Degenerate triangles (zero area) keep the original vertices. Output order
-/// follows the triangles, so the result is deterministic.
-///
-/// ```
-/// use citylod_model::Mesh3d;
-/// // Two triangles folded along the x axis: one flat, one standing up.
-/// let m = Mesh3d { positions: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-///                  triangles: vec![[0, 1, 2], [1, 0, 3]] };
-/// let f = citylod_mesh::split_by_face(&m);
-/// assert_eq!(f.positions.len(), 6); // the shared edge's two corners are doubled
-/// assert_eq!(f.triangles.len(), 2);
-/// ```
-pub fn split_by_face(mesh: &Mesh3d) -> Mesh3d {
+/// within ~0.5° (components rounded to 1/128) keep sharing the vertex, others get their own copy, so vertex
+/// normals are face normals. Borrowed unchanged when no vertex needs splitting and every index is in range;
+/// triangles with an out-of-range index are dropped. Deterministic: copies follow triangle order.
+pub(crate) fn split_by_face(mesh: &Mesh3d) -> Cow<'_, Mesh3d> {
+    let n = mesh.positions.len();
+    let keys: Vec<Option<[i32; 3]>> = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let p = t.map(|i| mesh.positions.get(i as usize).copied());
+            Some(plane_key(p[0]?, p[1]?, p[2]?))
+        })
+        .collect();
+    // Fast path: every vertex sees one plane.
+    let mut first: Vec<Option<[i32; 3]>> = vec![None; n];
+    let needs_split = mesh.triangles.iter().zip(&keys).any(|(t, k)| {
+        let Some(k) = k else { return true };
+        t.iter().any(|&i| {
+            let slot = &mut first[i as usize];
+            *slot.get_or_insert(*k) != *k
+        })
+    });
+    if !needs_split {
+        return Cow::Borrowed(mesh);
+    }
     let mut out = Mesh3d::default();
     let mut index: BTreeMap<(u32, [i32; 3]), u32> = BTreeMap::new();
-    for t in &mesh.triangles {
-        let Some(p) = t
-            .iter()
-            .map(|&i| mesh.positions.get(i as usize).copied())
-            .collect::<Option<Vec<[f64; 3]>>>()
-        else {
-            continue;
-        };
-        let key = plane_key(p[0], p[1], p[2]);
+    for (t, k) in mesh.triangles.iter().zip(&keys) {
+        let Some(k) = k else { continue };
         let tri = t.map(|i| {
-            *index.entry((i, key)).or_insert_with(|| {
+            *index.entry((i, *k)).or_insert_with(|| {
                 out.positions.push(mesh.positions[i as usize]);
                 (out.positions.len() - 1) as u32
             })
         });
         out.triangles.push(tri);
     }
-    out
+    Cow::Owned(out)
 }
 
 /// The triangle's unit normal rounded to 1/128 per component; all zeros for a degenerate triangle.
@@ -94,7 +100,7 @@ mod tests {
             positions,
             triangles,
         };
-        let f = split_by_face(&cube);
+        let f = split_by_face(&cube).into_owned();
         assert_eq!(f.positions.len(), 24);
         assert_eq!(f.triangles.len(), 12);
         for (t, u) in cube.triangles.iter().zip(&f.triangles) {
@@ -102,7 +108,10 @@ mod tests {
                 assert_eq!(cube.positions[t[k] as usize], f.positions[u[k] as usize]);
             }
         }
-        assert_eq!(split_by_face(&f), f, "splitting twice changes nothing");
+        assert!(
+            matches!(split_by_face(&f), Cow::Borrowed(_)),
+            "a split mesh is borrowed as it is"
+        );
     }
 
     #[test]
@@ -113,5 +122,22 @@ mod tests {
         };
         let f = split_by_face(&m);
         assert_eq!(f.triangles.len(), 1);
+    }
+
+    #[test]
+    fn a_corner_shared_by_two_planes_is_doubled() {
+        // Two triangles folded along the x axis: one flat, one standing up.
+        let m = Mesh3d {
+            positions: vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, 0.0, 1.0],
+            ],
+            triangles: vec![[0, 1, 2], [1, 0, 3]],
+        };
+        let f = split_by_face(&m);
+        assert_eq!(f.positions.len(), 6); // the shared edge's two corners are doubled
+        assert_eq!(f.triangles.len(), 2);
     }
 }
