@@ -301,7 +301,7 @@ fn main() -> Result<()> {
         bench_build(
             &citylod,
             "delft --lod 2.2 (end to end)",
-            &[delft.clone()],
+            std::slice::from_ref(&delft),
             &["--lod", "2.2"],
             runs,
         )?;
