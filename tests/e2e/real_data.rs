@@ -114,7 +114,60 @@ fn build_and_check(name: &str, inputs: &[&Path], extra: &[&str]) -> (Value, Tile
         (0, 0),
         "{name}: buildings missing / present more than once in the leaves"
     );
+    blocks_stay_within_their_tile_error(name, &report, &ts);
     (report, ts)
+}
+
+/// Blocks are re-outlined within their tile's geometricError: every block's own error, recomputed from the Δh and
+/// Δa its metadata reports, is at most its tile's, the reported error matches them, and the re-outlining took
+/// triangles off the levels above the buildings.
+fn blocks_stay_within_their_tile_error(name: &str, report: &Value, ts: &TilesetData) {
+    let kappa = ts.extras.as_ref().unwrap()["citylod"]["kappa"]
+        .as_f64()
+        .unwrap();
+    let f = |row: &citylod_tiles::FeatureRow, key: &str| match row.values.get(key) {
+        Some(PropValue::Float(v)) => *v,
+        Some(PropValue::Int(v)) => *v as f64,
+        other => panic!("{name}: {key} missing or mistyped: {other:?}"),
+    };
+    let mut blocks = 0;
+    for tile in &ts.tiles {
+        let Some(content) = &tile.content else {
+            continue;
+        };
+        for row in content.features.iter().filter(|r| r.class == "cluster") {
+            if row.values.get("landmark") == Some(&PropValue::Bool(true)) {
+                continue;
+            }
+            blocks += 1;
+            let own = f(row, "dh_m").max(kappa * f(row, "da_m2").sqrt());
+            assert!(
+                (own - f(row, "geometric_error_m")).abs() <= 1e-6 * own.max(1.0),
+                "{name}: tile {} block {:?}: reported error {} != max(Δh, κ√Δa) {own}",
+                tile.path_in_tree,
+                row.values.get("node_index"),
+                f(row, "geometric_error_m")
+            );
+            assert!(
+                own <= tile.geometric_error_m * (1.0 + 1e-9) + 1e-9,
+                "{name}: tile {} (error {} m) holds a block of error {own} m",
+                tile.path_in_tree,
+                tile.geometric_error_m
+            );
+        }
+    }
+    let levels = report["lod"].as_array().unwrap();
+    if levels.len() > 1 {
+        assert!(blocks > 0, "{name}: no block in an LOD tileset");
+        let sum = |key: &str| -> u64 { levels[1..].iter().map(|l| l[key].as_u64().unwrap()).sum() };
+        let (after, before) = (sum("triangles"), sum("triangles_as_generalized"));
+        let refilled: u64 = sum("blocks_refilled");
+        assert!(
+            refilled > 0 && after < before,
+            "{name}: re-outlining within the tile errors changed nothing ({refilled} blocks, {before} → {after} triangles)"
+        );
+        eprintln!("{name}: levels above the buildings {before} → {after} triangles, {refilled} blocks re-outlined");
+    }
 }
 
 /// Largest distance (m) between the lon/lat bounding box of each sampled building read back from the tileset

@@ -9,7 +9,7 @@ use serde::Serialize;
 use crate::camera::{Camera, Viewport};
 use crate::finding::{Finding, FindingKind};
 use crate::select::{OrientedBox, Selection};
-use crate::tileset::{LoadedTileset, NodeRef};
+use crate::tileset::{LoadedTileset, NodeRef, TileInfo};
 use crate::vec3::{self, Vec3};
 
 /// The screen tolerances of the criterion: δH in pixels, δA in pixels².
@@ -94,8 +94,32 @@ pub struct CriterionStats {
     pub max_da_view_px: f64,
 }
 
-/// Every block of every selected tile that is in view and breaks δH or δA, and the largest
-/// ΔH_view and ΔA_view seen.
+/// Per feature of `tile`: whether one of its triangles may be in view, i.e. is not wholly outside one plane of
+/// the frustum (conservative: a triangle that straddles two planes' outsides counts as in view). A block's box
+/// can reach into the view while the block does not: a long L-shaped block's empty corner.
+fn features_in_view(tile: &TileInfo, planes: &[crate::camera::Plane]) -> Vec<bool> {
+    let mut seen = vec![false; tile.features.len()];
+    let Some(mesh) = &tile.mesh else {
+        return seen;
+    };
+    for (tri, &f) in mesh.triangles.iter().zip(&tile.triangle_features) {
+        let Some(s) = seen.get_mut(f as usize).filter(|s| !**s) else {
+            continue;
+        };
+        let p = tri.map(|v| mesh.positions.get(v as usize).copied());
+        let [Some(a), Some(b), Some(c)] = p else {
+            continue;
+        };
+        let outside = planes
+            .iter()
+            .any(|pl| [a, b, c].iter().all(|v| vec3::dot(pl.n, *v) + pl.d < 0.0));
+        *s = !outside;
+    }
+    seen
+}
+
+/// Every block of every selected tile that is in view (its box and one of its triangles reach into the
+/// frustum) and breaks δH or δA, and the largest ΔH_view and ΔA_view seen.
 pub fn check_criterion(
     ts: &LoadedTileset,
     sel: &Selection,
@@ -105,15 +129,19 @@ pub fn check_criterion(
 ) -> (Vec<Finding>, CriterionStats) {
     let mut out = Vec::new();
     let mut stats = CriterionStats::default();
+    let planes = camera.frustum_planes(viewport);
     for &i in &sel.selected {
-        for f in &ts.tiles[i].features {
+        let in_view = features_in_view(&ts.tiles[i], &planes);
+        for (fi, f) in ts.tiles[i].features.iter().enumerate() {
             let NodeRef::Cluster { .. } = f.node else {
                 continue;
             };
             let Some(bounds) = f.bounds_m.filter(|_| !f.fallback) else {
                 continue;
             };
-            if !OrientedBox::from_min_max(bounds.0, bounds.1).is_visible(camera, viewport) {
+            if !OrientedBox::from_min_max(bounds.0, bounds.1).is_visible(camera, viewport)
+                || !in_view[fi]
+            {
                 continue;
             }
             let e = view_error(f.dh_m, f.da_m2, bounds, camera, viewport);
@@ -162,6 +190,7 @@ pub fn check_criterion(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tileset::FeatureInfo;
 
     const VIEW: Viewport = Viewport {
         width_px: 400,
@@ -174,6 +203,59 @@ mod tests {
     }
 
     const BLOCK: (Vec3, Vec3) = ([-5.0, 0.0, 0.0], [5.0, 10.0, 10.0]);
+
+    #[test]
+    fn a_block_counts_as_in_view_only_when_one_of_its_triangles_is() {
+        // An L of two flat strips, x ∈ [0, 100] × y ∈ [0, 10] and x ∈ [0, 10] × y ∈ [0, 100]: its box
+        // [0, 100]² holds the empty corner around (80, 80). A camera 20 m above that corner looking straight
+        // down with a 45° fov sees ±8 m: inside the box, but no triangle of the L.
+        let strip = |x0: f64, y0: f64, x1: f64, y1: f64, base: u32| {
+            (
+                vec![[x0, y0, 0.0], [x1, y0, 0.0], [x1, y1, 0.0], [x0, y1, 0.0]],
+                vec![[base, base + 1, base + 2], [base, base + 2, base + 3]],
+            )
+        };
+        let (mut positions, mut triangles) = strip(0.0, 0.0, 100.0, 10.0, 0);
+        let (p2, t2) = strip(0.0, 0.0, 10.0, 100.0, 4);
+        positions.extend(p2);
+        triangles.extend(t2);
+        let tile = TileInfo {
+            path_in_tree: "0".into(),
+            content_uri: None,
+            content_bytes: 0,
+            mesh: Some(citylod_model::Mesh3d {
+                positions,
+                triangles,
+            }),
+            features: vec![FeatureInfo {
+                node: NodeRef::Cluster {
+                    level: 1,
+                    node_index: 0,
+                },
+                member_count: Some(2),
+                members: None,
+                dh_m: 0.0,
+                da_m2: 50.0,
+                fallback: false,
+                bounds_m: Some(([0.0; 3], [100.0, 100.0, 0.0])),
+            }],
+            triangle_features: vec![0; 4],
+            under: Vec::new(),
+        };
+        let view = Viewport::new(300, 300);
+        let over_corner = Camera::from_enu([80.0, 80.0, 20.0], 0.0, -90.0, 45.0).unwrap();
+        let b = tile.features[0].bounds_m.unwrap();
+        assert!(OrientedBox::from_min_max(b.0, b.1).is_visible(&over_corner, view));
+        assert_eq!(
+            features_in_view(&tile, &over_corner.frustum_planes(view)),
+            vec![false]
+        );
+        let over_strip = Camera::from_enu([50.0, 5.0, 20.0], 0.0, -90.0, 45.0).unwrap();
+        assert_eq!(
+            features_in_view(&tile, &over_strip.frustum_planes(view)),
+            vec![true]
+        );
+    }
 
     #[test]
     fn straight_down_shows_area_not_height() {

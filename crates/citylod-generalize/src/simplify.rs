@@ -56,7 +56,7 @@ pub fn simplify_footprint(fp: &Footprint, delta_a_m2: f64, max_angle_deg: f64) -
     }
     let max_angle_rad = max_angle_deg.to_radians();
     if max_angle_rad.is_finite() && max_angle_rad < std::f64::consts::PI {
-        net.remove_collinear(max_angle_rad);
+        net.remove_collinear(max_angle_rad, f64::INFINITY);
     }
     net.into_footprint(fp.0.len(), delta_a_m2)
 }
@@ -66,7 +66,10 @@ pub fn simplify_footprint(fp: &Footprint, delta_a_m2: f64, max_angle_deg: f64) -
 /// geometricError already pays for (DESIGN.md §4: a node whose error is e may change area by (e/κ)² without
 /// raising it). Only concave vertices go, so the result still covers `fp`; the same simplicity and ring-size
 /// guards as [`simplify_footprint`] apply, and near-collinear vertices then go as in its pass 2 (`max_angle_deg`).
-/// Returns the footprint and the area the fill added (≤ `budget_m2`).
+/// Whole holes compete with the notches on area filled per vertex removed, so a courtyard goes at once when that
+/// is the cheaper saving (never one with another polygon of `fp` standing in it).
+/// Returns the footprint and the area the fills added (≤ `budget_m2`; the area grows by at most this, a
+/// near-straight convex vertex dropped afterwards may give a sliver back).
 /// A budget ≤ 0 or not finite returns `fp` unchanged.
 ///
 /// # Examples
@@ -86,14 +89,14 @@ pub fn fill_concave_within(fp: &Footprint, budget_m2: f64, max_angle_deg: f64) -
         return (fp.clone(), 0.0);
     }
     let mut net = Net::new(&ring_specs(fp, 0.0));
-    let added_m2 = net.fill_concave_budget(budget_m2);
+    let mut added_m2 = net.fill_concave_budget(budget_m2);
     if added_m2 == 0.0 {
         return (fp.clone(), 0.0);
     }
     // Filling leaves straight vertices behind (the mouth of a filled notch).
     let max_angle_rad = max_angle_deg.to_radians();
     if max_angle_rad.is_finite() && max_angle_rad < std::f64::consts::PI {
-        net.remove_collinear(max_angle_rad);
+        added_m2 += net.remove_collinear(max_angle_rad, budget_m2 - added_m2);
     }
     (net.into_footprint(fp.0.len(), 0.0), added_m2)
 }
@@ -139,7 +142,11 @@ struct Vertex {
 struct RingState {
     poly: usize,
     first: u32,
+    /// Live vertices; 0 once a hole has been filled whole.
     len: usize,
+    hole: bool,
+    /// Bumped whenever the ring loses a vertex, so stale hole entries are skipped.
+    version: u32,
 }
 
 type VPoint = GeomWithData<[f64; 2], u32>;
@@ -174,6 +181,7 @@ impl Net {
         let mut v = Vec::new();
         let mut states = Vec::new();
         for (r, spec) in rings.iter().enumerate() {
+            let hole = r > 0 && rings[r - 1].poly == spec.poly;
             let base = v.len() as u32;
             let n = spec.pts.len() as u32;
             for (i, &p) in spec.pts.iter().enumerate() {
@@ -191,6 +199,8 @@ impl Net {
                 poly: spec.poly,
                 first: base,
                 len: n as usize,
+                hole,
+                version: 0,
             });
         }
         let index = RTree::bulk_load(
@@ -267,6 +277,7 @@ impl Net {
         self.v[n as usize].version += 1;
         let ring = &mut self.rings[r as usize];
         ring.len -= 1;
+        ring.version += 1;
         if ring.first == id {
             ring.first = n;
         }
@@ -290,7 +301,131 @@ impl Net {
     /// The error-budgeted pass: smallest concave triangle first while the running total of filled area stays
     /// within `budget_m2`; returns that total (m²).
     fn fill_concave_budget(&mut self, budget_m2: f64) -> f64 {
-        self.fill_concave(|_, _, area_m2| area_m2 <= budget_m2, budget_m2)
+        self.fill_concave_and_holes(budget_m2)
+    }
+
+    /// The live vertices of ring `r`, in order.
+    fn ring_points(&self, r: usize) -> Vec<[f64; 2]> {
+        let ring = &self.rings[r];
+        let mut pts = Vec::with_capacity(ring.len);
+        let mut id = ring.first;
+        for _ in 0..ring.len {
+            pts.push(self.v[id as usize].pos);
+            id = self.v[id as usize].next;
+        }
+        pts
+    }
+
+    /// True when hole `r` can be filled whole: no vertex of another ring lies inside it (an island standing
+    /// in a courtyard would then overlap the filled polygon).
+    fn can_fill_hole(&self, r: usize, pts: &[[f64; 2]]) -> bool {
+        let env = AABB::from_points(pts.iter());
+        !self
+            .index
+            .locate_in_envelope_intersecting(&env)
+            .any(|q| self.v[q.data as usize].ring as usize != r && point_in_ring(*q.geom(), pts))
+    }
+
+    /// Fills hole `r` whole: its vertices leave the net and the ring is dropped from the output.
+    fn fill_hole(&mut self, r: usize) {
+        let ring = &self.rings[r];
+        let mut id = ring.first;
+        let mut ids = Vec::with_capacity(ring.len);
+        for _ in 0..ring.len {
+            ids.push(id);
+            id = self.v[id as usize].next;
+        }
+        for id in ids {
+            self.v[id as usize].alive = false;
+            let removed = self.index.remove(&VPoint::new(self.v[id as usize].pos, id));
+            debug_assert!(removed.is_some(), "vertex {id} missing from the index");
+        }
+        let ring = &mut self.rings[r];
+        ring.len = 0;
+        ring.version += 1;
+    }
+
+    /// The budgeted pass: concave triangles (one vertex each) and whole holes (all their vertices) compete on
+    /// area filled per vertex removed, cheapest first, while the running total stays within `budget_m2`;
+    /// returns that total (m²). A hole shrunk to a triangle by corner fills can then still go at once.
+    fn fill_concave_and_holes(&mut self, budget_m2: f64) -> f64 {
+        let mut tri = BinaryHeap::new();
+        let push_tri = |net: &Net, heap: &mut BinaryHeap<std::cmp::Reverse<Entry>>, id: u32| {
+            let area_m2 = -net.turn2(id) / 2.0;
+            if area_m2 > 0.0 && area_m2 <= budget_m2 {
+                heap.push(std::cmp::Reverse(Entry {
+                    key: area_m2,
+                    id,
+                    version: net.v[id as usize].version,
+                }));
+            }
+        };
+        let mut holes = BinaryHeap::new();
+        let push_hole = |net: &Net, heap: &mut BinaryHeap<std::cmp::Reverse<Entry>>, r: usize| {
+            let ring = &net.rings[r];
+            if !ring.hole || ring.len == 0 {
+                return;
+            }
+            let area_m2 = signed_area2(&net.ring_points(r)).abs() / 2.0;
+            if area_m2 <= budget_m2 {
+                heap.push(std::cmp::Reverse(Entry {
+                    key: area_m2 / ring.len as f64,
+                    id: r as u32,
+                    version: ring.version,
+                }));
+            }
+        };
+        for id in 0..self.v.len() as u32 {
+            push_tri(self, &mut tri, id);
+        }
+        for r in 0..self.rings.len() {
+            push_hole(self, &mut holes, r);
+        }
+        let mut spent_m2 = 0.0;
+        let mut triangles_left = true;
+        loop {
+            let take_hole = match (tri.peek(), holes.peek()) {
+                (_, None) if !triangles_left => break,
+                (None, None) => break,
+                (Some(t), Some(h)) => !triangles_left || h.0.key < t.0.key,
+                (None, Some(_)) => true,
+                (Some(_), None) => false,
+            };
+            if take_hole {
+                let std::cmp::Reverse(e) = holes.pop().expect("peeked");
+                let r = e.id as usize;
+                if self.rings[r].len == 0 || self.rings[r].version != e.version {
+                    continue;
+                }
+                let pts = self.ring_points(r);
+                let area_m2 = signed_area2(&pts).abs() / 2.0;
+                // Unaffordable now means unaffordable for good: the remaining budget only shrinks.
+                if spent_m2 + area_m2 > budget_m2 || !self.can_fill_hole(r, &pts) {
+                    continue;
+                }
+                spent_m2 += area_m2;
+                self.fill_hole(r);
+                continue;
+            }
+            let std::cmp::Reverse(e) = tri.pop().expect("peeked");
+            let x = &self.v[e.id as usize];
+            if !x.alive || x.version != e.version || !self.can_remove(e.id) {
+                continue;
+            }
+            // Ordered by area, so the first triangle that does not fit ends the triangle fills.
+            if spent_m2 + e.key > budget_m2 {
+                triangles_left = false;
+                tri.clear();
+                continue;
+            }
+            spent_m2 += e.key;
+            let (p, n, r) = (x.prev, x.next, x.ring as usize);
+            self.remove(e.id);
+            push_tri(self, &mut tri, p);
+            push_tri(self, &mut tri, n);
+            push_hole(self, &mut holes, r);
+        }
+        spent_m2
     }
 
     /// Removes concave vertices, smallest triangle first, among those `qualifies(net, vertex, area m²)` accepts,
@@ -345,8 +480,9 @@ impl Net {
         Some(a)
     }
 
-    /// Pass 2: most collinear vertex first while its angle > `max_angle_rad`.
-    fn remove_collinear(&mut self, max_angle_rad: f64) {
+    /// Pass 2: most collinear vertex first while its angle > `max_angle_rad`; a concave one only while the area
+    /// it fills keeps the running total within `budget_m2`. Returns the area the concave removals filled (m²).
+    fn remove_collinear(&mut self, max_angle_rad: f64, budget_m2: f64) -> f64 {
         let mut heap = BinaryHeap::new();
         let push = |net: &Net, heap: &mut BinaryHeap<Entry>, id: u32| {
             if let Some(a) = net.collinear_candidate(id, max_angle_rad) {
@@ -360,22 +496,29 @@ impl Net {
         for id in 0..self.v.len() as u32 {
             push(self, &mut heap, id);
         }
+        let mut filled_m2 = 0.0;
         while let Some(e) = heap.pop() {
             let x = &self.v[e.id as usize];
             if !x.alive || x.version != e.version || !self.can_remove(e.id) {
                 continue;
             }
+            let fill_m2 = (-self.turn2(e.id) / 2.0).max(0.0);
+            if filled_m2 + fill_m2 > budget_m2 {
+                continue;
+            }
+            filled_m2 += fill_m2;
             let (p, n) = (x.prev, x.next);
             self.remove(e.id);
             push(self, &mut heap, p);
             push(self, &mut heap, n);
         }
+        filled_m2
     }
 
     fn into_footprint(self, n_polys: usize, delta_a_m2: f64) -> Footprint {
         type Rings = (Vec<[f64; 2]>, Vec<Vec<[f64; 2]>>);
         let mut polys: Vec<Option<Rings>> = vec![None; n_polys];
-        for ring in &self.rings {
+        for ring in self.rings.iter().filter(|r| r.len > 0) {
             let mut pts = Vec::with_capacity(ring.len);
             let mut id = ring.first;
             for _ in 0..ring.len {
@@ -405,6 +548,22 @@ impl Net {
                 .collect(),
         )
     }
+}
+
+/// Even-odd test of `p` against the closed ring `pts` (points on the boundary may go either way).
+fn point_in_ring(p: [f64; 2], pts: &[[f64; 2]]) -> bool {
+    let mut inside = false;
+    let mut j = pts.len() - 1;
+    for i in 0..pts.len() {
+        let (a, b) = (pts[i], pts[j]);
+        if (a[1] > p[1]) != (b[1] > p[1])
+            && p[0] < (b[0] - a[0]) * (p[1] - a[1]) / (b[1] - a[1]) + a[0]
+        {
+            inside = !inside;
+        }
+        j = i;
+    }
+    inside
 }
 
 #[cfg(test)]
@@ -443,6 +602,58 @@ mod tests {
             n - 8
         );
         assert_eq!(vertex_count(&fill_concave_within(&fp, 1e6, 175.0).0), 4);
+    }
+
+    #[test]
+    fn budgeted_fill_takes_a_whole_courtyard_when_it_is_the_cheaper_vertex_saving() {
+        // A 30 × 30 block with a 4 × 4 courtyard (16 m², 4 vertices: 4 m² a vertex) and one 1 × 10 notch in its
+        // top edge (two 5 m² concave triangles: 5 m² a vertex).
+        let mut fp = with_hole(4.0);
+        let ext: Vec<(f64, f64)> = vec![
+            (0.0, 0.0),
+            (30.0, 0.0),
+            (30.0, 30.0),
+            (15.5, 30.0),
+            (15.5, 20.0),
+            (14.5, 20.0),
+            (14.5, 30.0),
+            (0.0, 30.0),
+        ];
+        fp.0[0] = Polygon::new(LineString::from(ext), fp.0[0].interiors().to_vec());
+        assert!(fp.is_valid());
+        // 16 m² buys the courtyard (4 vertices), not the notch (10 m² for 2 vertices and then its mouth).
+        let (s, added) = fill_concave_within(&fp, 16.5, 175.0);
+        assert!((added - 16.0).abs() < 1e-9, "added {added}");
+        assert!(s.0[0].interiors().is_empty());
+        assert_eq!(s.0[0].exterior().0.len() - 1, 8, "the notch is kept");
+        // 26 m² buys both; everything left is the square.
+        let (s, added) = fill_concave_within(&fp, 26.5, 175.0);
+        assert!((added - 26.0).abs() < 1e-9, "added {added}");
+        assert_eq!(vertex_count(&s), 4);
+        // Less than either: the courtyard's corners are concave too, but each corner triangle is 8 m², so
+        // 6 m² fills one notch triangle (5 m²) only and the courtyard stays whole.
+        let (s, added) = fill_concave_within(&fp, 6.0, 175.0);
+        assert!((added - 5.0).abs() < 1e-9, "added {added}");
+        assert_eq!(s.0[0].interiors().len(), 1);
+    }
+
+    #[test]
+    fn budgeted_fill_never_fills_a_courtyard_around_an_island() {
+        // A courtyard with another polygon of the same footprint standing in it: filling the courtyard would
+        // overlap that polygon, so only budget for the island's own notches could be spent.
+        let block = with_hole(20.0);
+        let island = rect(12.0, 12.0, 18.0, 18.0);
+        let fp = MultiPolygon(vec![block.0[0].clone(), island.0[0].clone()]);
+        assert!(fp.is_valid());
+        let (s, added) = fill_concave_within(&fp, 1e6, 175.0);
+        assert!(s.is_valid(), "{:?}", s.validation_errors());
+        assert_eq!(s.0.len(), 2);
+        assert_eq!(
+            s.0[0].interiors().len(),
+            1,
+            "the courtyard around the island is kept"
+        );
+        assert!(added < 1e-9, "added {added}");
     }
 
     #[test]
@@ -672,6 +883,32 @@ mod tests {
             let perimeter: f64 = fp.0[0].exterior().0.windows(2)
                 .map(|w| (w[1].x - w[0].x).hypot(w[1].y - w[0].y)).sum();
             prop_assert!(uncovered_m2(&[&fp], &s) <= perimeter * CONVEX_COLLINEAR_TOL_M + 1e-9);
+        }
+
+        #[test]
+        fn budgeted_fill_of_a_merge_is_valid_covering_and_within_budget(
+            rects in prop::collection::vec((0.0f64..60.0, 0.0f64..60.0, 2.0f64..20.0, 2.0f64..20.0), 2..10),
+            budget in 0.0f64..400.0,
+        ) {
+            // Overlapping rectangles merge into outlines with notches and courtyards.
+            let parts: Vec<Footprint> = rects.iter().map(|&(x, y, w, h)| rect(x, y, x + w, y + h)).collect();
+            let refs: Vec<&Footprint> = parts.iter().collect();
+            let hints: Vec<(usize, usize)> = (1..parts.len()).map(|i| (i - 1, i)).collect();
+            let merged = crate::merge::merge_footprints(&refs, &hints).footprint;
+            prop_assume!(merged.is_valid());
+            let (s, added) = fill_concave_within(&merged, budget, 175.0);
+            prop_assert!(s.is_valid(), "{:?}", s.validation_errors());
+            prop_assert!(added <= budget + 1e-9);
+            // `added` is what the fills took; a convex near-straight vertex the collinear pass drops may give a
+            // sliver back, so the area grows by at most `added`.
+            prop_assert!(s.unsigned_area() - merged.unsigned_area() <= added + 1e-6 * merged.unsigned_area().max(1.0),
+                "area grew by {} but {added} was reported", s.unsigned_area() - merged.unsigned_area());
+            let input = vertices(&merged);
+            prop_assert!(vertices(&s).iter().all(|v| input.contains(v)));
+            prop_assert!(vertex_count(&s) <= vertex_count(&merged));
+            let perimeter: f64 = merged.0.iter().flat_map(|p| p.exterior().0.windows(2))
+                .map(|w| (w[1].x - w[0].x).hypot(w[1].y - w[0].y)).sum();
+            prop_assert!(uncovered_m2(&[&merged], &s) <= perimeter * CONVEX_COLLINEAR_TOL_M + 1e-9);
         }
 
         #[test]

@@ -118,7 +118,7 @@ pub struct BuildArgs {
     #[arg(
         long,
         value_name = "SHARE",
-        default_value_t = 0.34,
+        default_value_t = 0.5,
         help_heading = "Generalization"
     )]
     pub landmark_max_share: f64,
@@ -264,6 +264,11 @@ pub struct LevelSummary {
     pub nodes: usize,
     pub tiles: usize,
     pub triangles: usize,
+    /// The level's triangles as generalized, before its blocks were re-outlined within their tile's error
+    /// (equal to `triangles` for the buildings and for levels not written).
+    pub triangles_as_generalized: usize,
+    /// Blocks whose outline was re-filled within their tile's error.
+    pub blocks_refilled: usize,
     pub geometric_error_min_m: f64,
     pub geometric_error_max_m: f64,
     /// Blocks whose merged footprint could not be extruded and that show their buildings instead.
@@ -383,6 +388,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         &ingested.buildings,
         generalized.as_ref().map(|g| &g.hierarchy),
         kappa,
+        args.collinear_angle,
         &models,
     );
     timings.mesh = t.elapsed().as_millis() as u64;

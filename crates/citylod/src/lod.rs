@@ -11,6 +11,7 @@ use citylod_mesh::simplify::Simplifier;
 use citylod_model::{Building, BuildingId, Hierarchy, Mesh3d, Node, NodeId};
 use citylod_tiles::hlod::{assemble, pack, tile_errors, NodeCost, TileBudget, TileContent};
 use citylod_tiles::{tile_spatially, ContentFeature, TileSpec};
+use geo::Area;
 use rayon::prelude::*;
 
 /// A block's mesh: its extruded merged footprint, or — when that fails — its buildings' own prisms.
@@ -65,6 +66,8 @@ pub struct LodTree<'h> {
     nodes: Vec<Vec<NodeMesh>>,
     /// κ = δH / √δA (m per √m²).
     kappa: f64,
+    /// Near-collinear vertices above this interior angle go when a block is re-outlined (degrees).
+    collinear_angle_deg: f64,
     /// By building id: the 3D chain, for buildings with a model and a prism.
     models: Vec<Option<ModelChain>>,
     pub model_summary: Option<ModelSummary>,
@@ -86,6 +89,7 @@ impl<'h> LodTree<'h> {
         buildings: &[Building],
         hierarchy: Option<&'h Hierarchy>,
         kappa: f64,
+        collinear_angle_deg: f64,
         model_opts: &ModelOptions,
     ) -> Self {
         let meshed: Vec<Result<Mesh3d, String>> = buildings
@@ -169,6 +173,7 @@ impl<'h> LodTree<'h> {
             hierarchy,
             nodes,
             kappa,
+            collinear_angle_deg,
             models,
             model_summary,
         }
@@ -242,6 +247,88 @@ impl<'h> LodTree<'h> {
         Some(self.building_table.feature(&buildings[b.0 as usize], mesh))
     }
 
+    /// Triangles of the landmarks drawn on top of `node`.
+    fn landmark_triangles(&self, node: &Node, nm: &NodeMesh) -> usize {
+        self.landmarks_of(node, nm)
+            .map(|b| {
+                self.buildings[b.0 as usize]
+                    .as_ref()
+                    .map_or(0, |m| m.triangles.len())
+            })
+            .sum()
+    }
+
+    /// Blocks re-outlined within their tile's error: a tile's geometricError is its worst node's, so every
+    /// other block in it may change its area up to (e/κ)² in total without raising it (DESIGN.md §4). Each block
+    /// of a written level above the buildings gets its concave notches filled, smallest first, within that
+    /// budget ([`citylod_generalize::fill_concave_within`]); its Δa and area grow by what was filled, so its
+    /// metadata stays true and its own error stays ≤ the tile's. `[level - 1][node]`: `None` where nothing
+    /// changed (or the re-extruded prism failed, which keeps the block as it was).
+    fn spend_tile_errors(
+        &self,
+        h: &Hierarchy,
+        packing: &citylod_tiles::hlod::Packing,
+        errors: &[f64],
+    ) -> Vec<Vec<Option<(Node, NodeMesh)>>> {
+        let mut spent: Vec<Vec<Option<(Node, NodeMesh)>>> = h
+            .levels
+            .iter()
+            .skip(1)
+            .map(|l| (0..l.nodes.len()).map(|_| None).collect())
+            .collect();
+        if self.kappa.is_nan() || self.kappa <= 0.0 {
+            return spent;
+        }
+        let jobs: Vec<(usize, NodeId, f64)> = packing
+            .tiles
+            .iter()
+            .zip(errors)
+            .filter(|(t, _)| t.level > 0)
+            .flat_map(|(t, &e)| t.nodes.iter().map(move |&n| (t.level, n, e)))
+            .collect();
+        let done: Vec<(usize, NodeId, Node, NodeMesh)> = jobs
+            .par_iter()
+            .filter_map(|&(level, n, tile_error_m)| {
+                let node = &h.levels[level].nodes[n.0 as usize];
+                if self.nodes[level - 1][n.0 as usize].fallback {
+                    return None;
+                }
+                let budget_m2 = (tile_error_m / self.kappa).powi(2) - node.da_m2;
+                // A hair inside the budget so rounding in the area sums cannot lift the error above the tile's.
+                let (footprint, added_m2) = citylod_generalize::fill_concave_within(
+                    &node.footprint,
+                    budget_m2 * 0.999,
+                    self.collinear_angle_deg,
+                );
+                if added_m2 <= 0.0 {
+                    return None;
+                }
+                let mesh =
+                    citylod_mesh::extrude(&footprint, node.base_z_m, node.base_z_m + node.height_m)
+                        .ok()?;
+                // Δa = area − Σ buildings' area, so it changes by exactly what the outline's area changed.
+                let area_m2 = footprint.unsigned_area();
+                let mut node = node.clone();
+                node.da_m2 = (node.da_m2 + area_m2 - node.area_m2).max(0.0);
+                node.area_m2 = area_m2;
+                node.footprint = footprint;
+                Some((
+                    level,
+                    n,
+                    node,
+                    NodeMesh {
+                        mesh,
+                        fallback: false,
+                    },
+                ))
+            })
+            .collect();
+        for (level, n, node, nm) in done {
+            spent[level - 1][n.0 as usize] = Some((node, nm));
+        }
+        spent
+    }
+
     /// The tile tree to write, and a summary per level.
     pub fn tiles(
         &self,
@@ -267,6 +354,8 @@ impl<'h> LodTree<'h> {
                 nodes,
                 tiles: root.count_tiles(),
                 triangles,
+                triangles_as_generalized: triangles,
+                blocks_refilled: 0,
                 geometric_error_min_m: 0.0,
                 geometric_error_max_m: 0.0,
                 mesh_fallbacks: 0,
@@ -324,15 +413,25 @@ impl<'h> LodTree<'h> {
         );
         debug_assert!(citylod_tiles::hlod::check_packing(h, &packing).is_empty());
         let errors = tile_errors(&packing, &error);
+        let spent = self.spend_tile_errors(h, &packing, &errors);
+        let node_and_mesh = |level: usize, n: NodeId| -> (&Node, &NodeMesh) {
+            match &spent[level - 1][n.0 as usize] {
+                Some((node, nm)) => (node, nm),
+                None => (
+                    &h.levels[level].nodes[n.0 as usize],
+                    &self.nodes[level - 1][n.0 as usize],
+                ),
+            }
+        };
         let features = |level: usize, n: NodeId| -> Vec<ContentFeature> {
-            let node = &h.levels[level].nodes[n.0 as usize];
             if level == 0 {
+                let node = &h.levels[0].nodes[n.0 as usize];
                 return self
                     .building_feature(buildings, node.members[0])
                     .into_iter()
                     .collect();
             }
-            let nm = &self.nodes[level - 1][n.0 as usize];
+            let (node, nm) = node_and_mesh(level, n);
             let source_id = (node.members.len() == 1)
                 .then(|| buildings[node.members[0].0 as usize].source_id.as_str());
             let row = ClusterRow {
@@ -365,6 +464,7 @@ impl<'h> LodTree<'h> {
                 below_buildings: &below,
             },
         );
+        let landmark_triangles = |node: &Node, nm: &NodeMesh| self.landmark_triangles(node, nm);
         let summary = (0..h.levels.len())
             .map(|level| {
                 let tiles: Vec<usize> = (0..packing.tiles.len())
@@ -376,7 +476,24 @@ impl<'h> LodTree<'h> {
                     level,
                     nodes: n,
                     tiles: tiles.len(),
-                    triangles: (0..n as u32).map(|i| triangles(level, NodeId(i))).sum(),
+                    triangles: (0..n as u32)
+                        .map(|i| match level {
+                            0 => triangles(0, NodeId(i)),
+                            _ => match &spent[level - 1][i as usize] {
+                                Some((node, nm)) => {
+                                    nm.mesh.triangles.len() + landmark_triangles(node, nm)
+                                }
+                                None => triangles(level, NodeId(i)),
+                            },
+                        })
+                        .sum(),
+                    triangles_as_generalized: (0..n as u32)
+                        .map(|i| triangles(level, NodeId(i)))
+                        .sum(),
+                    blocks_refilled: match level {
+                        0 => 0,
+                        _ => spent[level - 1].iter().filter(|s| s.is_some()).count(),
+                    },
                     geometric_error_min_m: errs
                         .iter()
                         .copied()
