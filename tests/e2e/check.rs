@@ -178,7 +178,6 @@ fn delft_every_view_passes() {
 }
 
 #[test]
-#[ignore = "issue 5 target not met on Delft: the far view draws 7.61× fewer triangles, not 10× (measured 2026-11-22 with blocks re-outlined within their tile's error: Boston 11.3×, NYC 11.3×). The far camera allows ~94 m of error, met first by level 3, whose 44 blocks sit at their Δa budget (≈ 4,100 m² each) and keep 3,991 triangles, mostly convex outline detail that a covering simplification cannot remove; run with --ignored"]
 fn delft_far_view_draws_ten_times_fewer_triangles() {
     assert_far_view_is_ten_times_lighter("delft");
 }

@@ -161,7 +161,7 @@ fn blocks_stay_within_their_tile_error(name: &str, report: &Value, ts: &TilesetD
         assert!(blocks > 0, "{name}: no block in an LOD tileset");
         let sum = |key: &str| -> u64 { levels[1..].iter().map(|l| l[key].as_u64().unwrap()).sum() };
         let (after, before) = (sum("triangles"), sum("triangles_as_generalized"));
-        let refilled: u64 = sum("blocks_refilled");
+        let refilled: u64 = sum("blocks_reoutlined");
         assert!(
             refilled > 0 && after < before,
             "{name}: re-outlining within the tile errors changed nothing ({refilled} blocks, {before} → {after} triangles)"

@@ -56,7 +56,8 @@ pub use hierarchy::{
 pub use levels::{condense, target_levels, LevelKind, LevelOptions, LevelPlan, PlannedLevel};
 pub use merge::{merge_footprints, MergeResult};
 pub use simplify::{
-    fill_concave_within, simplify_footprint, CONVEX_COLLINEAR_TOL_M, SLIVER_FACTOR,
+    fill_concave_within, reoutline_within, simplify_footprint, Reoutlined, CONVEX_COLLINEAR_TOL_M,
+    SLIVER_FACTOR,
 };
 pub use single_link::{single_link, Merge};
 pub use stats::{node_stats, NodeStats};

@@ -56,7 +56,7 @@ pub fn simplify_footprint(fp: &Footprint, delta_a_m2: f64, max_angle_deg: f64) -
     }
     let max_angle_rad = max_angle_deg.to_radians();
     if max_angle_rad.is_finite() && max_angle_rad < std::f64::consts::PI {
-        net.remove_collinear(max_angle_rad, f64::INFINITY);
+        net.remove_collinear(max_angle_rad, f64::INFINITY, false);
     }
     net.into_footprint(fp.0.len(), delta_a_m2)
 }
@@ -96,9 +96,67 @@ pub fn fill_concave_within(fp: &Footprint, budget_m2: f64, max_angle_deg: f64) -
     // Filling leaves straight vertices behind (the mouth of a filled notch).
     let max_angle_rad = max_angle_deg.to_radians();
     if max_angle_rad.is_finite() && max_angle_rad < std::f64::consts::PI {
-        added_m2 += net.remove_collinear(max_angle_rad, budget_m2 - added_m2);
+        added_m2 += net
+            .remove_collinear(max_angle_rad, budget_m2 - added_m2, false)
+            .0;
     }
     (net.into_footprint(fp.0.len(), 0.0), added_m2)
+}
+
+/// What [`reoutline_within`] did: the new footprint, the area it filled and the area it cut (m²).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Reoutlined {
+    pub footprint: Footprint,
+    pub filled_m2: f64,
+    pub cut_m2: f64,
+}
+
+/// Simplifies `fp` (local ENU m) within an area budget by removing vertices, cheapest area per vertex first:
+/// concave ones (filling a notch), convex ones (cutting a corner off) and whole holes (filling a courtyard),
+/// while the area filled plus the area cut stays within `budget_m2` (m²); then near-straight vertices while
+/// their triangles fit too (`max_angle_deg`). Unlike [`fill_concave_within`] the result need not cover `fp`: the
+/// symmetric difference between the two is at most `filled_m2 + cut_m2`, which is what a block re-outlined this
+/// way adds to its Δa (DESIGN.md §4: a block whose tile's error is e may differ from its buildings by (e/κ)²).
+/// Output vertices are a subset of the input's; rings stay simple, disjoint and ≥ 3 vertices; a courtyard with
+/// another polygon standing in it is never filled. A budget ≤ 0 or not finite returns `fp` unchanged.
+///
+/// # Examples
+/// ```
+/// use citylod_generalize::reoutline_within;
+/// use geo_types::{polygon, MultiPolygon};
+/// // A 10 × 10 square with a 1 × 1 notch at its top right.
+/// let fp = MultiPolygon(vec![polygon![(x: 0.0, y: 0.0), (x: 10.0, y: 0.0), (x: 10.0, y: 9.0),
+///     (x: 9.0, y: 9.0), (x: 9.0, y: 10.0), (x: 0.0, y: 10.0)]]);
+/// let r = reoutline_within(&fp, 0.6, 175.0);
+/// // Filling half the notch (0.5 m²) removes its inner corner; the next cheapest triangle is 4.5 m².
+/// assert_eq!(r.footprint.0[0].exterior().0.len() - 1, 5);
+/// assert!((r.filled_m2 + r.cut_m2 - 0.5).abs() < 1e-9);
+/// ```
+pub fn reoutline_within(fp: &Footprint, budget_m2: f64, max_angle_deg: f64) -> Reoutlined {
+    let unchanged = || Reoutlined {
+        footprint: fp.clone(),
+        filled_m2: 0.0,
+        cut_m2: 0.0,
+    };
+    if !(budget_m2 > 0.0 && budget_m2.is_finite()) {
+        return unchanged();
+    }
+    let mut net = Net::new(&ring_specs(fp, 0.0));
+    let (mut filled_m2, mut cut_m2) = net.fill_concave_and_holes(budget_m2, true);
+    let max_angle_rad = max_angle_deg.to_radians();
+    if max_angle_rad.is_finite() && max_angle_rad < std::f64::consts::PI {
+        let (f, c) = net.remove_collinear(max_angle_rad, budget_m2 - filled_m2 - cut_m2, true);
+        filled_m2 += f;
+        cut_m2 += c;
+    }
+    if filled_m2 == 0.0 && cut_m2 == 0.0 {
+        return unchanged();
+    }
+    Reoutlined {
+        footprint: net.into_footprint(fp.0.len(), 0.0),
+        filled_m2,
+        cut_m2,
+    }
 }
 
 /// The usable rings of `fp`, open and oriented (exteriors CCW, holes CW): rings with zero area are dropped, a
@@ -301,7 +359,7 @@ impl Net {
     /// The error-budgeted pass: smallest concave triangle first while the running total of filled area stays
     /// within `budget_m2`; returns that total (m²).
     fn fill_concave_budget(&mut self, budget_m2: f64) -> f64 {
-        self.fill_concave_and_holes(budget_m2)
+        self.fill_concave_and_holes(budget_m2, false).0
     }
 
     /// The live vertices of ring `r`, in order.
@@ -345,13 +403,15 @@ impl Net {
         ring.version += 1;
     }
 
-    /// The budgeted pass: concave triangles (one vertex each) and whole holes (all their vertices) compete on
-    /// area filled per vertex removed, cheapest first, while the running total stays within `budget_m2`;
-    /// returns that total (m²). A hole shrunk to a triangle by corner fills can then still go at once.
-    fn fill_concave_and_holes(&mut self, budget_m2: f64) -> f64 {
+    /// The budgeted pass: concave triangles (one vertex each), with `cuts` also convex ones, and whole holes (all
+    /// their vertices) compete on area changed per vertex removed, cheapest first, while the running total stays
+    /// within `budget_m2`; returns the area filled and the area cut (m²). A hole shrunk to a triangle by corner
+    /// fills can then still go at once.
+    fn fill_concave_and_holes(&mut self, budget_m2: f64, cuts: bool) -> (f64, f64) {
         let mut tri = BinaryHeap::new();
         let push_tri = |net: &Net, heap: &mut BinaryHeap<std::cmp::Reverse<Entry>>, id: u32| {
-            let area_m2 = -net.turn2(id) / 2.0;
+            let turn_m2 = net.turn2(id) / 2.0;
+            let area_m2 = if cuts { turn_m2.abs() } else { -turn_m2 };
             if area_m2 > 0.0 && area_m2 <= budget_m2 {
                 heap.push(std::cmp::Reverse(Entry {
                     key: area_m2,
@@ -381,9 +441,10 @@ impl Net {
         for r in 0..self.rings.len() {
             push_hole(self, &mut holes, r);
         }
-        let mut spent_m2 = 0.0;
+        let (mut filled_m2, mut cut_m2) = (0.0, 0.0);
         let mut triangles_left = true;
         loop {
+            let spent_m2 = filled_m2 + cut_m2;
             let take_hole = match (tri.peek(), holes.peek()) {
                 (_, None) if !triangles_left => break,
                 (None, None) => break,
@@ -403,7 +464,7 @@ impl Net {
                 if spent_m2 + area_m2 > budget_m2 || !self.can_fill_hole(r, &pts) {
                     continue;
                 }
-                spent_m2 += area_m2;
+                filled_m2 += area_m2;
                 self.fill_hole(r);
                 continue;
             }
@@ -418,14 +479,18 @@ impl Net {
                 tri.clear();
                 continue;
             }
-            spent_m2 += e.key;
+            if self.turn2(e.id) < 0.0 {
+                filled_m2 += e.key;
+            } else {
+                cut_m2 += e.key;
+            }
             let (p, n, r) = (x.prev, x.next, x.ring as usize);
             self.remove(e.id);
             push_tri(self, &mut tri, p);
             push_tri(self, &mut tri, n);
             push_hole(self, &mut holes, r);
         }
-        spent_m2
+        (filled_m2, cut_m2)
     }
 
     /// Removes concave vertices, smallest triangle first, among those `qualifies(net, vertex, area m²)` accepts,
@@ -481,8 +546,15 @@ impl Net {
     }
 
     /// Pass 2: most collinear vertex first while its angle > `max_angle_rad`; a concave one only while the area
-    /// it fills keeps the running total within `budget_m2`. Returns the area the concave removals filled (m²).
-    fn remove_collinear(&mut self, max_angle_rad: f64, budget_m2: f64) -> f64 {
+    /// it fills keeps the running total within `budget_m2`, and with `count_cuts` a convex one too only while the
+    /// area it cuts does (without, a convex vertex goes within `CONVEX_COLLINEAR_TOL_M` of its chord, uncounted).
+    /// Returns the area the removals filled and the area counted as cut (m²).
+    fn remove_collinear(
+        &mut self,
+        max_angle_rad: f64,
+        budget_m2: f64,
+        count_cuts: bool,
+    ) -> (f64, f64) {
         let mut heap = BinaryHeap::new();
         let push = |net: &Net, heap: &mut BinaryHeap<Entry>, id: u32| {
             if let Some(a) = net.collinear_candidate(id, max_angle_rad) {
@@ -496,23 +568,31 @@ impl Net {
         for id in 0..self.v.len() as u32 {
             push(self, &mut heap, id);
         }
-        let mut filled_m2 = 0.0;
+        let (mut filled_m2, mut cut_m2) = (0.0, 0.0);
         while let Some(e) = heap.pop() {
             let x = &self.v[e.id as usize];
             if !x.alive || x.version != e.version || !self.can_remove(e.id) {
                 continue;
             }
-            let fill_m2 = (-self.turn2(e.id) / 2.0).max(0.0);
-            if filled_m2 + fill_m2 > budget_m2 {
+            let turn_m2 = self.turn2(e.id) / 2.0;
+            let (fill_m2, cut_here_m2) = if turn_m2 < 0.0 {
+                (-turn_m2, 0.0)
+            } else if count_cuts {
+                (0.0, turn_m2)
+            } else {
+                (0.0, 0.0)
+            };
+            if filled_m2 + cut_m2 + fill_m2 + cut_here_m2 > budget_m2 {
                 continue;
             }
             filled_m2 += fill_m2;
+            cut_m2 += cut_here_m2;
             let (p, n) = (x.prev, x.next);
             self.remove(e.id);
             push(self, &mut heap, p);
             push(self, &mut heap, n);
         }
-        filled_m2
+        (filled_m2, cut_m2)
     }
 
     fn into_footprint(self, n_polys: usize, delta_a_m2: f64) -> Footprint {
@@ -635,6 +715,28 @@ mod tests {
         let (s, added) = fill_concave_within(&fp, 6.0, 175.0);
         assert!((added - 5.0).abs() < 1e-9, "added {added}");
         assert_eq!(s.0[0].interiors().len(), 1);
+    }
+
+    #[test]
+    fn reoutline_cuts_small_corners_where_filling_would_cost_more() {
+        // A 20 × 10 bar with a 1 × 1 tooth standing out of its top edge: the tooth's two convex corners cost
+        // 0.5 m² each to cut, its two concave feet 0.5 m² to fill, so a budget of 1 m² takes the tooth away;
+        // fill-only cannot (filling the feet makes the tooth a wider bump with the same vertex count).
+        let fp = MultiPolygon(vec![polygon![
+            (x: 0.0, y: 0.0), (x: 20.0, y: 0.0), (x: 20.0, y: 10.0), (x: 11.0, y: 10.0), (x: 11.0, y: 11.0),
+            (x: 10.0, y: 11.0), (x: 10.0, y: 10.0), (x: 0.0, y: 10.0)
+        ]]);
+        let r = reoutline_within(&fp, 1.0, 175.0);
+        assert!(r.footprint.is_valid());
+        assert_eq!(vertex_count(&r.footprint), 4, "{:?}", r.footprint);
+        assert!(r.filled_m2 + r.cut_m2 <= 1.0 + 1e-9);
+        // The changed area is at most what was counted.
+        let changed = uncovered_m2(&[&fp], &r.footprint) + uncovered_m2(&[&r.footprint], &fp);
+        assert!(changed <= r.filled_m2 + r.cut_m2 + 1e-9, "{changed}");
+        let (filled_only, _) = fill_concave_within(&fp, 1.0, 175.0);
+        assert!(vertex_count(&filled_only) > 4);
+        // No budget, no change.
+        assert_eq!(reoutline_within(&fp, 0.0, 175.0).footprint, fp);
     }
 
     #[test]
@@ -909,6 +1011,29 @@ mod tests {
             let perimeter: f64 = merged.0.iter().flat_map(|p| p.exterior().0.windows(2))
                 .map(|w| (w[1].x - w[0].x).hypot(w[1].y - w[0].y)).sum();
             prop_assert!(uncovered_m2(&[&merged], &s) <= perimeter * CONVEX_COLLINEAR_TOL_M + 1e-9);
+        }
+
+        #[test]
+        fn reoutline_of_a_merge_is_valid_and_changes_at_most_what_it_counts(
+            rects in prop::collection::vec((0.0f64..60.0, 0.0f64..60.0, 2.0f64..20.0, 2.0f64..20.0), 2..10),
+            budget in 0.0f64..400.0,
+        ) {
+            let parts: Vec<Footprint> = rects.iter().map(|&(x, y, w, h)| rect(x, y, x + w, y + h)).collect();
+            let refs: Vec<&Footprint> = parts.iter().collect();
+            let hints: Vec<(usize, usize)> = (1..parts.len()).map(|i| (i - 1, i)).collect();
+            let merged = crate::merge::merge_footprints(&refs, &hints).footprint;
+            prop_assume!(merged.is_valid());
+            let r = reoutline_within(&merged, budget, 175.0);
+            prop_assert!(r.footprint.is_valid(), "{:?}", r.footprint.validation_errors());
+            prop_assert!(r.filled_m2 >= 0.0 && r.cut_m2 >= 0.0);
+            prop_assert!(r.filled_m2 + r.cut_m2 <= budget + 1e-9);
+            let input = vertices(&merged);
+            prop_assert!(vertices(&r.footprint).iter().all(|v| input.contains(v)));
+            prop_assert!(vertex_count(&r.footprint) <= vertex_count(&merged));
+            let changed = uncovered_m2(&[&merged], &r.footprint) + uncovered_m2(&[&r.footprint], &merged);
+            prop_assert!(changed <= r.filled_m2 + r.cut_m2 + 1e-6 * merged.unsigned_area().max(1.0),
+                "changed {changed} > counted {} + {}", r.filled_m2, r.cut_m2);
+            prop_assert_eq!(r.footprint.0.len(), merged.0.len());
         }
 
         #[test]

@@ -267,8 +267,8 @@ pub struct LevelSummary {
     /// The level's triangles as generalized, before its blocks were re-outlined within their tile's error
     /// (equal to `triangles` for the buildings and for levels not written).
     pub triangles_as_generalized: usize,
-    /// Blocks whose outline was re-filled within their tile's error.
-    pub blocks_refilled: usize,
+    /// Blocks whose outline was simplified within their tile's error.
+    pub blocks_reoutlined: usize,
     pub geometric_error_min_m: f64,
     pub geometric_error_max_m: f64,
     /// Blocks whose merged footprint could not be extruded and that show their buildings instead.

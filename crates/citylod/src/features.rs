@@ -172,7 +172,7 @@ const CLUSTER: [(&str, PropertyKind, &str); 15] = [
     (
         "da_m2",
         PropertyKind::Float64,
-        "ground added by merging Δa = area(block) − Σ area(buildings), m²",
+        "area the block differs from its buildings by, m²: Δa = area(block) − Σ area(buildings) as merged, plus what was filled or cut to simplify its outline within its tile's error",
     ),
     (
         "area_m2",

@@ -259,10 +259,11 @@ impl<'h> LodTree<'h> {
     }
 
     /// Blocks re-outlined within their tile's error: a tile's geometricError is its worst node's, so every
-    /// other block in it may change its area up to (e/κ)² in total without raising it (DESIGN.md §4). Each block
-    /// of a written level above the buildings gets its concave notches filled, smallest first, within that
-    /// budget ([`citylod_generalize::fill_concave_within`]); its Δa and area grow by what was filled, so its
-    /// metadata stays true and its own error stays ≤ the tile's. `[level - 1][node]`: `None` where nothing
+    /// other block in it may differ from its buildings by up to (e/κ)² in area without raising it (DESIGN.md §4).
+    /// Each block of a written level above the buildings loses outline vertices, cheapest area per vertex first —
+    /// notches filled, corners cut, courtyards filled — within that budget
+    /// ([`citylod_generalize::reoutline_within`]); its Δa grows by the area filled plus the area cut, so its
+    /// metadata stays an upper bound of what it changed and its own error stays ≤ the tile's. `[level - 1][node]`: `None` where nothing
     /// changed (or the re-extruded prism failed, which keeps the block as it was).
     fn spend_tile_errors(
         &self,
@@ -295,23 +296,26 @@ impl<'h> LodTree<'h> {
                 }
                 let budget_m2 = (tile_error_m / self.kappa).powi(2) - node.da_m2;
                 // A hair inside the budget so rounding in the area sums cannot lift the error above the tile's.
-                let (footprint, added_m2) = citylod_generalize::fill_concave_within(
+                let r = citylod_generalize::reoutline_within(
                     &node.footprint,
                     budget_m2 * 0.999,
                     self.collinear_angle_deg,
                 );
-                if added_m2 <= 0.0 {
+                if r.filled_m2 + r.cut_m2 <= 0.0 {
                     return None;
                 }
-                let mesh =
-                    citylod_mesh::extrude(&footprint, node.base_z_m, node.base_z_m + node.height_m)
-                        .ok()?;
-                // Δa = area − Σ buildings' area, so it changes by exactly what the outline's area changed.
-                let area_m2 = footprint.unsigned_area();
+                let mesh = citylod_mesh::extrude(
+                    &r.footprint,
+                    node.base_z_m,
+                    node.base_z_m + node.height_m,
+                )
+                .ok()?;
+                // The block covered its buildings, so it differed from them by Δa; it now differs by at most
+                // Δa + filled + cut (a corner cut off a building counts as much as ground filled).
                 let mut node = node.clone();
-                node.da_m2 = (node.da_m2 + area_m2 - node.area_m2).max(0.0);
-                node.area_m2 = area_m2;
-                node.footprint = footprint;
+                node.da_m2 += r.filled_m2 + r.cut_m2;
+                node.area_m2 = r.footprint.unsigned_area();
+                node.footprint = r.footprint;
                 Some((
                     level,
                     n,
@@ -355,7 +359,7 @@ impl<'h> LodTree<'h> {
                 tiles: root.count_tiles(),
                 triangles,
                 triangles_as_generalized: triangles,
-                blocks_refilled: 0,
+                blocks_reoutlined: 0,
                 geometric_error_min_m: 0.0,
                 geometric_error_max_m: 0.0,
                 mesh_fallbacks: 0,
@@ -490,7 +494,7 @@ impl<'h> LodTree<'h> {
                     triangles_as_generalized: (0..n as u32)
                         .map(|i| triangles(level, NodeId(i)))
                         .sum(),
-                    blocks_refilled: match level {
+                    blocks_reoutlined: match level {
                         0 => 0,
                         _ => spent[level - 1].iter().filter(|s| s.is_some()).count(),
                     },
