@@ -115,7 +115,46 @@ fn build_and_check(name: &str, inputs: &[&Path], extra: &[&str]) -> (Value, Tile
         "{name}: buildings missing / present more than once in the leaves"
     );
     blocks_stay_within_their_tile_error(name, &report, &ts);
+    glb_schemas_match_schemas_metadata_json(name, &out);
     (report, ts)
+}
+
+/// Every glb's inline metadata schema agrees with `schemas/metadata.json`: the `cluster` class is the same, and
+/// the `building` class holds the documented fixed properties with the same definitions (plus the attributes).
+fn glb_schemas_match_schemas_metadata_json(name: &str, out: &Path) {
+    let doc = read_json(&repo_root().join("schemas/metadata.json"));
+    let mut glbs = 0;
+    for (rel, bytes) in tree_bytes(out) {
+        if !rel.ends_with(".glb") {
+            continue;
+        }
+        glbs += 1;
+        let len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+        let gltf: Value = serde_json::from_slice(&bytes[20..20 + len]).unwrap();
+        let schema = &gltf["extensions"]["EXT_structural_metadata"]["schema"];
+        assert_eq!(schema["id"], doc["id"], "{name}: {rel}");
+        let classes = schema["classes"].as_object().unwrap();
+        assert!(!classes.is_empty(), "{name}: {rel} has no class");
+        for (class, def) in classes {
+            let documented = doc["classes"][class]["properties"]
+                .as_object()
+                .unwrap_or_else(|| {
+                    panic!("{name}: {rel}: class {class} is not in schemas/metadata.json")
+                });
+            let props = def["properties"].as_object().unwrap();
+            for (prop, d) in documented {
+                assert_eq!(props.get(prop), Some(d), "{name}: {rel}: {class}.{prop}");
+            }
+            if class == "cluster" {
+                assert_eq!(
+                    props.len(),
+                    documented.len(),
+                    "{name}: {rel}: cluster properties"
+                );
+            }
+        }
+    }
+    assert!(glbs > 0, "{name}: no glb");
 }
 
 /// Blocks are re-outlined within their tile's geometricError: every block's own error, recomputed from the Δh and

@@ -44,7 +44,7 @@ mod tiling;
 mod write;
 
 pub use error::TilesError;
-pub use metadata::FeatureRow;
+pub use metadata::{schema_to_json, FeatureRow};
 pub use spec::{
     ClassDef, ContentFeature, MetadataSchema, PropValue, PropertyDef, PropertyKind, TileSpec,
 };

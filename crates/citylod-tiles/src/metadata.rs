@@ -11,6 +11,13 @@ pub(crate) const NO_DATA_F64: f64 = f64::MIN;
 pub(crate) const NO_DATA_I64: i64 = i64::MIN;
 pub(crate) const NO_DATA_U32: u32 = u32::MAX;
 
+/// The whole schema, every class, as the JSON object an EXT_structural_metadata `schema` holds (what
+/// `schemas/metadata.json` documents for citylod's fixed properties).
+pub fn schema_to_json(schema: &MetadataSchema) -> serde_json::Value {
+    let used: Vec<&str> = schema.classes.iter().map(|c| c.id.as_str()).collect();
+    serde_json::to_value(schema_json(schema, &used)).expect("schema structs always serialize")
+}
+
 /// The schema as written inline in a glb: only the classes `used` (by the glb's property tables), so a tile of
 /// blocks does not carry the building class's many attribute properties.
 pub(crate) fn schema_json(schema: &MetadataSchema, used: &[&str]) -> Schema {

@@ -347,4 +347,31 @@ mod tests {
         assert_eq!(unique_id("height_m", &mut used), "height_m_2");
         assert_eq!(unique_id("", &mut used), "_");
     }
+
+    /// `schemas/metadata.json` documents the metadata schema every glb carries inline: the `cluster` class and the
+    /// fixed properties of the `building` class (a build appends one property per input attribute). It must be
+    /// exactly what the writer produces; `CITYLOD_WRITE_SCHEMAS=1` rewrites it after a deliberate change.
+    #[test]
+    fn schemas_metadata_json_is_the_schema_the_glbs_carry() {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../schemas/metadata.json");
+        let mut doc = serde_json::json!({
+            "$comment": "The EXT_structural_metadata schema inline in every citylod glb (a glb lists only the classes its property tables use). Besides the five fixed properties listed here, the building class has one property per input attribute (named after it, made safe as an identifier), so it differs per build. Generated from crates/citylod/src/features.rs; a test keeps the two equal.",
+        });
+        let generated = citylod_tiles::schema_to_json(&schema(&BuildingTable::new(&[])));
+        for (k, v) in generated.as_object().unwrap() {
+            doc[k] = v.clone();
+        }
+        let mut text = serde_json::to_string_pretty(&doc).unwrap();
+        text.push('\n');
+        if std::env::var_os("CITYLOD_WRITE_SCHEMAS").is_some() {
+            std::fs::write(&path, &text).unwrap();
+        }
+        let committed = std::fs::read_to_string(&path).unwrap_or_default();
+        assert!(
+            committed == text,
+            "{} differs from the schema the writer produces; rerun with CITYLOD_WRITE_SCHEMAS=1 after a deliberate change",
+            path.display()
+        );
+    }
 }
