@@ -965,6 +965,26 @@ mod tests {
         MultiPolygon(vec![Polygon::new(LineString::from(ring), vec![])])
     }
 
+    /// Rectangles (x, y, w, h) as footprints, and their merge (bridged in list order).
+    fn merge_rects(rects: &[(f64, f64, f64, f64)]) -> (Vec<Footprint>, Footprint) {
+        let parts: Vec<Footprint> = rects
+            .iter()
+            .map(|&(x, y, w, h)| rect(x, y, x + w, y + h))
+            .collect();
+        let refs: Vec<&Footprint> = parts.iter().collect();
+        let hints: Vec<(usize, usize)> = (1..parts.len()).map(|i| (i - 1, i)).collect();
+        let merged = crate::merge::merge_footprints(&refs, &hints).footprint;
+        (parts, merged)
+    }
+
+    /// Summed length of the exteriors (m).
+    fn exterior_perimeter_m(fp: &Footprint) -> f64 {
+        fp.0.iter()
+            .flat_map(|p| p.exterior().0.windows(2))
+            .map(|w| (w[1].x - w[0].x).hypot(w[1].y - w[0].y))
+            .sum()
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(128))]
         #[test]
@@ -993,10 +1013,7 @@ mod tests {
             budget in 0.0f64..400.0,
         ) {
             // Overlapping rectangles merge into outlines with notches and courtyards.
-            let parts: Vec<Footprint> = rects.iter().map(|&(x, y, w, h)| rect(x, y, x + w, y + h)).collect();
-            let refs: Vec<&Footprint> = parts.iter().collect();
-            let hints: Vec<(usize, usize)> = (1..parts.len()).map(|i| (i - 1, i)).collect();
-            let merged = crate::merge::merge_footprints(&refs, &hints).footprint;
+            let (_, merged) = merge_rects(&rects);
             prop_assume!(merged.is_valid());
             let (s, added) = fill_concave_within(&merged, budget, 175.0);
             prop_assert!(s.is_valid(), "{:?}", s.validation_errors());
@@ -1008,9 +1025,7 @@ mod tests {
             let input = vertices(&merged);
             prop_assert!(vertices(&s).iter().all(|v| input.contains(v)));
             prop_assert!(vertex_count(&s) <= vertex_count(&merged));
-            let perimeter: f64 = merged.0.iter().flat_map(|p| p.exterior().0.windows(2))
-                .map(|w| (w[1].x - w[0].x).hypot(w[1].y - w[0].y)).sum();
-            prop_assert!(uncovered_m2(&[&merged], &s) <= perimeter * CONVEX_COLLINEAR_TOL_M + 1e-9);
+            prop_assert!(uncovered_m2(&[&merged], &s) <= exterior_perimeter_m(&merged) * CONVEX_COLLINEAR_TOL_M + 1e-9);
         }
 
         #[test]
@@ -1018,10 +1033,7 @@ mod tests {
             rects in prop::collection::vec((0.0f64..60.0, 0.0f64..60.0, 2.0f64..20.0, 2.0f64..20.0), 2..10),
             budget in 0.0f64..400.0,
         ) {
-            let parts: Vec<Footprint> = rects.iter().map(|&(x, y, w, h)| rect(x, y, x + w, y + h)).collect();
-            let refs: Vec<&Footprint> = parts.iter().collect();
-            let hints: Vec<(usize, usize)> = (1..parts.len()).map(|i| (i - 1, i)).collect();
-            let merged = crate::merge::merge_footprints(&refs, &hints).footprint;
+            let (_, merged) = merge_rects(&rects);
             prop_assume!(merged.is_valid());
             let r = reoutline_within(&merged, budget, 175.0);
             prop_assert!(r.footprint.is_valid(), "{:?}", r.footprint.validation_errors());
@@ -1041,18 +1053,14 @@ mod tests {
             rects in prop::collection::vec((0.0f64..60.0, 0.0f64..60.0, 2.0f64..20.0, 2.0f64..20.0), 2..8),
             delta_a in 0.0f64..100.0,
         ) {
-            let parts: Vec<Footprint> = rects.iter().map(|&(x, y, w, h)| rect(x, y, x + w, y + h)).collect();
-            let refs: Vec<&Footprint> = parts.iter().collect();
-            let hints: Vec<(usize, usize)> = (1..parts.len()).map(|i| (i - 1, i)).collect();
-            let merged = crate::merge::merge_footprints(&refs, &hints).footprint;
+            let (parts, merged) = merge_rects(&rects);
             let s = simplify_footprint(&merged, delta_a, 175.0);
             prop_assert!(s.is_valid(), "{:?}", s.validation_errors());
             let input = vertices(&merged);
             prop_assert!(vertices(&s).iter().all(|v| input.contains(v)));
             // Only a convex near-straight vertex may give up solid: a sliver ≤ CONVEX_COLLINEAR_TOL_M wide.
-            let perimeter: f64 = merged.0.iter().flat_map(|p| p.exterior().0.windows(2))
-                .map(|w| (w[1].x - w[0].x).hypot(w[1].y - w[0].y)).sum();
-            prop_assert!(uncovered_m2(&refs, &s) <= perimeter * CONVEX_COLLINEAR_TOL_M + 1e-9);
+            let refs: Vec<&Footprint> = parts.iter().collect();
+            prop_assert!(uncovered_m2(&refs, &s) <= exterior_perimeter_m(&merged) * CONVEX_COLLINEAR_TOL_M + 1e-9);
         }
     }
 }
