@@ -11,19 +11,7 @@ pub fn repo_root() -> PathBuf {
         .expect("repo root")
 }
 
-/// `../shared/data/<rel>` if present; `None` (and a printed reason) when a user's clone has no shared data.
-pub fn shared_data(rel: &str) -> Option<PathBuf> {
-    let p = repo_root().join("../shared/data").join(rel);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!(
-            "SKIP: {} not found (the shared data folder is not beside this clone)",
-            p.display()
-        );
-        None
-    }
-}
+pub use citylod_testdata::shared_data;
 
 /// Where a named tileset is kept for the browser tests: `target/e2e/<name>`.
 pub fn e2e_dir(name: &str) -> PathBuf {

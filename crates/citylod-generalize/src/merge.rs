@@ -1155,14 +1155,8 @@ pub(crate) mod tests {
 
     /// Up to `n` Boston footprints nearest the data's centre, in local ENU metres; `None` without data.
     pub(crate) fn boston_sample(n: usize) -> Option<Vec<Footprint>> {
-        let path = concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../../../shared/data/boston/boston_buildings.geojson"
-        );
-        let Ok(text) = std::fs::read_to_string(path) else {
-            eprintln!("skipping: {path} not found (the shared data folder is absent)");
-            return None;
-        };
+        let path = citylod_testdata::shared_data("boston/boston_buildings.geojson")?;
+        let text = std::fs::read_to_string(path).ok()?;
         let v: serde_json::Value = serde_json::from_str(&text).ok()?;
         let ring = |r: &serde_json::Value| -> Vec<(f64, f64)> {
             r.as_array()

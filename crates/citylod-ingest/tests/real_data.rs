@@ -4,24 +4,8 @@
 use citylod_ingest::{check_footprint, ingest, IngestOptions, IssueReason};
 use citylod_mesh::topology::signed_volume_m3;
 use citylod_model::HeightSource;
-use std::path::PathBuf;
 
-fn data(rel: &str) -> Option<PathBuf> {
-    let p = PathBuf::from(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/data/"
-    ))
-    .join(rel);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!(
-            "skipping: {} not found (real data lives in ../shared/data)",
-            p.display()
-        );
-        None
-    }
-}
+use citylod_testdata::shared_data as data;
 
 fn lon_lat_of(out: &citylod_ingest::Ingested, b: &citylod_model::Building) -> (f64, f64) {
     let c = &b.footprint.0[0].exterior().0[0];

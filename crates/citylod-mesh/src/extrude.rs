@@ -456,14 +456,10 @@ mod tests {
     /// known self-overlapping ones meet every invariant. Skips when ../shared/data is absent.
     #[test]
     fn boston_footprints_extrude_soundly() {
-        let path = concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../../../shared/data/boston/boston_buildings.geojson"
-        );
-        let Ok(text) = std::fs::read_to_string(path) else {
-            eprintln!("skipped: {path} not found (real data lives in ../shared/data)");
+        let Some(path) = citylod_testdata::shared_data("boston/boston_buildings.geojson") else {
             return;
         };
+        let text = std::fs::read_to_string(path).unwrap();
         let doc: serde_json::Value = serde_json::from_str(&text).unwrap();
         let (lon0, lat0) = (-71.07f64, 42.35f64);
         let (kx, ky) = (111_319.49 * lat0.to_radians().cos(), 111_132.95);

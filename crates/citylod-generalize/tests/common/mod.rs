@@ -6,24 +6,8 @@
 use citylod_model::{Building, BuildingId, Footprint, HeightSource, LocalFrame};
 use geo_types::{Coord, LineString, MultiPolygon, Polygon};
 use serde_json::Value;
-use std::path::PathBuf;
 
-pub fn data_path(rel: &str) -> Option<PathBuf> {
-    let p = PathBuf::from(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/data/"
-    ))
-    .join(rel);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!(
-            "SKIP: test data {} not found (../shared/data is absent in a plain clone)",
-            p.display()
-        );
-        None
-    }
-}
+pub use citylod_testdata::shared_data as data_path;
 
 /// Closes the ring, drops repeated points, orients it (exterior CCW, holes CW); `None` if < 3 points.
 fn ring(pts: impl Iterator<Item = (f64, f64)>, exterior: bool) -> Option<LineString<f64>> {

@@ -5,7 +5,6 @@
 #![allow(dead_code)]
 
 use std::collections::BTreeMap;
-use std::path::PathBuf;
 
 use citylod_mesh::simplify::triangulate_polygon_3d;
 use citylod_model::Mesh3d;
@@ -16,22 +15,7 @@ pub struct TestBuilding {
     pub mesh: Mesh3d,
 }
 
-pub fn data_path(rel: &str) -> Option<PathBuf> {
-    let p = PathBuf::from(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/data/"
-    ))
-    .join(rel);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!(
-            "SKIP: real data {} not found (a clone without ../shared/data)",
-            p.display()
-        );
-        None
-    }
-}
+pub use citylod_testdata::shared_data as data_path;
 
 /// Accumulates one building's surfaces, merging identical integer vertices.
 struct MeshBuilder {
