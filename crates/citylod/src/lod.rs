@@ -263,8 +263,9 @@ impl<'h> LodTree<'h> {
     /// Each block of a written level above the buildings loses outline vertices, cheapest area per vertex first —
     /// notches filled, corners cut, courtyards filled — within that budget
     /// ([`citylod_generalize::reoutline_within`]); its Δa grows by the area filled plus the area cut, so its
-    /// metadata stays an upper bound of what it changed and its own error stays ≤ the tile's. `[level - 1][node]`: `None` where nothing
-    /// changed (or the re-extruded prism failed, which keeps the block as it was).
+    /// metadata stays an upper bound of what it changed and its own error stays ≤ the tile's.
+    /// Indexed `[level - 1][node]`: `None` where nothing changed (or the re-extruded prism failed, which keeps
+    /// the block as it was).
     fn spend_tile_errors(
         &self,
         h: &Hierarchy,
