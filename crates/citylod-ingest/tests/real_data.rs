@@ -7,6 +7,14 @@ use citylod_model::HeightSource;
 
 use citylod_testdata::shared_data as data;
 
+/// The lowest vertex height of a mesh (m).
+fn lowest_z_m(mesh: &citylod_model::Mesh3d) -> f64 {
+    mesh.positions
+        .iter()
+        .map(|p| p[2])
+        .fold(f64::INFINITY, f64::min)
+}
+
 fn lon_lat_of(out: &citylod_ingest::Ingested, b: &citylod_model::Building) -> (f64, f64) {
     let c = &b.footprint.0[0].exterior().0[0];
     let g = out.frame.enu_to_geodetic([c.x, c.y, b.base_z_m]);
@@ -501,12 +509,7 @@ fn delft_every_building_gets_a_closed_outward_lod22_mesh_on_its_footprint() {
         let (beyond, short) = box_excess_m(b);
         beyond_m.push(beyond);
         short_m.push(short);
-        let min_z = m
-            .mesh
-            .positions
-            .iter()
-            .map(|p| p[2])
-            .fold(f64::INFINITY, f64::min);
+        let min_z = lowest_z_m(&m.mesh);
         base_offsets_m.push(min_z - b.base_z_m);
         // The footprint stands on b3_h_maaiveld; the mesh keeps the solid's own z, in the same frame.
         // 3 cm: base_z_m is taken at the footprint's centre, and the Earth's curvature lowers a
@@ -644,13 +647,7 @@ fn denhaag_cityjson_08_buildings_get_lod2_meshes() {
         let (beyond, short) = box_excess_m(b);
         beyond_m.push(beyond);
         short_m.push(short);
-        let min_z = m
-            .mesh
-            .positions
-            .iter()
-            .map(|p| p[2])
-            .fold(f64::INFINITY, f64::min);
-        base_offsets_m.push(min_z - b.base_z_m);
+        base_offsets_m.push(lowest_z_m(&m.mesh) - b.base_z_m);
     }
     base_offsets_m.sort_by(f64::total_cmp);
     let n = base_offsets_m.len();
