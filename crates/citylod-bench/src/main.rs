@@ -222,7 +222,7 @@ fn main() -> Result<()> {
         runs,
     )?;
 
-    println!("== coarse levels cost: total glb bytes, levels of detail vs buildings only (target ≤ 1.25×) ==");
+    println!("== coarse levels cost: total glb bytes, levels of detail vs buildings only (target ≤ 1.25×), and the bytes the 8 views of citylod check (800×600) load ==");
     for (name, rel, extra) in [
         (
             "boston",
@@ -237,9 +237,12 @@ fn main() -> Result<()> {
             println!("{name:<28} skipped: {} not found", input.display());
             continue;
         }
-        let bytes = |flags: &[&str]| -> Result<u64> {
+        // (tileset glb bytes, bytes of the tiles the 8 built-in views select, summed over the views)
+        let bytes = |flags: &[&str]| -> Result<(u64, u64)> {
             let out =
                 std::env::temp_dir().join(format!("citylod-bench-bytes-{}", std::process::id()));
+            let check =
+                std::env::temp_dir().join(format!("citylod-bench-views-{}", std::process::id()));
             measure(
                 Command::new(&citylod)
                     .arg("build")
@@ -250,23 +253,43 @@ fn main() -> Result<()> {
                     .arg(&out)
                     .arg("--quiet"),
             )?;
+            measure(
+                Command::new(&citylod)
+                    .env("NODEVICE_SELECT", "1")
+                    .args(["check", "--views", "8", "--quiet", "--out"])
+                    .arg(&check)
+                    .arg(&out),
+            )?;
             let report: serde_json::Value =
                 serde_json::from_slice(&std::fs::read(out.join("build-report.json"))?)?;
+            let views: serde_json::Value =
+                serde_json::from_slice(&std::fs::read(check.join("report.json"))?)?;
             let _ = std::fs::remove_dir_all(&out);
-            Ok(report["tiles"]["glb_bytes"].as_u64().unwrap_or(0))
+            let _ = std::fs::remove_dir_all(&check);
+            let loaded = views["views"]
+                .as_array()
+                .into_iter()
+                .flatten()
+                .filter_map(|v| v["bytes"]["cut"].as_u64())
+                .sum();
+            Ok((report["tiles"]["glb_bytes"].as_u64().unwrap_or(0), loaded))
         };
         let (lod, lean, leaves) = (
             bytes(&[])?,
             bytes(&["--level-ratio", "0.25"])?,
             bytes(&["--leaves-only"])?,
         );
+        let mb = |b: u64| b as f64 / 1e6;
         println!(
-            "{name:<28} every level {:>7.2} MB ({:.2}×)   --level-ratio 0.25 {:>7.2} MB ({:.2}×)   buildings only {:>7.2} MB",
-            lod as f64 / 1e6,
-            lod as f64 / leaves as f64,
-            lean as f64 / 1e6,
-            lean as f64 / leaves as f64,
-            leaves as f64 / 1e6,
+            "{name:<28} every level {:>6.2} MB ({:.2}×), views {:>6.2} MB   --level-ratio 0.25 {:>6.2} MB ({:.2}×), views {:>6.2} MB   buildings only {:>6.2} MB, views {:>6.2} MB",
+            mb(lod.0),
+            lod.0 as f64 / leaves.0 as f64,
+            mb(lod.1),
+            mb(lean.0),
+            lean.0 as f64 / leaves.0 as f64,
+            mb(lean.1),
+            mb(leaves.0),
+            mb(leaves.1),
         );
     }
 
