@@ -42,6 +42,34 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// `citylod build INPUTS ARGS --out OUT --quiet`, timed.
+fn run_build(citylod: &Path, inputs: &[&Path], args: &[&str], out: &Path) -> Result<Run> {
+    measure(
+        Command::new(citylod)
+            .arg("build")
+            .args(inputs)
+            .args(args)
+            .arg("--out")
+            .arg(out)
+            .arg("--quiet"),
+    )
+}
+
+/// `citylod check TILES --views 8 --out OUT --quiet` (fails unless every view passes), timed, and its report.
+fn run_check(citylod: &Path, tiles: &Path, out: &Path) -> Result<(Run, serde_json::Value)> {
+    let r = measure(
+        Command::new(citylod)
+            .env("NODEVICE_SELECT", "1")
+            .args(["check", "--views", "8", "--quiet", "--out"])
+            .arg(out)
+            .arg(tiles),
+    )?;
+    let report = serde_json::from_slice(
+        &std::fs::read(out.join("report.json")).context("reading the check report")?,
+    )?;
+    Ok((r, report))
+}
+
 fn bench_build(
     citylod: &Path,
     name: &str,
@@ -56,15 +84,9 @@ fn bench_build(
     let out = std::env::temp_dir().join(format!("citylod-bench-{}-{name}", std::process::id()));
     let mut times = Vec::new();
     let mut rss = Vec::new();
+    let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
     for _ in 0..runs {
-        let mut cmd = Command::new(citylod);
-        cmd.arg("build")
-            .args(inputs)
-            .args(extra)
-            .arg("--out")
-            .arg(&out)
-            .arg("--quiet");
-        let r = measure(&mut cmd)?;
+        let r = run_build(citylod, &inputs, extra, &out)?;
         times.push(r.wall_s);
         rss.push(r.peak_rss_mb);
     }
@@ -243,27 +265,11 @@ fn main() -> Result<()> {
                 std::env::temp_dir().join(format!("citylod-bench-bytes-{}", std::process::id()));
             let check =
                 std::env::temp_dir().join(format!("citylod-bench-views-{}", std::process::id()));
-            measure(
-                Command::new(&citylod)
-                    .arg("build")
-                    .arg(&input)
-                    .args(extra)
-                    .args(flags)
-                    .arg("--out")
-                    .arg(&out)
-                    .arg("--quiet"),
-            )?;
-            measure(
-                Command::new(&citylod)
-                    .env("NODEVICE_SELECT", "1")
-                    .args(["check", "--views", "8", "--quiet", "--out"])
-                    .arg(&check)
-                    .arg(&out),
-            )?;
+            let args: Vec<&str> = extra.iter().chain(flags).copied().collect();
+            run_build(&citylod, &[&input], &args, &out)?;
+            let (_, views) = run_check(&citylod, &out, &check)?;
             let report: serde_json::Value =
                 serde_json::from_slice(&std::fs::read(out.join("build-report.json"))?)?;
-            let views: serde_json::Value =
-                serde_json::from_slice(&std::fs::read(check.join("report.json"))?)?;
             let _ = std::fs::remove_dir_all(&out);
             let _ = std::fs::remove_dir_all(&check);
             let loaded = views["views"]
@@ -354,25 +360,8 @@ fn main() -> Result<()> {
             std::env::temp_dir().join(format!("citylod-bench-check-tiles-{}", std::process::id()));
         let out =
             std::env::temp_dir().join(format!("citylod-bench-check-out-{}", std::process::id()));
-        measure(
-            Command::new(&citylod)
-                .arg("build")
-                .arg(&input)
-                .args(extra)
-                .arg("--out")
-                .arg(&tiles)
-                .arg("--quiet"),
-        )?;
-        let r = measure(
-            Command::new(&citylod)
-                .env("NODEVICE_SELECT", "1")
-                .args(["check", "--views", "8", "--quiet", "--out"])
-                .arg(&out)
-                .arg(&tiles),
-        )?;
-        let report: serde_json::Value = serde_json::from_slice(
-            &std::fs::read(out.join("report.json")).context("reading the check report")?,
-        )?;
+        run_build(&citylod, &[&input], extra, &tiles)?;
+        let (r, report) = run_check(&citylod, &tiles, &out)?;
         let triangles = |v: usize| -> String {
             let t = &report["views"][v]["triangles"];
             match (t["cut"].as_f64(), t["full_in_view"].as_f64()) {

@@ -485,13 +485,7 @@ fn vertex_normals_yup(m: &citylod_model::Mesh3d) -> Vec<[f64; 3]> {
     let mut acc = vec![[0.0f64; 3]; m.positions.len()];
     for t in &m.triangles {
         let [a, b, c] = t.map(|i| m.positions[i as usize]);
-        let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-        let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-        let n = [
-            u[1] * v[2] - u[2] * v[1],
-            u[2] * v[0] - u[0] * v[2],
-            u[0] * v[1] - u[1] * v[0],
-        ];
+        let n = crate::shading::area_normal(a, b, c);
         for &i in t {
             (0..3).for_each(|k| acc[i as usize][k] += n[k]);
         }

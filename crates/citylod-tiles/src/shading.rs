@@ -48,15 +48,20 @@ pub(crate) fn split_by_face(mesh: &Mesh3d) -> Cow<'_, Mesh3d> {
     Cow::Owned(out)
 }
 
-/// The triangle's unit normal rounded to 1/128 per component; all zeros for a degenerate triangle.
-fn plane_key(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> [i32; 3] {
+/// (b − a) × (c − a): the triangle's normal, twice its area long (counter-clockwise seen from its tip).
+pub(crate) fn area_normal(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> [f64; 3] {
     let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
     let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-    let n = [
+    [
         u[1] * v[2] - u[2] * v[1],
         u[2] * v[0] - u[0] * v[2],
         u[0] * v[1] - u[1] * v[0],
-    ];
+    ]
+}
+
+/// The triangle's unit normal rounded to 1/128 per component; all zeros for a degenerate triangle.
+fn plane_key(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> [i32; 3] {
+    let n = area_normal(a, b, c);
     let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
     if !(len > 0.0 && len.is_finite()) {
         return [0; 3];

@@ -375,14 +375,7 @@ impl<'h> LodTree<'h> {
             } else {
                 let nm = &self.nodes[level - 1][n.0 as usize];
                 nm.mesh.triangles.len()
-                    + self
-                        .landmarks_of(&h.levels[level].nodes[n.0 as usize], nm)
-                        .map(|b| {
-                            self.buildings[b.0 as usize]
-                                .as_ref()
-                                .map_or(0, |m| m.triangles.len())
-                        })
-                        .sum::<usize>()
+                    + self.landmark_triangles(&h.levels[level].nodes[n.0 as usize], nm)
             }
         };
         let error = |level: usize, n: NodeId| -> f64 {
