@@ -7,7 +7,7 @@ use crate::graph::{auto_reach_m, bbox, candidate_pairs, refine_pairs, weigh_pair
 use crate::levels::{condense, LevelKind, LevelOptions};
 use crate::merge::connect_islands;
 use crate::single_link::{single_link, Merge};
-use crate::{fill_concave_within, merge_footprints, node_stats, simplify_footprint};
+use crate::{fill_concave_within, merge_footprints, node_stats, simplify_footprint, NodeStats};
 use citylod_model::{Building, BuildingId, Footprint, Hierarchy, Level, Node, NodeId};
 use geo::Area;
 use rayon::prelude::*;
@@ -478,8 +478,12 @@ fn build_node(
         .collect();
     members.sort_unstable();
     let refs: Vec<&Building> = members.iter().map(|id| &buildings[id.0 as usize]).collect();
-    let landmarks = landmarks_of(&refs, opts.landmark_min_excess_m, opts.landmark_max_share);
+    let mut landmarks = landmarks_of(&refs, opts.landmark_min_excess_m, opts.landmark_max_share);
     let mut stats = node_stats(&refs, &footprint, &landmarks);
+    if opts.error_kappa > 0.0 && opts.error_kappa.is_finite() {
+        (landmarks, stats) =
+            landmarks_that_pay(&refs, &footprint, landmarks, stats, opts.error_kappa);
+    }
     let mut footprint = footprint;
     // Outline detail the node's error already pays for: fill concave triangles up to that error's Δa.
     if !fallback && opts.error_kappa > 0.0 && opts.error_kappa.is_finite() {
@@ -501,6 +505,42 @@ fn build_node(
     stats.write_into(&mut node);
     node.landmarks = landmarks;
     (node, fallback)
+}
+
+/// The landmarks worth drawing: a landmark is averaged back into its block, shortest first, while that does not
+/// raise the block's error max(Δh, κ·√Δa). Where the error is Δa-bound (coarse levels) the tower's height then
+/// hides inside it, so a full-detail copy would add bytes and nothing a client may show; where it is Δh-bound
+/// (fine levels) the tower stays a landmark.
+fn landmarks_that_pay(
+    refs: &[&Building],
+    footprint: &Footprint,
+    mut landmarks: Vec<BuildingId>,
+    mut stats: NodeStats,
+    kappa: f64,
+) -> (Vec<BuildingId>, NodeStats) {
+    let error = |s: &NodeStats| s.dh_m.max(kappa * s.da_m2.max(0.0).sqrt());
+    let height = |id: BuildingId| {
+        refs.iter()
+            .find(|b| b.id == id)
+            .map_or(f64::INFINITY, |b| b.height_m)
+    };
+    while !landmarks.is_empty() {
+        let shortest = (0..landmarks.len())
+            .min_by(|&a, &b| {
+                height(landmarks[a])
+                    .total_cmp(&height(landmarks[b]))
+                    .then(landmarks[a].cmp(&landmarks[b]))
+            })
+            .expect("not empty");
+        let mut fewer = landmarks.clone();
+        fewer.remove(shortest);
+        let without = node_stats(refs, footprint, &fewer);
+        if error(&without) > error(&stats) {
+            break;
+        }
+        (landmarks, stats) = (fewer, without);
+    }
+    (landmarks, stats)
 }
 
 fn level_report(index: usize, kind: Option<LevelKind>, level: &Level) -> LevelReport {
@@ -737,6 +777,45 @@ mod tests {
     }
 
     #[test]
+    fn a_tower_hidden_in_a_block_whose_error_is_area_bound_is_no_landmark() {
+        // The street with its tower, houses 30 m apart: the top block fills the gaps, so its error κ·√Δa
+        // is larger than the tower's excess; drawing the tower apart would not lower the error.
+        let bs: Vec<Building> = street_with_tower()
+            .into_iter()
+            .enumerate()
+            .map(|(i, b)| {
+                let mut spread = rect(i, i as f64 * 40.0, 0.0, 10.0, 12.0);
+                spread.height_m = b.height_m;
+                spread
+            })
+            .collect();
+        let opts = GeneralizeOptions::default();
+        let g = generalize(&bs, &opts).unwrap();
+        assert_sound(&g, bs.len());
+        let top = &g.hierarchy.levels.last().unwrap().nodes[0];
+        let area_error = opts.error_kappa * top.da_m2.sqrt();
+        assert!(top.landmarks.is_empty(), "{:?}", top.landmarks);
+        assert!(top.h_max_m >= 60.0, "the tower is in the block's heights");
+        assert!(
+            area_error >= top.dh_m,
+            "error {area_error} m is Δa-bound (Δh {})",
+            top.dh_m
+        );
+        // Without the error model every candidate is kept.
+        let g0 = generalize(
+            &bs,
+            &GeneralizeOptions {
+                error_kappa: 0.0,
+                ..opts
+            },
+        )
+        .unwrap();
+        let top0 = &g0.hierarchy.levels.last().unwrap().nodes[0];
+        assert_eq!(top0.landmarks, vec![BuildingId(6)]);
+        assert!(top0.dh_m < top.dh_m);
+    }
+
+    #[test]
     fn landmark_share_cap_is_respected() {
         // Every third house is a 50 m tower: far more candidates than a 10 % cap allows.
         let bs: Vec<Building> = (0..60)
@@ -755,6 +834,8 @@ mod tests {
         let opts = GeneralizeOptions {
             landmark_min_excess_m: 20.0,
             landmark_max_share: 0.1,
+            // Every candidate is kept, whether or not it lowers the block's error (the cap alone binds).
+            error_kappa: 0.0,
             ..Default::default()
         };
         let g = generalize(&bs, &opts).unwrap();

@@ -48,11 +48,13 @@ fn main() {
                     name: "source_id".into(),
                     kind: PropertyKind::String,
                     description: None,
+                    nullable: false,
                 },
                 PropertyDef {
                     name: "height_m".into(),
                     kind: PropertyKind::Float64,
                     description: None,
+                    nullable: false,
                 },
             ],
         }],
@@ -67,6 +69,7 @@ fn main() {
                 mesh: box_mesh(x, y, 8.0 + (i % 5) as f64, 10.0, h),
                 class: 0,
                 values: vec![PropValue::Str(format!("b{i}")), PropValue::Float(h)],
+                max_rounding_m: 0.0,
             }
         })
         .collect();

@@ -21,6 +21,28 @@ const Q_MAX: f64 = 32767.0;
 /// it the ids are FLOAT, exact up to 2^24).
 const FEATURE_IDS_U16: usize = 1 << 16;
 
+/// How [`encode_content`] encodes a tile.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct ContentOptions {
+    pub compression: Compression,
+    pub normals: bool,
+    /// Finest grid positions are rounded to (m); see [`crate::WriteOptions::quantization_step_m`].
+    pub quantization_step_m: f64,
+}
+
+/// The coarsest grid (m) a feature that may move `max_rounding_m` per axis can be rounded to: the largest
+/// power-of-two multiple of the finest grid `base` with half a step ≤ `max_rounding_m` (so every such grid's
+/// points are on the finer ones: blocks in neighbouring tiles round alike), `base` when that is none.
+fn tolerated_grid(max_rounding_m: f64, base: f64) -> f64 {
+    let mut step = base;
+    if max_rounding_m.is_finite() {
+        while step * 2.0 <= 2.0 * max_rounding_m && step < 1e9 {
+            step *= 2.0;
+        }
+    }
+    step
+}
+
 /// A tile's encoded glb and what is in it.
 pub(crate) struct EncodedContent {
     pub glb: Vec<u8>,
@@ -78,10 +100,10 @@ pub(crate) fn encode_content(
     tile: &str,
     features: &[ContentFeature],
     schema: &MetadataSchema,
-    compression: Compression,
-    normals: bool,
+    opts: &ContentOptions,
     generator: &str,
 ) -> Result<Option<EncodedContent>, TilesError> {
+    let (compression, normals) = (opts.compression, opts.normals);
     for (i, f) in features.iter().enumerate() {
         check_feature(f, schema).map_err(|msg| TilesError::Feature {
             tile: tile.to_string(),
@@ -95,24 +117,33 @@ pub(crate) fn encode_content(
     let Some((lo, hi)) = bounds(all) else {
         return Ok(None);
     };
-    let translation: [f64; 3] = std::array::from_fn(|i| (lo[i] + hi[i]) / 2.0);
-    // One scale for all axes: normals then need no correction for the node's scale (a non-uniform
-    // scale would bend them through the inverse transpose), at a precision of extent/65534.
+    // The finest grid whose coordinates over the whole tile fit 16 bits (one step of margin for the rounded
+    // translation), then each feature's own grid: as coarse as its rounding tolerance allows.
     let half = (0..3).map(|i| (hi[i] - lo[i]) / 2.0).fold(0.0, f64::max);
-    let scale = [if half > 0.0 { half / Q_MAX } else { 1.0 }; 3];
-    let quantize = |p: [f64; 3]| -> [i16; 3] {
-        let g = enu_to_yup(p);
-        std::array::from_fn(|i| {
-            ((g[i] - translation[i]) / scale[i])
-                .round()
-                .clamp(-Q_MAX, Q_MAX) as i16
-        })
+    let finest = opts.quantization_step_m.max(half / (Q_MAX - 1.0));
+    let grid_of = |f: &ContentFeature| -> u64 {
+        let tolerated = tolerated_grid(f.max_rounding_m, opts.quantization_step_m);
+        finest.max(tolerated).to_bits()
     };
 
-    // Features grouped by class, classes in schema order, features in input order.
+    // Features grouped by class, classes in schema order, features in input order; a feature's row in its
+    // class's property table is its place in that order.
     let mut by_class: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    let mut row = vec![0usize; features.len()];
     for (i, f) in features.iter().enumerate() {
-        by_class.entry(f.class).or_default().push(i);
+        let members = by_class.entry(f.class).or_default();
+        row[i] = members.len();
+        members.push(i);
+    }
+    // One node per grid (finest first), each with one primitive per class.
+    let mut by_grid: BTreeMap<u64, BTreeMap<usize, Vec<usize>>> = BTreeMap::new();
+    for (i, f) in features.iter().enumerate() {
+        by_grid
+            .entry(grid_of(f))
+            .or_default()
+            .entry(f.class)
+            .or_default()
+            .push(i);
     }
 
     let meshopt = compression == Compression::Meshopt;
@@ -122,13 +153,7 @@ pub(crate) fn encode_content(
             generator: Some(generator.into()),
         },
         scene: Some(0),
-        scenes: vec![Scene { nodes: vec![0] }],
-        nodes: vec![Node {
-            mesh: Some(0),
-            translation: Some(translation),
-            scale: Some(scale),
-            ..Default::default()
-        }],
+        scenes: vec![Scene { nodes: vec![] }],
         materials: vec![Material {
             pbr_metallic_roughness: Pbr {
                 base_color_factor: [0.8, 0.8, 0.8, 1.0],
@@ -141,230 +166,323 @@ pub(crate) fn encode_content(
     };
     let mut bin = BinBuilder::default();
     let mut fallback = BinBuilder::default();
-    let mut primitives = Vec::new();
-    let mut tables = Vec::new();
+    // (class, primitive) per node; the property table indices are filled in once the tables are known.
+    let mut nodes: Vec<(Node, Vec<(usize, Primitive)>)> = Vec::new();
     let (mut triangles, mut vertices, mut dropped) = (0u64, 0u64, 0u64);
-    let (mut quantized_lo, mut quantized_hi) = ([i16::MAX; 3], [i16::MIN; 3]);
+    let mut drawn_bounds: Option<([f64; 3], [f64; 3])> = None;
 
-    for (&class, members) in &by_class {
-        let mut pos: Vec<[i16; 4]> = Vec::new();
-        let mut fid: Vec<f32> = Vec::new();
-        let mut nor: Vec<[f64; 3]> = Vec::new();
-        let mut idx: Vec<u32> = Vec::new();
-        for (k, &fi) in members.iter().enumerate() {
-            // Vertex normals are written: corners shared by several planes are split so they are face normals.
-            let m = if normals {
-                split_by_face(&features[fi].mesh)
-            } else {
-                Cow::Borrowed(&features[fi].mesh)
-            };
-            let m = m.as_ref();
-            let v0 = pos.len() as u32;
-            for &p in &m.positions {
-                let q = quantize(p);
-                pos.push([q[0], q[1], q[2], 0]);
-                fid.push(k as f32);
-            }
-            if normals {
-                nor.extend(vertex_normals_yup(m));
-            }
-            for t in &m.triangles {
-                let c = t.map(|i| &pos[(v0 + i) as usize][..3]);
-                if c[0] == c[1] || c[1] == c[2] || c[0] == c[2] {
-                    dropped += 1;
-                    continue;
+    // Positive floats order like their bits: finest grid first.
+    for (&bits, classes) in &by_grid {
+        let step = f64::from_bits(bits);
+        let group = classes
+            .values()
+            .flatten()
+            .flat_map(|&fi| features[fi].mesh.positions.iter().map(|&p| enu_to_yup(p)));
+        let (glo, ghi) = bounds(group).expect("features with vertices");
+        // On the grid itself, so features on the same grid in neighbouring tiles round alike (no cracks).
+        let translation: [f64; 3] =
+            std::array::from_fn(|i| ((glo[i] + ghi[i]) / 2.0 / step).round() * step);
+        // One scale for all axes: normals then need no correction for the node's scale (a non-uniform
+        // scale would bend them through the inverse transpose).
+        let scale = [step; 3];
+        let quantize = |p: [f64; 3]| -> [i16; 3] {
+            let g = enu_to_yup(p);
+            std::array::from_fn(|i| {
+                ((g[i] - translation[i]) / scale[i])
+                    .round()
+                    .clamp(-Q_MAX, Q_MAX) as i16
+            })
+        };
+        let mut primitives = Vec::new();
+        let (mut quantized_lo, mut quantized_hi) = ([i16::MAX; 3], [i16::MIN; 3]);
+        for (&class, members) in classes {
+            let mut pos: Vec<[i16; 4]> = Vec::new();
+            let mut fid: Vec<f32> = Vec::new();
+            let mut nor: Vec<[f64; 3]> = Vec::new();
+            let mut idx: Vec<u32> = Vec::new();
+            for &fi in members.iter() {
+                let k = row[fi];
+                // Vertex normals are written: corners shared by several planes are split so they are face normals.
+                let m = if normals {
+                    split_by_face(&features[fi].mesh)
+                } else {
+                    Cow::Borrowed(&features[fi].mesh)
+                };
+                let m = m.as_ref();
+                let v0 = pos.len() as u32;
+                for &p in &m.positions {
+                    let q = quantize(p);
+                    pos.push([q[0], q[1], q[2], 0]);
+                    fid.push(k as f32);
                 }
-                idx.extend(t.map(|i| v0 + i));
+                if normals {
+                    nor.extend(vertex_normals_yup(m));
+                }
+                for t in &m.triangles {
+                    let c = t.map(|i| &pos[(v0 + i) as usize][..3]);
+                    if c[0] == c[1] || c[1] == c[2] || c[0] == c[2] {
+                        dropped += 1;
+                        continue;
+                    }
+                    idx.extend(t.map(|i| v0 + i));
+                }
             }
-        }
-        if idx.is_empty() {
-            continue; // a class whose features have no triangles: nothing to draw or pick
-        }
-        if pos.len() > u32::MAX as usize || members.len() > 1 << 24 {
-            return Err(TilesError::Tile {
-                tile: tile.into(),
-                msg: "too many vertices or features for one glb".into(),
-            });
-        }
-        triangles += idx.len() as u64 / 3;
-        for p in &pos {
-            for i in 0..3 {
-                quantized_lo[i] = quantized_lo[i].min(p[i]);
-                quantized_hi[i] = quantized_hi[i].max(p[i]);
+            if idx.is_empty() {
+                continue; // features without triangles: nothing to draw or pick
             }
-        }
-        vertices += pos.len() as u64;
-        let n = pos.len();
-        let lo_q: Vec<f64> = (0..3)
-            .map(|i| pos.iter().map(|p| p[i]).min().unwrap() as f64)
-            .collect();
-        let hi_q: Vec<f64> = (0..3)
-            .map(|i| pos.iter().map(|p| p[i]).max().unwrap() as f64)
-            .collect();
-        let acc = doc.accessors.len();
-        let mut draco_ext = None;
-        let with_normals;
-        if compression == Compression::Draco {
-            with_normals = normals;
-            let enc = encode_draco(&pos, &nor, &fid, &idx, members.len()).map_err(|msg| {
-                TilesError::Tile {
+            let class_rows = by_class[&class].len();
+            if pos.len() > u32::MAX as usize || class_rows > 1 << 24 {
+                return Err(TilesError::Tile {
                     tile: tile.into(),
-                    msg,
-                }
-            })?;
-            doc.buffer_views.push(BufferView {
-                buffer: 0,
-                byte_offset: bin.push(&enc.bytes),
-                byte_length: enc.bytes.len(),
-                ..Default::default()
-            });
-            let m = enc.decoded_vertices;
-            let unbuffered = |component_type, count, ty: &str| Accessor {
-                component_type,
-                count,
-                r#type: ty.into(),
-                ..Default::default()
-            };
-            doc.accessors.push(Accessor {
-                min: Some(enc.first_min.clone()),
-                max: Some(enc.first_max.clone()),
-                ..unbuffered(SHORT, m, "VEC3")
-            });
-            let fid_type = if members.len() <= FEATURE_IDS_U16 {
-                UNSIGNED_SHORT
-            } else {
-                FLOAT
-            };
-            doc.accessors.push(unbuffered(fid_type, m, "SCALAR"));
-            let idx_type = if m > u16::MAX as usize {
-                UNSIGNED_INT
-            } else {
-                UNSIGNED_SHORT
-            };
-            doc.accessors
-                .push(unbuffered(idx_type, enc.decoded_indices, "SCALAR"));
-            if normals {
-                doc.accessors.push(Accessor {
-                    normalized: true,
-                    ..unbuffered(BYTE, m, "VEC3")
+                    msg: "too many vertices or features for one glb".into(),
                 });
             }
-            let names = ["POSITION", "_FEATURE_ID_0", "NORMAL"];
-            draco_ext = Some(DracoPrimitive {
-                buffer_view: doc.buffer_views.len() - 1,
-                attributes: names.iter().map(|s| s.to_string()).zip(enc.ids).collect(),
-            });
-        } else {
-            let pos_bytes: Vec<u8> = pos.iter().flatten().flat_map(|c| c.to_le_bytes()).collect();
-            let fid_bytes: Vec<u8> = fid.iter().flat_map(|c| c.to_le_bytes()).collect();
-            let wide = n > u16::MAX as usize;
-            let idx_bytes: Vec<u8> = if wide {
-                idx.iter().flat_map(|i| i.to_le_bytes()).collect()
-            } else {
-                idx.iter().flat_map(|&i| (i as u16).to_le_bytes()).collect()
+            let feature_count = {
+                let mut ids: Vec<usize> = members.iter().map(|&fi| row[fi]).collect();
+                ids.dedup();
+                ids.len()
             };
-            let idx_stride = if wide { 4 } else { 2 };
-            let nor_bytes: Option<Vec<u8>> = normals.then(|| {
-                nor.iter()
-                    .flat_map(|v| [v[0], v[1], v[2], 0.0])
-                    .map(|c| ((c * 127.0).round() as i8) as u8)
-                    .collect()
-            });
-
-            let mut view = |raw: Vec<u8>, stride: usize, count: usize, target: u32, mode: &str| {
-                let byte_stride = (target == ARRAY_BUFFER).then_some(stride);
-                let bv = if meshopt {
-                    let encoded = encode_meshopt(&raw, stride, count, mode, n).map_err(|e| {
-                        TilesError::Tile {
-                            tile: tile.into(),
-                            msg: format!("meshopt encoding failed: {e:?}"),
-                        }
-                    })?;
-                    BufferView {
-                        buffer: 1,
-                        byte_offset: fallback.reserve(raw.len()),
-                        byte_length: raw.len(),
-                        byte_stride,
-                        target: Some(target),
-                        extensions: Some(BufferViewExtensions {
-                            meshopt: Some(MeshoptView {
-                                buffer: 0,
-                                byte_offset: bin.push(&encoded),
-                                byte_length: encoded.len(),
-                                byte_stride: stride,
-                                count,
-                                mode: mode.into(),
-                                filter: None,
-                            }),
-                        }),
+            triangles += idx.len() as u64 / 3;
+            for p in &pos {
+                for i in 0..3 {
+                    quantized_lo[i] = quantized_lo[i].min(p[i]);
+                    quantized_hi[i] = quantized_hi[i].max(p[i]);
+                }
+            }
+            vertices += pos.len() as u64;
+            let n = pos.len();
+            let lo_q: Vec<f64> = (0..3)
+                .map(|i| pos.iter().map(|p| p[i]).min().unwrap() as f64)
+                .collect();
+            let hi_q: Vec<f64> = (0..3)
+                .map(|i| pos.iter().map(|p| p[i]).max().unwrap() as f64)
+                .collect();
+            let acc = doc.accessors.len();
+            let mut draco_ext = None;
+            let with_normals;
+            if compression == Compression::Draco {
+                with_normals = normals;
+                let enc = encode_draco(&pos, &nor, &fid, &idx, members.len()).map_err(|msg| {
+                    TilesError::Tile {
+                        tile: tile.into(),
+                        msg,
                     }
-                } else {
-                    BufferView {
-                        buffer: 0,
-                        byte_offset: bin.push(&raw),
-                        byte_length: raw.len(),
-                        byte_stride,
-                        target: Some(target),
-                        extensions: None,
-                    }
-                };
-                doc.buffer_views.push(bv);
-                Ok::<usize, TilesError>(doc.buffer_views.len() - 1)
-            };
-            let pos_view = view(pos_bytes, 8, n, ARRAY_BUFFER, "ATTRIBUTES")?;
-            let normal_view = match nor_bytes {
-                Some(b) => Some(view(b, 4, n, ARRAY_BUFFER, "ATTRIBUTES")?),
-                None => None,
-            };
-            let fid_view = view(fid_bytes, 4, n, ARRAY_BUFFER, "ATTRIBUTES")?;
-            let idx_view = view(
-                idx_bytes,
-                idx_stride,
-                idx.len(),
-                ELEMENT_ARRAY_BUFFER,
-                "TRIANGLES",
-            )?;
-
-            doc.accessors.push(Accessor {
-                buffer_view: Some(pos_view),
-                component_type: SHORT,
-                count: n,
-                r#type: "VEC3".into(),
-                min: Some(lo_q),
-                max: Some(hi_q),
-                ..Default::default()
-            });
-            doc.accessors.push(Accessor {
-                buffer_view: Some(fid_view),
-                component_type: FLOAT,
-                count: n,
-                r#type: "SCALAR".into(),
-                ..Default::default()
-            });
-            doc.accessors.push(Accessor {
-                buffer_view: Some(idx_view),
-                component_type: if wide { UNSIGNED_INT } else { UNSIGNED_SHORT },
-                count: idx.len(),
-                r#type: "SCALAR".into(),
-                ..Default::default()
-            });
-            if let Some(v) = normal_view {
-                doc.accessors.push(Accessor {
-                    buffer_view: Some(v),
-                    component_type: BYTE,
-                    normalized: true,
-                    count: n,
-                    r#type: "VEC3".into(),
+                })?;
+                doc.buffer_views.push(BufferView {
+                    buffer: 0,
+                    byte_offset: bin.push(&enc.bytes),
+                    byte_length: enc.bytes.len(),
                     ..Default::default()
                 });
-            }
-            with_normals = normal_view.is_some();
-        }
+                let m = enc.decoded_vertices;
+                let unbuffered = |component_type, count, ty: &str| Accessor {
+                    component_type,
+                    count,
+                    r#type: ty.into(),
+                    ..Default::default()
+                };
+                doc.accessors.push(Accessor {
+                    min: Some(enc.first_min.clone()),
+                    max: Some(enc.first_max.clone()),
+                    ..unbuffered(SHORT, m, "VEC3")
+                });
+                let fid_type = if members.len() <= FEATURE_IDS_U16 {
+                    UNSIGNED_SHORT
+                } else {
+                    FLOAT
+                };
+                doc.accessors.push(unbuffered(fid_type, m, "SCALAR"));
+                let idx_type = if m > u16::MAX as usize {
+                    UNSIGNED_INT
+                } else {
+                    UNSIGNED_SHORT
+                };
+                doc.accessors
+                    .push(unbuffered(idx_type, enc.decoded_indices, "SCALAR"));
+                if normals {
+                    doc.accessors.push(Accessor {
+                        normalized: true,
+                        ..unbuffered(BYTE, m, "VEC3")
+                    });
+                }
+                let names = ["POSITION", "_FEATURE_ID_0", "NORMAL"];
+                draco_ext = Some(DracoPrimitive {
+                    buffer_view: doc.buffer_views.len() - 1,
+                    attributes: names.iter().map(|s| s.to_string()).zip(enc.ids).collect(),
+                });
+            } else {
+                let pos_bytes: Vec<u8> =
+                    pos.iter().flatten().flat_map(|c| c.to_le_bytes()).collect();
+                let fid_bytes: Vec<u8> = fid.iter().flat_map(|c| c.to_le_bytes()).collect();
+                let wide = n > u16::MAX as usize;
+                let idx_bytes: Vec<u8> = if wide {
+                    idx.iter().flat_map(|i| i.to_le_bytes()).collect()
+                } else {
+                    idx.iter().flat_map(|&i| (i as u16).to_le_bytes()).collect()
+                };
+                let idx_stride = if wide { 4 } else { 2 };
+                let nor_bytes: Option<Vec<u8>> = normals.then(|| {
+                    nor.iter()
+                        .flat_map(|v| [v[0], v[1], v[2], 0.0])
+                        .map(|c| ((c * 127.0).round() as i8) as u8)
+                        .collect()
+                });
 
+                let mut view =
+                    |raw: Vec<u8>, stride: usize, count: usize, target: u32, mode: &str| {
+                        let byte_stride = (target == ARRAY_BUFFER).then_some(stride);
+                        let bv =
+                            if meshopt {
+                                let encoded = encode_meshopt(&raw, stride, count, mode, n)
+                                    .map_err(|e| TilesError::Tile {
+                                        tile: tile.into(),
+                                        msg: format!("meshopt encoding failed: {e:?}"),
+                                    })?;
+                                BufferView {
+                                    buffer: 1,
+                                    byte_offset: fallback.reserve(raw.len()),
+                                    byte_length: raw.len(),
+                                    byte_stride,
+                                    target: Some(target),
+                                    extensions: Some(BufferViewExtensions {
+                                        meshopt: Some(MeshoptView {
+                                            buffer: 0,
+                                            byte_offset: bin.push(&encoded),
+                                            byte_length: encoded.len(),
+                                            byte_stride: stride,
+                                            count,
+                                            mode: mode.into(),
+                                            filter: None,
+                                        }),
+                                    }),
+                                }
+                            } else {
+                                BufferView {
+                                    buffer: 0,
+                                    byte_offset: bin.push(&raw),
+                                    byte_length: raw.len(),
+                                    byte_stride,
+                                    target: Some(target),
+                                    extensions: None,
+                                }
+                            };
+                        doc.buffer_views.push(bv);
+                        Ok::<usize, TilesError>(doc.buffer_views.len() - 1)
+                    };
+                let pos_view = view(pos_bytes, 8, n, ARRAY_BUFFER, "ATTRIBUTES")?;
+                let normal_view = match nor_bytes {
+                    Some(b) => Some(view(b, 4, n, ARRAY_BUFFER, "ATTRIBUTES")?),
+                    None => None,
+                };
+                let fid_view = view(fid_bytes, 4, n, ARRAY_BUFFER, "ATTRIBUTES")?;
+                let idx_view = view(
+                    idx_bytes,
+                    idx_stride,
+                    idx.len(),
+                    ELEMENT_ARRAY_BUFFER,
+                    "TRIANGLES",
+                )?;
+
+                doc.accessors.push(Accessor {
+                    buffer_view: Some(pos_view),
+                    component_type: SHORT,
+                    count: n,
+                    r#type: "VEC3".into(),
+                    min: Some(lo_q),
+                    max: Some(hi_q),
+                    ..Default::default()
+                });
+                doc.accessors.push(Accessor {
+                    buffer_view: Some(fid_view),
+                    component_type: FLOAT,
+                    count: n,
+                    r#type: "SCALAR".into(),
+                    ..Default::default()
+                });
+                doc.accessors.push(Accessor {
+                    buffer_view: Some(idx_view),
+                    component_type: if wide { UNSIGNED_INT } else { UNSIGNED_SHORT },
+                    count: idx.len(),
+                    r#type: "SCALAR".into(),
+                    ..Default::default()
+                });
+                if let Some(v) = normal_view {
+                    doc.accessors.push(Accessor {
+                        buffer_view: Some(v),
+                        component_type: BYTE,
+                        normalized: true,
+                        count: n,
+                        r#type: "VEC3".into(),
+                        ..Default::default()
+                    });
+                }
+                with_normals = normal_view.is_some();
+            }
+
+            primitives.push((
+                class,
+                Primitive {
+                    attributes: with_normals
+                        .then(|| ("NORMAL".to_string(), acc + 3))
+                        .into_iter()
+                        .chain([("POSITION".into(), acc), ("_FEATURE_ID_0".into(), acc + 1)])
+                        .collect(),
+                    indices: Some(acc + 2),
+                    material: Some(0),
+                    mode: Some(MODE_TRIANGLES),
+                    extensions: Some(PrimitiveExtensions {
+                        mesh_features: Some(MeshFeatures {
+                            feature_ids: vec![FeatureId {
+                                feature_count,
+                                attribute: Some(0),
+                                property_table: None, // set below
+                                null_feature_id: None,
+                            }],
+                        }),
+                        draco: draco_ext,
+                    }),
+                },
+            ));
+        }
+        if primitives.is_empty() {
+            continue;
+        }
+        // Dequantized bounds: the quantized extremes mapped back through the node transform, y-up → ENU.
+        let corner = |q: [i16; 3]| -> [f64; 3] {
+            let g: [f64; 3] = std::array::from_fn(|i| translation[i] + scale[i] * q[i] as f64);
+            [g[0], -g[2], g[1]]
+        };
+        let (a, b) = (corner(quantized_lo), corner(quantized_hi));
+        let prev = drawn_bounds.map(|(l, h)| [l, h]).unwrap_or([a, b]);
+        drawn_bounds = bounds([a, b, prev[0], prev[1]].into_iter());
+        nodes.push((
+            Node {
+                mesh: Some(nodes.len()),
+                translation: Some(translation),
+                scale: Some(scale),
+                ..Default::default()
+            },
+            primitives,
+        ));
+    }
+    let Some(bounds_enu) = drawn_bounds else {
+        return Ok(None);
+    };
+
+    // One property table per class drawn, rows in the class's feature order.
+    let mut table_of: BTreeMap<usize, usize> = BTreeMap::new();
+    let mut tables = Vec::new();
+    for (&class, members) in &by_class {
+        let drawn = nodes
+            .iter()
+            .any(|(_, prims)| prims.iter().any(|(c, _)| *c == class));
+        if !drawn {
+            continue;
+        }
         let class_def = &schema.classes[class];
         let mut properties = BTreeMap::new();
         for (pi, p) in class_def.properties.iter().enumerate() {
-            let col = encode_column(p.kind, members.iter().map(|&fi| &features[fi].values[pi]))
+            let col = encode_column(p, members.iter().map(|&fi| &features[fi].values[pi]))
                 .map_err(|(k, msg)| TilesError::Feature {
                     tile: tile.into(),
                     feature: members[k.min(members.len() - 1)],
@@ -395,41 +513,35 @@ pub(crate) fn encode_content(
                 },
             );
         }
+        table_of.insert(class, tables.len());
         tables.push(PropertyTable {
             class: class_def.id.clone(),
             count: members.len(),
             properties,
         });
-        primitives.push(Primitive {
-            attributes: with_normals
-                .then(|| ("NORMAL".to_string(), acc + 3))
-                .into_iter()
-                .chain([("POSITION".into(), acc), ("_FEATURE_ID_0".into(), acc + 1)])
-                .collect(),
-            indices: Some(acc + 2),
-            material: Some(0),
-            mode: Some(MODE_TRIANGLES),
-            extensions: Some(PrimitiveExtensions {
-                mesh_features: Some(MeshFeatures {
-                    feature_ids: vec![FeatureId {
-                        feature_count: members.len(),
-                        attribute: Some(0),
-                        property_table: Some(tables.len() - 1),
-                        null_feature_id: None,
-                    }],
-                }),
-                draco: draco_ext,
-            }),
-        });
     }
-    if primitives.is_empty() {
-        return Ok(None);
+    for (node, prims) in nodes {
+        doc.scenes[0].nodes.push(doc.nodes.len());
+        doc.nodes.push(node);
+        let primitives = prims
+            .into_iter()
+            .map(|(class, mut prim)| {
+                if let Some(ext) = prim
+                    .extensions
+                    .as_mut()
+                    .and_then(|e| e.mesh_features.as_mut())
+                {
+                    ext.feature_ids[0].property_table = Some(table_of[&class]);
+                }
+                prim
+            })
+            .collect();
+        doc.meshes.push(Mesh { primitives });
     }
-    doc.meshes = vec![Mesh { primitives }];
     let used: Vec<&str> = tables.iter().map(|t| t.class.as_str()).collect();
     doc.extensions = Some(RootExtensions {
         structural_metadata: Some(StructuralMetadata {
-            schema: Some(schema_json(schema, &used)),
+            schema: Some(schema_json(schema, &used, false)),
             property_tables: tables,
         }),
     });
@@ -437,13 +549,6 @@ pub(crate) fn encode_content(
         byte_length: bin.padded_len(),
         ..Default::default()
     });
-    // Dequantized bounds: the quantized extremes mapped back through the node transform, y-up → ENU.
-    let (qlo, qhi) = (quantized_lo, quantized_hi);
-    let corner = |q: [i16; 3]| -> [f64; 3] {
-        let g: [f64; 3] = std::array::from_fn(|i| translation[i] + scale[i] * q[i] as f64);
-        [g[0], -g[2], g[1]]
-    };
-    let bounds_enu = bounds([corner(qlo), corner(qhi)].into_iter()).expect("two points");
     let mut used = vec![EXT_MESH_FEATURES, EXT_STRUCTURAL_METADATA, KHR_QUANTIZATION];
     let mut required = vec![KHR_QUANTIZATION];
     if meshopt {

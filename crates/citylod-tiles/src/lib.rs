@@ -11,11 +11,11 @@
 //!     id: "citylod".into(),
 //!     classes: vec![ClassDef {
 //!         id: "building".into(),
-//!         properties: vec![PropertyDef { name: "name".into(), kind: PropertyKind::String, description: None }],
+//!         properties: vec![PropertyDef { name: "name".into(), kind: PropertyKind::String, description: None, nullable: false }],
 //!     }],
 //! };
 //! let mesh = Mesh3d { positions: vec![[0.0, 0.0, 0.0], [5.0, 0.0, 0.0], [0.0, 5.0, 3.0]], triangles: vec![[0, 1, 2]] };
-//! let features = vec![ContentFeature { mesh, class: 0, values: vec![PropValue::Str("hall".into())] }];
+//! let features = vec![ContentFeature { mesh, class: 0, values: vec![PropValue::Str("hall".into())], max_rounding_m: 0.0 }];
 //! let root = tile_spatially(features, 100, 100_000);
 //! let dir = tempfile::tempdir().unwrap();
 //! let out = Staging::create(&dir.path().join("tileset")).unwrap();

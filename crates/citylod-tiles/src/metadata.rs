@@ -4,10 +4,11 @@
 //! `noData` value (see [`PropertyKind`]); booleans have no `noData` in the spec and write `false`.
 
 use crate::gltf_json::{Class, ClassProperty, Schema};
-use crate::spec::{MetadataSchema, PropValue, PropertyKind};
+use crate::spec::{MetadataSchema, PropValue, PropertyDef, PropertyKind};
 use std::collections::BTreeMap;
 
 pub(crate) const NO_DATA_F64: f64 = f64::MIN;
+pub(crate) const NO_DATA_F32: f32 = f32::MIN;
 pub(crate) const NO_DATA_I64: i64 = i64::MIN;
 pub(crate) const NO_DATA_U32: u32 = u32::MAX;
 
@@ -15,12 +16,13 @@ pub(crate) const NO_DATA_U32: u32 = u32::MAX;
 /// `schemas/metadata.json` documents for citylod's fixed properties).
 pub fn schema_to_json(schema: &MetadataSchema) -> serde_json::Value {
     let used: Vec<&str> = schema.classes.iter().map(|c| c.id.as_str()).collect();
-    serde_json::to_value(schema_json(schema, &used)).expect("schema structs always serialize")
+    serde_json::to_value(schema_json(schema, &used, true)).expect("schema structs always serialize")
 }
 
 /// The schema as written inline in a glb: only the classes `used` (by the glb's property tables), so a tile of
-/// blocks does not carry the building class's many attribute properties.
-pub(crate) fn schema_json(schema: &MetadataSchema, used: &[&str]) -> Schema {
+/// blocks does not carry the building class's many attribute properties, and without the properties'
+/// descriptions unless `descriptions` (they are documentation, the same in every tile: about 1 KB a tile).
+pub(crate) fn schema_json(schema: &MetadataSchema, used: &[&str], descriptions: bool) -> Schema {
     let classes = schema
         .classes
         .iter()
@@ -31,29 +33,26 @@ pub(crate) fn schema_json(schema: &MetadataSchema, used: &[&str]) -> Schema {
                 .iter()
                 .map(|p| {
                     let (ty, ct, no_data) = match p.kind {
-                        PropertyKind::String => ("STRING", None, Some(serde_json::json!(""))),
-                        PropertyKind::Float64 => (
-                            "SCALAR",
-                            Some("FLOAT64"),
-                            Some(serde_json::json!(NO_DATA_F64)),
-                        ),
-                        PropertyKind::Int64 => (
-                            "SCALAR",
-                            Some("INT64"),
-                            Some(serde_json::json!(NO_DATA_I64)),
-                        ),
-                        PropertyKind::UInt32 => (
-                            "SCALAR",
-                            Some("UINT32"),
-                            Some(serde_json::json!(NO_DATA_U32)),
-                        ),
-                        PropertyKind::Boolean => ("BOOLEAN", None, None),
+                        PropertyKind::String => ("STRING", None, serde_json::json!("")),
+                        PropertyKind::Float64 => {
+                            ("SCALAR", Some("FLOAT64"), serde_json::json!(NO_DATA_F64))
+                        }
+                        PropertyKind::Float32 => {
+                            ("SCALAR", Some("FLOAT32"), serde_json::json!(NO_DATA_F32))
+                        }
+                        PropertyKind::Int64 => {
+                            ("SCALAR", Some("INT64"), serde_json::json!(NO_DATA_I64))
+                        }
+                        PropertyKind::UInt32 => {
+                            ("SCALAR", Some("UINT32"), serde_json::json!(NO_DATA_U32))
+                        }
+                        PropertyKind::Boolean => ("BOOLEAN", None, serde_json::Value::Null),
                     };
                     let prop = ClassProperty {
                         r#type: ty.into(),
                         component_type: ct.map(Into::into),
-                        description: p.description.clone(),
-                        no_data,
+                        description: p.description.clone().filter(|_| descriptions),
+                        no_data: (p.nullable && !no_data.is_null()).then_some(no_data),
                     };
                     (p.name.clone(), prop)
                 })
@@ -76,15 +75,19 @@ pub(crate) struct Column {
 /// Encodes one property for `values` (one per feature). `Err` says which feature's value does not
 /// fit the kind.
 pub(crate) fn encode_column<'a>(
-    kind: PropertyKind,
+    prop: &PropertyDef,
     values: impl ExactSizeIterator<Item = &'a PropValue>,
 ) -> Result<Column, (usize, String)> {
+    let kind = prop.kind;
     let n = values.len();
     let mut out = Vec::new();
     let mut offsets: Vec<u8> = Vec::new();
     let mut bits = vec![0u8; n.div_ceil(8)];
     for (i, v) in values.enumerate() {
         let bad = |what: &str| (i, format!("{v:?} does not fit a {what} property"));
+        if *v == PropValue::Null && !prop.nullable && kind != PropertyKind::Boolean {
+            return Err((i, "no value for a property that is not nullable".into()));
+        }
         match kind {
             PropertyKind::Float64 => {
                 let x = match v {
@@ -92,6 +95,15 @@ pub(crate) fn encode_column<'a>(
                     PropValue::Float(f) => *f,
                     PropValue::Int(k) => *k as f64,
                     _ => return Err(bad("Float64")),
+                };
+                out.extend_from_slice(&x.to_le_bytes());
+            }
+            PropertyKind::Float32 => {
+                let x = match v {
+                    PropValue::Null => NO_DATA_F32,
+                    PropValue::Float(f) => *f as f32,
+                    PropValue::Int(k) => *k as f32,
+                    _ => return Err(bad("Float32")),
                 };
                 out.extend_from_slice(&x.to_le_bytes());
             }
@@ -272,20 +284,25 @@ mod tests {
     use super::*;
     use crate::spec::{ClassDef, PropertyDef};
 
+    fn def(kind: PropertyKind, nullable: bool) -> PropertyDef {
+        PropertyDef {
+            name: "p".into(),
+            kind,
+            description: Some("what p means".into()),
+            nullable,
+        }
+    }
+
     fn round_trip(kind: PropertyKind, vals: &[PropValue]) -> Vec<PropValue> {
         let schema = MetadataSchema {
             id: "s".into(),
             classes: vec![ClassDef {
                 id: "c".into(),
-                properties: vec![PropertyDef {
-                    name: "p".into(),
-                    kind,
-                    description: None,
-                }],
+                properties: vec![def(kind, true)],
             }],
         };
-        let prop = schema_json(&schema, &["c"]).classes["c"].properties["p"].clone();
-        let col = encode_column(kind, vals.iter()).unwrap();
+        let prop = schema_json(&schema, &["c"], false).classes["c"].properties["p"].clone();
+        let col = encode_column(&def(kind, true), vals.iter()).unwrap();
         let offs = col.string_offsets.as_deref().map(|o| (o, "UINT32"));
         decode_column(&prop, vals.len(), &col.values, offs).unwrap()
     }
@@ -313,6 +330,12 @@ mod tests {
             round_trip(PropertyKind::Int64, &i),
             [Int(i64::MAX), Null, Int(12)]
         );
+        // FLOAT32: rounded to the nearest single.
+        let f32s = [Float(1.5), Null, Int(-3), Float(0.1)];
+        assert_eq!(
+            round_trip(PropertyKind::Float32, &f32s),
+            [Float(1.5), Null, Float(-3.0), Float(0.1f32 as f64)]
+        );
         let u = [Int(0), Null, Int(4_000_000_000)];
         assert_eq!(
             round_trip(PropertyKind::UInt32, &u),
@@ -328,12 +351,53 @@ mod tests {
     #[test]
     fn values_that_do_not_fit_are_rejected_with_their_index() {
         use PropValue::*;
-        let e = encode_column(PropertyKind::UInt32, [Int(1), Int(-1)].iter())
+        let d = |k| def(k, true);
+        let e = encode_column(&d(PropertyKind::UInt32), [Int(1), Int(-1)].iter())
             .err()
             .unwrap();
         assert_eq!(e.0, 1);
-        assert!(encode_column(PropertyKind::Float64, [Str("a".into())].iter()).is_err());
-        assert!(encode_column(PropertyKind::Int64, [Float(0.5)].iter()).is_err());
-        assert!(encode_column(PropertyKind::Boolean, [Int(1)].iter()).is_err());
+        assert!(encode_column(&d(PropertyKind::Float64), [Str("a".into())].iter()).is_err());
+        assert!(encode_column(&d(PropertyKind::Int64), [Float(0.5)].iter()).is_err());
+        assert!(encode_column(&d(PropertyKind::Boolean), [Int(1)].iter()).is_err());
+        // A null where the schema declares no noData value.
+        let e = encode_column(
+            &def(PropertyKind::Float32, false),
+            [Float(1.0), Null].iter(),
+        )
+        .err()
+        .unwrap();
+        assert_eq!(e.0, 1);
+    }
+
+    #[test]
+    fn only_nullable_properties_declare_no_data_and_glbs_carry_no_descriptions() {
+        let schema = MetadataSchema {
+            id: "s".into(),
+            classes: vec![ClassDef {
+                id: "c".into(),
+                properties: vec![
+                    PropertyDef {
+                        name: "a".into(),
+                        ..def(PropertyKind::Float32, false)
+                    },
+                    PropertyDef {
+                        name: "b".into(),
+                        ..def(PropertyKind::UInt32, true)
+                    },
+                ],
+            }],
+        };
+        let inline = schema_json(&schema, &["c"], false);
+        let props = &inline.classes["c"].properties;
+        assert_eq!(props["a"].no_data, None);
+        assert_eq!(props["b"].no_data, Some(serde_json::json!(u32::MAX)));
+        assert!(props.values().all(|p| p.description.is_none()));
+        let documented = schema_json(&schema, &["c"], true);
+        assert_eq!(
+            documented.classes["c"].properties["a"]
+                .description
+                .as_deref(),
+            Some("what p means")
+        );
     }
 }

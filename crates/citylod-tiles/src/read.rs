@@ -728,6 +728,7 @@ mod tests {
                     name: "n".into(),
                     kind: PropertyKind::String,
                     description: None,
+                    nullable: true,
                 }],
             }],
         };
@@ -744,6 +745,7 @@ mod tests {
             mesh,
             class: 0,
             values: vec![PropValue::Str("x".into())],
+            max_rounding_m: 0.0,
         };
         for c in [
             crate::Compression::Meshopt,
@@ -754,8 +756,11 @@ mod tests {
                 "0",
                 std::slice::from_ref(&f),
                 &schema,
-                c,
-                true,
+                &crate::content::ContentOptions {
+                    compression: c,
+                    normals: true,
+                    quantization_step_m: 0.02,
+                },
                 "t",
             )
             .unwrap()

@@ -12,6 +12,8 @@ pub enum PropertyKind {
     String,
     /// IEEE 754 double; null is written as `f64::MIN` (the `noData` value).
     Float64,
+    /// IEEE 754 single (rounded to nearest from the f64 given); null is written as `f32::MIN`.
+    Float32,
     /// Signed 64-bit integer; null is written as `i64::MIN` (the `noData` value).
     Int64,
     /// Unsigned 32-bit integer; null is written as `u32::MAX` (the `noData` value).
@@ -27,7 +29,11 @@ pub struct PropertyDef {
     /// name in `description` if it matters).
     pub name: String,
     pub kind: PropertyKind,
+    /// Documentation: written to the schema document ([`crate::schema_to_json`]), not into every glb.
     pub description: Option<String>,
+    /// Whether features may have no value: only then does the schema declare a `noData` value (strings and
+    /// numbers), and a null for a property that is not nullable is an error.
+    pub nullable: bool,
 }
 
 /// A class of features ("building", later "cluster").
@@ -66,6 +72,11 @@ pub struct ContentFeature {
     pub mesh: Mesh3d,
     pub class: usize,
     pub values: Vec<PropValue>,
+    /// How far (m, per axis) the writer may move this feature's vertices when it rounds them to its grid: 0
+    /// for exact geometry (buildings, landmarks, 3D models), which gets the finest grid
+    /// ([`crate::WriteOptions::quantization_step_m`]); a generalized block may take a share of its tile's
+    /// geometric error. The grid is a power-of-two multiple of the finest one with half a step ≤ this.
+    pub max_rounding_m: f64,
 }
 
 /// A tile: the features drawn when it is selected, its children (which REPLACE it when refined),
@@ -149,16 +160,19 @@ mod tests {
                         name: "building:height".into(),
                         kind: PropertyKind::Float64,
                         description: None,
+                        nullable: true,
                     },
                     PropertyDef {
                         name: "a".into(),
                         kind: PropertyKind::String,
                         description: None,
+                        nullable: true,
                     },
                     PropertyDef {
                         name: "a".into(),
                         kind: PropertyKind::String,
                         description: None,
+                        nullable: true,
                     },
                 ],
             }],

@@ -81,6 +81,7 @@ mod tests {
             mesh,
             class: 0,
             values: vec![],
+            max_rounding_m: 0.0,
         }
     }
 

@@ -3,7 +3,7 @@
 //! volumes in the root's ENU frame enclosing each tile's content and all its descendants').
 //! Tile paths: the root is `0`, child k of tile `p` is `p/k`; content goes to `tiles/<path>.glb`.
 
-use crate::content::{bounds, encode_content};
+use crate::content::{bounds, encode_content, ContentOptions};
 use crate::external::split_external;
 use crate::spec::{MetadataSchema, TileSpec};
 use crate::staging::Staging;
@@ -34,6 +34,12 @@ pub struct WriteOptions {
     /// spec asks clients to compute flat normals when they are missing, but CesiumJS draws such
     /// primitives unlit (CesiumGS/cesium#6506, #10237), so normals are written unless this is set.
     pub omit_normals: bool,
+    /// Finest grid vertex positions are rounded to (m, > 0; default 0.02, half a step = 1 cm per axis).
+    /// A tile wider than 65,534 steps uses the smallest power-of-two multiple whose coordinates fit 16 bits
+    /// (KHR_mesh_quantization SHORT); features with a rounding tolerance
+    /// ([`crate::ContentFeature::max_rounding_m`]) may get a coarser one. Grids are anchored at the local
+    /// origin, so the same vertex in two tiles on the same grid rounds to the same point.
+    pub quantization_step_m: f64,
     /// `tileset.geometricError` (m). Default: the larger of the root's geometric error and the root
     /// box diagonal, so the root is considered as soon as the city spans a few pixels. Never less than
     /// the root's geometric error.
@@ -52,6 +58,7 @@ impl Default for WriteOptions {
         WriteOptions {
             compression: Compression::default(),
             omit_normals: false,
+            quantization_step_m: 0.02,
             tileset_geometric_error_m: None,
             max_tileset_json_bytes: 4_000_000,
             extras: None,
@@ -99,6 +106,15 @@ pub fn write_tileset(
     opts: &WriteOptions,
 ) -> Result<WriteStats, TilesError> {
     schema.validate()?;
+    if !(opts.quantization_step_m > 0.0 && opts.quantization_step_m.is_finite()) {
+        return Err(TilesError::Tile {
+            tile: "0".into(),
+            msg: format!(
+                "quantization step {} m is not finite and > 0",
+                opts.quantization_step_m
+            ),
+        });
+    }
     let mut flat: Vec<(String, &TileSpec)> = Vec::with_capacity(root.count_tiles());
     flatten(root, "0".into(), &mut flat);
     for (path, t) in &flat {
@@ -113,17 +129,15 @@ pub fn write_tileset(
         }
     }
     let generator = format!("citylod {}", env!("CARGO_PKG_VERSION"));
+    let content_opts = ContentOptions {
+        compression: opts.compression,
+        normals: !opts.omit_normals,
+        quantization_step_m: opts.quantization_step_m,
+    };
     let encoded: Vec<Result<TileOut, TilesError>> = flat
         .par_iter()
         .map(|(path, t)| {
-            let content = encode_content(
-                path,
-                &t.features,
-                schema,
-                opts.compression,
-                !opts.omit_normals,
-                &generator,
-            )?;
+            let content = encode_content(path, &t.features, schema, &content_opts, &generator)?;
             let Some(c) = content else {
                 return Ok(TileOut {
                     bounds: None,
@@ -308,6 +322,7 @@ mod tests {
             name: name.into(),
             kind,
             description: Some(format!("the {name}")),
+            nullable: true,
         };
         MetadataSchema {
             id: "citylod".into(),
@@ -363,6 +378,7 @@ mod tests {
                 },
                 PropValue::Bool(i.is_multiple_of(3)),
             ],
+            max_rounding_m: 0.0,
         }
     }
 
@@ -371,6 +387,7 @@ mod tests {
             mesh: box_mesh(x, y, 80.0, 60.0, 0.0, 11.0),
             class: 1,
             values: vec![PropValue::Int(n), PropValue::Float(n as f64 * 0.5)],
+            max_rounding_m: 0.0,
         }
     }
 
@@ -460,8 +477,12 @@ mod tests {
             order.sort_by_key(|f| f.class);
             assert_eq!(glb.features.len(), order.len());
             let ext = bounds(order.iter().flat_map(|f| f.mesh.positions.iter().copied())).unwrap();
-            // One quantization step for all axes (uniform node scale): half the largest extent / 32767.
-            let step = (0..3).map(|i| ext.1[i] - ext.0[i]).fold(0.0, f64::max) / 65534.0;
+            // One grid for all axes (uniform node scale): the default 2 cm, or coarser where the tile's half
+            // extent needs more than 32,766 steps.
+            let half = (0..3).map(|i| ext.1[i] - ext.0[i]).fold(0.0, f64::max) / 2.0;
+            let step = WriteOptions::default()
+                .quantization_step_m
+                .max(half / 32766.0);
             let tol = [step / 2.0 + 1e-9; 3];
             let (mut v, mut t) = (0usize, 0usize);
             for (k, f) in order.iter().enumerate() {
@@ -918,6 +939,7 @@ mod tests {
             mesh: box_mesh(0.0, 0.0, 1.0, 1.0, 0.0, 1.0),
             class: 7,
             values: vec![],
+            max_rounding_m: 0.0,
         });
         let err = write(&dest, &bad, Compression::Meshopt).unwrap_err();
         assert!(err.to_string().contains("class 7"), "{err}");

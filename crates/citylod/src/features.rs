@@ -70,6 +70,7 @@ impl BuildingTable {
                 name: id.to_string(),
                 kind,
                 description: Some(desc.to_string()),
+                nullable: false,
             })
             .collect();
         let mut attrs = Vec::new();
@@ -82,6 +83,7 @@ impl BuildingTable {
                 name: id,
                 kind,
                 description,
+                nullable: true,
             });
             attrs.push((name.to_string(), kind));
         }
@@ -119,6 +121,7 @@ impl BuildingTable {
             mesh,
             class: 0,
             values,
+            max_rounding_m: 0.0,
         }
     }
 }
@@ -128,80 +131,96 @@ impl BuildingTable {
 /// separate features of the `building` class in the same content.
 /// Landmarks are features of this class too (`landmark` = true, `building_index` set): CesiumJS picks through one
 /// property table per glb, so a tile must hold a single class for clicks to find the right feature.
-const CLUSTER: [(&str, PropertyKind, &str); 15] = [
+/// (id, kind, nullable, description)
+const CLUSTER: [(&str, PropertyKind, bool, &str); 15] = [
     (
         "level",
         PropertyKind::UInt32,
+        false,
         "hierarchy level (0 = the buildings)",
     ),
     (
         "node_index",
         PropertyKind::UInt32,
+        false,
         "index of the block within its level",
     ),
     (
         "member_count",
         PropertyKind::UInt32,
+        false,
         "buildings in the block",
     ),
     (
         "source_id",
         PropertyKind::String,
+        true,
         "the building's source id when the block is a single building",
     ),
     (
         "height_m",
-        PropertyKind::Float64,
+        PropertyKind::Float32,
+        false,
         "area-weighted mean height of the buildings, metres",
     ),
     (
         "h_min_m",
-        PropertyKind::Float64,
+        PropertyKind::Float32,
+        false,
         "lowest building height, metres",
     ),
     (
         "h_max_m",
-        PropertyKind::Float64,
+        PropertyKind::Float32,
+        false,
         "highest building height, metres",
     ),
     (
         "dh_m",
-        PropertyKind::Float64,
+        PropertyKind::Float32,
+        false,
         "height spread Δh = h_max − h_min, metres",
     ),
     (
         "da_m2",
-        PropertyKind::Float64,
+        PropertyKind::Float32,
+        false,
         "area the block differs from its buildings by, m²: Δa = area(block) − Σ area(buildings) as merged, plus what was filled or cut to simplify its outline within its tile's error",
     ),
     (
         "area_m2",
-        PropertyKind::Float64,
+        PropertyKind::Float32,
+        false,
         "footprint area of the block, m²",
     ),
     (
         "geometric_error_m",
-        PropertyKind::Float64,
+        PropertyKind::Float32,
+        false,
         "max(Δh, κ·√Δa): the error of drawing the block, metres",
     ),
     (
         "fallback",
         PropertyKind::Boolean,
+        false,
         "the merged footprint could not be extruded; the buildings are shown",
     ),
     (
         "landmark_count",
         PropertyKind::UInt32,
+        false,
         "buildings drawn at full detail on top of the block (features with landmark = true)",
     ),
     (
         "landmark",
         PropertyKind::Boolean,
+        false,
         "this feature is one building drawn at full detail on top of its block, not a block",
     ),
     (
         "building_index",
         PropertyKind::UInt32,
+        true,
         "for a landmark: citylod's index of the building (as in the building class)",
     ),
 ];
@@ -215,10 +234,11 @@ pub fn schema(buildings: &BuildingTable) -> MetadataSchema {
         id: "cluster".into(),
         properties: CLUSTER
             .iter()
-            .map(|&(name, kind, d)| PropertyDef {
+            .map(|&(name, kind, nullable, d)| PropertyDef {
                 name: name.into(),
                 kind,
                 description: Some(d.into()),
+                nullable,
             })
             .collect(),
     };
@@ -236,6 +256,8 @@ pub struct ClusterRow<'a> {
     pub source_id: Option<&'a str>,
     pub geometric_error_m: f64,
     pub fallback: bool,
+    /// How far the writer may round the block's vertices (m per axis): a small share of its tile's error.
+    pub max_rounding_m: f64,
 }
 
 pub fn cluster_feature(row: ClusterRow<'_>, mesh: Mesh3d) -> ContentFeature {
@@ -263,6 +285,7 @@ pub fn cluster_feature(row: ClusterRow<'_>, mesh: Mesh3d) -> ContentFeature {
         mesh,
         class: CLUSTER_CLASS,
         values,
+        max_rounding_m: row.max_rounding_m,
     }
 }
 
@@ -296,6 +319,7 @@ pub fn landmark_feature(
         mesh,
         class: CLUSTER_CLASS,
         values,
+        max_rounding_m: 0.0,
     }
 }
 
@@ -356,7 +380,7 @@ mod tests {
         let path =
             std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../schemas/metadata.json");
         let mut doc = serde_json::json!({
-            "$comment": "The EXT_structural_metadata schema inline in every citylod glb (a glb lists only the classes its property tables use). Besides the five fixed properties listed here, the building class has one property per input attribute (named after it, made safe as an identifier), so it differs per build. Generated from crates/citylod/src/features.rs; a test keeps the two equal.",
+            "$comment": "The EXT_structural_metadata schema inline in every citylod glb, there without the descriptions (a glb lists only the classes its property tables use). Besides the five fixed properties listed here, the building class has one property per input attribute (named after it, made safe as an identifier; nullable, noData declared), so it differs per build. Only nullable properties declare noData. Generated from crates/citylod/src/features.rs; a test keeps the two equal.",
         });
         let generated = citylod_tiles::schema_to_json(&schema(&BuildingTable::new(&[])));
         for (k, v) in generated.as_object().unwrap() {
