@@ -184,22 +184,22 @@ describe('NYC Lower East Side, LOD in the browser', () => {
     }
   });
 
-  // Known shortfall (measured 2026-11-22, both clients): the far view draws level-1 blocks where they are calm enough
-  // and leaves elsewhere (depths 6 and 7). At 800×600 this 1 km district's far camera allows ~33 m of error, and
-  // NYC's level-1 tiles carry 34–47 m (row houses of very different heights merged by touching: Δh, which no outline
-  // simplification changes), so parts of it refine to the leaves and every ancestor tile on the way is loaded (the
-  // six tiles above level 1 alone weigh ~200 kB, 37 % of the whole leaves-only far view). With blocks re-outlined
-  // within their tile's error and MIN_SPLIT_TRIANGLES 2,000: 722,518 B in 17 requests against 533,090 B in 3 for
-  // leaves-only, ratio 1.36 (was 1.77, before that 2.03). `citylod check`'s far view at 400×300 draws 15.9× fewer
-  // triangles than full detail. Neither "fewer bytes" nor the issue's ≤ 20 % holds here.
-  const SHORTFALL = 'known shortfall: the LOD far view refines parts of the district to the leaves and loads their ancestors ' +
-    '(measured ratio 1.36 in both clients: 722,518 B vs 533,090 B)';
-  test('far view: LOD loads fewer bytes than leaves-only', { todo: SHORTFALL }, () => {
+  // The LOD far view loads fewer bytes than the leaves-only one: measured 2026-11-22, both clients, 362,926 B in 15
+  // requests against 526,364 B in 3, ratio 0.69. (Before rough blocks were drawn as their buildings in their level-1
+  // tile (hlod::DEMOTE_ERROR_RATIO), one block of a 10 m and a 57 m building set a whole level-1 tile's error to 47 m
+  // and the far view refined it to the leaves: ratio 1.17, before that 1.36, 1.77 and 2.03.)
+  test('far view: LOD loads fewer bytes than leaves-only', () => {
     for (const client of clients) {
       const c = farComparison(client);
       assert.ok(c && c.lodBytes < c.leavesBytes, `${client}: LOD far ${c?.lodBytes} B >= leaves-only far ${c?.leavesBytes} B (ratio ${c?.bytesRatio.toFixed(3)})`);
     }
   });
+  // Known shortfall: at 800×600 this 1 km district's far camera allows ~30 m of error near it; one level-1 tile keeps
+  // 43 m (its rough blocks' buildings would add more than hlod::DEMOTE_MAX_ADDED_SHARE) and refines to its leaves,
+  // and every ancestor on the way is loaded: the six tiles above level 1 weigh ~130 kB, a quarter of the whole
+  // leaves-only far view. The issue's ≤ 20 % does not hold here (it does on Boston, far-city.test.mjs: 0.11).
+  const SHORTFALL = 'known shortfall: part of the district still refines to its leaves, and the far view loads every ancestor ' +
+    '(measured ratio 0.69 in both clients: 362,926 B vs 526,364 B)';
   test(`far view: LOD loads at most ${FAR_BYTES_TARGET * 100} % of the leaves-only bytes`, { todo: SHORTFALL }, () => {
     for (const client of clients) {
       const c = farComparison(client);

@@ -312,6 +312,24 @@ fn nyc_les_tileset_is_valid_complete_and_in_place() {
     let (err_m, n) = placement_error_m(&input, &ts, 7);
     assert!(n >= 150, "placement checked on {n} buildings only");
     assert!(err_m < 0.5, "placement error {err_m:.3} m");
+    // A few rough level-1 blocks (a 10 m and a 57 m building merged by touching) would set the error of their
+    // whole tile: they are drawn there as their buildings instead, level-0 features of the cluster class, and
+    // `citylod check` (above) found every building of every cut exactly once.
+    let demoted = report["lod"][1]["blocks_drawn_as_children"]
+        .as_u64()
+        .unwrap();
+    let buildings_in_block_tiles = ts
+        .tiles
+        .iter()
+        .filter(|t| !t.children.is_empty())
+        .filter_map(|t| t.content.as_ref())
+        .flat_map(|c| &c.features)
+        .filter(|r| r.class == "cluster" && r.values.get("level") == Some(&PropValue::Int(0)))
+        .count();
+    assert!(
+        demoted > 0 && buildings_in_block_tiles >= 2 * demoted as usize,
+        "nyc: {demoted} level-1 blocks drawn as their buildings, {buildings_in_block_tiles} buildings in block tiles"
+    );
 }
 
 #[test]

@@ -270,6 +270,8 @@ pub struct LevelSummary {
     pub triangles_as_generalized: usize,
     /// Blocks whose outline was simplified within their tile's error.
     pub blocks_reoutlined: usize,
+    /// Blocks too rough for their tile, drawn there as their children (the buildings, for level 1).
+    pub blocks_drawn_as_children: usize,
     pub geometric_error_min_m: f64,
     pub geometric_error_max_m: f64,
     /// Blocks whose merged footprint could not be extruded and that show their buildings instead.

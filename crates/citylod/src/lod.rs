@@ -291,7 +291,12 @@ impl<'h> LodTree<'h> {
             .iter()
             .zip(errors)
             .filter(|(t, _)| t.level > 0)
-            .flat_map(|(t, &e)| t.nodes.iter().map(move |&n| (t.level, n, e)))
+            .flat_map(|(t, &e)| {
+                t.drawn
+                    .iter()
+                    .filter(move |&&(level, _)| level == t.level)
+                    .map(move |&(level, n)| (level, n, e))
+            })
             .collect();
         let done: Vec<(usize, NodeId, Node, NodeMesh)> = jobs
             .par_iter()
@@ -366,6 +371,7 @@ impl<'h> LodTree<'h> {
                 triangles,
                 triangles_as_generalized: triangles,
                 blocks_reoutlined: 0,
+                blocks_drawn_as_children: 0,
                 geometric_error_min_m: 0.0,
                 geometric_error_max_m: 0.0,
                 mesh_fallbacks: 0,
@@ -434,13 +440,34 @@ impl<'h> LodTree<'h> {
                 ),
             }
         };
-        let features = |level: usize, n: NodeId| -> Vec<ContentFeature> {
+        let features = |tile_level: usize, level: usize, n: NodeId| -> Vec<ContentFeature> {
             if level == 0 {
                 let node = &h.levels[0].nodes[n.0 as usize];
-                return self
-                    .building_feature(buildings, node.members[0])
-                    .into_iter()
-                    .collect();
+                let b = node.members[0];
+                if tile_level > 0 {
+                    // A building of a block too rough for its tile, drawn in the block's stead: the level-0 node as a
+                    // cluster-class feature of one member (one class per tile, for picking).
+                    let Some(mesh) = self.buildings[b.0 as usize].clone() else {
+                        return Vec::new();
+                    };
+                    // The building itself: no height spread, no area added (the level-0 node's own Δa is rounding).
+                    let exact = Node {
+                        dh_m: 0.0,
+                        da_m2: 0.0,
+                        ..node.clone()
+                    };
+                    let row = ClusterRow {
+                        level: 0,
+                        node_index: n.0,
+                        node: &exact,
+                        source_id: Some(buildings[b.0 as usize].source_id.as_str()),
+                        geometric_error_m: self.prism_error(b),
+                        fallback: false,
+                        max_rounding_m: 0.0,
+                    };
+                    return vec![cluster_feature(row, mesh)];
+                }
+                return self.building_feature(buildings, b).into_iter().collect();
             }
             let (node, nm) = node_and_mesh(level, n);
             let source_id = (node.members.len() == 1)
@@ -501,6 +528,12 @@ impl<'h> LodTree<'h> {
                         .sum(),
                     triangles_as_generalized: (0..n as u32)
                         .map(|i| triangles(level, NodeId(i)))
+                        .sum(),
+                    blocks_drawn_as_children: packing
+                        .tiles
+                        .iter()
+                        .filter(|t| t.level == level)
+                        .map(|t| t.nodes.len() - t.drawn.iter().filter(|d| d.0 == level).count())
                         .sum(),
                     blocks_reoutlined: match level {
                         0 => 0,
