@@ -1,8 +1,10 @@
-//! One tile's glb: every feature of a class merged into one TRIANGLES primitive (one primitive per
-//! class present, so each primitive has one feature-id set and one property table), positions
-//! (east, up, −north) relative to the tile centre, quantized to SHORT with one uniform scale in the
-//! node (KHR_mesh_quantization), BYTE-normalized normals, feature ids as a FLOAT `_FEATURE_ID_0`
-//! (EXT_mesh_features), property tables (EXT_structural_metadata), optionally EXT_meshopt_compression.
+//! One tile's glb: features grouped into glTF nodes by the grid their positions are rounded to (and into
+//! spatial chunks whose coordinates fit 16 bits on it), within a node every feature of a class merged into
+//! one TRIANGLES primitive (so each primitive has one feature-id set; one property table per class for the
+//! whole glb), positions (east, up, −north) quantized to SHORT with one uniform scale, the grid step, and a
+//! translation on the grid (KHR_mesh_quantization), BYTE-normalized normals, feature ids as a FLOAT
+//! `_FEATURE_ID_0` (EXT_mesh_features), property tables (EXT_structural_metadata), optionally
+//! EXT_meshopt_compression.
 
 use crate::draco::{self, DracoEncoded, DracoValues};
 use crate::glb::{write_glb, BinBuilder};
@@ -28,6 +30,46 @@ pub(crate) struct ContentOptions {
     pub normals: bool,
     /// Finest grid positions are rounded to (m); see [`crate::WriteOptions::quantization_step_m`].
     pub quantization_step_m: f64,
+}
+
+/// Splits `members` (feature indices, ascending) into spatial chunks whose bounds are at most `max_half` (m) from
+/// their centre on every axis: recursive median cuts across the longest axis of the feature centres, ties by
+/// index. A single feature always fits (its grid was chosen so). Members keep their order within a chunk.
+fn chunk_to_fit(
+    members: Vec<usize>,
+    feature_bounds: &[Option<([f64; 3], [f64; 3])>],
+    max_half: f64,
+    out: &mut Vec<Vec<usize>>,
+) {
+    let fb = |i: usize| feature_bounds[i].expect("features with vertices");
+    let (lo, hi) = members
+        .iter()
+        .fold(([f64::MAX; 3], [f64::MIN; 3]), |(lo, hi), &i| {
+            let (a, b) = fb(i);
+            (
+                std::array::from_fn(|k| lo[k].min(a[k])),
+                std::array::from_fn(|k| hi[k].max(b[k])),
+            )
+        });
+    let half = (0..3).map(|k| (hi[k] - lo[k]) / 2.0).fold(0.0, f64::max);
+    if members.len() <= 1 || half <= max_half {
+        out.push(members);
+        return;
+    }
+    let axis = (0..3)
+        .max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b])))
+        .expect("three axes");
+    let centre = |i: usize| {
+        let (a, b) = fb(i);
+        (a[axis] + b[axis]) / 2.0
+    };
+    let mut sorted = members;
+    sorted.sort_by(|&a, &b| centre(a).total_cmp(&centre(b)).then(a.cmp(&b)));
+    let right = sorted.split_off(sorted.len() / 2);
+    for mut part in [sorted, right] {
+        part.sort_unstable();
+        chunk_to_fit(part, feature_bounds, max_half, out);
+    }
 }
 
 /// The coarsest grid (m) a feature that may move `max_rounding_m` per axis can be rounded to: the largest
@@ -111,19 +153,23 @@ pub(crate) fn encode_content(
             msg,
         })?;
     }
-    let all = features
+    // Each feature's bounds (glTF y-up); features without vertices draw nothing.
+    let feature_bounds: Vec<Option<([f64; 3], [f64; 3])>> = features
         .iter()
-        .flat_map(|f| f.mesh.positions.iter().map(|&p| enu_to_yup(p)));
-    let Some((lo, hi)) = bounds(all) else {
+        .map(|f| bounds(f.mesh.positions.iter().map(|&p| enu_to_yup(p))))
+        .collect();
+    if feature_bounds.iter().all(Option::is_none) {
         return Ok(None);
-    };
-    // The finest grid whose coordinates over the whole tile fit 16 bits (one step of margin for the rounded
-    // translation), then each feature's own grid: as coarse as its rounding tolerance allows.
-    let half = (0..3).map(|i| (hi[i] - lo[i]) / 2.0).fold(0.0, f64::max);
-    let finest = opts.quantization_step_m.max(half / (Q_MAX - 1.0));
-    let grid_of = |f: &ContentFeature| -> u64 {
-        let tolerated = tolerated_grid(f.max_rounding_m, opts.quantization_step_m);
-        finest.max(tolerated).to_bits()
+    }
+    // A feature's grid: the finest one (`quantization_step_m`), coarser as far as its rounding tolerance allows,
+    // and never so fine that the feature alone would not fit 16 bits (one step of margin for the rounded
+    // translation).
+    let grid_of = |i: usize| -> f64 {
+        let tolerated = tolerated_grid(features[i].max_rounding_m, opts.quantization_step_m);
+        let half = feature_bounds[i].map_or(0.0, |(lo, hi)| {
+            (0..3).map(|k| (hi[k] - lo[k]) / 2.0).fold(0.0, f64::max)
+        });
+        tolerated.max(half / (Q_MAX - 1.0))
     };
 
     // Features grouped by class, classes in schema order, features in input order; a feature's row in its
@@ -135,15 +181,25 @@ pub(crate) fn encode_content(
         row[i] = members.len();
         members.push(i);
     }
-    // One node per grid (finest first), each with one primitive per class.
-    let mut by_grid: BTreeMap<u64, BTreeMap<usize, Vec<usize>>> = BTreeMap::new();
-    for (i, f) in features.iter().enumerate() {
-        by_grid
-            .entry(grid_of(f))
-            .or_default()
-            .entry(f.class)
-            .or_default()
-            .push(i);
+    // One node per grid (finest first) and per spatial chunk of features whose coordinates fit 16 bits on it,
+    // each with one primitive per class.
+    let mut by_grid: BTreeMap<u64, Vec<usize>> = BTreeMap::new();
+    for i in (0..features.len()).filter(|&i| feature_bounds[i].is_some()) {
+        // Positive floats order like their bits: finest grid first.
+        by_grid.entry(grid_of(i).to_bits()).or_default().push(i);
+    }
+    let mut chunks: Vec<(f64, BTreeMap<usize, Vec<usize>>)> = Vec::new();
+    for (bits, members) in by_grid {
+        let step = f64::from_bits(bits);
+        let mut parts = Vec::new();
+        chunk_to_fit(members, &feature_bounds, (Q_MAX - 1.0) * step, &mut parts);
+        for part in parts {
+            let mut classes: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+            for fi in part {
+                classes.entry(features[fi].class).or_default().push(fi);
+            }
+            chunks.push((step, classes));
+        }
     }
 
     let meshopt = compression == Compression::Meshopt;
@@ -171,9 +227,8 @@ pub(crate) fn encode_content(
     let (mut triangles, mut vertices, mut dropped) = (0u64, 0u64, 0u64);
     let mut drawn_bounds: Option<([f64; 3], [f64; 3])> = None;
 
-    // Positive floats order like their bits: finest grid first.
-    for (&bits, classes) in &by_grid {
-        let step = f64::from_bits(bits);
+    for (step, classes) in &chunks {
+        let step = *step;
         let group = classes
             .values()
             .flatten()
@@ -237,11 +292,9 @@ pub(crate) fn encode_content(
                     msg: "too many vertices or features for one glb".into(),
                 });
             }
-            let feature_count = {
-                let mut ids: Vec<usize> = members.iter().map(|&fi| row[fi]).collect();
-                ids.dedup();
-                ids.len()
-            };
+            // The ids index the class's one property table (CesiumJS picks through a single table per glb),
+            // so every primitive of the class counts all its rows: ids stay below featureCount.
+            let feature_count = class_rows;
             triangles += idx.len() as u64 / 3;
             for p in &pos {
                 for i in 0..3 {
@@ -262,7 +315,7 @@ pub(crate) fn encode_content(
             let with_normals;
             if compression == Compression::Draco {
                 with_normals = normals;
-                let enc = encode_draco(&pos, &nor, &fid, &idx, members.len()).map_err(|msg| {
+                let enc = encode_draco(&pos, &nor, &fid, &idx, class_rows).map_err(|msg| {
                     TilesError::Tile {
                         tile: tile.into(),
                         msg,
@@ -286,7 +339,7 @@ pub(crate) fn encode_content(
                     max: Some(enc.first_max.clone()),
                     ..unbuffered(SHORT, m, "VEC3")
                 });
-                let fid_type = if members.len() <= FEATURE_IDS_U16 {
+                let fid_type = if class_rows <= FEATURE_IDS_U16 {
                     UNSIGNED_SHORT
                 } else {
                     FLOAT

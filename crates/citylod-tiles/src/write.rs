@@ -34,11 +34,12 @@ pub struct WriteOptions {
     /// spec asks clients to compute flat normals when they are missing, but CesiumJS draws such
     /// primitives unlit (CesiumGS/cesium#6506, #10237), so normals are written unless this is set.
     pub omit_normals: bool,
-    /// Finest grid vertex positions are rounded to (m, > 0; default 0.02, half a step = 1 cm per axis).
-    /// A tile wider than 65,534 steps uses the smallest power-of-two multiple whose coordinates fit 16 bits
-    /// (KHR_mesh_quantization SHORT); features with a rounding tolerance
-    /// ([`crate::ContentFeature::max_rounding_m`]) may get a coarser one. Grids are anchored at the local
-    /// origin, so the same vertex in two tiles on the same grid rounds to the same point.
+    /// Grid exact vertex positions are rounded to (m, > 0; default 0.02: within 1 cm of the input on every
+    /// axis), whatever the tile's size: a tile wider than 65,534 steps is split into several glTF nodes whose
+    /// coordinates each fit 16 bits (KHR_mesh_quantization SHORT); only a single feature that wide gets a
+    /// coarser grid. Features with a rounding tolerance ([`crate::ContentFeature::max_rounding_m`]) may get a
+    /// power-of-two multiple of it. Grids are anchored at the local origin, so the same vertex in two tiles on
+    /// the same grid rounds to the same point.
     pub quantization_step_m: f64,
     /// `tileset.geometricError` (m). Default: the larger of the root's geometric error and the root
     /// box diagonal, so the root is considered as soon as the city spans a few pixels. Never less than
@@ -476,13 +477,9 @@ mod tests {
             let mut order: Vec<&ContentFeature> = spec.features.iter().collect();
             order.sort_by_key(|f| f.class);
             assert_eq!(glb.features.len(), order.len());
-            let ext = bounds(order.iter().flat_map(|f| f.mesh.positions.iter().copied())).unwrap();
-            // One grid for all axes (uniform node scale): the default 2 cm, or coarser where the tile's half
-            // extent needs more than 32,766 steps.
-            let half = (0..3).map(|i| ext.1[i] - ext.0[i]).fold(0.0, f64::max) / 2.0;
-            let step = WriteOptions::default()
-                .quantization_step_m
-                .max(half / 32766.0);
+            // Exact features are on the default 2 cm grid whatever the tile's extent (a tile too wide for 16 bits
+            // gets several nodes): within 1 cm of their input on every axis.
+            let step = WriteOptions::default().quantization_step_m;
             let tol = [step / 2.0 + 1e-9; 3];
             let (mut v, mut t) = (0usize, 0usize);
             for (k, f) in order.iter().enumerate() {
@@ -534,6 +531,82 @@ mod tests {
                 }
             }
             assert_eq!((v, t), (glb.positions_local.len(), glb.triangles.len()));
+        }
+    }
+
+    #[test]
+    fn a_tile_wider_than_16_bits_on_the_grid_keeps_every_vertex_within_half_a_step() {
+        // Two buildings 5 km apart: one node would need a 7.6 cm grid; each gets its own node on the 2 cm grid.
+        let mut a = building(0);
+        let mut b = building(1);
+        a.mesh = box_mesh(-2500.0, 0.0, 12.3, 9.7, 0.37, 20.0);
+        b.mesh = box_mesh(2500.0, 10.0, 8.1, 7.9, 1.13, 9.0);
+        let root = TileSpec {
+            features: vec![a.clone(), b.clone()],
+            ..Default::default()
+        };
+        let dir = tempfile::tempdir().unwrap();
+        write(&dir.path().join("out"), &root, Compression::Meshopt).unwrap();
+        let bytes = std::fs::read(dir.path().join("out/tiles/0.glb")).unwrap();
+        let (json, _) = crate::glb::parse_glb(&bytes).unwrap();
+        let doc: crate::gltf_json::Gltf = serde_json::from_slice(json).unwrap();
+        assert_eq!(doc.nodes.len(), 2);
+        assert!(doc.nodes.iter().all(|n| n.scale == Some([0.02; 3])));
+        let glb = crate::read::read_glb(&bytes, std::path::Path::new("0.glb")).unwrap();
+        let mut worst: f64 = 0.0;
+        for f in [&a, &b] {
+            for p in &f.mesh.positions {
+                let nearest = glb
+                    .positions_local
+                    .iter()
+                    .map(|q| (0..3).map(|k| (q[k] - p[k]).abs()).fold(0.0, f64::max))
+                    .fold(f64::MAX, f64::min);
+                worst = worst.max(nearest);
+            }
+        }
+        assert!(worst <= 0.01 + 1e-9, "a vertex moved {worst} m");
+        // Both nodes' primitives index the one property table: every vertex has its feature's row.
+        assert_eq!(glb.features.len(), 2);
+        let half = glb.positions_local.len() / 2;
+        assert!(glb.feature_ids[..half].iter().all(|&f| f == 0));
+        assert!(glb.feature_ids[half..].iter().all(|&f| f == 1));
+    }
+
+    #[test]
+    fn a_block_may_be_rounded_coarser_than_an_exact_feature_of_its_class() {
+        // A block that may move 0.3 m per axis, between two exact features of the same class.
+        let exact = |x: f64| ContentFeature {
+            mesh: box_mesh(x, 0.0, 10.3, 7.7, 0.0, 30.0),
+            ..cluster(x, 0.0, 1)
+        };
+        let block = ContentFeature {
+            max_rounding_m: 0.3,
+            ..cluster(0.0, 40.0, 9)
+        };
+        let root = TileSpec {
+            features: vec![exact(-100.0), block.clone(), exact(100.0)],
+            ..Default::default()
+        };
+        let dir = tempfile::tempdir().unwrap();
+        write(&dir.path().join("out"), &root, Compression::Meshopt).unwrap();
+        let bytes = std::fs::read(dir.path().join("out/tiles/0.glb")).unwrap();
+        let (json, _) = crate::glb::parse_glb(&bytes).unwrap();
+        let doc: crate::gltf_json::Gltf = serde_json::from_slice(json).unwrap();
+        // The exact features on the 2 cm grid, the block on 0.32 m (2 cm × 2⁴, half a step ≤ 0.3 m).
+        let scales: Vec<f64> = doc.nodes.iter().map(|n| n.scale.unwrap()[0]).collect();
+        assert_eq!(scales, vec![0.02, 0.32]);
+        let glb = crate::read::read_glb(&bytes, std::path::Path::new("0.glb")).unwrap();
+        assert_eq!(glb.features.len(), 3);
+        for (v, p) in glb.positions_local.iter().enumerate() {
+            let f = glb.feature_ids[v] as usize;
+            let tol = if f == 1 { 0.16 } else { 0.01 } + 1e-9;
+            let nearest = root.features[f]
+                .mesh
+                .positions
+                .iter()
+                .map(|q| (0..3).map(|k| (q[k] - p[k]).abs()).fold(0.0, f64::max))
+                .fold(f64::MAX, f64::min);
+            assert!(nearest <= tol, "feature {f}: a vertex moved {nearest} m");
         }
     }
 
@@ -1094,8 +1167,21 @@ mod tests {
 
     #[test]
     fn tiles_over_65535_vertices_use_32_bit_indices() {
+        // 3,300 buildings 20 m apart within 1.2 km, so one node on the 2 cm grid holds them all.
         let root = TileSpec {
-            features: (0..3300).map(building).collect(),
+            features: (0..3300)
+                .map(|i| ContentFeature {
+                    mesh: box_mesh(
+                        (i % 60) as f64 * 20.0 - 600.0,
+                        (i / 60) as f64 * 20.0 - 550.0,
+                        12.0,
+                        9.5,
+                        0.0,
+                        10.0,
+                    ),
+                    ..building(i)
+                })
+                .collect(),
             ..Default::default()
         };
         for compression in [Compression::Meshopt, Compression::None, Compression::Draco] {
