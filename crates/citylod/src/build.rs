@@ -105,7 +105,9 @@ pub struct BuildArgs {
 
     /// A building at least this many metres taller than the rest of its block (their area-weighted mean
     /// height) is a landmark: drawn at full detail on top of the block and left out of the block's height
-    /// and Δh, at every level where it still stands out. `inf` turns landmarks off.
+    /// and Δh, at every level where it still stands out and where that lowers the block's error
+    /// max(Δh, κ·√Δa) (on coarse levels, whose error is Δa-bound, the tower is averaged in). `inf` turns
+    /// landmarks off.
     #[arg(
         long,
         value_name = "M",
