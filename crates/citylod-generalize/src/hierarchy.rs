@@ -510,40 +510,45 @@ fn build_node(
     (node, fallback)
 }
 
-/// The landmarks worth drawing: a landmark is averaged back into its block, shortest first, while that does not
-/// raise the block's error max(Δh, κ·√Δa). Where the error is Δa-bound (coarse levels) the tower's height then
-/// hides inside it, so a full-detail copy would add bytes and nothing a client may show; where it is Δh-bound
-/// (fine levels) the tower stays a landmark.
+/// The landmarks worth drawing: a landmark is averaged back into its block while that does not raise the block's
+/// error max(Δh, κ·√Δa). Where the error is Δa-bound (coarse levels) the tower's height then hides inside it, so a
+/// full-detail copy would add bytes and nothing a client may show; where it is Δh-bound (fine levels) the tower
+/// stays a landmark.
+///
+/// Landmarks are the tallest members and leave Δa alone, so averaging one back in raises the block's h_max to its
+/// height and nothing else: every landmark no taller than h_min + the error goes, in one pass (linear in the
+/// members). Should the recomputed error still come out higher, the landmarks stay as they were.
 fn landmarks_that_pay(
     refs: &[&Building],
     footprint: &Footprint,
-    mut landmarks: Vec<BuildingId>,
-    mut stats: NodeStats,
+    landmarks: Vec<BuildingId>,
+    stats: NodeStats,
     kappa: f64,
 ) -> (Vec<BuildingId>, NodeStats) {
-    let error = |s: &NodeStats| s.dh_m.max(kappa * s.da_m2.max(0.0).sqrt());
-    let height = |id: BuildingId| {
-        refs.iter()
-            .find(|b| b.id == id)
-            .map_or(f64::INFINITY, |b| b.height_m)
-    };
-    while !landmarks.is_empty() {
-        let shortest = (0..landmarks.len())
-            .min_by(|&a, &b| {
-                height(landmarks[a])
-                    .total_cmp(&height(landmarks[b]))
-                    .then(landmarks[a].cmp(&landmarks[b]))
-            })
-            .expect("not empty");
-        let mut fewer = landmarks.clone();
-        fewer.remove(shortest);
-        let without = node_stats(refs, footprint, &fewer);
-        if error(&without) > error(&stats) {
-            break;
-        }
-        (landmarks, stats) = (fewer, without);
+    if landmarks.is_empty() {
+        return (landmarks, stats);
     }
-    (landmarks, stats)
+    let error = |s: &NodeStats| s.dh_m.max(kappa * s.da_m2.max(0.0).sqrt());
+    let before = error(&stats);
+    // `refs` are in member (id) order.
+    let height = |id: BuildingId| {
+        refs.binary_search_by_key(&id, |b| b.id)
+            .map_or(f64::INFINITY, |i| refs[i].height_m)
+    };
+    let kept: Vec<BuildingId> = landmarks
+        .iter()
+        .copied()
+        .filter(|&id| height(id) - stats.h_min_m > before)
+        .collect();
+    if kept.len() == landmarks.len() {
+        return (landmarks, stats);
+    }
+    let fewer = node_stats(refs, footprint, &kept);
+    if error(&fewer) <= before {
+        (kept, fewer)
+    } else {
+        (landmarks, stats)
+    }
 }
 
 fn level_report(index: usize, kind: Option<LevelKind>, level: &Level) -> LevelReport {
