@@ -64,6 +64,15 @@ pub fn node_stats(
     footprint: &Footprint,
     landmarks: &[BuildingId],
 ) -> NodeStats {
+    // Sorted landmarks (as `landmarks_of` returns them) are looked up by bisection: top nodes have thousands.
+    let sorted = landmarks.windows(2).all(|w| w[0] <= w[1]);
+    let is_landmark = |id: BuildingId| {
+        if sorted {
+            landmarks.binary_search(&id).is_ok()
+        } else {
+            landmarks.contains(&id)
+        }
+    };
     let area_m2 = footprint.unsigned_area();
     let member_area_m2: Vec<f64> = members.iter().map(|b| b.area_m2()).collect();
     let sum_area_m2: f64 = member_area_m2.iter().sum();
@@ -75,7 +84,7 @@ pub fn node_stats(
     let mut heighted: Vec<(&Building, f64)> = members
         .iter()
         .zip(&member_area_m2)
-        .filter(|(b, _)| !landmarks.contains(&b.id))
+        .filter(|(b, _)| !is_landmark(b.id))
         .map(|(b, &a)| (*b, a))
         .collect();
     if heighted.is_empty() {
