@@ -229,11 +229,12 @@ pub(crate) fn encode_content(
 
     for (step, classes) in &chunks {
         let step = *step;
-        let group = classes
+        let corners = classes
             .values()
             .flatten()
-            .flat_map(|&fi| features[fi].mesh.positions.iter().map(|&p| enu_to_yup(p)));
-        let (glo, ghi) = bounds(group).expect("features with vertices");
+            .filter_map(|&fi| feature_bounds[fi])
+            .flat_map(|(a, b)| [a, b]);
+        let (glo, ghi) = bounds(corners).expect("features with vertices");
         // On the grid itself, so features on the same grid in neighbouring tiles round alike (no cracks).
         let translation: [f64; 3] =
             std::array::from_fn(|i| ((glo[i] + ghi[i]) / 2.0 / step).round() * step);

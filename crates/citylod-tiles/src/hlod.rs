@@ -145,16 +145,9 @@ fn demote(
     to: usize,
     cost: &NodeCost,
 ) -> Vec<(usize, NodeId)> {
-    let keep = || nodes.iter().map(|&n| (level, n)).collect();
     if level == 0 || nodes.len() < 2 {
-        return keep();
+        return nodes.iter().map(|&n| (level, n)).collect();
     }
-    let below_error = |n: NodeId| -> f64 {
-        descendants(h, level, n, to)
-            .into_iter()
-            .map(|d| (cost.error_m)(to, d))
-            .fold(0.0, f64::max)
-    };
     let mut errors: Vec<(f64, NodeId)> = nodes
         .iter()
         .map(|&n| ((cost.error_m)(level, n), n))
@@ -166,40 +159,32 @@ fn demote(
     let mut room = DEMOTE_MAX_ADDED_SHARE * total as f64;
     // Roughest first; ties by node id, so the choice is deterministic.
     errors.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-    let mut demoted = Vec::new();
+    let mut demoted: std::collections::BTreeMap<NodeId, Vec<NodeId>> = Default::default();
     for (e, n) in errors {
         if e.is_nan() || e <= DEMOTE_ERROR_RATIO * median {
             break;
         }
-        if below_error(n) >= e {
-            continue;
-        }
-        let own = (cost.triangles)(level, n) as f64;
-        let below: usize = descendants(h, level, n, to)
-            .into_iter()
-            .map(|d| (cost.triangles)(to, d))
-            .sum();
-        let added = below as f64 - own;
-        if added > room {
+        let below = descendants(h, level, n, to);
+        let below_error = below
+            .iter()
+            .map(|&d| (cost.error_m)(to, d))
+            .fold(0.0, f64::max);
+        let added = below
+            .iter()
+            .map(|&d| (cost.triangles)(to, d))
+            .sum::<usize>() as f64
+            - (cost.triangles)(level, n) as f64;
+        if below_error >= e || added > room {
             continue;
         }
         room -= added.max(0.0);
-        demoted.push(n);
-    }
-    if demoted.is_empty() {
-        return keep();
+        demoted.insert(n, below);
     }
     nodes
         .iter()
-        .flat_map(|&n| {
-            if demoted.contains(&n) {
-                descendants(h, level, n, to)
-                    .into_iter()
-                    .map(|d| (to, d))
-                    .collect::<Vec<_>>()
-            } else {
-                vec![(level, n)]
-            }
+        .flat_map(|&n| match demoted.get(&n) {
+            Some(below) => below.iter().map(|&d| (to, d)).collect(),
+            None => vec![(level, n)],
         })
         .collect()
 }

@@ -534,6 +534,17 @@ mod tests {
         }
     }
 
+    /// Writes `root` (a single tile, meshopt) and returns its glb's glTF JSON and decoded content.
+    fn write_one_tile(root: &TileSpec) -> (crate::gltf_json::Gltf, crate::read::GlbData) {
+        let dir = tempfile::tempdir().unwrap();
+        write(&dir.path().join("out"), root, Compression::Meshopt).unwrap();
+        let bytes = std::fs::read(dir.path().join("out/tiles/0.glb")).unwrap();
+        let (json, _) = crate::glb::parse_glb(&bytes).unwrap();
+        let doc = serde_json::from_slice(json).unwrap();
+        let glb = crate::read::read_glb(&bytes, std::path::Path::new("0.glb")).unwrap();
+        (doc, glb)
+    }
+
     #[test]
     fn a_tile_wider_than_16_bits_on_the_grid_keeps_every_vertex_within_half_a_step() {
         // Two buildings 5 km apart: one node would need a 7.6 cm grid; each gets its own node on the 2 cm grid.
@@ -545,14 +556,9 @@ mod tests {
             features: vec![a.clone(), b.clone()],
             ..Default::default()
         };
-        let dir = tempfile::tempdir().unwrap();
-        write(&dir.path().join("out"), &root, Compression::Meshopt).unwrap();
-        let bytes = std::fs::read(dir.path().join("out/tiles/0.glb")).unwrap();
-        let (json, _) = crate::glb::parse_glb(&bytes).unwrap();
-        let doc: crate::gltf_json::Gltf = serde_json::from_slice(json).unwrap();
+        let (doc, glb) = write_one_tile(&root);
         assert_eq!(doc.nodes.len(), 2);
         assert!(doc.nodes.iter().all(|n| n.scale == Some([0.02; 3])));
-        let glb = crate::read::read_glb(&bytes, std::path::Path::new("0.glb")).unwrap();
         let mut worst: f64 = 0.0;
         for f in [&a, &b] {
             for p in &f.mesh.positions {
@@ -587,15 +593,10 @@ mod tests {
             features: vec![exact(-100.0), block.clone(), exact(100.0)],
             ..Default::default()
         };
-        let dir = tempfile::tempdir().unwrap();
-        write(&dir.path().join("out"), &root, Compression::Meshopt).unwrap();
-        let bytes = std::fs::read(dir.path().join("out/tiles/0.glb")).unwrap();
-        let (json, _) = crate::glb::parse_glb(&bytes).unwrap();
-        let doc: crate::gltf_json::Gltf = serde_json::from_slice(json).unwrap();
+        let (doc, glb) = write_one_tile(&root);
         // The exact features on the 2 cm grid, the block on 0.32 m (2 cm × 2⁴, half a step ≤ 0.3 m).
         let scales: Vec<f64> = doc.nodes.iter().map(|n| n.scale.unwrap()[0]).collect();
         assert_eq!(scales, vec![0.02, 0.32]);
-        let glb = crate::read::read_glb(&bytes, std::path::Path::new("0.glb")).unwrap();
         assert_eq!(glb.features.len(), 3);
         for (v, p) in glb.positions_local.iter().enumerate() {
             let f = glb.feature_ids[v] as usize;
