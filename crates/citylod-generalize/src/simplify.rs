@@ -1002,9 +1002,7 @@ mod tests {
             for p in &s.0 {
                 prop_assert!(p.exterior().0.len() >= 4);
             }
-            let perimeter: f64 = fp.0[0].exterior().0.windows(2)
-                .map(|w| (w[1].x - w[0].x).hypot(w[1].y - w[0].y)).sum();
-            prop_assert!(uncovered_m2(&[&fp], &s) <= perimeter * CONVEX_COLLINEAR_TOL_M + 1e-9);
+            prop_assert!(uncovered_m2(&[&fp], &s) <= exterior_perimeter_m(&fp) * CONVEX_COLLINEAR_TOL_M + 1e-9);
         }
 
         #[test]

@@ -542,6 +542,12 @@ mod tests {
         }
     }
 
+    /// A budget no test tile comes near: tiles are cut only to localize errors.
+    const ROOMY: TileBudget = TileBudget {
+        max_features: 100,
+        max_triangles: 1_000_000,
+    };
+
     fn all_levels(h: &Hierarchy) -> Vec<usize> {
         (0..h.levels.len()).collect()
     }
@@ -677,11 +683,7 @@ mod tests {
             triangles: &triangles,
             error_m: &err,
         };
-        let budget = TileBudget {
-            max_features: 100,
-            max_triangles: 1_000_000,
-        };
-        let p = pack(&h, &[0, 1], &c, budget);
+        let p = pack(&h, &[0, 1], &c, ROOMY);
         let e = tile_errors(&p, &err);
         (h, p, e)
     }
@@ -745,11 +747,7 @@ mod tests {
             triangles: &tris(10),
             error_m: &exact,
         };
-        let budget = TileBudget {
-            max_features: 100,
-            max_triangles: 1_000_000,
-        };
-        let p = pack(&h, &[0, 1], &c, budget);
+        let p = pack(&h, &[0, 1], &c, ROOMY);
         let e = tile_errors(&p, &exact);
         for (t, e) in p.tiles.iter().zip(&e) {
             let want = if t.children.is_empty() {
@@ -792,11 +790,7 @@ mod tests {
             triangles: &tris(2_500),
             error_m: &err,
         };
-        let budget = TileBudget {
-            max_features: 100,
-            max_triangles: 1_000_000,
-        };
-        let p = pack(&h, &[0, 1], &c, budget);
+        let p = pack(&h, &[0, 1], &c, ROOMY);
         assert_eq!(check_packing(&h, &p), Vec::<String>::new());
         let l1: Vec<&PackedTile> = p.tiles.iter().filter(|t| t.level == 1).collect();
         assert_eq!(l1.len(), 2, "{p:?}");
@@ -813,7 +807,7 @@ mod tests {
             triangles: &tris(2_500),
             error_m: &even,
         };
-        let p = pack(&h, &[0, 1], &c, budget);
+        let p = pack(&h, &[0, 1], &c, ROOMY);
         assert_eq!(p.tiles.iter().filter(|t| t.level == 1).count(), 1);
         // … unless the group is wider than EXTENT_SPLIT_FACTOR × its error (65 m wide, error 1 m).
         let tiny = |_: usize, _: NodeId| 1.0;
@@ -821,14 +815,14 @@ mod tests {
             triangles: &tris(2_500),
             error_m: &tiny,
         };
-        let p = pack(&h, &[0, 1], &c, budget);
+        let p = pack(&h, &[0, 1], &c, ROOMY);
         assert!(p.tiles.iter().filter(|t| t.level == 1).count() >= 2);
         // Small groups are never split for error or extent: fewer than MIN_SPLIT_TRIANGLES a side.
         let c = NodeCost {
             triangles: &tris(10),
             error_m: &err,
         };
-        let p = pack(&h, &[0, 1], &c, budget);
+        let p = pack(&h, &[0, 1], &c, ROOMY);
         assert_eq!(p.tiles.iter().filter(|t| t.level == 1).count(), 1);
     }
 }
