@@ -116,7 +116,37 @@ fn build_and_check(name: &str, inputs: &[&Path], extra: &[&str]) -> (Value, Tile
     );
     blocks_stay_within_their_tile_error(name, &report, &ts);
     glb_schemas_match_schemas_metadata_json(name, &out);
+    top_is_condensed(name, &report, &ts);
     (report, ts)
+}
+
+/// No chain of tiny tiles at the top of the tree: a root with a single child has a child too large to be worth
+/// a request of its own (`hlod::MIN_SPLIT_TRIANGLES`), and levels above the root are reported as not written.
+fn top_is_condensed(name: &str, report: &Value, ts: &TilesetData) {
+    let root = ts.tiles.first().expect("a root tile");
+    if let [only] = root.children[..] {
+        let child = ts.tiles[only]
+            .content
+            .as_ref()
+            .map_or(0, |c| c.triangles.len());
+        assert!(
+            root.content.is_none() || child > citylod_tiles::hlod::MIN_SPLIT_TRIANGLES,
+            "{name}: the root's only child holds {child} triangles, small enough to be the root"
+        );
+    }
+    let lod = report["lod"].as_array().unwrap();
+    let written: Vec<bool> = lod
+        .iter()
+        .map(|l| l["tiles"].as_u64().unwrap() > 0)
+        .collect();
+    let top_written = written.iter().rposition(|&w| w).unwrap();
+    for l in &lod[top_written + 1..] {
+        assert!(
+            l["geometric_error_min_m"].is_null() && l["geometric_error_max_m"].is_null(),
+            "{name}: level {} is not written but reports errors",
+            l["level"]
+        );
+    }
 }
 
 /// Every glb's inline metadata schema agrees with `schemas/metadata.json`: the `cluster` class is the same, and

@@ -77,15 +77,45 @@ pub struct Packing {
     pub tiles: Vec<PackedTile>,
 }
 
+impl Packing {
+    /// The subtree under tile `root` as a packing of its own (`root` becomes `tiles[0]`), tiles in the same
+    /// breadth-first order.
+    pub fn rerooted(&self, root: usize) -> Packing {
+        let mut order = vec![root];
+        let mut next = 0;
+        while next < order.len() {
+            order.extend(self.tiles[order[next]].children.iter().copied());
+            next += 1;
+        }
+        let mut new_index = vec![usize::MAX; self.tiles.len()];
+        for (i, &t) in order.iter().enumerate() {
+            new_index[t] = i;
+        }
+        let tiles = order
+            .iter()
+            .map(|&t| PackedTile {
+                children: self.tiles[t]
+                    .children
+                    .iter()
+                    .map(|&c| new_index[c])
+                    .collect(),
+                ..self.tiles[t].clone()
+            })
+            .collect();
+        Packing { tiles }
+    }
+}
+
 /// What [`pack`] needs to know about a node of a level: its triangles and its geometric error (m).
 pub struct NodeCost<'a> {
     pub triangles: &'a dyn Fn(usize, NodeId) -> usize,
     pub error_m: &'a dyn Fn(usize, NodeId) -> f64,
 }
 
-/// Packs the levels `levels` of `h` (ascending level indices; must start with 0 and end with the top level,
-/// otherwise they are added) into tiles. A tile of level `levels[i]` has children of level `levels[i − 1]`
-/// holding its nodes' descendants there, so skipped levels cost nothing. Groups are split spatially to stay
+/// Packs the levels `levels` of `h` (ascending level indices; 0 is added when missing) into tiles; the root holds
+/// the last of them (the top level when `levels` is empty), so levels above it are not written. A tile of level
+/// `levels[i]` has children of level `levels[i − 1]` holding its nodes' descendants there, so skipped levels cost
+/// nothing. Groups are split spatially to stay
 /// within `budget` and, on levels above 0, where that localizes the error (see [`ERROR_SPLIT_RATIO`],
 /// [`EXTENT_SPLIT_FACTOR`]).
 pub fn pack(h: &Hierarchy, levels: &[usize], cost: &NodeCost, budget: TileBudget) -> Packing {
@@ -94,9 +124,10 @@ pub fn pack(h: &Hierarchy, levels: &[usize], cost: &NodeCost, budget: TileBudget
         return Packing { tiles };
     };
     let mut kept: Vec<usize> = levels.iter().copied().filter(|&l| l <= top).collect();
-    kept.extend([0, top]);
+    kept.push(0);
     kept.sort_unstable();
     kept.dedup();
+    let top = *kept.last().unwrap();
     // below[l] = the kept level under kept level l.
     let mut below = vec![None; top + 1];
     for w in kept.windows(2) {
@@ -643,10 +674,34 @@ mod tests {
             max_features: 2,
             max_triangles: 1000,
         };
-        let p = pack(&h, &[0, 2], &c, budget);
+        let p = pack(&h, &[0, 2, 3], &c, budget);
         assert_eq!(check_packing(&h, &p), Vec::<String>::new());
         let levels: std::collections::BTreeSet<usize> = p.tiles.iter().map(|t| t.level).collect();
         assert_eq!(levels.into_iter().collect::<Vec<_>>(), vec![0, 2, 3]);
+        // Levels above the last one listed are not written: the root holds level 2.
+        let p = pack(&h, &[0, 2], &c, budget);
+        assert_eq!(check_packing(&h, &p), Vec::<String>::new());
+        assert!(p.tiles.iter().all(|t| t.level <= 2 || t.nodes.is_empty()));
+        assert!(p.tiles.iter().any(|t| t.level == 2));
+        // The subtree under the level-3 root's level-2 child is a packing of its own, breadth-first: the same
+        // as packing up to level 2 only.
+        let p3 = pack(&h, &[0, 2, 3], &c, budget);
+        let sub = p3.tiles[0].children[0];
+        assert_eq!(p3.tiles[sub].level, 2);
+        let r = p3.rerooted(sub);
+        assert_eq!(r, p);
+        let count = |q: &Packing, i: usize| -> usize {
+            fn rec(q: &Packing, i: usize) -> usize {
+                1 + q.tiles[i]
+                    .children
+                    .iter()
+                    .map(|&c| rec(q, c))
+                    .sum::<usize>()
+            }
+            rec(q, i)
+        };
+        assert_eq!(r.tiles.len(), count(&p3, sub));
+        assert_eq!(count(&r, 0), r.tiles.len());
         // Every building lands in exactly one leaf tile.
         let mut leaves: Vec<NodeId> = p
             .tiles
@@ -790,7 +845,7 @@ mod tests {
             triangles: &tris(2_500),
             error_m: &err,
         };
-        let p = pack(&h, &[0, 1], &c, ROOMY);
+        let p = pack(&h, &[0, 1, 3], &c, ROOMY);
         assert_eq!(check_packing(&h, &p), Vec::<String>::new());
         let l1: Vec<&PackedTile> = p.tiles.iter().filter(|t| t.level == 1).collect();
         assert_eq!(l1.len(), 2, "{p:?}");

@@ -274,8 +274,9 @@ pub struct LevelSummary {
     pub blocks_reoutlined: usize,
     /// Blocks too rough for their tile, drawn there as their children (the buildings, for level 1).
     pub blocks_drawn_as_children: usize,
-    pub geometric_error_min_m: f64,
-    pub geometric_error_max_m: f64,
+    /// Smallest and largest geometric error of the level's tiles (m); `None` (null) for a level not written.
+    pub geometric_error_min_m: Option<f64>,
+    pub geometric_error_max_m: Option<f64>,
     /// Blocks whose merged footprint could not be extruded and that show their buildings instead.
     pub mesh_fallbacks: usize,
 }

@@ -372,8 +372,8 @@ impl<'h> LodTree<'h> {
                 triangles_as_generalized: triangles,
                 blocks_reoutlined: 0,
                 blocks_drawn_as_children: 0,
-                geometric_error_min_m: 0.0,
-                geometric_error_max_m: 0.0,
+                geometric_error_min_m: Some(0.0),
+                geometric_error_max_m: Some(0.0),
                 mesh_fallbacks: 0,
             };
             return (root, vec![summary]);
@@ -411,7 +411,7 @@ impl<'h> LodTree<'h> {
                 kept.push(l);
             }
         }
-        let packing = pack(
+        let mut packing = pack(
             h,
             &kept,
             &NodeCost {
@@ -421,8 +421,43 @@ impl<'h> LodTree<'h> {
             budget,
         );
         debug_assert!(citylod_tiles::hlod::check_packing(h, &packing).is_empty());
-        let errors = tile_errors(&packing, &error);
+        let mut errors = tile_errors(&packing, &error);
         let spent = self.spend_tile_errors(h, &packing, &errors);
+        let landmark_triangles = |node: &Node, nm: &NodeMesh| self.landmark_triangles(node, nm);
+        // Triangles of a node as written: re-outlined within its tile's error when it was.
+        let written = |level: usize, n: NodeId| -> usize {
+            match level {
+                0 => triangles(0, n),
+                _ => match &spent[level - 1][n.0 as usize] {
+                    Some((node, nm)) => nm.mesh.triangles.len() + landmark_triangles(node, nm),
+                    None => triangles(level, n),
+                },
+            }
+        };
+        // The top of the tree is condensed: while the root has a single child tile that is itself too small to
+        // be worth splitting, that child becomes the root. The levels above it could save a view no more than a
+        // request costs, yet every closer view loads them on its way down (`hlod::MIN_SPLIT_TRIANGLES`; on
+        // NYC's Lower East Side the top three levels, 198–596 triangles and 5.8–9.5 kB each, were loaded by
+        // every view). The new root's error is unchanged: a tile's error depends only on its subtree.
+        let mut root_tile = 0;
+        while let ([c], false) = (
+            packing.tiles[root_tile].children.as_slice(),
+            packing.tiles[root_tile].nodes.is_empty(),
+        ) {
+            let tris: usize = packing.tiles[*c]
+                .drawn
+                .iter()
+                .map(|&(l, n)| written(l, n))
+                .sum();
+            if tris > citylod_tiles::hlod::MIN_SPLIT_TRIANGLES {
+                break;
+            }
+            root_tile = *c;
+        }
+        if root_tile != 0 {
+            packing = packing.rerooted(root_tile);
+            errors = tile_errors(&packing, &error);
+        }
         // The geometric error of the tile each node is written in, [level][node].
         let mut tile_error: Vec<Vec<f64>> =
             h.levels.iter().map(|l| vec![0.0; l.nodes.len()]).collect();
@@ -503,7 +538,6 @@ impl<'h> LodTree<'h> {
                 below_buildings: &below,
             },
         );
-        let landmark_triangles = |node: &Node, nm: &NodeMesh| self.landmark_triangles(node, nm);
         let summary = (0..h.levels.len())
             .map(|level| {
                 let tiles: Vec<usize> = (0..packing.tiles.len())
@@ -515,17 +549,7 @@ impl<'h> LodTree<'h> {
                     level,
                     nodes: n,
                     tiles: tiles.len(),
-                    triangles: (0..n as u32)
-                        .map(|i| match level {
-                            0 => triangles(0, NodeId(i)),
-                            _ => match &spent[level - 1][i as usize] {
-                                Some((node, nm)) => {
-                                    nm.mesh.triangles.len() + landmark_triangles(node, nm)
-                                }
-                                None => triangles(level, NodeId(i)),
-                            },
-                        })
-                        .sum(),
+                    triangles: (0..n as u32).map(|i| written(level, NodeId(i))).sum(),
                     triangles_as_generalized: (0..n as u32)
                         .map(|i| triangles(level, NodeId(i)))
                         .sum(),
@@ -539,12 +563,8 @@ impl<'h> LodTree<'h> {
                         0 => 0,
                         _ => spent[level - 1].iter().filter(|s| s.is_some()).count(),
                     },
-                    geometric_error_min_m: errs
-                        .iter()
-                        .copied()
-                        .fold(f64::INFINITY, f64::min)
-                        .min(f64::MAX),
-                    geometric_error_max_m: errs.iter().copied().fold(0.0, f64::max),
+                    geometric_error_min_m: errs.iter().copied().reduce(f64::min),
+                    geometric_error_max_m: errs.iter().copied().reduce(f64::max),
                     mesh_fallbacks: if level == 0 {
                         0
                     } else {
