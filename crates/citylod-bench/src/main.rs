@@ -287,7 +287,7 @@ fn main() -> Result<()> {
         );
         let mb = |b: u64| b as f64 / 1e6;
         println!(
-            "{name:<28} every level {:>6.2} MB ({:.2}×), views {:>6.2} MB   --level-ratio 0.25 {:>6.2} MB ({:.2}×), views {:>6.2} MB   buildings only {:>6.2} MB, views {:>6.2} MB",
+            "{name:<28} default {:>6.2} MB ({:.2}×), views {:>6.2} MB   --level-ratio 0.25 {:>6.2} MB ({:.2}×), views {:>6.2} MB   buildings only {:>6.2} MB, views {:>6.2} MB",
             mb(lod.0),
             lod.0 as f64 / leaves.0 as f64,
             mb(lod.1),
