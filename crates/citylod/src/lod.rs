@@ -403,11 +403,14 @@ impl<'h> LodTree<'h> {
                     .sum()
             })
             .collect();
-        // The levels written: the buildings, then each level light enough against the last one kept (the
-        // top is always written by `pack`, so the root has content).
+        // The levels written: the buildings, then each level light enough against the last one kept, and the
+        // top, so the root has content (before the top is condensed below).
+        let top = h.levels.len().saturating_sub(1);
         let mut kept = vec![0];
-        for l in 1..h.levels.len() {
-            if level_tris[l] as f64 <= level_ratio * level_tris[*kept.last().unwrap()] as f64 {
+        for l in 1..=top {
+            if l == top
+                || level_tris[l] as f64 <= level_ratio * level_tris[*kept.last().unwrap()] as f64
+            {
                 kept.push(l);
             }
         }
@@ -440,10 +443,11 @@ impl<'h> LodTree<'h> {
         // NYC's Lower East Side the top three levels, 198–596 triangles and 5.8–9.5 kB each, were loaded by
         // every view). The new root's error is unchanged: a tile's error depends only on its subtree.
         let mut root_tile = 0;
-        while let ([c], false) = (
-            packing.tiles[root_tile].children.as_slice(),
-            packing.tiles[root_tile].nodes.is_empty(),
-        ) {
+        while let Some(([c], false)) = packing
+            .tiles
+            .get(root_tile)
+            .map(|t| (t.children.as_slice(), t.nodes.is_empty()))
+        {
             let tris: usize = packing.tiles[*c]
                 .drawn
                 .iter()
