@@ -15,7 +15,13 @@ fn delft_lod22_tileset_has_the_model_chain_and_passes_check() {
         return;
     };
     let out = e2e_dir("delft-lod22");
-    let report = build(&[&input], &out, &["--lod", "2.2"]);
+    // A low landmark threshold puts a few towers (6 on Delft) at full detail on top of their blocks, so the error
+    // of a landmark's prism against its model is exercised too.
+    let report = build(
+        &[&input],
+        &out,
+        &["--lod", "2.2", "--landmark-min-excess", "5"],
+    );
     assert_eq!(report["counts"]["buildings_written"], 1115);
     let models = &report["models"];
     assert_eq!(models["buildings"], 1115, "every building has a 3D model");
@@ -95,6 +101,32 @@ fn delft_lod22_tileset_has_the_model_chain_and_passes_check() {
         let leaf = tiles.iter().find(|t| t.1).unwrap().0;
         assert_eq!(ts.tiles[leaf].geometric_error_m, 0.0);
     }
+
+    // A landmark is its building's prism, not its model: its row and its tile claim the prism's distance from the
+    // model (they claimed 0, as for footprint input, before 2026-11-22).
+    let mut landmarks = 0;
+    for tile in &ts.tiles {
+        let Some(content) = &tile.content else {
+            continue;
+        };
+        for row in &content.features {
+            if row.values.get("landmark") != Some(&PropValue::Bool(true)) {
+                continue;
+            }
+            landmarks += 1;
+            let Some(PropValue::Float(e)) = row.values.get("geometric_error_m") else {
+                panic!("landmark without geometric_error_m: {row:?}");
+            };
+            assert!(
+                *e > 0.0 && *e <= tile.geometric_error_m * (1.0 + f32::EPSILON as f64),
+                "tile {} (error {} m): landmark {:?} claims {e} m",
+                tile.path_in_tree,
+                tile.geometric_error_m,
+                row.values.get("source_id")
+            );
+        }
+    }
+    assert!(landmarks > 0, "no landmark with --landmark-min-excess 5");
 
     // citylod check: every built-in view passes.
     let check_out = e2e_dir("delft-lod22-check");

@@ -197,7 +197,7 @@ const CLUSTER: [(&str, PropertyKind, bool, &str); 15] = [
         "geometric_error_m",
         PropertyKind::Float32,
         false,
-        "max(Δh, κ·√Δa): the error of drawing the block, metres",
+        "max(Δh, κ·√Δa), and any full-detail prism's distance from its 3D model: the error of drawing it, metres",
     ),
     (
         "fallback",
@@ -290,12 +290,14 @@ pub fn cluster_feature(row: ClusterRow<'_>, mesh: Mesh3d) -> ContentFeature {
 }
 
 /// A landmark of the block at (`level`, `node_index`): the building at full detail, as a `cluster`-class feature
-/// of one member with no height spread and no added area (it is exact).
+/// of one member with no height spread and no added area; its error is its prism's distance from the building's
+/// 3D model (0 without one).
 pub fn landmark_feature(
     level: usize,
     node_index: u32,
     b: &Building,
     mesh: Mesh3d,
+    geometric_error_m: f64,
 ) -> ContentFeature {
     let values = vec![
         PropValue::Int(level as i64),
@@ -308,7 +310,7 @@ pub fn landmark_feature(
         PropValue::Float(0.0),
         PropValue::Float(0.0),
         PropValue::Float(b.area_m2()),
-        PropValue::Float(0.0),
+        PropValue::Float(geometric_error_m),
         PropValue::Bool(false),
         PropValue::Int(0),
         PropValue::Bool(true),

@@ -247,6 +247,20 @@ impl<'h> LodTree<'h> {
         node.dh_m.max(self.kappa * node.da_m2.max(0.0).sqrt())
     }
 
+    /// The error of what is drawn for `node` (metres): its own, and — for buildings with a 3D model — the
+    /// distance of each prism drawn at full detail beside or instead of the block (its landmarks, or its
+    /// buildings when the block fell back to them) from that model. 0 ahead of a footprint-only input's own.
+    fn drawn_error(&self, node: &Node, nm: &NodeMesh) -> f64 {
+        let prisms: Box<dyn Iterator<Item = BuildingId>> = if nm.fallback {
+            Box::new(node.members.iter().copied())
+        } else {
+            Box::new(self.landmarks_of(node, nm))
+        };
+        prisms
+            .map(|b| self.prism_error(b))
+            .fold(self.node_error(node), f64::max)
+    }
+
     fn building_feature(&self, buildings: &[Building], b: BuildingId) -> Option<ContentFeature> {
         let mesh = self.buildings[b.0 as usize].clone()?;
         Some(self.building_table.feature(&buildings[b.0 as usize], mesh))
@@ -393,7 +407,10 @@ impl<'h> LodTree<'h> {
             if level == 0 {
                 self.prism_error(h.levels[0].nodes[n.0 as usize].members[0])
             } else {
-                self.node_error(&h.levels[level].nodes[n.0 as usize])
+                self.drawn_error(
+                    &h.levels[level].nodes[n.0 as usize],
+                    &self.nodes[level - 1][n.0 as usize],
+                )
             }
         };
         let level_tris: Vec<usize> = (0..h.levels.len())
@@ -516,14 +533,20 @@ impl<'h> LodTree<'h> {
                 node_index: n.0,
                 node,
                 source_id,
-                geometric_error_m: self.node_error(node),
+                geometric_error_m: self.drawn_error(node, nm),
                 fallback: nm.fallback,
                 max_rounding_m: tile_error[level][n.0 as usize] * ROUNDING_SHARE,
             };
             let mut out = vec![cluster_feature(row, nm.mesh.clone())];
             out.extend(self.landmarks_of(node, nm).filter_map(|b| {
                 let mesh = self.buildings[b.0 as usize].clone()?;
-                Some(landmark_feature(level, n.0, &buildings[b.0 as usize], mesh))
+                Some(landmark_feature(
+                    level,
+                    n.0,
+                    &buildings[b.0 as usize],
+                    mesh,
+                    self.prism_error(b),
+                ))
             }));
             out
         };
