@@ -155,6 +155,18 @@ fn nyc_every_view_passes_and_report_validates() {
         (Some(20.0), Some(200.0))
     );
     assert!(report["tileset_stats"]["buildings"].as_u64().unwrap() > 1000);
+    // What a client loads: the cut and every tile refined on the way down; NYC's root has content and every view
+    // refines it.
+    for v in report["views"].as_array().unwrap() {
+        let b = &v["bytes"];
+        let (cut, loaded) = (b["cut"].as_u64().unwrap(), b["loaded"].as_u64().unwrap());
+        let refined = v["tiles"]["refined"].as_u64().unwrap();
+        assert!(
+            loaded > cut && refined > 0,
+            "view {}: loaded {loaded} B, cut {cut} B, {refined} tiles refined",
+            v["index"]
+        );
+    }
 }
 
 #[test]

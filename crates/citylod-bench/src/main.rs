@@ -244,7 +244,7 @@ fn main() -> Result<()> {
         runs,
     )?;
 
-    println!("== coarse levels cost: total glb bytes, levels of detail vs buildings only (target ≤ 1.25×), and the bytes the 8 views of citylod check (800×600) load ==");
+    println!("== coarse levels cost: total glb bytes, levels of detail vs buildings only (target ≤ 1.25×), and the bytes of the 8 views of citylod check (800×600): the cut / the cut and every tile refined on the way down, which clients load too ==");
     for (name, rel, extra) in [
         (
             "boston",
@@ -259,7 +259,8 @@ fn main() -> Result<()> {
             println!("{name:<28} skipped: {} not found", input.display());
             continue;
         }
-        // (tileset glb bytes, bytes of the tiles the 8 built-in views select, summed over the views)
+        // (tileset glb bytes, bytes of the tiles the 8 built-in views select, and of those and the tiles they refine,
+        // summed over the views)
         let bytes = |flags: &[&str]| -> Result<(u64, u64)> {
             let out =
                 std::env::temp_dir().join(format!("citylod-bench-bytes-{}", std::process::id()));
@@ -272,13 +273,19 @@ fn main() -> Result<()> {
                 serde_json::from_slice(&std::fs::read(out.join("build-report.json"))?)?;
             let _ = std::fs::remove_dir_all(&out);
             let _ = std::fs::remove_dir_all(&check);
-            let loaded = views["views"]
-                .as_array()
-                .into_iter()
-                .flatten()
-                .filter_map(|v| v["bytes"]["cut"].as_u64())
-                .sum();
-            Ok((report["tiles"]["glb_bytes"].as_u64().unwrap_or(0), loaded))
+            let views_sum = |key: &str| -> u64 {
+                views["views"]
+                    .as_array()
+                    .into_iter()
+                    .flatten()
+                    .filter_map(|v| v["bytes"][key].as_u64())
+                    .sum()
+            };
+            Ok((
+                report["tiles"]["glb_bytes"].as_u64().unwrap_or(0),
+                views_sum("cut"),
+                views_sum("loaded"),
+            ))
         };
         let (lod, lean, leaves) = (
             bytes(&[])?,
@@ -287,15 +294,18 @@ fn main() -> Result<()> {
         );
         let mb = |b: u64| b as f64 / 1e6;
         println!(
-            "{name:<28} default {:>6.2} MB ({:.2}×), views {:>6.2} MB   --level-ratio 0.25 {:>6.2} MB ({:.2}×), views {:>6.2} MB   buildings only {:>6.2} MB, views {:>6.2} MB",
+            "{name:<28} default {:>6.2} MB ({:.2}×), views {:>6.2} / {:>6.2} MB   --level-ratio 0.25 {:>6.2} MB ({:.2}×), views {:>6.2} / {:>6.2} MB   buildings only {:>6.2} MB, views {:>6.2} / {:>6.2} MB",
             mb(lod.0),
             lod.0 as f64 / leaves.0 as f64,
             mb(lod.1),
+            mb(lod.2),
             mb(lean.0),
             lean.0 as f64 / leaves.0 as f64,
             mb(lean.1),
+            mb(lean.2),
             mb(leaves.0),
             mb(leaves.1),
+            mb(leaves.2),
         );
     }
 

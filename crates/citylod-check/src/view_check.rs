@@ -65,8 +65,11 @@ pub struct ViewOutcome {
     /// Triangles of the full-detail leaf tiles in view (frustum-culled by box), and of all leaves.
     pub full_triangles: usize,
     pub full_triangles_total: usize,
-    /// Bytes of the selected tiles' content files, and of the leaf tiles in view.
+    /// Bytes of the selected tiles' content files, of those and the refined tiles' (what a client loads on its
+    /// way down to the cut: CesiumJS and 3d-tiles-renderer load a tile before refining it), and of the leaf tiles
+    /// in view.
     pub cut_bytes: u64,
+    pub loaded_bytes: u64,
     pub full_bytes: u64,
     /// Leaf tiles drawn for full detail.
     pub full_tiles: usize,
@@ -142,6 +145,7 @@ pub fn check_view(
         full_triangles: sum(&in_view, &tris) as usize,
         full_triangles_total: sum(&leaves, &tris) as usize,
         cut_bytes: sum(&selection.selected, &bytes),
+        loaded_bytes: sum(&selection.selected, &bytes) + sum(&selection.refined, &bytes),
         full_bytes: sum(&in_view, &bytes),
         full_tiles: in_view.len(),
         selection,

@@ -347,7 +347,7 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
                 "full_total": v.full_triangles_total,
                 "ratio_full_to_cut": ratio,
             },
-            "bytes": { "cut": v.cut_bytes, "full_in_view": v.full_bytes },
+            "bytes": { "cut": v.cut_bytes, "loaded": v.loaded_bytes, "full_in_view": v.full_bytes },
             "images": {
                 "cut": format!("view-{k}/cut.png"),
                 "full": format!("view-{k}/full.png"),
