@@ -261,7 +261,7 @@ fn main() -> Result<()> {
         }
         // (tileset glb bytes, bytes of the tiles the 8 built-in views select, and of those and the tiles they refine,
         // summed over the views)
-        let bytes = |flags: &[&str]| -> Result<(u64, u64)> {
+        let bytes = |flags: &[&str]| -> Result<(u64, u64, u64)> {
             let out =
                 std::env::temp_dir().join(format!("citylod-bench-bytes-{}", std::process::id()));
             let check =
