@@ -3,8 +3,8 @@
 //! one TRIANGLES primitive (so each primitive has one feature-id set; one property table per class for the
 //! whole glb), positions (east, up, −north) quantized to SHORT with one uniform scale, the grid step, and a
 //! translation on the grid (KHR_mesh_quantization), BYTE-normalized normals, feature ids as a FLOAT
-//! `_FEATURE_ID_0` (EXT_mesh_features), property tables (EXT_structural_metadata), optionally
-//! EXT_meshopt_compression.
+//! `_FEATURE_ID_0` (EXT_mesh_features) — the three interleaved in one vertex buffer view unless Draco compresses
+//! them —, property tables (EXT_structural_metadata), optionally EXT_meshopt_compression.
 
 use crate::draco::{self, DracoEncoded, DracoValues};
 use crate::glb::{write_glb, BinBuilder};
@@ -423,12 +423,19 @@ pub(crate) fn encode_content(
                         doc.buffer_views.push(bv);
                         Ok::<usize, TilesError>(doc.buffer_views.len() - 1)
                     };
-                let pos_view = view(pos_bytes, 8, n, ARRAY_BUFFER, "ATTRIBUTES")?;
-                let normal_view = match nor_bytes {
-                    Some(b) => Some(view(b, 4, n, ARRAY_BUFFER, "ATTRIBUTES")?),
-                    None => None,
-                };
-                let fid_view = view(fid_bytes, 4, n, ARRAY_BUFFER, "ATTRIBUTES")?;
+                // One interleaved vertex view — position (8 bytes), normal (4), feature id (4) — instead of one
+                // per attribute: the same meshopt bytes (the codec works byte lane by byte lane), two views less of
+                // JSON per primitive (~420 bytes; on Boston 190 kB over the tileset's 450 primitives).
+                let stride = 8 + nor_bytes.as_ref().map_or(0, |_| 4) + 4;
+                let mut vertex_bytes = Vec::with_capacity(n * stride);
+                for v in 0..n {
+                    vertex_bytes.extend_from_slice(&pos_bytes[v * 8..v * 8 + 8]);
+                    if let Some(nb) = &nor_bytes {
+                        vertex_bytes.extend_from_slice(&nb[v * 4..v * 4 + 4]);
+                    }
+                    vertex_bytes.extend_from_slice(&fid_bytes[v * 4..v * 4 + 4]);
+                }
+                let vertex_view = view(vertex_bytes, stride, n, ARRAY_BUFFER, "ATTRIBUTES")?;
                 let idx_view = view(
                     idx_bytes,
                     idx_stride,
@@ -438,7 +445,7 @@ pub(crate) fn encode_content(
                 )?;
 
                 doc.accessors.push(Accessor {
-                    buffer_view: Some(pos_view),
+                    buffer_view: Some(vertex_view),
                     component_type: SHORT,
                     count: n,
                     r#type: "VEC3".into(),
@@ -447,7 +454,8 @@ pub(crate) fn encode_content(
                     ..Default::default()
                 });
                 doc.accessors.push(Accessor {
-                    buffer_view: Some(fid_view),
+                    buffer_view: Some(vertex_view),
+                    byte_offset: stride - 4,
                     component_type: FLOAT,
                     count: n,
                     r#type: "SCALAR".into(),
@@ -460,9 +468,10 @@ pub(crate) fn encode_content(
                     r#type: "SCALAR".into(),
                     ..Default::default()
                 });
-                if let Some(v) = normal_view {
+                if nor_bytes.is_some() {
                     doc.accessors.push(Accessor {
-                        buffer_view: Some(v),
+                        buffer_view: Some(vertex_view),
+                        byte_offset: 8,
                         component_type: BYTE,
                         normalized: true,
                         count: n,
@@ -470,7 +479,7 @@ pub(crate) fn encode_content(
                         ..Default::default()
                     });
                 }
-                with_normals = normal_view.is_some();
+                with_normals = nor_bytes.is_some();
             }
 
             primitives.push((
@@ -715,13 +724,19 @@ fn encode_meshopt(
                 .collect();
             meshopt::encode_index_buffer(&idx, vertex_count)?
         }
-        (_, 4) => {
-            let v: Vec<[u8; 4]> = raw.chunks_exact(4).map(|b| b.try_into().unwrap()).collect();
+        (_, 12) => {
+            let v: Vec<[u8; 12]> = raw
+                .chunks_exact(12)
+                .map(|b| b.try_into().unwrap())
+                .collect();
             meshopt::encode_vertex_buffer_level(&v, 2, Some(0))?
         }
         _ => {
-            debug_assert_eq!(stride, 8);
-            let v: Vec<[u8; 8]> = raw.chunks_exact(8).map(|b| b.try_into().unwrap()).collect();
+            debug_assert_eq!(stride, 16);
+            let v: Vec<[u8; 16]> = raw
+                .chunks_exact(16)
+                .map(|b| b.try_into().unwrap())
+                .collect();
             meshopt::encode_vertex_buffer_level(&v, 2, Some(0))?
         }
     };

@@ -892,9 +892,21 @@ mod tests {
                 modes.push(mo.mode.clone());
             }
         }
+        // One interleaved vertex view (position, normal, feature id) and the indices.
+        assert_eq!(modes, ["ATTRIBUTES", "TRIANGLES"]);
+        let prim = &doc.meshes[0].primitives[0];
+        let layout: Vec<(usize, usize, Option<usize>)> = ["POSITION", "NORMAL", "_FEATURE_ID_0"]
+            .iter()
+            .map(|k| {
+                let a = &doc.accessors[prim.attributes[*k]];
+                let bv = a.buffer_view.unwrap();
+                (bv, a.byte_offset, doc.buffer_views[bv].byte_stride)
+            })
+            .collect();
+        let v = layout[0].0;
         assert_eq!(
-            modes,
-            ["ATTRIBUTES", "ATTRIBUTES", "ATTRIBUTES", "TRIANGLES"]
+            layout,
+            [(v, 0, Some(16)), (v, 8, Some(16)), (v, 12, Some(16))]
         );
         // Property-table views are 8-byte aligned (EXT_structural_metadata).
         assert!(doc.buffer_views.iter().all(|bv| bv.byte_offset % 8 == 0));
