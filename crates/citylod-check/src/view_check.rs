@@ -140,12 +140,13 @@ pub fn check_view(
     let sum = |tiles: &[usize], f: &dyn Fn(usize) -> u64| tiles.iter().map(|&i| f(i)).sum::<u64>();
     let tris = |i: usize| ts.tiles[i].triangle_count() as u64;
     let bytes = |i: usize| ts.tiles[i].content_bytes;
+    let cut_bytes = sum(&selection.selected, &bytes);
     Ok(ViewOutcome {
         cut_triangles: sum(&selection.selected, &tris) as usize,
         full_triangles: sum(&in_view, &tris) as usize,
         full_triangles_total: sum(&leaves, &tris) as usize,
-        cut_bytes: sum(&selection.selected, &bytes),
-        loaded_bytes: sum(&selection.selected, &bytes) + sum(&selection.refined, &bytes),
+        cut_bytes,
+        loaded_bytes: cut_bytes + sum(&selection.refined, &bytes),
         full_bytes: sum(&in_view, &bytes),
         full_tiles: in_view.len(),
         selection,

@@ -247,16 +247,14 @@ impl<'h> LodTree<'h> {
         node.dh_m.max(self.kappa * node.da_m2.max(0.0).sqrt())
     }
 
-    /// The error of what is drawn for `node` (metres): its own, and — for buildings with a 3D model — the
-    /// distance of each prism drawn at full detail beside or instead of the block (its landmarks, or its
-    /// buildings when the block fell back to them) from that model. 0 ahead of a footprint-only input's own.
+    /// The error of what is drawn for `node` (metres): its own, and the distance of each prism drawn at full
+    /// detail beside or instead of the block (its landmarks, or its buildings when the block fell back to them)
+    /// from its building's 3D model — 0 for buildings without one.
     fn drawn_error(&self, node: &Node, nm: &NodeMesh) -> f64 {
-        let prisms: Box<dyn Iterator<Item = BuildingId>> = if nm.fallback {
-            Box::new(node.members.iter().copied())
-        } else {
-            Box::new(self.landmarks_of(node, nm))
-        };
-        prisms
+        // `landmarks_of` yields none for a fallen-back block, whose buildings are all drawn instead.
+        let fell_back = nm.fallback.then_some(&node.members).into_iter().flatten();
+        self.landmarks_of(node, nm)
+            .chain(fell_back.copied())
             .map(|b| self.prism_error(b))
             .fold(self.node_error(node), f64::max)
     }
