@@ -252,22 +252,7 @@ fn blocks_stay_within_their_tile_error(name: &str, report: &Value, ts: &TilesetD
 fn placement_error_m(geojson: &Path, ts: &TilesetData, sample_every: usize) -> (f64, usize) {
     let doc = read_json(geojson);
     let features = doc["features"].as_array().unwrap();
-    let mut by_id: BTreeMap<String, usize> = BTreeMap::new();
-    for (i, f) in features.iter().enumerate() {
-        if let Some(id) = f.get("id").filter(|v| !v.is_null()) {
-            by_id.insert(
-                id.as_str()
-                    .map(str::to_string)
-                    .unwrap_or_else(|| id.to_string()),
-                i,
-            );
-        }
-        // OSM extracts carry their id as osm_type + osm_id ("way/110").
-        let p = &f["properties"];
-        if let (Some(t), Some(n)) = (p["osm_type"].as_str(), p["osm_id"].as_i64()) {
-            by_id.insert(format!("{t}/{n}"), i);
-        }
-    }
+    let input_feature = input_feature_of(features);
     let m = ts.root_transform;
     let mut worst = 0.0f64;
     let mut checked = 0;
@@ -283,11 +268,7 @@ fn placement_error_m(geojson: &Path, ts: &TilesetData, sample_every: usize) -> (
             if !(bi as usize).is_multiple_of(sample_every) {
                 continue;
             }
-            let index = by_id
-                .get(source_id)
-                .copied()
-                .or_else(|| source_id.rsplit('#').next().and_then(|n| n.parse().ok()))
-                .unwrap_or_else(|| panic!("cannot find input feature {source_id}"));
+            let index = input_feature(source_id);
             let (mut lo, mut hi) = ([f64::MAX; 2], [f64::MIN; 2]);
             collect_coords(&features[index]["geometry"]["coordinates"], &mut |x, y| {
                 lo = [lo[0].min(x), lo[1].min(y)];
@@ -318,6 +299,74 @@ fn placement_error_m(geojson: &Path, ts: &TilesetData, sample_every: usize) -> (
     (worst, checked)
 }
 
+/// The index of the GeoJSON feature a `source_id` read back from a tile names: its `id`, OSM's `osm_type/osm_id`
+/// ("way/110"), or the generated `feature-N` / `file#N` of a feature without an id.
+fn input_feature_of(features: &[Value]) -> impl Fn(&str) -> usize {
+    let mut by_id: BTreeMap<String, usize> = BTreeMap::new();
+    for (i, f) in features.iter().enumerate() {
+        if let Some(id) = f.get("id").filter(|v| !v.is_null()) {
+            by_id.insert(
+                id.as_str()
+                    .map(str::to_string)
+                    .unwrap_or_else(|| id.to_string()),
+                i,
+            );
+        }
+        let p = &f["properties"];
+        if let (Some(t), Some(n)) = (p["osm_type"].as_str(), p["osm_id"].as_i64()) {
+            by_id.insert(format!("{t}/{n}"), i);
+        }
+    }
+    move |source_id: &str| {
+        by_id
+            .get(source_id)
+            .copied()
+            .or_else(|| source_id.rsplit('#').next().and_then(|n| n.parse().ok()))
+            .unwrap_or_else(|| panic!("cannot find input feature {source_id}"))
+    }
+}
+
+/// Every input attribute of every building reads back from its leaf tile as it was: integers as integers (an
+/// INT32 column), other numbers as doubles, text as text, null or empty text as no value. Returns the number of
+/// values compared.
+fn attributes_read_back(name: &str, geojson: &Path, ts: &TilesetData) -> usize {
+    let doc = read_json(geojson);
+    let features = doc["features"].as_array().unwrap();
+    let input_feature = input_feature_of(features);
+    let mut compared = 0;
+    for tile in ts.tiles.iter().filter(|t| t.children.is_empty()) {
+        for row in &tile.content.as_ref().unwrap().features {
+            let Some(PropValue::Str(source_id)) = row.values.get("source_id") else {
+                panic!("{name}: source_id missing")
+            };
+            let props = features[input_feature(source_id)]["properties"]
+                .as_object()
+                .unwrap();
+            for (key, v) in props {
+                // Attribute names become property ids (`building:levels` → `building_levels`).
+                let id: String = key
+                    .chars()
+                    .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+                    .collect();
+                let want = match v {
+                    Value::Null => PropValue::Null,
+                    Value::String(t) if t.is_empty() => PropValue::Null,
+                    Value::String(t) => PropValue::Str(t.clone()),
+                    Value::Number(n) => n
+                        .as_i64()
+                        .map_or_else(|| PropValue::Float(n.as_f64().unwrap()), PropValue::Int),
+                    Value::Bool(b) => PropValue::Bool(*b),
+                    other => PropValue::Str(other.to_string()),
+                };
+                let got = row.values.get(&id).unwrap_or(&PropValue::Null);
+                assert_eq!(got, &want, "{name}: {source_id}: attribute {key}");
+                compared += 1;
+            }
+        }
+    }
+    compared
+}
+
 fn collect_coords(v: &Value, f: &mut impl FnMut(f64, f64)) {
     match v.as_array() {
         Some(a) if a.len() >= 2 && a[0].is_number() => {
@@ -345,6 +394,8 @@ fn nyc_les_tileset_is_valid_complete_and_in_place() {
     let (err_m, n) = placement_error_m(&input, &ts, 7);
     assert!(n >= 150, "placement checked on {n} buildings only");
     assert!(err_m < 0.5, "placement error {err_m:.3} m");
+    // OSM tags are text, osm_id an integer; 1,416 buildings with osm_type and osm_id at least.
+    assert!(attributes_read_back("nyc", &input, &ts) >= 2 * 1416);
     // A few rough level-1 blocks (a 10 m and a 57 m building merged by touching) would set the error of their
     // whole tile: they are drawn there as their buildings instead, level-0 features of the cluster class, and
     // `citylod check` (above) found every building of every cut exactly once.
@@ -380,6 +431,9 @@ fn boston_tileset_is_valid_complete_and_in_place() {
     let (err_m, n) = placement_error_m(&input, &ts, 97);
     assert!(n >= 200);
     assert!(err_m < 0.5, "placement error {err_m:.3} m");
+    // Seven attributes each: `id` an integer, `stories` a double or null, the rest text.
+    let written = report["counts"]["buildings_written"].as_u64().unwrap() as usize;
+    assert_eq!(attributes_read_back("boston", &input, &ts), 7 * written);
 }
 
 #[test]

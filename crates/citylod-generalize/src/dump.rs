@@ -19,13 +19,13 @@ const GAP_PX: u32 = 16;
 /// What went wrong writing the dump; each variant names the file.
 #[derive(Debug, thiserror::Error)]
 pub enum DumpError {
-    #[error("cannot write {path}: {source}")]
+    #[error("cannot write {path}")]
     Io {
         path: PathBuf,
         #[source]
         source: std::io::Error,
     },
-    #[error("cannot encode PNG {path}: {source}")]
+    #[error("cannot encode PNG {path}")]
     Png {
         path: PathBuf,
         #[source]

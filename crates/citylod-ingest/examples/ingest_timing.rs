@@ -31,6 +31,11 @@ fn main() {
         }
         Err(e) => {
             eprintln!("error: {e}");
+            let mut cause = std::error::Error::source(&e);
+            while let Some(c) = cause {
+                eprintln!("  caused by: {c}");
+                cause = c.source();
+            }
             std::process::exit(2);
         }
     }

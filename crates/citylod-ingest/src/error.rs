@@ -7,14 +7,14 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum IngestError {
     /// The file could not be read (missing, unreadable, not UTF-8).
-    #[error("{path}: cannot read file: {source}")]
+    #[error("{path}: cannot read file")]
     Read {
         path: PathBuf,
         #[source]
         source: std::io::Error,
     },
     /// The file (or one line of a CityJSONSeq file, 1-based `line`) is not valid JSON, e.g. truncated.
-    #[error("{path}: line {line}: invalid JSON: {source}")]
+    #[error("{path}: line {line}: invalid JSON")]
     Json {
         path: PathBuf,
         line: usize,

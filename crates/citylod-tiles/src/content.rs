@@ -559,13 +559,16 @@ pub(crate) fn encode_content(
                 doc.buffer_views.len() - 1
             };
             let values = plain(&col.values);
-            let string_offsets = col.string_offsets.as_deref().map(&mut plain);
+            let string_offsets = col
+                .string_offsets
+                .as_ref()
+                .map(|(bytes, ty)| (plain(bytes), *ty));
             properties.insert(
                 p.name.clone(),
                 PropertyTableProperty {
                     values,
-                    string_offset_type: string_offsets.map(|_| "UINT32".into()),
-                    string_offsets,
+                    string_offsets: string_offsets.map(|(view, _)| view),
+                    string_offset_type: string_offsets.map(|(_, ty)| ty.into()),
                 },
             );
         }

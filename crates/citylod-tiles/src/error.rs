@@ -5,13 +5,13 @@ use std::path::PathBuf;
 /// What went wrong writing or reading a tileset.
 #[derive(Debug, thiserror::Error)]
 pub enum TilesError {
-    #[error("{path}: {source}")]
+    #[error("{path}")]
     Io {
         path: PathBuf,
         #[source]
         source: std::io::Error,
     },
-    #[error("{path}: invalid JSON: {source}")]
+    #[error("{path}: invalid JSON")]
     Json {
         path: PathBuf,
         #[source]

@@ -1,6 +1,6 @@
 //! Property tables of EXT_structural_metadata: the inline schema, and columns encoded as the spec
-//! lays them out (numbers little-endian, strings as UTF-8 plus UINT32 offsets, booleans as a
-//! bitstream, least significant bit first). Null rule: numeric and string properties write their
+//! lays them out (numbers little-endian, strings as UTF-8 plus offsets of the narrowest unsigned type that
+//! holds the column's length, booleans as a bitstream, least significant bit first). Null rule: numeric and string properties write their
 //! `noData` value (see [`PropertyKind`]); booleans have no `noData` in the spec and write `false`.
 
 use crate::gltf_json::{Class, ClassProperty, Schema};
@@ -9,6 +9,7 @@ use std::collections::BTreeMap;
 
 pub(crate) const NO_DATA_F64: f64 = f64::MIN;
 pub(crate) const NO_DATA_F32: f32 = f32::MIN;
+pub(crate) const NO_DATA_I32: i32 = i32::MIN;
 pub(crate) const NO_DATA_I64: i64 = i64::MIN;
 pub(crate) const NO_DATA_U32: u32 = u32::MAX;
 
@@ -40,6 +41,9 @@ pub(crate) fn schema_json(schema: &MetadataSchema, used: &[&str], descriptions: 
                         PropertyKind::Float32 => {
                             ("SCALAR", Some("FLOAT32"), serde_json::json!(NO_DATA_F32))
                         }
+                        PropertyKind::Int32 => {
+                            ("SCALAR", Some("INT32"), serde_json::json!(NO_DATA_I32))
+                        }
                         PropertyKind::Int64 => {
                             ("SCALAR", Some("INT64"), serde_json::json!(NO_DATA_I64))
                         }
@@ -66,10 +70,11 @@ pub(crate) fn schema_json(schema: &MetadataSchema, used: &[&str], descriptions: 
     }
 }
 
-/// One encoded column: the `values` bytes and, for strings, the `stringOffsets` bytes.
+/// One encoded column: the `values` bytes and, for strings, the `stringOffsets` bytes and their
+/// `stringOffsetType`.
 pub(crate) struct Column {
     pub values: Vec<u8>,
-    pub string_offsets: Option<Vec<u8>>,
+    pub string_offsets: Option<(Vec<u8>, &'static str)>,
 }
 
 /// Encodes one property for `values` (one per feature). `Err` says which feature's value does not
@@ -81,7 +86,7 @@ pub(crate) fn encode_column<'a>(
     let kind = prop.kind;
     let n = values.len();
     let mut out = Vec::new();
-    let mut offsets: Vec<u8> = Vec::new();
+    let mut offsets: Vec<usize> = Vec::new();
     let mut bits = vec![0u8; n.div_ceil(8)];
     for (i, v) in values.enumerate() {
         let bad = |what: &str| (i, format!("{v:?} does not fit a {what} property"));
@@ -104,6 +109,22 @@ pub(crate) fn encode_column<'a>(
                     PropValue::Float(f) => *f as f32,
                     PropValue::Int(k) => *k as f32,
                     _ => return Err(bad("Float32")),
+                };
+                out.extend_from_slice(&x.to_le_bytes());
+            }
+            PropertyKind::Int32 => {
+                let x = match v {
+                    PropValue::Null => NO_DATA_I32,
+                    PropValue::Int(k) => i32::try_from(*k)
+                        .ok()
+                        .filter(|&k| k != NO_DATA_I32)
+                        .ok_or_else(|| bad("Int32"))?,
+                    PropValue::Float(f)
+                        if f.fract() == 0.0 && *f > NO_DATA_I32 as f64 && *f <= i32::MAX as f64 =>
+                    {
+                        *f as i32
+                    }
+                    _ => return Err(bad("Int32")),
                 };
                 out.extend_from_slice(&x.to_le_bytes());
             }
@@ -133,7 +154,7 @@ pub(crate) fn encode_column<'a>(
                 _ => return Err(bad("Boolean")),
             },
             PropertyKind::String => {
-                offsets.extend_from_slice(&offset_u32(out.len()).map_err(|m| (i, m))?);
+                offsets.push(out.len());
                 match v {
                     PropValue::Null => {}
                     PropValue::Str(s) => out.extend_from_slice(s.as_bytes()),
@@ -150,10 +171,10 @@ pub(crate) fn encode_column<'a>(
             string_offsets: None,
         },
         PropertyKind::String => {
-            offsets.extend_from_slice(&offset_u32(out.len()).map_err(|m| (n, m))?);
+            offsets.push(out.len());
             Column {
+                string_offsets: Some(encode_offsets(&offsets).map_err(|m| (n, m))?),
                 values: out,
-                string_offsets: Some(offsets),
             }
         }
         _ => Column {
@@ -163,10 +184,25 @@ pub(crate) fn encode_column<'a>(
     })
 }
 
-fn offset_u32(len: usize) -> Result<[u8; 4], String> {
-    u32::try_from(len)
-        .map(u32::to_le_bytes)
-        .map_err(|_| "string column exceeds 4 GiB".to_string())
+/// String offsets (ascending, the last one the column's length) in the narrowest of UINT8, UINT16 and
+/// UINT32 that holds the last: a tile's string column rarely reaches 64 KiB, so this halves what most offsets
+/// cost. Returns the bytes and the `stringOffsetType`.
+fn encode_offsets(offsets: &[usize]) -> Result<(Vec<u8>, &'static str), String> {
+    let last = offsets.last().copied().unwrap_or(0);
+    let (ty, size) = if last <= u8::MAX as usize {
+        ("UINT8", 1)
+    } else if last <= u16::MAX as usize {
+        ("UINT16", 2)
+    } else if u32::try_from(last).is_ok() {
+        ("UINT32", 4)
+    } else {
+        return Err("string column exceeds 4 GiB".to_string());
+    };
+    let mut bytes = Vec::with_capacity(offsets.len() * size);
+    for &o in offsets {
+        bytes.extend_from_slice(&(o as u64).to_le_bytes()[..size]);
+    }
+    Ok((bytes, ty))
 }
 
 /// Decodes `count` values of one property. Values equal to the property's `noData` read as `Null`.
@@ -303,7 +339,10 @@ mod tests {
         };
         let prop = schema_json(&schema, &["c"], false).classes["c"].properties["p"].clone();
         let col = encode_column(&def(kind, true), vals.iter()).unwrap();
-        let offs = col.string_offsets.as_deref().map(|o| (o, "UINT32"));
+        let offs = col
+            .string_offsets
+            .as_ref()
+            .map(|(o, ty)| (o.as_slice(), *ty));
         decode_column(&prop, vals.len(), &col.values, offs).unwrap()
     }
 
@@ -336,6 +375,21 @@ mod tests {
             round_trip(PropertyKind::Float32, &f32s),
             [Float(1.5), Null, Float(-3.0), Float(0.1f32 as f64)]
         );
+        let i32s = [
+            Int(i32::MAX as i64),
+            Null,
+            Float(-12.0),
+            Int(i32::MIN as i64 + 1),
+        ];
+        assert_eq!(
+            round_trip(PropertyKind::Int32, &i32s),
+            [
+                Int(i32::MAX as i64),
+                Null,
+                Int(-12),
+                Int(i32::MIN as i64 + 1)
+            ]
+        );
         let u = [Int(0), Null, Int(4_000_000_000)];
         assert_eq!(
             round_trip(PropertyKind::UInt32, &u),
@@ -349,6 +403,31 @@ mod tests {
     }
 
     #[test]
+    fn string_offsets_take_the_narrowest_type_that_holds_the_column() {
+        use PropValue::*;
+        for (len, rows, ty, size) in [
+            (3usize, 10usize, "UINT8", 1usize),
+            (25, 10, "UINT8", 1),
+            (26, 10, "UINT16", 2),
+            (700, 93, "UINT16", 2),
+            (700, 94, "UINT32", 4),
+        ] {
+            // `rows` strings of `len` bytes: the last offset is len × rows.
+            let vals: Vec<PropValue> = (0..rows)
+                .map(|k| Str(char::from(b'a' + (k % 26) as u8).to_string().repeat(len)))
+                .collect();
+            let col = encode_column(&def(PropertyKind::String, true), vals.iter()).unwrap();
+            let (offs, got) = col.string_offsets.as_ref().unwrap();
+            assert_eq!(
+                (*got, offs.len()),
+                (ty, (rows + 1) * size),
+                "{len} × {rows}"
+            );
+            assert_eq!(round_trip(PropertyKind::String, &vals), vals);
+        }
+    }
+
+    #[test]
     fn values_that_do_not_fit_are_rejected_with_their_index() {
         use PropValue::*;
         let d = |k| def(k, true);
@@ -358,6 +437,9 @@ mod tests {
         assert_eq!(e.0, 1);
         assert!(encode_column(&d(PropertyKind::Float64), [Str("a".into())].iter()).is_err());
         assert!(encode_column(&d(PropertyKind::Int64), [Float(0.5)].iter()).is_err());
+        // Past 32 bits, or the noData value itself, would not read back.
+        assert!(encode_column(&d(PropertyKind::Int32), [Int(1 << 31)].iter()).is_err());
+        assert!(encode_column(&d(PropertyKind::Int32), [Int(i32::MIN as i64)].iter()).is_err());
         assert!(encode_column(&d(PropertyKind::Boolean), [Int(1)].iter()).is_err());
         // A null where the schema declares no noData value.
         let e = encode_column(

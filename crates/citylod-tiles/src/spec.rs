@@ -14,6 +14,8 @@ pub enum PropertyKind {
     Float64,
     /// IEEE 754 single (rounded to nearest from the f64 given); null is written as `f32::MIN`.
     Float32,
+    /// Signed 32-bit integer; null is written as `i32::MIN` (the `noData` value).
+    Int32,
     /// Signed 64-bit integer; null is written as `i64::MIN` (the `noData` value).
     Int64,
     /// Unsigned 32-bit integer; null is written as `u32::MAX` (the `noData` value).

@@ -232,8 +232,7 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
     } else {
         args.tileset.clone()
     };
-    let data = citylod_tiles::read::read_tileset(&path)
-        .with_context(|| format!("reading {}", path.display()))?;
+    let data = citylod_tiles::read::read_tileset(&path).context("reading the tileset")?;
     if data.tiles.is_empty() {
         bail!("{} has no tiles", path.display());
     }

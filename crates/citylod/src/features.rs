@@ -1,5 +1,6 @@
 //! The `building` metadata class of a build: fixed properties (source id, citylod's building index, height)
-//! followed by every input attribute, its type inferred over all buildings (boolean, number, else string),
+//! followed by every input attribute, its type inferred over all buildings (boolean; integer, as INT32 while
+//! every value fits; other number; else string),
 //! and the per-building rows of that table. Property ids are the attribute names made safe for
 //! EXT_structural_metadata (`[A-Za-z_][A-Za-z0-9_]*`); a renamed attribute keeps its original name in the
 //! property's description.
@@ -53,13 +54,22 @@ impl BuildingTable {
                 let this = match v {
                     AttrValue::Null => continue,
                     AttrValue::Bool(_) => PropertyKind::Boolean,
+                    // i32::MIN is the column's noData value.
+                    AttrValue::Int(i) if *i > i32::MIN as i64 && *i <= i32::MAX as i64 => {
+                        PropertyKind::Int32
+                    }
                     AttrValue::Int(_) | AttrValue::Float(_) => PropertyKind::Float64,
                     AttrValue::String(_) => PropertyKind::String,
                 };
-                *seen = Some(match *seen {
-                    None => this,
-                    Some(prev) if prev == this => prev,
-                    Some(_) => PropertyKind::String,
+                *seen = Some(match (*seen, this) {
+                    (None, _) => this,
+                    (Some(prev), _) if prev == this => prev,
+                    // Numbers mixed with integers (or integers past 32 bits) are all written as doubles.
+                    (
+                        Some(PropertyKind::Int32 | PropertyKind::Float64),
+                        PropertyKind::Int32 | PropertyKind::Float64,
+                    ) => PropertyKind::Float64,
+                    (Some(_), _) => PropertyKind::String,
                 });
             }
         }
@@ -112,6 +122,7 @@ impl BuildingTable {
             values.push(match (b.attributes.get(name), kind) {
                 (None | Some(AttrValue::Null), _) => PropValue::Null,
                 (Some(AttrValue::Bool(v)), PropertyKind::Boolean) => PropValue::Bool(*v),
+                (Some(AttrValue::Int(v)), PropertyKind::Int32) => PropValue::Int(*v),
                 (Some(AttrValue::Int(v)), PropertyKind::Float64) => PropValue::Float(*v as f64),
                 (Some(AttrValue::Float(v)), PropertyKind::Float64) => PropValue::Float(*v),
                 (Some(v), _) => PropValue::Str(as_text(v)),
@@ -372,6 +383,65 @@ mod tests {
         assert_eq!(unique_id("3dbag", &mut used), "_3dbag");
         assert_eq!(unique_id("height_m", &mut used), "height_m_2");
         assert_eq!(unique_id("", &mut used), "_");
+    }
+
+    #[test]
+    fn attribute_types_are_inferred_over_all_buildings() {
+        use citylod_model::{BuildingId, HeightSource};
+        let b = |i: u32, attrs: &[(&str, AttrValue)]| Building {
+            id: BuildingId(i),
+            source_id: format!("b{i}"),
+            footprint: geo_types::MultiPolygon(vec![]),
+            base_z_m: 0.0,
+            height_m: 10.0,
+            height_source: HeightSource::Default,
+            attributes: attrs
+                .iter()
+                .map(|(k, v)| (k.to_string(), v.clone()))
+                .collect(),
+            mesh: None,
+        };
+        use AttrValue::*;
+        let buildings = [
+            b(
+                0,
+                &[
+                    ("ints", Int(-7)),
+                    ("mixed", Int(3)),
+                    ("wide", Int(1)),
+                    ("flag", Bool(true)),
+                    ("text", Int(1)),
+                ],
+            ),
+            b(
+                1,
+                &[
+                    ("ints", Null),
+                    ("mixed", Float(2.5)),
+                    ("wide", Int(1 << 40)),
+                    ("text", String("x".into())),
+                ],
+            ),
+            b(2, &[("ints", Int(i32::MAX as i64)), ("flag", Bool(false))]),
+        ];
+        let t = BuildingTable::new(&buildings);
+        let kind = |name: &str| t.attrs.iter().find(|(n, _)| n == name).unwrap().1;
+        assert_eq!(kind("ints"), PropertyKind::Int32);
+        assert_eq!(kind("mixed"), PropertyKind::Float64);
+        assert_eq!(kind("wide"), PropertyKind::Float64);
+        assert_eq!(kind("flag"), PropertyKind::Boolean);
+        assert_eq!(kind("text"), PropertyKind::String);
+        // Values as written: integers stay integers, nulls stay null, a number in a text column becomes text.
+        let values = |i: usize| t.feature(&buildings[i], Mesh3d::default()).values;
+        let col = |name: &str| 5 + t.attrs.iter().position(|(n, _)| n == name).unwrap();
+        assert_eq!(values(0)[col("ints")], PropValue::Int(-7));
+        assert_eq!(values(1)[col("ints")], PropValue::Null);
+        assert_eq!(values(0)[col("mixed")], PropValue::Float(3.0));
+        assert_eq!(
+            values(1)[col("wide")],
+            PropValue::Float((1u64 << 40) as f64)
+        );
+        assert_eq!(values(0)[col("text")], PropValue::Str("1".into()));
     }
 
     /// `schemas/metadata.json` documents the metadata schema every glb carries inline: the `cluster` class and the

@@ -18,8 +18,7 @@ pub fn run(args: InspectArgs) -> Result<ExitCode> {
     } else {
         args.tileset.clone()
     };
-    let ts = citylod_tiles::read::read_tileset(&path)
-        .with_context(|| format!("reading {}", path.display()))?;
+    let ts = citylod_tiles::read::read_tileset(&path).context("reading the tileset")?;
     let base = path.parent().unwrap_or(std::path::Path::new("."));
     let mut rows: Vec<Row> = Vec::new();
     let mut stack = vec![(0usize, 0usize)];
