@@ -271,6 +271,8 @@ pub struct LevelSummary {
     pub level: usize,
     pub nodes: usize,
     pub tiles: usize,
+    /// The triangles of the level's nodes as written (re-outlined blocks included), one count per node whatever
+    /// the tiles draw: a block drawn as its children still counts here (`citylod inspect` reads what tiles hold).
     pub triangles: usize,
     /// The level's triangles as generalized, before its blocks were re-outlined within their tile's error
     /// (equal to `triangles` for the buildings and for levels not written).
