@@ -414,6 +414,63 @@ fn nyc_les_tileset_is_valid_complete_and_in_place() {
         demoted > 0 && buildings_in_block_tiles >= 2 * demoted as usize,
         "nyc: {demoted} level-1 blocks drawn as their buildings, {buildings_in_block_tiles} buildings in block tiles"
     );
+    let (drawn, reoutlined) = demoted_buildings_reoutlined("nyc", &ts);
+    assert!(
+        reoutlined > 0 && drawn == buildings_in_block_tiles,
+        "nyc: {reoutlined} of {drawn} buildings drawn for rough blocks re-outlined"
+    );
+}
+
+/// Buildings drawn in a rough block's stead are re-outlined within the error of the tile that draws them, like
+/// the blocks beside them: a row that claims added or cut area (Δa > 0) draws fewer triangles than the same
+/// building in its leaf tile (its error against the tile's is checked with every block's). Returns how many
+/// such buildings the block tiles draw and how many of them were re-outlined.
+fn demoted_buildings_reoutlined(name: &str, ts: &TilesetData) -> (usize, usize) {
+    let triangles_per_feature = |c: &citylod_tiles::read::GlbData| {
+        let mut n = vec![0usize; c.features.len()];
+        for t in &c.triangles {
+            n[c.feature_ids[t[0] as usize] as usize] += 1;
+        }
+        n
+    };
+    let source_id = |row: &citylod_tiles::FeatureRow| match row.values.get("source_id") {
+        Some(PropValue::Str(s)) => s.clone(),
+        other => panic!("{name}: source_id {other:?}"),
+    };
+    let mut in_leaf: BTreeMap<String, usize> = BTreeMap::new();
+    for c in ts
+        .tiles
+        .iter()
+        .filter(|t| t.children.is_empty())
+        .filter_map(|t| t.content.as_ref())
+    {
+        for (row, n) in c.features.iter().zip(triangles_per_feature(c)) {
+            in_leaf.insert(source_id(row), n);
+        }
+    }
+    let (mut drawn, mut reoutlined) = (0, 0);
+    for c in ts
+        .tiles
+        .iter()
+        .filter(|t| !t.children.is_empty())
+        .filter_map(|t| t.content.as_ref())
+    {
+        for (row, n) in c.features.iter().zip(triangles_per_feature(c)) {
+            if row.class != "cluster" || row.values.get("level") != Some(&PropValue::Int(0)) {
+                continue;
+            }
+            drawn += 1;
+            let Some(PropValue::Float(da)) = row.values.get("da_m2") else {
+                panic!("{name}: da_m2 missing")
+            };
+            if *da > 0.0 {
+                reoutlined += 1;
+                let id = source_id(row);
+                assert!(n < in_leaf[&id], "{name}: {id} re-outlined (Δa {da} m²) but drawn with {n} triangles, {} in its leaf", in_leaf[&id]);
+            }
+        }
+    }
+    (drawn, reoutlined)
 }
 
 #[test]
@@ -434,6 +491,12 @@ fn boston_tileset_is_valid_complete_and_in_place() {
     // Seven attributes each: `id` an integer, `stories` a double or null, the rest text.
     let written = report["counts"]["buildings_written"].as_u64().unwrap() as usize;
     assert_eq!(attributes_read_back("boston", &input, &ts), 7 * written);
+    // 1,885 buildings drawn for rough level-1 blocks (2026-11-22); most are re-outlined.
+    let (drawn, reoutlined) = demoted_buildings_reoutlined("boston", &ts);
+    assert!(
+        reoutlined * 2 > drawn,
+        "boston: {reoutlined} of {drawn} buildings drawn for rough blocks re-outlined"
+    );
 }
 
 #[test]

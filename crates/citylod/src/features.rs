@@ -391,7 +391,7 @@ mod tests {
         let b = |i: u32, attrs: &[(&str, AttrValue)]| Building {
             id: BuildingId(i),
             source_id: format!("b{i}"),
-            footprint: geo_types::MultiPolygon(vec![]),
+            footprint: geo::MultiPolygon(vec![]),
             base_z_m: 0.0,
             height_m: 10.0,
             height_source: HeightSource::Default,

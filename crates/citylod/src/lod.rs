@@ -13,6 +13,7 @@ use citylod_tiles::hlod::{assemble, pack, tile_errors, NodeCost, TileBudget, Til
 use citylod_tiles::{tile_spatially, ContentFeature, TileSpec};
 use geo::Area;
 use rayon::prelude::*;
+use std::collections::HashMap;
 
 /// Share of its tile's geometric error a block's vertices may move when the writer rounds them (per axis): the
 /// grid is then at most e/64, a shift of at most √3·e/128 ≈ 1.4 % of e, under a quarter pixel where a client
@@ -23,6 +24,13 @@ pub const ROUNDING_SHARE: f64 = 1.0 / 128.0;
 struct NodeMesh {
     mesh: Mesh3d,
     fallback: bool,
+}
+
+/// Nodes re-outlined within the error of the tile that draws them ([`LodTree::spend_tile_errors`]): `own[level -
+/// 1][node]` in their own tile; `demoted[(level, node)]` where a tile draws them in a rough ancestor's stead.
+struct Spent {
+    own: Vec<Vec<Option<(Node, NodeMesh)>>>,
+    demoted: HashMap<(usize, u32), (Node, NodeMesh)>,
 }
 
 /// How buildings' 3D models are simplified for the level between the full model and the prism.
@@ -281,24 +289,30 @@ impl<'h> LodTree<'h> {
     /// notches filled, corners cut, courtyards filled — within that budget
     /// ([`citylod_generalize::reoutline_within`]); its Δa grows by the area filled plus the area cut, so its
     /// metadata stays an upper bound of what it changed and its own error stays ≤ the tile's.
-    /// Indexed `[level - 1][node]`: `None` where nothing changed (or the re-extruded prism failed, which keeps
-    /// the block as it was).
+    /// The same holds for what a tile draws in a rough block's stead (its descendants on the next level written,
+    /// the buildings under a level-1 tile), re-outlined within the budget of the tile that draws them.
+    /// `own` is indexed `[level - 1][node]`, `demoted` by (level, node) of the descendants drawn so: `None` /
+    /// absent where nothing changed (or the re-extruded prism failed, which keeps the node as it was).
     fn spend_tile_errors(
         &self,
         h: &Hierarchy,
         packing: &citylod_tiles::hlod::Packing,
         errors: &[f64],
-    ) -> Vec<Vec<Option<(Node, NodeMesh)>>> {
-        let mut spent: Vec<Vec<Option<(Node, NodeMesh)>>> = h
-            .levels
-            .iter()
-            .skip(1)
-            .map(|l| (0..l.nodes.len()).map(|_| None).collect())
-            .collect();
+    ) -> Spent {
+        let mut spent = Spent {
+            own: h
+                .levels
+                .iter()
+                .skip(1)
+                .map(|l| (0..l.nodes.len()).map(|_| None).collect())
+                .collect(),
+            demoted: HashMap::new(),
+        };
         if self.kappa.is_nan() || self.kappa <= 0.0 {
             return spent;
         }
-        let jobs: Vec<(usize, NodeId, f64)> = packing
+        // (level, node, error of the tile drawing it, drawn in a rough ancestor's stead)
+        let jobs: Vec<(usize, NodeId, f64, bool)> = packing
             .tiles
             .iter()
             .zip(errors)
@@ -306,15 +320,14 @@ impl<'h> LodTree<'h> {
             .flat_map(|(t, &e)| {
                 t.drawn
                     .iter()
-                    .filter(move |&&(level, _)| level == t.level)
-                    .map(move |&(level, n)| (level, n, e))
+                    .map(move |&(level, n)| (level, n, e, level != t.level))
             })
             .collect();
-        let done: Vec<(usize, NodeId, Node, NodeMesh)> = jobs
+        let done: Vec<(usize, NodeId, bool, Node, NodeMesh)> = jobs
             .par_iter()
-            .filter_map(|&(level, n, tile_error_m)| {
-                let node = &h.levels[level].nodes[n.0 as usize];
-                if self.nodes[level - 1][n.0 as usize].fallback {
+            .filter_map(|&(level, n, tile_error_m, demoted)| {
+                let node = self.drawn_node(h, level, n);
+                if level > 0 && self.nodes[level - 1][n.0 as usize].fallback {
                     return None;
                 }
                 let budget_m2 = (tile_error_m / self.kappa).powi(2) - node.da_m2;
@@ -335,13 +348,14 @@ impl<'h> LodTree<'h> {
                 .ok()?;
                 // The block covered its buildings, so it differed from them by Δa; it now differs by at most
                 // Δa + filled + cut (a corner cut off a building counts as much as ground filled).
-                let mut node = node.clone();
+                let mut node = node;
                 node.da_m2 += r.filled_m2 + r.cut_m2;
                 node.area_m2 = r.footprint.unsigned_area();
                 node.footprint = r.footprint;
                 Some((
                     level,
                     n,
+                    demoted,
                     node,
                     NodeMesh {
                         mesh,
@@ -350,10 +364,29 @@ impl<'h> LodTree<'h> {
                 ))
             })
             .collect();
-        for (level, n, node, nm) in done {
-            spent[level - 1][n.0 as usize] = Some((node, nm));
+        for (level, n, demoted, node, nm) in done {
+            if demoted {
+                spent.demoted.insert((level, n.0), (node, nm));
+            } else {
+                spent.own[level - 1][n.0 as usize] = Some((node, nm));
+            }
         }
         spent
+    }
+
+    /// The node as a tile draws it before any re-outlining: a building (level 0, drawn in a rough block's stead)
+    /// exactly as itself — no height spread, no area added (the level-0 node's own Δa is rounding).
+    fn drawn_node(&self, h: &Hierarchy, level: usize, n: NodeId) -> Node {
+        let node = &h.levels[level].nodes[n.0 as usize];
+        if level == 0 {
+            Node {
+                dh_m: 0.0,
+                da_m2: 0.0,
+                ..node.clone()
+            }
+        } else {
+            node.clone()
+        }
     }
 
     /// The tile tree to write, and a summary per level.
@@ -446,7 +479,7 @@ impl<'h> LodTree<'h> {
         let written = |level: usize, n: NodeId| -> usize {
             match level {
                 0 => triangles(0, n),
-                _ => match &spent[level - 1][n.0 as usize] {
+                _ => match &spent.own[level - 1][n.0 as usize] {
                     Some((node, nm)) => nm.mesh.triangles.len() + landmark_triangles(node, nm),
                     None => triangles(level, n),
                 },
@@ -477,16 +510,21 @@ impl<'h> LodTree<'h> {
             packing = packing.rerooted(root_tile);
             errors = tile_errors(&packing, &error);
         }
-        // The geometric error of the tile each node is written in, [level][node].
+        // The geometric error of the tile each node is written in, [level][node], and of the tile drawing the
+        // descendants of a rough block in its stead, by (level, node) of the descendant.
         let mut tile_error: Vec<Vec<f64>> =
             h.levels.iter().map(|l| vec![0.0; l.nodes.len()]).collect();
+        let mut demoted_tile_error: HashMap<(usize, u32), f64> = HashMap::new();
         for (t, &e) in packing.tiles.iter().zip(&errors) {
             for n in &t.nodes {
                 tile_error[t.level][n.0 as usize] = e;
             }
+            for &(level, n) in t.drawn.iter().filter(|d| d.0 != t.level) {
+                demoted_tile_error.insert((level, n.0), e);
+            }
         }
         let node_and_mesh = |level: usize, n: NodeId| -> (&Node, &NodeMesh) {
-            match &spent[level - 1][n.0 as usize] {
+            match &spent.own[level - 1][n.0 as usize] {
                 Some((node, nm)) => (node, nm),
                 None => (
                     &h.levels[level].nodes[n.0 as usize],
@@ -495,35 +533,46 @@ impl<'h> LodTree<'h> {
             }
         };
         let features = |tile_level: usize, level: usize, n: NodeId| -> Vec<ContentFeature> {
+            let demoted = tile_level > level;
+            // A descendant drawn in a rough block's stead may be rounded, and was re-outlined, within the error
+            // of the tile that draws it.
+            let rounding_m = ROUNDING_SHARE
+                * if demoted {
+                    demoted_tile_error[&(level, n.0)]
+                } else {
+                    tile_error[level][n.0 as usize]
+                };
             if level == 0 {
-                let node = &h.levels[0].nodes[n.0 as usize];
-                let b = node.members[0];
-                if tile_level > 0 {
-                    // A building of a block too rough for its tile, drawn in the block's stead: the level-0 node as a
-                    // cluster-class feature of one member (one class per tile, for picking).
-                    let Some(mesh) = self.buildings[b.0 as usize].clone() else {
-                        return Vec::new();
-                    };
-                    // The building itself: no height spread, no area added (the level-0 node's own Δa is rounding).
-                    let exact = Node {
-                        dh_m: 0.0,
-                        da_m2: 0.0,
-                        ..node.clone()
-                    };
-                    let row = ClusterRow {
-                        level: 0,
-                        node_index: n.0,
-                        node: &exact,
-                        source_id: Some(buildings[b.0 as usize].source_id.as_str()),
-                        geometric_error_m: self.prism_error(b),
-                        fallback: false,
-                        max_rounding_m: 0.0,
-                    };
-                    return vec![cluster_feature(row, mesh)];
+                let b = h.levels[0].nodes[n.0 as usize].members[0];
+                if !demoted {
+                    return self.building_feature(buildings, b).into_iter().collect();
                 }
-                return self.building_feature(buildings, b).into_iter().collect();
+                // A building of a block too rough for its tile, drawn in the block's stead: the level-0 node as a
+                // cluster-class feature of one member (one class per tile, for picking).
+                let (node, mesh) = match spent.demoted.get(&(0, n.0)) {
+                    Some((node, nm)) => (node.clone(), nm.mesh.clone()),
+                    None => {
+                        let Some(mesh) = self.buildings[b.0 as usize].clone() else {
+                            return Vec::new();
+                        };
+                        (self.drawn_node(h, 0, n), mesh)
+                    }
+                };
+                let row = ClusterRow {
+                    level: 0,
+                    node_index: n.0,
+                    node: &node,
+                    source_id: Some(buildings[b.0 as usize].source_id.as_str()),
+                    geometric_error_m: self.node_error(&node).max(self.prism_error(b)),
+                    fallback: false,
+                    max_rounding_m: rounding_m,
+                };
+                return vec![cluster_feature(row, mesh)];
             }
-            let (node, nm) = node_and_mesh(level, n);
+            let (node, nm) = match spent.demoted.get(&(level, n.0)).filter(|_| demoted) {
+                Some((node, nm)) => (node, nm),
+                None => node_and_mesh(level, n),
+            };
             let source_id = (node.members.len() == 1)
                 .then(|| buildings[node.members[0].0 as usize].source_id.as_str());
             let row = ClusterRow {
@@ -533,7 +582,7 @@ impl<'h> LodTree<'h> {
                 source_id,
                 geometric_error_m: self.drawn_error(node, nm),
                 fallback: nm.fallback,
-                max_rounding_m: tile_error[level][n.0 as usize] * ROUNDING_SHARE,
+                max_rounding_m: rounding_m,
             };
             let mut out = vec![cluster_feature(row, nm.mesh.clone())];
             out.extend(self.landmarks_of(node, nm).filter_map(|b| {
@@ -586,7 +635,7 @@ impl<'h> LodTree<'h> {
                         .sum(),
                     blocks_reoutlined: match level {
                         0 => 0,
-                        _ => spent[level - 1].iter().filter(|s| s.is_some()).count(),
+                        _ => spent.own[level - 1].iter().filter(|s| s.is_some()).count(),
                     },
                     geometric_error_min_m: errs.iter().copied().reduce(f64::min),
                     geometric_error_max_m: errs.iter().copied().reduce(f64::max),
