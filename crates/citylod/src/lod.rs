@@ -327,7 +327,13 @@ impl<'h> LodTree<'h> {
             .par_iter()
             .filter_map(|&(level, n, tile_error_m, demoted)| {
                 let node = self.drawn_node(h, level, n);
-                if level > 0 && self.nodes[level - 1][n.0 as usize].fallback {
+                // A fallen-back block shows its buildings' prisms; a building whose prism could not be built is
+                // drawn nowhere (it is in the build report's skips), so not re-outlined into a block tile either.
+                let unchanged = match level {
+                    0 => self.buildings[node.members[0].0 as usize].is_none(),
+                    _ => self.nodes[level - 1][n.0 as usize].fallback,
+                };
+                if unchanged {
                     return None;
                 }
                 let budget_m2 = (tile_error_m / self.kappa).powi(2) - node.da_m2;
@@ -538,7 +544,11 @@ impl<'h> LodTree<'h> {
             // of the tile that draws it.
             let rounding_m = ROUNDING_SHARE
                 * if demoted {
-                    demoted_tile_error[&(level, n.0)]
+                    // Every descendant a tile draws is in the map; 0 (the finest grid) is always safe.
+                    demoted_tile_error
+                        .get(&(level, n.0))
+                        .copied()
+                        .unwrap_or(0.0)
                 } else {
                     tile_error[level][n.0 as usize]
                 };
