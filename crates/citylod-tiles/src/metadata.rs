@@ -1,7 +1,8 @@
 //! Property tables of EXT_structural_metadata: the inline schema, and columns encoded as the spec
-//! lays them out (numbers little-endian, strings as UTF-8 plus offsets of the narrowest unsigned type that
-//! holds the column's length, booleans as a bitstream, least significant bit first). Null rule: numeric and string properties write their
-//! `noData` value (see [`PropertyKind`]); booleans have no `noData` in the spec and write `false`.
+//! lays them out (numbers little-endian, strings as UTF-8 plus offsets of the narrowest unsigned type
+//! that holds the column's length, booleans as a bitstream, least significant bit first). Null rule:
+//! numeric and string properties write their `noData` value (see [`PropertyKind`]); booleans have no
+//! `noData` in the spec and write `false`.
 
 use crate::gltf_json::{Class, ClassProperty, Schema};
 use crate::spec::{MetadataSchema, PropValue, PropertyDef, PropertyKind};
