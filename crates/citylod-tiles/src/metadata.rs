@@ -116,12 +116,9 @@ pub(crate) fn encode_column<'a>(
             PropertyKind::Int32 => {
                 let x = match v {
                     PropValue::Null => NO_DATA_I32,
-                    PropValue::Int(k) => i32::try_from(*k)
-                        .ok()
-                        .filter(|&k| k != NO_DATA_I32)
-                        .ok_or_else(|| bad("Int32"))?,
+                    PropValue::Int(k) if PropertyKind::int32_holds(*k) => *k as i32,
                     PropValue::Float(f)
-                        if f.fract() == 0.0 && *f > NO_DATA_I32 as f64 && *f <= i32::MAX as f64 =>
+                        if f.fract() == 0.0 && PropertyKind::int32_holds(*f as i64) =>
                     {
                         *f as i32
                     }

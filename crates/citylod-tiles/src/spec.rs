@@ -24,6 +24,13 @@ pub enum PropertyKind {
     Boolean,
 }
 
+impl PropertyKind {
+    /// Whether an `Int32` column holds `v`: in range and not `i32::MIN`, its `noData` value.
+    pub fn int32_holds(v: i64) -> bool {
+        v > i32::MIN as i64 && v <= i32::MAX as i64
+    }
+}
+
 /// One property of a class.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PropertyDef {

@@ -54,10 +54,7 @@ impl BuildingTable {
                 let this = match v {
                     AttrValue::Null => continue,
                     AttrValue::Bool(_) => PropertyKind::Boolean,
-                    // i32::MIN is the column's noData value.
-                    AttrValue::Int(i) if *i > i32::MIN as i64 && *i <= i32::MAX as i64 => {
-                        PropertyKind::Int32
-                    }
+                    AttrValue::Int(i) if PropertyKind::int32_holds(*i) => PropertyKind::Int32,
                     AttrValue::Int(_) | AttrValue::Float(_) => PropertyKind::Float64,
                     AttrValue::String(_) => PropertyKind::String,
                 };

@@ -13,6 +13,7 @@ use citylod_tiles::hlod::{assemble, pack, tile_errors, NodeCost, TileBudget, Til
 use citylod_tiles::{tile_spatially, ContentFeature, TileSpec};
 use geo::Area;
 use rayon::prelude::*;
+use std::borrow::Cow;
 use std::collections::HashMap;
 
 /// Share of its tile's geometric error a block's vertices may move when the writer rounds them (per axis): the
@@ -354,7 +355,7 @@ impl<'h> LodTree<'h> {
                 .ok()?;
                 // The block covered its buildings, so it differed from them by Δa; it now differs by at most
                 // Δa + filled + cut (a corner cut off a building counts as much as ground filled).
-                let mut node = node;
+                let mut node = node.into_owned();
                 node.da_m2 += r.filled_m2 + r.cut_m2;
                 node.area_m2 = r.footprint.unsigned_area();
                 node.footprint = r.footprint;
@@ -382,16 +383,16 @@ impl<'h> LodTree<'h> {
 
     /// The node as a tile draws it before any re-outlining: a building (level 0, drawn in a rough block's stead)
     /// exactly as itself — no height spread, no area added (the level-0 node's own Δa is rounding).
-    fn drawn_node(&self, h: &Hierarchy, level: usize, n: NodeId) -> Node {
+    fn drawn_node<'a>(&self, h: &'a Hierarchy, level: usize, n: NodeId) -> Cow<'a, Node> {
         let node = &h.levels[level].nodes[n.0 as usize];
         if level == 0 {
-            Node {
+            Cow::Owned(Node {
                 dh_m: 0.0,
                 da_m2: 0.0,
                 ..node.clone()
-            }
+            })
         } else {
-            node.clone()
+            Cow::Borrowed(node)
         }
     }
 
@@ -565,7 +566,7 @@ impl<'h> LodTree<'h> {
                         let Some(mesh) = self.buildings[b.0 as usize].clone() else {
                             return Vec::new();
                         };
-                        (self.drawn_node(h, 0, n), mesh)
+                        (self.drawn_node(h, 0, n).into_owned(), mesh)
                     }
                 };
                 let row = ClusterRow {
