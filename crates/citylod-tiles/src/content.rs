@@ -4,7 +4,8 @@
 //! whole glb), positions (east, up, −north) quantized to SHORT with one uniform scale, the grid step, and a
 //! translation on the grid (KHR_mesh_quantization), BYTE-normalized normals, feature ids as a FLOAT
 //! `_FEATURE_ID_0` (EXT_mesh_features) — the three interleaved in one vertex buffer view unless Draco compresses
-//! them —, property tables (EXT_structural_metadata), optionally EXT_meshopt_compression.
+//! them —, triangles in vertex-cache order and vertices in the order they are first used, property tables
+//! (EXT_structural_metadata), optionally EXT_meshopt_compression.
 
 use crate::draco::{self, DracoEncoded, DracoValues};
 use crate::glb::{write_glb, BinBuilder};
@@ -286,6 +287,7 @@ pub(crate) fn encode_content(
             if idx.is_empty() {
                 continue; // features without triangles: nothing to draw or pick
             }
+            let (pos, fid, nor, idx) = reorder_for_fetch(pos, fid, nor, idx);
             let class_rows = by_class[&class].len();
             if pos.len() > u32::MAX as usize || class_rows > 1 << 24 {
                 return Err(TilesError::Tile {
@@ -666,6 +668,47 @@ fn vertex_normals_yup(m: &citylod_model::Mesh3d) -> Vec<[f64; 3]> {
         .collect()
 }
 
+/// A primitive before encoding: quantized positions (padded), feature ids, normals (empty without), indices.
+type Streams = (Vec<[i16; 4]>, Vec<f32>, Vec<[f64; 3]>, Vec<u32>);
+
+/// Triangles in vertex-cache order along strips and vertices in the order the triangles first use them
+/// (meshoptimizer's `optimizeVertexCacheStrip`, then first use): the index codec then mostly refers to
+/// recent vertices (on Boston's tiles 15 % fewer index bytes; the vertex codec gains nothing, the prisms' vertices
+/// already come in order), a GPU fetches fewer vertices, and vertices only a dropped degenerate triangle used are
+/// gone. Each triangle keeps its winding.
+fn reorder_for_fetch(
+    pos: Vec<[i16; 4]>,
+    fid: Vec<f32>,
+    nor: Vec<[f64; 3]>,
+    idx: Vec<u32>,
+) -> Streams {
+    let idx = meshopt::optimize_vertex_cache_strip(&idx, pos.len());
+    // New index of each vertex, by first use (the crate's fetch remap drops the entries of unused vertices).
+    let mut remap = vec![u32::MAX; pos.len()];
+    let mut used = 0;
+    for &i in &idx {
+        if remap[i as usize] == u32::MAX {
+            remap[i as usize] = used as u32;
+            used += 1;
+        }
+    }
+    let mut new_pos = vec![[0i16; 4]; used];
+    let mut new_fid = vec![0f32; used];
+    let mut new_nor = vec![[0f64; 3]; if nor.is_empty() { 0 } else { used }];
+    for (old, &r) in remap.iter().enumerate() {
+        if r == u32::MAX {
+            continue;
+        }
+        new_pos[r as usize] = pos[old];
+        new_fid[r as usize] = fid[old];
+        if !nor.is_empty() {
+            new_nor[r as usize] = nor[old];
+        }
+    }
+    let idx = idx.iter().map(|&i| remap[i as usize]).collect();
+    (new_pos, new_fid, new_nor, idx)
+}
+
 /// Compresses one primitive with KHR_draco_mesh_compression: attributes in the order POSITION,
 /// _FEATURE_ID_0, NORMAL (when `nor` is not empty), normals as BYTE like the uncompressed layout.
 fn encode_draco(
@@ -738,4 +781,85 @@ fn encode_meshopt(
     };
     debug_assert!(mode == "TRIANGLES" || out.first() == Some(&0xa0));
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A grid of `n` × `n` quads (two triangles each), triangles in a scattered order, plus one vertex no triangle uses.
+    fn scattered_grid(n: u32) -> Streams {
+        let w = n + 1;
+        let mut pos: Vec<[i16; 4]> = (0..w * w)
+            .map(|k| [(k % w) as i16, 0, (k / w) as i16, 0])
+            .collect();
+        pos.push([1000, 1000, 1000, 0]);
+        let fid: Vec<f32> = (0..pos.len()).map(|k| (k % 7) as f32).collect();
+        let nor: Vec<[f64; 3]> = (0..pos.len()).map(|k| [0.0, 1.0, k as f64]).collect();
+        let mut tris: Vec<[u32; 3]> = Vec::new();
+        for y in 0..n {
+            for x in 0..n {
+                let a = y * w + x;
+                tris.push([a, a + w, a + 1]);
+                tris.push([a + 1, a + w, a + w + 1]);
+            }
+        }
+        // A fixed scatter: stride through the list by a step coprime with its length.
+        let m = tris.len();
+        let idx = (0..m).flat_map(|k| tris[(k * 37) % m]).collect();
+        (pos, fid, nor, idx)
+    }
+
+    /// A triangle corner: position, feature id bits, normal bits.
+    type Corner = ([i16; 4], u32, [u64; 3]);
+
+    /// Each triangle as its three (position, feature id, normal) corners, rotated to start at its smallest.
+    fn corners(pos: &[[i16; 4]], fid: &[f32], nor: &[[f64; 3]], idx: &[u32]) -> Vec<[Corner; 3]> {
+        let mut out: Vec<_> = idx
+            .chunks(3)
+            .map(|t| {
+                let c: [Corner; 3] = std::array::from_fn(|k| {
+                    let i = t[k] as usize;
+                    (pos[i], fid[i].to_bits(), nor[i].map(f64::to_bits))
+                });
+                let r = (0..3).min_by_key(|&k| c[k]).unwrap();
+                std::array::from_fn(|k| c[(r + k) % 3])
+            })
+            .collect();
+        out.sort();
+        out
+    }
+
+    #[test]
+    fn reordering_keeps_every_triangle_and_its_winding_and_drops_unused_vertices() {
+        let (pos, fid, nor, idx) = scattered_grid(12);
+        let before = corners(&pos, &fid, &nor, &idx);
+        let (p2, f2, n2, i2) =
+            reorder_for_fetch(pos.clone(), fid.clone(), nor.clone(), idx.clone());
+        assert_eq!(corners(&p2, &f2, &n2, &i2), before);
+        // The unused vertex is gone; vertices come in the order triangles first use them.
+        assert_eq!(p2.len(), pos.len() - 1);
+        let mut next = 0;
+        for &i in &i2 {
+            assert!(i <= next, "vertex {i} used before vertex {next}");
+            next = next.max(i + 1);
+        }
+        // Without normals the normals stay empty.
+        let (_, _, n3, _) = reorder_for_fetch(pos, fid, Vec::new(), idx);
+        assert!(n3.is_empty());
+    }
+
+    #[test]
+    fn reordering_makes_the_index_codec_smaller() {
+        let (pos, fid, nor, idx) = scattered_grid(40);
+        let (_, _, _, i2) = reorder_for_fetch(pos.clone(), fid, nor, idx.clone());
+        let before = meshopt::encode_index_buffer(&idx, pos.len()).unwrap().len();
+        let after = meshopt::encode_index_buffer(&i2, pos.len() - 1)
+            .unwrap()
+            .len();
+        assert!(
+            (after as f64) < 0.8 * before as f64,
+            "{after} bytes after reordering, {before} before"
+        );
+    }
 }
