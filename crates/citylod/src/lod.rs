@@ -492,6 +492,15 @@ impl<'h> LodTree<'h> {
                 },
             }
         };
+        // Triangles a tile of `tile_level` draws for a node: as written, or as re-outlined for that tile when it
+        // draws the node in a rough ancestor's stead.
+        let drawn = |tile_level: usize, l: usize, n: NodeId| -> usize {
+            match spent.demoted.get(&(l, n.0)).filter(|_| l < tile_level) {
+                Some((node, nm)) if l > 0 => nm.mesh.triangles.len() + landmark_triangles(node, nm),
+                Some((_, nm)) => nm.mesh.triangles.len(),
+                None => written(l, n),
+            }
+        };
         // The top of the tree is condensed: while the root has a single child tile that is itself too small to
         // be worth splitting, that child becomes the root. The levels above it could save a view no more than a
         // request costs, yet every closer view loads them on its way down (`hlod::MIN_SPLIT_TRIANGLES`; on
@@ -503,11 +512,8 @@ impl<'h> LodTree<'h> {
             .get(root_tile)
             .map(|t| (t.children.as_slice(), t.nodes.is_empty()))
         {
-            let tris: usize = packing.tiles[*c]
-                .drawn
-                .iter()
-                .map(|&(l, n)| written(l, n))
-                .sum();
+            let t = &packing.tiles[*c];
+            let tris: usize = t.drawn.iter().map(|&(l, n)| drawn(t.level, l, n)).sum();
             if tris > citylod_tiles::hlod::MIN_SPLIT_TRIANGLES {
                 break;
             }
