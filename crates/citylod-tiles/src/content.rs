@@ -692,21 +692,22 @@ fn reorder_for_fetch(
             used += 1;
         }
     }
-    let mut new_pos = vec![[0i16; 4]; used];
-    let mut new_fid = vec![0f32; used];
-    let mut new_nor = vec![[0f64; 3]; if nor.is_empty() { 0 } else { used }];
-    for (old, &r) in remap.iter().enumerate() {
-        if r == u32::MAX {
-            continue;
-        }
-        new_pos[r as usize] = pos[old];
-        new_fid[r as usize] = fid[old];
-        if !nor.is_empty() {
-            new_nor[r as usize] = nor[old];
-        }
+    // The old index of each new vertex.
+    let mut order = vec![0usize; used];
+    for (old, &r) in remap.iter().enumerate().filter(|(_, &r)| r != u32::MAX) {
+        order[r as usize] = old;
     }
     let idx = idx.iter().map(|&i| remap[i as usize]).collect();
-    (new_pos, new_fid, new_nor, idx)
+    (
+        order.iter().map(|&o| pos[o]).collect(),
+        order.iter().map(|&o| fid[o]).collect(),
+        order
+            .iter()
+            .filter(|_| !nor.is_empty())
+            .map(|&o| nor[o])
+            .collect(),
+        idx,
+    )
 }
 
 /// Compresses one primitive with KHR_draco_mesh_compression: attributes in the order POSITION,

@@ -495,9 +495,9 @@ impl<'h> LodTree<'h> {
         // Triangles a tile of `tile_level` draws for a node: as written, or as re-outlined for that tile when it
         // draws the node in a rough ancestor's stead.
         let drawn = |tile_level: usize, l: usize, n: NodeId| -> usize {
+            // (A building has no landmarks.)
             match spent.demoted.get(&(l, n.0)).filter(|_| l < tile_level) {
-                Some((node, nm)) if l > 0 => nm.mesh.triangles.len() + landmark_triangles(node, nm),
-                Some((_, nm)) => nm.mesh.triangles.len(),
+                Some((node, nm)) => nm.mesh.triangles.len() + landmark_triangles(node, nm),
                 None => written(l, n),
             }
         };
