@@ -243,6 +243,8 @@ describe('NYC Lower East Side, LOD in the browser', () => {
       clusters: new Set(picks.filter(isCluster).map(pickKey)).size, buildings: new Set(picks.filter(isBuilding).map(pickKey)).size, cluster: cluster ?? null });
     assert.ok(cluster, `${client}: no cluster feature among ${picks.length} picks`);
     assert.ok(Number(cluster.properties.member_count) > 1, `member_count ${cluster.properties.member_count}`);
+    // A block is no building: its building_index (noData) reads as missing, not as building 0.
+    assert.ok(cluster.properties.building_index == null, `block building_index = ${JSON.stringify(cluster.properties.building_index)}`);
     for (const k of ['dh_m', 'da_m2', 'area_m2']) {
       assert.equal(typeof cluster.properties[k], 'number', `cluster ${k} = ${JSON.stringify(cluster.properties[k])}`);
       assert.ok(Number.isFinite(cluster.properties[k]), `cluster ${k} = ${cluster.properties[k]}`);
@@ -268,6 +270,22 @@ describe('NYC Lower East Side, LOD in the browser', () => {
       assert.ok(landmark.properties.height_m > 0, `landmark height_m ${landmark.properties.height_m}`);
     });
   }
+
+  test('the two clients return the same properties for the same cluster', () => {
+    const a = picksAt('cesium'), b = picksAt('3dtr');
+    assert.ok(a && b, 'both clients must have run the clusters view');
+    // Pixels where both picked the same feature of the same tile (a block: several members).
+    const same = [...a.entries()].filter(([key, f]) => {
+      const g = b.get(key);
+      return g && isCluster(f) && isCluster(g) && f.tile === g.tile && f.featureId === g.featureId && Number(f.properties.member_count) > 1;
+    });
+    assert.ok(same.length >= 10, `only ${same.length} pixels where both clients picked the same block`);
+    for (const [key, f] of same) {
+      // undefined (CesiumJS) and null (3d-tiles-renderer, noData) both mean missing; JSON drops both alike.
+      const plain = (props) => JSON.parse(JSON.stringify(props, (k, v) => (v === null ? undefined : v)));
+      assert.deepEqual(plain(b.get(key).properties), plain(f.properties), `${f.tile} feature ${f.featureId} at ${key}`);
+    }
+  });
 
   test('the two clients pick the same feature class at the same pixel, away from edges', () => {
     const a = picksAt('cesium'), b = picksAt('3dtr');
