@@ -82,9 +82,10 @@ pub struct ContentFeature {
     pub class: usize,
     pub values: Vec<PropValue>,
     /// How far (m, per axis) the writer may move this feature's vertices when it rounds them to its grid: 0
-    /// for exact geometry (buildings, landmarks, 3D models), which gets the finest grid
-    /// ([`crate::WriteOptions::quantization_step_m`]); a generalized block may take a share of its tile's
-    /// geometric error. The grid is a power-of-two multiple of the finest one with half a step ≤ this.
+    /// for exact geometry (buildings in leaf tiles, 3D models), which gets the finest grid
+    /// ([`crate::WriteOptions::quantization_step_m`]); a feature of a tile that is refined away when its error
+    /// shows — a generalized block, a landmark on it — may take a share of that error. The grid is a
+    /// power-of-two multiple of the finest one with half a step ≤ this.
     pub max_rounding_m: f64,
 }
 
