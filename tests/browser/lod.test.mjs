@@ -186,8 +186,8 @@ describe('NYC Lower East Side, LOD in the browser', () => {
 
   // The LOD far view loads fewer bytes than the leaves-only one: measured 2026-11-22, both clients, 246,268 B in 10
   // requests against 477,252 B in 3, ratio 0.52 with landmarks on their block's grid (258,916 B, 0.54, before; 0.55
-  // before triangles in vertex-cache order; 0.54 before narrower property tables and the buildings of rough blocks re-outlined; 0.55 before
-  // interleaved vertex views; 0.69 in 15 requests
+  // before triangles in vertex-cache order; 0.54 before narrower property tables and the buildings of rough blocks
+  // re-outlined; 0.55 before interleaved vertex views; 0.69 in 15 requests
   // before the top of the tree was condensed and levels that remove little were left out, --level-ratio 0.8). (Before rough blocks were drawn as their buildings in their level-1
   // tile (hlod::DEMOTE_ERROR_RATIO), one block of a 10 m and a 57 m building set a whole level-1 tile's error to 47 m
   // and the far view refined it to the leaves: ratio 1.17, before that 1.36, 1.77 and 2.03.)
@@ -281,7 +281,7 @@ describe('NYC Lower East Side, LOD in the browser', () => {
     });
     assert.ok(same.length >= 10, `only ${same.length} pixels where both clients picked the same block`);
     for (const [key, f] of same) {
-      // undefined (CesiumJS) and null (3d-tiles-renderer, noData) both mean missing; JSON drops both alike.
+      // A missing value (noData) may come back undefined or null; JSON drops both alike.
       const plain = (props) => JSON.parse(JSON.stringify(props, (k, v) => (v === null ? undefined : v)));
       assert.deepEqual(plain(b.get(key).properties), plain(f.properties), `${f.tile} feature ${f.featureId} at ${key}`);
     }
