@@ -299,13 +299,14 @@ pub fn cluster_feature(row: ClusterRow<'_>, mesh: Mesh3d) -> ContentFeature {
 
 /// A landmark of the block at (`level`, `node_index`): the building at full detail, as a `cluster`-class feature
 /// of one member with no height spread and no added area; its error is its prism's distance from the building's
-/// 3D model (0 without one).
+/// 3D model (0 without one). Its vertices may be rounded as far as the block's (`max_rounding_m`).
 pub fn landmark_feature(
     level: usize,
     node_index: u32,
     b: &Building,
     mesh: Mesh3d,
     geometric_error_m: f64,
+    max_rounding_m: f64,
 ) -> ContentFeature {
     let values = vec![
         PropValue::Int(level as i64),
@@ -329,7 +330,7 @@ pub fn landmark_feature(
         mesh,
         class: CLUSTER_CLASS,
         values,
-        max_rounding_m: 0.0,
+        max_rounding_m,
     }
 }
 

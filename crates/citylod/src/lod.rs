@@ -608,16 +608,14 @@ impl<'h> LodTree<'h> {
                 // Every vertex of the building, rounded like the block it stands on: a shift of under 1.4 % of
                 // the tile's error is sub-pixel where the tile is drawn, and the tile keeps one grid, so one mesh
                 // (NYC: 7 of 11 tiles had a second mesh for their landmarks; tileset 2 % smaller).
-                Some(ContentFeature {
-                    max_rounding_m: rounding_m,
-                    ..landmark_feature(
-                        level,
-                        n.0,
-                        &buildings[b.0 as usize],
-                        mesh,
-                        self.prism_error(b),
-                    )
-                })
+                Some(landmark_feature(
+                    level,
+                    n.0,
+                    &buildings[b.0 as usize],
+                    mesh,
+                    self.prism_error(b),
+                    rounding_m,
+                ))
             }));
             out
         };
