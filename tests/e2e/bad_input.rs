@@ -109,6 +109,10 @@ fn unreadable_inputs_exit_2_with_a_clear_message() {
         (vec![good.display().to_string(), "--crs".into(), "EPSG:999999".into()], "EPSG:999999"),
         (vec![write(&d, "empty.geojson", r#"{"type":"FeatureCollection","features":[]}"#).display().to_string()], "no building"),
         (vec![good.display().to_string(), "--storey-height=-1".into()], "--storey-height"),
+        (vec![good.display().to_string(), "--streets".into(), write(&d, "streets.geojson", r#"{"type":"FeatureCollection","features":["#).display().to_string()], "streets.geojson"),
+        (vec![good.display().to_string(), "--streets".into(), d.join("no-streets.geojson").display().to_string()], "no-streets.geojson"),
+        (vec![good.display().to_string(), "--streets".into(), good.display().to_string(), "--leaves-only".into()], "--leaves-only"),
+        (vec![good.display().to_string(), "--street-penalty=-5".into()], "--street-penalty"),
     ];
     for (inputs, expect) in cases {
         let out = d.join("out");

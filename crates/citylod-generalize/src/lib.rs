@@ -13,6 +13,7 @@
 //!   bridging any islands left so a cluster has one outline
 //! - `simplify`     — removing small or sliver concave triangles and near-collinear vertices (§3.2)
 //! - `stats`        — per-node height (Eq. 5), h_min, h_max, Δh, Δa
+//! - `streets`      — street centre lines as barriers: edges across a street join only above a level
 //! - `dump`         — GeoJSON and PNG pictures of every level
 //! - `hierarchy`    — the `generalize` entry point tying the stages together, and the landmark rule
 //!   (seed 001: members far taller than their block are drawn apart and left out of its Δh)
@@ -42,6 +43,7 @@ mod merge;
 mod simplify;
 mod single_link;
 mod stats;
+pub mod streets;
 
 pub use adjacent::{adjacent_distance, adjacent_distance_brute_force, Adjacency};
 pub use dump::{dump_levels, DumpError};
@@ -50,8 +52,8 @@ pub use graph::{
     GraphStats,
 };
 pub use hierarchy::{
-    cluster, generalize, landmarks_of, GeneralizeError, GeneralizeOptions, GeneralizeReport,
-    Generalized, LevelReport, PhaseTimings,
+    cluster, generalize, generalize_with_streets, landmarks_of, GeneralizeError, GeneralizeOptions,
+    GeneralizeReport, Generalized, LevelReport, PhaseTimings, StreetBarrierReport,
 };
 pub use levels::{condense, target_levels, LevelKind, LevelOptions, LevelPlan, PlannedLevel};
 pub use merge::{merge_footprints, MergeResult};

@@ -36,6 +36,7 @@ mod model3d;
 mod place;
 mod repair;
 mod report;
+mod streets;
 
 pub use crs::{CoordError, Crs, CrsError};
 pub use error::IngestError;
@@ -44,6 +45,7 @@ pub use lod::LodChoice;
 pub use place::FRAME_RULE;
 pub use repair::{check_footprint, MIN_AREA_M2};
 pub use report::{FeatureIssue, FileReport, IngestReport, InputFormat, IssueReason};
+pub use streets::{read_streets, Streets, StreetsReport};
 
 use citylod_model::{Building, BuildingId, LocalFrame};
 use feature::RawFeature;

@@ -125,6 +125,22 @@ pub struct BuildArgs {
     )]
     pub landmark_max_share: f64,
 
+    /// Street centre lines (GeoJSON LineString / MultiLineString, in --crs or the file's CRS, else lon/lat) as
+    /// barriers: the first levels do not join buildings on opposite sides of a street (seed 002; DESIGN.md §3.9).
+    /// The build report says up to which level, and lists every street feature not used, with its reason.
+    #[arg(long, value_name = "FILE", help_heading = "Generalization")]
+    pub streets: Option<PathBuf>,
+
+    /// With --streets: metres added to the distance of two buildings a street separates, so blocks join across
+    /// a street only after the gaps of up to this width within street blocks.
+    #[arg(
+        long,
+        value_name = "M",
+        default_value_t = 30.0,
+        help_heading = "Generalization"
+    )]
+    pub street_penalty: f64,
+
     /// No generalization: only the buildings, in leaf tiles (for comparisons; coarse views then load everything).
     #[arg(long, help_heading = "Generalization")]
     pub leaves_only: bool,
@@ -245,6 +261,9 @@ struct BuildReport<'a> {
     frame: &'a citylod_model::LocalFrame,
     counts: Counts,
     ingest: &'a citylod_ingest::IngestReport,
+    /// The street lines read with `--streets`: segments, length, every feature not used.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    streets: Option<citylod_ingest::StreetsReport>,
     mesh_skipped: Vec<FeatureIssue>,
     /// The generalization report without its timings (those go to `timings_ms`, so the rest is deterministic).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -326,6 +345,12 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
     if !(args.topo_qem_a >= 1.0 && args.topo_qem_a.is_finite()) {
         bail!("--topo-qem-a must be at least 1, got {}", args.topo_qem_a);
     }
+    if !(args.street_penalty.is_finite() && args.street_penalty >= 0.0) {
+        bail!(
+            "--street-penalty must be a non-negative number of metres, got {}",
+            args.street_penalty
+        );
+    }
     if !(args.level_ratio > 0.0 && args.level_ratio <= 1.0) {
         bail!("--level-ratio must be in (0, 1], got {}", args.level_ratio);
     }
@@ -362,6 +387,10 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
     }
 
     let mut generalized = None;
+    let mut streets_report = None;
+    if args.leaves_only && args.streets.is_some() {
+        bail!("--streets shapes the generalization, which --leaves-only leaves out");
+    }
     if !args.leaves_only {
         progress.stage("generalizing");
         let t = Instant::now();
@@ -373,9 +402,20 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
             landmark_min_excess_m: args.landmark_min_excess,
             landmark_max_share: args.landmark_max_share,
             error_kappa: args.dh_px / args.da_px.sqrt(),
+            street_penalty_m: args.street_penalty,
             ..Default::default()
         };
-        let g = citylod_generalize::generalize(&ingested.buildings, &opts)
+        let segments = match &args.streets {
+            Some(path) => {
+                let s = citylod_ingest::read_streets(path, args.crs.as_deref(), &ingested.frame)
+                    .context("reading the streets")?;
+                let segments = s.segments;
+                streets_report = Some(s.report);
+                segments
+            }
+            None => Vec::new(),
+        };
+        let g = citylod_generalize::generalize_with_streets(&ingested.buildings, &opts, &segments)
             .context("generalizing the footprints")?;
         timings.generalize = t.elapsed().as_millis() as u64;
         if let Some(dir) = &args.dump_levels {
@@ -474,7 +514,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
             "lambda_adjacent": args.lambda_adjacent, "depth_divisor": args.depth_divisor,
             "lambda_area": args.lambda_area, "collinear_angle_deg": args.collinear_angle,
             "landmark_min_excess_m": args.landmark_min_excess, "landmark_max_share": args.landmark_max_share,
-            "leaves_only": args.leaves_only, "dh_px": args.dh_px, "da_px": args.da_px,
+            "leaves_only": args.leaves_only, "streets": args.streets, "street_penalty_m": args.street_penalty, "dh_px": args.dh_px, "da_px": args.da_px,
             "compression": format!("{:?}", args.compression).to_lowercase(),
             "max_tileset_json_bytes": args.max_tileset_json_bytes,
         }),
@@ -486,6 +526,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
             skipped: r.skipped.len() + mesh_skipped.len(),
         },
         ingest: r,
+        streets: streets_report,
         mesh_skipped,
         generalize: generalize_report,
         lod: lod_summary,
@@ -514,6 +555,16 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         );
         for (reason, n) in &r.skipped_by_reason {
             eprintln!("  skipped {n:>6} × {reason}");
+        }
+        if let Some(s) = &report.streets {
+            let barrier = generalized.as_ref().and_then(|g| g.report.streets.as_ref());
+            eprintln!(
+                "  streets: {} of {} features used ({:.1} km); no block joins across a street up to level {}",
+                s.features_used,
+                s.features_read,
+                s.length_m / 1e3,
+                barrier.map_or(0, |b| b.barrier_level)
+            );
         }
         eprintln!("  tileset: {}", args.out.join("tileset.json").display());
         eprintln!(

@@ -7,6 +7,8 @@ mod features;
 mod inspect;
 mod lod;
 mod progress;
+#[cfg(test)]
+mod street_tests;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;

@@ -1,0 +1,292 @@
+//! Street centre lines (GeoJSON LineString / MultiLineString features) mapped into the buildings' local
+//! frame, for the generalization's street barriers (DESIGN.md §3.9, seed 002 §3.2.1: buildings on opposite
+//! sides of a street are not aggregated). Every feature is used or listed as skipped with its id and reason.
+
+use crate::crs::{CoordError, Crs};
+use crate::report::{FeatureIssue, IssueReason};
+use crate::IngestError;
+use citylod_model::LocalFrame;
+use serde::Serialize;
+use serde_json::Value;
+use std::path::Path;
+
+/// Street segments in the local frame (east, north metres) and what reading them did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Streets {
+    pub segments: Vec<[[f64; 2]; 2]>,
+    pub report: StreetsReport,
+}
+
+/// What was read from a street file.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StreetsReport {
+    pub file: String,
+    pub features_read: usize,
+    /// Features that gave at least one segment.
+    pub features_used: usize,
+    pub segments: usize,
+    /// Total length of the segments (m).
+    pub length_m: f64,
+    /// Features without a usable line: `features_read == features_used + skipped.len()`.
+    pub skipped: Vec<FeatureIssue>,
+}
+
+/// Reads the street lines of a GeoJSON file (a FeatureCollection, a Feature or a bare LineString /
+/// MultiLineString) and maps them into `frame`. Coordinates are in `crs` when given, else in the CRS the file
+/// declares (legacy `crs` member), else RFC 7946 lon/lat. Features without a line geometry, or with fewer than
+/// two distinct points, or with a coordinate that cannot be placed, are skipped and listed in the report.
+///
+/// Errors for the whole file: unreadable, not JSON, not GeoJSON, or an unknown CRS.
+pub fn read_streets(
+    path: &Path,
+    crs: Option<&str>,
+    frame: &LocalFrame,
+) -> Result<Streets, IngestError> {
+    let text = std::fs::read_to_string(path).map_err(|source| IngestError::Read {
+        path: path.into(),
+        source,
+    })?;
+    let doc: Value = serde_json::from_str(&text).map_err(|source| IngestError::Json {
+        path: path.into(),
+        line: source.line(),
+        source,
+    })?;
+    let declared = doc.pointer("/crs/properties/name").and_then(Value::as_str);
+    let (crs_name, origin) = match (crs, declared) {
+        (Some(c), _) => (Some(c), "--crs".to_string()),
+        (None, Some(d)) => (Some(d), path.display().to_string()),
+        (None, None) => (None, String::new()),
+    };
+    let crs = match crs_name {
+        Some(c) => Crs::parse(c).map_err(|e| IngestError::UnknownCrs {
+            origin,
+            crs: c.into(),
+            detail: e.0,
+        })?,
+        None => Crs::wgs84(),
+    };
+    let unknown = |detail: &str| IngestError::UnknownFormat {
+        path: path.into(),
+        detail: detail.into(),
+    };
+    let features: Vec<(String, Option<&Value>)> =
+        match doc.get("type").and_then(Value::as_str).unwrap_or("") {
+            "FeatureCollection" => doc
+                .get("features")
+                .and_then(Value::as_array)
+                .ok_or_else(|| unknown("a FeatureCollection without a \"features\" array"))?
+                .iter()
+                .enumerate()
+                .map(|(i, f)| (feature_id(f, i), f.get("geometry")))
+                .collect(),
+            "Feature" => vec![(feature_id(&doc, 0), doc.get("geometry"))],
+            "LineString" | "MultiLineString" => vec![("#0".into(), Some(&doc))],
+            "" => return Err(unknown("no top-level \"type\" member")),
+            other => {
+                return Err(unknown(&format!(
+                    "top-level type {other:?} is not a GeoJSON FeatureCollection, Feature or line"
+                )))
+            }
+        };
+    let file = path.display().to_string();
+    let mut out = Streets {
+        segments: Vec::new(),
+        report: StreetsReport {
+            file: file.clone(),
+            features_read: features.len(),
+            features_used: 0,
+            segments: 0,
+            length_m: 0.0,
+            skipped: Vec::new(),
+        },
+    };
+    for (id, geometry) in features {
+        match feature_segments(geometry, &crs, frame) {
+            Ok(segs) => {
+                out.report.features_used += 1;
+                out.report.length_m += segs
+                    .iter()
+                    .map(|[a, b]| (b[0] - a[0]).hypot(b[1] - a[1]))
+                    .sum::<f64>();
+                out.segments.extend(segs);
+            }
+            Err((reason, detail)) => out.report.skipped.push(FeatureIssue {
+                file: file.clone(),
+                feature_id: id,
+                reason,
+                detail,
+            }),
+        }
+    }
+    out.report.segments = out.segments.len();
+    Ok(out)
+}
+
+/// A feature's id: its GeoJSON `id`, else `#index` (0-based) with its `name` property when it has one.
+fn feature_id(f: &Value, index: usize) -> String {
+    match f.get("id") {
+        Some(Value::String(s)) => s.clone(),
+        Some(Value::Number(n)) => n.to_string(),
+        _ => match f.pointer("/properties/name").and_then(Value::as_str) {
+            Some(name) => format!("#{index} ({name})"),
+            None => format!("#{index}"),
+        },
+    }
+}
+
+type Skip = (IssueReason, String);
+
+/// The segments of one feature's line geometry in the local frame, consecutive repeated points dropped.
+fn feature_segments(
+    geometry: Option<&Value>,
+    crs: &Crs,
+    frame: &LocalFrame,
+) -> Result<Vec<[[f64; 2]; 2]>, Skip> {
+    let g = match geometry {
+        None | Some(Value::Null) => return Err((IssueReason::NoGeometry, "no geometry".into())),
+        Some(g) => g,
+    };
+    let kind = g.get("type").and_then(Value::as_str).unwrap_or("");
+    let coords = g.get("coordinates");
+    let lines: Vec<&Value> = match kind {
+        "LineString" => coords.into_iter().collect(),
+        "MultiLineString" => coords
+            .and_then(Value::as_array)
+            .ok_or((
+                IssueReason::MalformedGeometry,
+                "MultiLineString coordinates are not an array".to_string(),
+            ))?
+            .iter()
+            .collect(),
+        other => {
+            return Err((
+                IssueReason::UnsupportedGeometry,
+                format!("a street must be a LineString or MultiLineString, not {other:?}"),
+            ))
+        }
+    };
+    let mut segments = Vec::new();
+    for line in lines {
+        let pts = line.as_array().ok_or((
+            IssueReason::MalformedGeometry,
+            "line coordinates are not an array".to_string(),
+        ))?;
+        let mut placed: Vec<[f64; 2]> = Vec::with_capacity(pts.len());
+        for p in pts {
+            let xy = p
+                .as_array()
+                .filter(|a| a.len() >= 2)
+                .and_then(|a| Some((a[0].as_f64()?, a[1].as_f64()?)))
+                .ok_or((
+                    IssueReason::MalformedGeometry,
+                    format!("position {p} is not [x, y]"),
+                ))?;
+            let at = || format!("position ({}, {})", xy.0, xy.1);
+            let (lon, lat) = crs.to_lon_lat(xy.0, xy.1).map_err(|e| match e {
+                CoordError::NonFinite => (IssueReason::NonFiniteCoordinate, at()),
+                CoordError::OutOfRange => (IssueReason::CoordinateOutOfRange, at()),
+                CoordError::TransformFailed => (IssueReason::TransformFailed, at()),
+            })?;
+            if !(lon.abs() <= 180.0 && lat.abs() <= 90.0) {
+                return Err((IssueReason::CoordinateOutOfRange, at()));
+            }
+            let e = frame.geodetic_to_enu(lon, lat, frame.origin_h_m);
+            if placed.last() != Some(&[e[0], e[1]]) {
+                placed.push([e[0], e[1]]);
+            }
+        }
+        segments.extend(placed.windows(2).map(|w| [w[0], w[1]]));
+    }
+    if segments.is_empty() {
+        return Err((
+            IssueReason::TooFewPoints,
+            "no line with two distinct points".into(),
+        ));
+    }
+    Ok(segments)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write(name: &str, text: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("citylod-streets-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    #[test]
+    fn lines_are_placed_and_every_other_feature_is_listed() {
+        let p = write(
+            "mixed.geojson",
+            r#"{"type": "FeatureCollection", "features": [
+              {"type": "Feature", "id": "a", "geometry": {"type": "LineString", "coordinates": [[4.0, 52.0], [4.001, 52.0], [4.001, 52.0]]}},
+              {"type": "Feature", "properties": {"name": "Main St"}, "geometry": {"type": "MultiLineString", "coordinates": [[[4.0, 52.0], [4.0, 52.001]], [[4.0, 52.0]]]}},
+              {"type": "Feature", "id": 7, "geometry": {"type": "Point", "coordinates": [4.0, 52.0]}},
+              {"type": "Feature", "id": "n", "geometry": null},
+              {"type": "Feature", "id": "one", "geometry": {"type": "LineString", "coordinates": [[4.0, 52.0], [4.0, 52.0]]}},
+              {"type": "Feature", "id": "bad", "geometry": {"type": "LineString", "coordinates": [[4.0, 52.0], [4.0, 95.0]]}}
+            ]}"#,
+        );
+        let frame = LocalFrame::new(4.0, 52.0, 0.0);
+        let s = read_streets(&p, None, &frame).unwrap();
+        let r = &s.report;
+        assert_eq!((r.features_read, r.features_used, r.segments), (6, 2, 2));
+        assert_eq!(r.features_read, r.features_used + r.skipped.len());
+        let skipped: Vec<(&str, IssueReason)> = r
+            .skipped
+            .iter()
+            .map(|i| (i.feature_id.as_str(), i.reason))
+            .collect();
+        assert_eq!(
+            skipped,
+            [
+                ("7", IssueReason::UnsupportedGeometry),
+                ("n", IssueReason::NoGeometry),
+                ("one", IssueReason::TooFewPoints),
+                ("bad", IssueReason::CoordinateOutOfRange),
+            ]
+        );
+        // 0.001° of longitude at 52° N is about 68.6 m east; 0.001° of latitude about 111.3 m north.
+        let [a, b] = s.segments[0];
+        assert!(a[0].abs() < 1e-6 && a[1].abs() < 1e-6, "{a:?}");
+        assert!((b[0] - 68.6).abs() < 0.2 && b[1].abs() < 0.1, "{b:?}");
+        let [c, d] = s.segments[1];
+        assert!(
+            c[0].abs() < 1e-6 && (d[1] - 111.3).abs() < 0.2,
+            "{c:?} {d:?}"
+        );
+        assert!((r.length_m - (68.6 + 111.3)).abs() < 0.5, "{}", r.length_m);
+    }
+
+    #[test]
+    fn broken_files_are_errors_naming_the_file() {
+        let frame = LocalFrame::new(0.0, 0.0, 0.0);
+        let p = write(
+            "broken.geojson",
+            r#"{"type": "FeatureCollection", "features": ["#,
+        );
+        assert!(matches!(
+            read_streets(&p, None, &frame),
+            Err(IngestError::Json { .. })
+        ));
+        let p = write("polygon.geojson", r#"{"type": "Topology"}"#);
+        let e = read_streets(&p, None, &frame).unwrap_err();
+        assert!(e.to_string().contains("polygon.geojson"), "{e}");
+        let p = write(
+            "crs.geojson",
+            r#"{"type": "FeatureCollection", "features": []}"#,
+        );
+        assert!(matches!(
+            read_streets(&p, Some("EPSG:999999"), &frame),
+            Err(IngestError::UnknownCrs { .. })
+        ));
+        assert!(matches!(
+            read_streets(Path::new("/nonexistent/streets.geojson"), None, &frame),
+            Err(IngestError::Read { .. })
+        ));
+    }
+}
