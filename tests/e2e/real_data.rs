@@ -474,6 +474,29 @@ fn demoted_buildings_reoutlined(name: &str, ts: &TilesetData) -> (usize, usize) 
 }
 
 #[test]
+fn nyc_les_with_streets_is_valid_complete_and_reports_its_barriers() {
+    let dir = repo_root().join("examples/nyc-les");
+    let (buildings, roads) = (
+        dir.join("les_buildings.geojson"),
+        dir.join("les_roads.geojson"),
+    );
+    let (report, ts) = build_and_check(
+        "nyc-les-streets",
+        &[&buildings],
+        &["--streets", roads.to_str().unwrap()],
+    );
+    let s = &report["streets"];
+    assert_eq!(s["features_read"], 432, "{s}");
+    assert_eq!(s["features_used"], 432, "{s}");
+    assert!(s["length_m"].as_f64().unwrap() > 30_000.0, "{s}");
+    let g = &report["generalize"]["streets"];
+    assert!(g["barrier_level"].as_u64().unwrap() >= 2, "{g}");
+    assert!(g["merges_across"].as_u64().unwrap() > 0, "{g}");
+    top_is_condensed("nyc-les-streets", &report, &ts);
+    blocks_stay_within_their_tile_error("nyc-les-streets", &report, &ts);
+}
+
+#[test]
 fn boston_tileset_is_valid_complete_and_in_place() {
     let Some(input) = shared_data("boston/boston_buildings.geojson") else {
         return;
