@@ -117,7 +117,8 @@ pub struct LevelReport {
     /// `None` for the buildings.
     pub kind: Option<LevelKind>,
     pub nodes: usize,
-    /// Every single-link merge with d ≤ threshold_m is applied (m).
+    /// Every single-link merge with d ≤ threshold_m is applied (m); with streets, a merge across a street
+    /// counts its distance plus [`GeneralizeOptions::street_penalty_m`].
     pub threshold_m: f64,
     pub max_children: usize,
     pub tie_splits: usize,
@@ -178,7 +179,7 @@ pub struct StreetBarrierReport {
     /// Candidate edges whose shortest segment between the two footprints crosses a street.
     pub crossing_edges: usize,
     /// The highest level (1 = the first above the buildings) with no merge across a street; 0 when the first
-    /// level already joins across one (its node count would otherwise not halve).
+    /// level already joins across one (a street block with gaps wider than the penalty).
     pub barrier_level: usize,
     /// Single-link merges that join buildings across a street (applied above the barrier level).
     pub merges_across: usize,
