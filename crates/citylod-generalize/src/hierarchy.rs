@@ -3,8 +3,9 @@
 //! Local ENU metres throughout. Invariant: every level partitions all buildings (level 0 = one node per
 //! building, last level = one node); the result is the same for the same input and options.
 
-use crate::graph::CandidateEdge;
-use crate::graph::{auto_reach_m, bbox, candidate_pairs, refine_pairs, weigh_pairs, GraphStats};
+use crate::graph::{
+    auto_reach_m, bbox, candidate_pairs, refine_pairs, weigh_pairs, CandidateEdge, GraphStats,
+};
 use crate::levels::{condense, LevelKind, LevelOptions};
 use crate::merge::connect_islands;
 use crate::single_link::{single_link, Merge};

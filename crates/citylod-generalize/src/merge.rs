@@ -832,7 +832,8 @@ pub(crate) fn segments_intersect(a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64;
         || (o4 == C && on_segment(c, d, b))
 }
 
-pub(crate) fn point_segment_dist2(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+/// The point of segment a–b nearest to `p`.
+pub(crate) fn closest_on_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
     let d = [b[0] - a[0], b[1] - a[1]];
     let len2 = d[0] * d[0] + d[1] * d[1];
     let t = if len2 > 0.0 {
@@ -840,7 +841,12 @@ pub(crate) fn point_segment_dist2(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 
     } else {
         0.0
     };
-    let q = [a[0] + t * d[0] - p[0], a[1] + t * d[1] - p[1]];
+    [a[0] + t * d[0], a[1] + t * d[1]]
+}
+
+pub(crate) fn point_segment_dist2(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let c = closest_on_segment(p, a, b);
+    let q = [c[0] - p[0], c[1] - p[1]];
     q[0] * q[0] + q[1] * q[1]
 }
 

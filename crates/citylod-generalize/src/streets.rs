@@ -8,6 +8,7 @@
 //! (Boston: levels at 186–451 m thresholds, tile errors up to 1 km, 14.4 instead of 12.1 MB).
 
 use crate::graph::CandidateEdge;
+use crate::merge::{closest_on_segment, segments_intersect};
 use citylod_model::Footprint;
 use rayon::prelude::*;
 use rstar::{RTree, RTreeObject, AABB};
@@ -88,34 +89,6 @@ pub fn raise_crossing(
     out
 }
 
-fn segments_intersect(p1: [f64; 2], p2: [f64; 2], q1: [f64; 2], q2: [f64; 2]) -> bool {
-    let orient = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
-        let v = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
-        if v > 0.0 {
-            1
-        } else if v < 0.0 {
-            -1
-        } else {
-            0
-        }
-    };
-    let on = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
-        c[0] >= a[0].min(b[0])
-            && c[0] <= a[0].max(b[0])
-            && c[1] >= a[1].min(b[1])
-            && c[1] <= a[1].max(b[1])
-    };
-    let (d1, d2) = (orient(q1, q2, p1), orient(q1, q2, p2));
-    let (d3, d4) = (orient(p1, p2, q1), orient(p1, p2, q2));
-    if d1 * d2 < 0 && d3 * d4 < 0 {
-        return true;
-    }
-    (d1 == 0 && on(q1, q2, p1))
-        || (d2 == 0 && on(q1, q2, p2))
-        || (d3 == 0 && on(p1, p2, q1))
-        || (d4 == 0 && on(p1, p2, q2))
-}
-
 /// The closest points of two footprints' boundaries (a point of `a`, a point of `b`), by brute force over
 /// vertex–segment pairs both ways; `None` when one has no segment.
 pub(crate) fn closest_points(a: &Footprint, b: &Footprint) -> Option<([f64; 2], [f64; 2])> {
@@ -135,29 +108,16 @@ pub(crate) fn closest_points(a: &Footprint, b: &Footprint) -> Option<([f64; 2], 
             best = Some((d2, p, q));
         }
     };
+    let dist2 = |p: [f64; 2], q: [f64; 2]| (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2);
     for s in &sa {
         for t in &sb {
-            let (q, d2) = nearest_on(t, s[0]);
-            consider(d2, s[0], q);
-            let (p, d2) = nearest_on(s, t[0]);
-            consider(d2, p, t[0]);
+            let q = closest_on_segment(s[0], t[0], t[1]);
+            consider(dist2(s[0], q), s[0], q);
+            let p = closest_on_segment(t[0], s[0], s[1]);
+            consider(dist2(p, t[0]), p, t[0]);
         }
     }
     best.map(|(_, p, q)| (p, q))
-}
-
-/// The point of segment `s` nearest to `p`, and its squared distance.
-fn nearest_on(s: &[[f64; 2]; 2], p: [f64; 2]) -> ([f64; 2], f64) {
-    let (a, b) = (s[0], s[1]);
-    let ab = [b[0] - a[0], b[1] - a[1]];
-    let len2 = ab[0] * ab[0] + ab[1] * ab[1];
-    let t = if len2 > 0.0 {
-        (((p[0] - a[0]) * ab[0] + (p[1] - a[1]) * ab[1]) / len2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let c = [a[0] + t * ab[0], a[1] + t * ab[1]];
-    (c, (c[0] - p[0]).powi(2) + (c[1] - p[1]).powi(2))
 }
 
 #[cfg(test)]
