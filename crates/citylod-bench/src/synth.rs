@@ -79,6 +79,43 @@ pub fn city(n: usize, seed: u64) -> Vec<Building> {
     out
 }
 
+/// Where the generated city is put when written as GeoJSON: UTM zone 18N (EPSG:32618), metres, around lower
+/// Manhattan, so `citylod build --crs EPSG:32618` reads it like any projected city.
+pub const UTM_CRS: &str = "EPSG:32618";
+const UTM_ORIGIN: (f64, f64) = (580_000.0, 4_500_000.0);
+
+/// Writes `buildings` (from [`city`]) as a GeoJSON FeatureCollection in [`UTM_CRS`]: one Polygon per building,
+/// properties `id` and `height` (m), coordinates at 1 cm. Streams to `out`; the caller buffers.
+pub fn write_geojson(buildings: &[Building], out: &mut impl std::io::Write) -> std::io::Result<()> {
+    out.write_all(b"{\"type\":\"FeatureCollection\",\"features\":[\n")?;
+    for (i, b) in buildings.iter().enumerate() {
+        if i > 0 {
+            out.write_all(b",\n")?;
+        }
+        write!(
+            out,
+            "{{\"type\":\"Feature\",\"properties\":{{\"id\":\"{}\",\"height\":{:.2}}},\"geometry\":{{\"type\":\"Polygon\",\"coordinates\":[",
+            b.source_id, b.height_m
+        )?;
+        let poly = &b.footprint.0[0];
+        for (r, ring) in std::iter::once(poly.exterior())
+            .chain(poly.interiors())
+            .enumerate()
+        {
+            out.write_all(if r > 0 { b",[" } else { b"[" })?;
+            for (k, c) in ring.0.iter().enumerate() {
+                if k > 0 {
+                    out.write_all(b",")?;
+                }
+                write!(out, "[{:.2},{:.2}]", c.x + UTM_ORIGIN.0, c.y + UTM_ORIGIN.1)?;
+            }
+            out.write_all(b"]")?;
+        }
+        out.write_all(b"]}}")?;
+    }
+    out.write_all(b"\n]}\n")
+}
+
 /// Row houses along the four edges of a `w × h` block with its origin at (0, 0); closed CCW rings.
 fn block(rng: &mut Rng, w: f64, h: f64) -> Vec<Vec<(f64, f64)>> {
     let mut out = Vec::new();

@@ -62,6 +62,11 @@ pub fn extrude(footprint: &Footprint, base_z_m: f64, top_z_m: f64) -> Result<Mes
         }
         // Triangulate first so a failing polygon leaves no walls behind.
         let roof = roof_triangles(&rings).ok_or(MeshError::Triangulation { polygon: pi })?;
+        // Exactly what this polygon adds, so a city's meshes carry no spare capacity (a growing Vec keeps up to
+        // half its allocation unused; ~0.4 GB for a million buildings).
+        let corners: usize = rings.iter().map(Vec::len).sum();
+        mesh.positions.reserve_exact(4 * corners + roof.0.len());
+        mesh.triangles.reserve_exact(2 * corners + roof.1.len());
         for ring in &rings {
             push_walls(&mut mesh, ring, base_z_m, top_z_m);
         }

@@ -103,7 +103,7 @@ pub(crate) fn enu_to_yup(p: [f64; 3]) -> [f64; 3] {
 }
 
 /// Axis-aligned bounds (min, max) of points, `None` when there are none.
-pub(crate) fn bounds(points: impl Iterator<Item = [f64; 3]>) -> Option<([f64; 3], [f64; 3])> {
+pub fn bounds(points: impl Iterator<Item = [f64; 3]>) -> Option<([f64; 3], [f64; 3])> {
     points.fold(None, |acc, p| {
         let (lo, hi) = acc.unwrap_or((p, p));
         Some((

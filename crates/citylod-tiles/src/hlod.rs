@@ -5,7 +5,7 @@
 //! Invariant (`check_packing`): at every level each node is in exactly one tile, and the nodes of a tile's
 //! children are exactly the children of its nodes.
 
-use crate::spec::{ContentFeature, TileSpec};
+use crate::spec::TileSpec;
 use citylod_model::{Footprint, Hierarchy, NodeId};
 
 /// Most features and triangles one tile may hold. A single node larger than the budget gets a tile of its own.
@@ -401,21 +401,22 @@ pub fn tile_errors(p: &Packing, node_error: &dyn Fn(usize, NodeId) -> f64) -> Ve
     err
 }
 
-/// What [`assemble`] puts into tiles: the features `nodes(tile_level, level, node)` of a node of `level` drawn in a
-/// tile of `tile_level` (≥ `level`; greater for a demoted node's descendants; a node may give several features: its
-/// block and its landmarks), and the tiles `below_buildings(nodes)` to hang under a tile of level-0 nodes (the
-/// finer versions of those buildings, e.g. their 3D models; none for footprint input).
-pub struct TileContent<'a> {
-    pub nodes: &'a (dyn Fn(usize, usize, NodeId) -> Vec<ContentFeature> + Sync),
-    pub below_buildings: &'a (dyn Fn(&[NodeId]) -> Vec<TileSpec> + Sync),
+/// What [`assemble`] puts into tiles: `tile(i)` is what packing tile `i` holds — the features of the nodes it
+/// draws (`Packing::tiles[i].drawn`: its own nodes, or a rough one's descendants drawn in its stead; a node may give
+/// several features, its block and its landmarks), or a description of them the writer turns into features later
+/// ([`crate::write_tileset_with`]) — and `below_buildings(nodes)` the tiles to hang under a tile of level-0 nodes
+/// (the finer versions of those buildings, e.g. their 3D models; none for footprint input).
+pub struct TileContent<'a, C> {
+    pub tile: &'a (dyn Fn(usize) -> C + Sync),
+    pub below_buildings: &'a (dyn Fn(&[NodeId]) -> Vec<TileSpec<C>> + Sync),
 }
 
-/// The writer's tile tree for a packing: each tile gets the features of what it draws and the geometric error
+/// The writer's tile tree for a packing: each tile gets `content.tile` of its packing index and the geometric error
 /// `errors[tile]`; level-0 tiles get `below_buildings` as children.
-pub fn assemble(p: &Packing, errors: &[f64], content: &TileContent) -> TileSpec {
-    fn rec(p: &Packing, i: usize, errors: &[f64], content: &TileContent) -> TileSpec {
+pub fn assemble<C: Default>(p: &Packing, errors: &[f64], content: &TileContent<C>) -> TileSpec<C> {
+    fn rec<C>(p: &Packing, i: usize, errors: &[f64], content: &TileContent<C>) -> TileSpec<C> {
         let t = &p.tiles[i];
-        let mut children: Vec<TileSpec> = t
+        let mut children: Vec<TileSpec<C>> = t
             .children
             .iter()
             .map(|&c| rec(p, c, errors, content))
@@ -424,11 +425,7 @@ pub fn assemble(p: &Packing, errors: &[f64], content: &TileContent) -> TileSpec 
             children.extend((content.below_buildings)(&t.nodes));
         }
         TileSpec {
-            features: t
-                .drawn
-                .iter()
-                .flat_map(|&(level, n)| (content.nodes)(t.level, level, n))
-                .collect(),
+            features: (content.tile)(i),
             children,
             geometric_error_m: errors[i],
         }
@@ -750,21 +747,23 @@ mod tests {
         ];
         assert_eq!(t.drawn, want);
         assert_eq!(e[l1[0]], 5.0, "the tile's error is the calm blocks'");
-        // What the tile holds: the two buildings, asked for as level-0 nodes drawn in a level-1 tile.
-        let seen = std::sync::Mutex::new(Vec::new());
-        let nodes = |tile_level: usize, level: usize, n: NodeId| {
-            seen.lock().unwrap().push((tile_level, level, n.0));
-            Vec::new()
-        };
-        assemble(
+        // What the tile holds: the two buildings, as level-0 nodes drawn in a level-1 tile.
+        let spec = assemble(
             &p,
             &e,
             &TileContent {
-                nodes: &nodes,
+                tile: &|i| i,
                 below_buildings: &|_| Vec::new(),
             },
         );
-        let seen = seen.into_inner().unwrap();
+        fn drawn(p: &Packing, t: &TileSpec<usize>, seen: &mut Vec<(usize, usize, u32)>) {
+            let tile = &p.tiles[t.features];
+            seen.extend(tile.drawn.iter().map(|&(l, n)| (tile.level, l, n.0)));
+            t.children.iter().for_each(|c| drawn(p, c, seen));
+        }
+        let mut seen = Vec::new();
+        drawn(&p, &spec, &mut seen);
+        assert_eq!(spec.count_tiles(), p.tiles.len());
         assert!(
             seen.contains(&(1, 0, 0)) && seen.contains(&(1, 0, 1)),
             "{seen:?}"

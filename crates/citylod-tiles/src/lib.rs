@@ -43,11 +43,12 @@ pub mod tileset_json;
 mod tiling;
 mod write;
 
+pub use content::bounds as point_bounds;
 pub use error::TilesError;
 pub use metadata::{schema_to_json, FeatureRow};
 pub use spec::{
     ClassDef, ContentFeature, MetadataSchema, PropValue, PropertyDef, PropertyKind, TileSpec,
 };
 pub use staging::Staging;
-pub use tiling::tile_spatially;
-pub use write::{write_tileset, Compression, WriteOptions, WriteStats};
+pub use tiling::{tile_spatially, tile_spatially_by};
+pub use write::{write_tileset, write_tileset_with, Compression, WriteOptions, WriteStats};

@@ -91,14 +91,18 @@ pub struct ContentFeature {
 
 /// A tile: the features drawn when it is selected, its children (which REPLACE it when refined),
 /// and its geometric error (m). A tile without features has no content.
+///
+/// `C` is what the tile holds: its features (the default), or — for a city too big to hold every tile's meshes at
+/// once — a description the caller turns into features when the writer encodes that tile
+/// ([`crate::write_tileset_with`]).
 #[derive(Debug, Clone, Default, PartialEq)]
-pub struct TileSpec {
-    pub features: Vec<ContentFeature>,
-    pub children: Vec<TileSpec>,
+pub struct TileSpec<C = Vec<ContentFeature>> {
+    pub features: C,
+    pub children: Vec<TileSpec<C>>,
     pub geometric_error_m: f64,
 }
 
-impl TileSpec {
+impl<C> TileSpec<C> {
     /// Number of tiles in this subtree, this one included.
     pub fn count_tiles(&self) -> usize {
         1 + self

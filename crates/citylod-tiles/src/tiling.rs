@@ -1,6 +1,7 @@
 //! Leaf tiling for full-detail content: a k-d split of features by centroid (x, then y, alternating;
-//! split at the median) until each leaf holds ≤ max features and ≤ max triangles. Inner tiles have
-//! no content yet. Deterministic: the same features in the same order give the same tree.
+//! split at the median, equal centroids in input order) until each leaf holds ≤ max features and ≤ max
+//! triangles; a leaf keeps its features in input order. Inner tiles have no content yet. Deterministic: the same
+//! features in the same order give the same tree.
 
 use crate::content::bounds;
 use crate::spec::{ContentFeature, TileSpec};
@@ -20,28 +21,71 @@ pub fn tile_spatially(
     max_features: usize,
     max_triangles: usize,
 ) -> TileSpec {
-    let mut keyed: Vec<([f64; 2], ContentFeature)> =
-        features.into_iter().map(|f| (centroid(&f), f)).collect();
+    tile_spatially_by(
+        features,
+        |f| {
+            (
+                bounds(f.mesh.positions.iter().copied()),
+                f.mesh.triangles.len(),
+            )
+        },
+        max_features,
+        max_triangles,
+    )
+}
+
+/// [`tile_spatially`] for items that stand for features (e.g. building ids whose meshes are made when the tile is
+/// written): `measure(item)` gives the bounds of the item's mesh (`None` without vertices) and its triangle count.
+/// Same tree as [`tile_spatially`] on the features themselves.
+pub fn tile_spatially_by<T>(
+    items: Vec<T>,
+    measure: impl Fn(&T) -> (Option<Bounds>, usize),
+    max_features: usize,
+    max_triangles: usize,
+) -> TileSpec<Vec<T>> {
+    let mut keyed: Vec<Keyed<T>> = items
+        .into_iter()
+        .enumerate()
+        .map(|(index, item)| {
+            let (b, triangles) = measure(&item);
+            let centroid = match b {
+                Some((lo, hi)) => [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0],
+                None => [0.0, 0.0],
+            };
+            Keyed {
+                index,
+                centroid,
+                bounds: b,
+                triangles,
+                item,
+            }
+        })
+        .collect();
     split(&mut keyed, 0, max_features.max(1), max_triangles)
 }
 
-fn centroid(f: &ContentFeature) -> [f64; 2] {
-    match bounds(f.mesh.positions.iter().copied()) {
-        Some((lo, hi)) => [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0],
-        None => [0.0, 0.0],
-    }
+type Bounds = ([f64; 3], [f64; 3]);
+
+struct Keyed<T> {
+    /// Position in the input: breaks ties between equal centroids and orders a leaf's features.
+    index: usize,
+    centroid: [f64; 2],
+    bounds: Option<Bounds>,
+    triangles: usize,
+    item: T,
 }
 
-fn split(
-    items: &mut Vec<([f64; 2], ContentFeature)>,
+fn split<T>(
+    items: &mut Vec<Keyed<T>>,
     depth: usize,
     max_features: usize,
     max_triangles: usize,
-) -> TileSpec {
-    let tris: usize = items.iter().map(|(_, f)| f.mesh.triangles.len()).sum();
+) -> TileSpec<Vec<T>> {
+    let tris: usize = items.iter().map(|k| k.triangles).sum();
     if items.len() <= 1 || (items.len() <= max_features && tris <= max_triangles) {
+        items.sort_unstable_by_key(|k| k.index);
         return TileSpec {
-            features: items.drain(..).map(|(_, f)| f).collect(),
+            features: items.drain(..).map(|k| k.item).collect(),
             children: Vec::new(),
             geometric_error_m: 0.0,
         };
@@ -49,14 +93,20 @@ fn split(
     let diagonal = bounds(
         items
             .iter()
-            .flat_map(|(_, f)| f.mesh.positions.iter().copied()),
+            .filter_map(|k| k.bounds)
+            .flat_map(|(lo, hi)| [lo, hi]),
     )
     .map_or(0.0, |(lo, hi)| {
         (0..3).map(|i| (hi[i] - lo[i]).powi(2)).sum::<f64>().sqrt()
     });
     let axis = depth % 2;
     let mid = items.len() / 2;
-    items.select_nth_unstable_by(mid, |a, b| a.0[axis].total_cmp(&b.0[axis]));
+    // A total order (ties by input position), so the halves do not depend on how the selection moves items.
+    items.select_nth_unstable_by(mid, |a, b| {
+        a.centroid[axis]
+            .total_cmp(&b.centroid[axis])
+            .then(a.index.cmp(&b.index))
+    });
     let mut right = items.split_off(mid);
     let left = split(items, depth + 1, max_features, max_triangles);
     let right = split(&mut right, depth + 1, max_features, max_triangles);
@@ -116,6 +166,34 @@ mod tests {
         let mut sizes = Vec::new();
         leaves(&by_tris, &mut sizes);
         assert!(sizes.iter().all(|&n| n <= 7));
+    }
+
+    #[test]
+    fn tiling_items_that_stand_for_features_gives_the_same_tree() {
+        let feats: Vec<_> = (0..300)
+            .map(|i| cube_at((i * 37 % 101) as f64 * 10.0, (i / 10) as f64 * 7.0))
+            .collect();
+        let by_index = tile_spatially_by(
+            (0..feats.len()).collect(),
+            |&i| {
+                (
+                    bounds(feats[i].mesh.positions.iter().copied()),
+                    feats[i].mesh.triangles.len(),
+                )
+            },
+            13,
+            40,
+        );
+        fn resolve(t: TileSpec<Vec<usize>>, feats: &[ContentFeature]) -> TileSpec {
+            TileSpec {
+                features: t.features.iter().map(|&i| feats[i].clone()).collect(),
+                children: t.children.into_iter().map(|c| resolve(c, feats)).collect(),
+                geometric_error_m: t.geometric_error_m,
+            }
+        }
+        let direct = tile_spatially(feats.clone(), 13, 40);
+        assert!(direct.count_tiles() > 10);
+        assert_eq!(resolve(by_index, &feats), direct);
     }
 
     #[test]

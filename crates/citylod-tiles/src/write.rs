@@ -5,12 +5,13 @@
 
 use crate::content::{bounds, encode_content, ContentOptions};
 use crate::external::split_external;
-use crate::spec::{MetadataSchema, TileSpec};
+use crate::spec::{ContentFeature, MetadataSchema, TileSpec};
 use crate::staging::Staging;
 use crate::tileset_json as tj;
 use crate::TilesError;
 use citylod_model::LocalFrame;
 use rayon::prelude::*;
+use std::borrow::Cow;
 
 /// How vertex and index data are stored in the glb.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -106,6 +107,25 @@ pub fn write_tileset(
     schema: &MetadataSchema,
     opts: &WriteOptions,
 ) -> Result<WriteStats, TilesError> {
+    write_tileset_with(out, root, frame, schema, opts, &|f: &Vec<
+        ContentFeature,
+    >| {
+        Cow::Borrowed(f.as_slice())
+    })
+}
+
+/// [`write_tileset`] for a tree whose tiles describe their content (`C`) instead of holding it: `content` makes a
+/// tile's features when the writer encodes that tile, and they are dropped once its glb is written, so only the
+/// features of the tiles being encoded (one per thread) are in memory at once, not every mesh of the city twice.
+/// The output is the same as [`write_tileset`]'s for a tree holding what `content` makes.
+pub fn write_tileset_with<C: Sync>(
+    out: &Staging,
+    root: &TileSpec<C>,
+    frame: &LocalFrame,
+    schema: &MetadataSchema,
+    opts: &WriteOptions,
+    content: &(dyn for<'a> Fn(&'a C) -> Cow<'a, [ContentFeature]> + Sync),
+) -> Result<WriteStats, TilesError> {
     schema.validate()?;
     if !(opts.quantization_step_m > 0.0 && opts.quantization_step_m.is_finite()) {
         return Err(TilesError::Tile {
@@ -116,7 +136,7 @@ pub fn write_tileset(
             ),
         });
     }
-    let mut flat: Vec<(String, &TileSpec)> = Vec::with_capacity(root.count_tiles());
+    let mut flat: Vec<(String, &TileSpec<C>)> = Vec::with_capacity(root.count_tiles());
     flatten(root, "0".into(), &mut flat);
     for (path, t) in &flat {
         if !(t.geometric_error_m.is_finite() && t.geometric_error_m >= 0.0) {
@@ -138,8 +158,9 @@ pub fn write_tileset(
     let encoded: Vec<Result<TileOut, TilesError>> = flat
         .par_iter()
         .map(|(path, t)| {
-            let content = encode_content(path, &t.features, schema, &content_opts, &generator)?;
-            let Some(c) = content else {
+            let features = content(&t.features);
+            let encoded = encode_content(path, &features, schema, &content_opts, &generator)?;
+            let Some(c) = encoded else {
                 return Ok(TileOut {
                     bounds: None,
                     uri: None,
@@ -153,13 +174,13 @@ pub fn write_tileset(
                 glb_bytes: c.glb.len() as u64,
                 triangles: c.triangles,
                 vertices: c.vertices,
-                features: t.features.len() as u64,
+                features: features.len() as u64,
                 dropped_triangles: c.dropped_triangles,
                 ..Default::default()
             };
             // Exact input bounds and the drawn (dequantized) ones, so the box holds both.
             let exact = bounds(
-                t.features
+                features
                     .iter()
                     .flat_map(|f| f.mesh.positions.iter().copied()),
             );
@@ -234,7 +255,7 @@ struct TileOut {
     stats: WriteStats,
 }
 
-fn flatten<'a>(t: &'a TileSpec, path: String, out: &mut Vec<(String, &'a TileSpec)>) {
+fn flatten<'a, C>(t: &'a TileSpec<C>, path: String, out: &mut Vec<(String, &'a TileSpec<C>)>) {
     out.push((path.clone(), t));
     for (k, c) in t.children.iter().enumerate() {
         flatten(c, format!("{path}/{k}"), out);
@@ -246,7 +267,11 @@ fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
 }
 
 /// The JSON of a tile (pre-order index `*next` into `outs`) and the bounds of it and its subtree.
-fn build_tile(t: &TileSpec, outs: &[TileOut], next: &mut usize) -> (tj::Tile, Option<Bounds>) {
+fn build_tile<C>(
+    t: &TileSpec<C>,
+    outs: &[TileOut],
+    next: &mut usize,
+) -> (tj::Tile, Option<Bounds>) {
     let me = &outs[*next];
     *next += 1;
     let mut b = me.bounds;
@@ -920,28 +945,76 @@ mod tests {
         write(&dir.path().join("b"), &root, Compression::Meshopt).unwrap();
         write(&dir.path().join("a/draco"), &root, Compression::Draco).unwrap();
         write(&dir.path().join("b/draco"), &root, Compression::Draco).unwrap();
-        let files = |d: &Path| {
-            let mut v = Vec::new();
-            let mut stack = vec![d.to_path_buf()];
-            while let Some(p) = stack.pop() {
-                for e in std::fs::read_dir(&p).unwrap() {
-                    let e = e.unwrap().path();
-                    if e.is_dir() {
-                        stack.push(e);
-                    } else {
-                        v.push((
-                            e.strip_prefix(d).unwrap().to_path_buf(),
-                            std::fs::read(&e).unwrap(),
-                        ));
-                    }
-                }
-            }
-            v.sort();
-            v
-        };
-        let (a, b) = (files(&dir.path().join("a")), files(&dir.path().join("b")));
+        let (a, b) = (
+            files_in(&dir.path().join("a")),
+            files_in(&dir.path().join("b")),
+        );
         assert!(a.len() > 5);
         assert_eq!(a, b);
+    }
+
+    /// Every file under `d` (path relative to `d`, bytes), sorted by path.
+    fn files_in(d: &Path) -> Vec<(std::path::PathBuf, Vec<u8>)> {
+        let mut v = Vec::new();
+        let mut stack = vec![d.to_path_buf()];
+        while let Some(p) = stack.pop() {
+            for e in std::fs::read_dir(&p).unwrap() {
+                let e = e.unwrap().path();
+                if e.is_dir() {
+                    stack.push(e);
+                } else {
+                    v.push((
+                        e.strip_prefix(d).unwrap().to_path_buf(),
+                        std::fs::read(&e).unwrap(),
+                    ));
+                }
+            }
+        }
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn content_made_per_tile_gives_the_same_files_and_is_made_once_per_tile() {
+        // The tree with each tile's features replaced by an index into a list of them, made on demand.
+        fn index<'a>(t: &'a TileSpec, held: &mut Vec<&'a [ContentFeature]>) -> TileSpec<usize> {
+            held.push(&t.features);
+            TileSpec {
+                features: held.len() - 1,
+                children: t.children.iter().map(|c| index(c, held)).collect(),
+                geometric_error_m: t.geometric_error_m,
+            }
+        }
+        let root = city();
+        let mut held = Vec::new();
+        let lazy = index(&root, &mut held);
+        let made = std::sync::Mutex::new(vec![0usize; held.len()]);
+        let dir = tempfile::tempdir().unwrap();
+        for compression in [Compression::Meshopt, Compression::Draco] {
+            write(&dir.path().join("held"), &root, compression).unwrap();
+            let out = Staging::create(&dir.path().join("made")).unwrap();
+            let opts = WriteOptions {
+                compression,
+                ..Default::default()
+            };
+            let stats = write_tileset_with(&out, &lazy, &frame(), &schema(), &opts, &|i| {
+                made.lock().unwrap()[*i] += 1;
+                Cow::Owned(held[*i].to_vec())
+            })
+            .unwrap();
+            out.commit().unwrap();
+            let (a, b) = (
+                files_in(&dir.path().join("held")),
+                files_in(&dir.path().join("made")),
+            );
+            assert!(a.len() > 5, "{compression:?}");
+            assert_eq!(a, b, "{compression:?}");
+            assert_eq!(stats.tiles, held.len());
+        }
+        assert!(
+            made.into_inner().unwrap().iter().all(|&n| n == 2),
+            "each tile's content made once per write"
+        );
     }
 
     #[test]

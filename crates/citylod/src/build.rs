@@ -3,9 +3,10 @@
 use anyhow::{bail, Context, Result};
 use citylod_ingest::{ingest, IngestOptions};
 use citylod_ingest::{FeatureIssue, IssueReason};
-use citylod_tiles::{write_tileset, Compression, Staging, WriteOptions};
+use citylod_tiles::{write_tileset_with, Compression, Staging, WriteOptions};
 use clap::{Args, ValueEnum};
 use serde::Serialize;
+use std::borrow::Cow;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -463,7 +464,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         max_features: args.tile_max_features,
         max_triangles: args.tile_max_triangles,
     };
-    let (root, lod_summary) = lod.tiles(&ingested.buildings, budget, args.level_ratio);
+    let (plan, root, lod_summary) = lod.tiles(&ingested.buildings, budget, args.level_ratio);
     let write_opts = WriteOptions {
         compression: match args.compression {
             CompressionArg::Meshopt => Compression::Meshopt,
@@ -479,12 +480,14 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
     };
     let staging =
         Staging::create(&args.out).with_context(|| format!("preparing {}", args.out.display()))?;
-    let stats = write_tileset(
+    // Each tile's features are made as the writer reaches it and dropped once its glb is written.
+    let stats = write_tileset_with(
         &staging,
         &root,
         &ingested.frame,
         &crate::features::schema(&lod.building_table),
         &write_opts,
+        &|r| Cow::Owned(plan.features(r)),
     )
     .with_context(|| format!("writing the tileset to {}", args.out.display()))?;
     timings.tiles = t.elapsed().as_millis() as u64;

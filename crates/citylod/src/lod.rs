@@ -10,7 +10,7 @@ use crate::features::{cluster_feature, landmark_feature, BuildingTable, ClusterR
 use citylod_mesh::simplify::Simplifier;
 use citylod_model::{Building, BuildingId, Hierarchy, Mesh3d, Node, NodeId};
 use citylod_tiles::hlod::{assemble, pack, tile_errors, NodeCost, TileBudget, TileContent};
-use citylod_tiles::{tile_spatially, ContentFeature, TileSpec};
+use citylod_tiles::{point_bounds, tile_spatially_by, ContentFeature, TileSpec};
 use geo::Area;
 use rayon::prelude::*;
 use std::borrow::Cow;
@@ -74,8 +74,11 @@ pub struct ModelSummary {
 
 pub struct LodTree<'h> {
     pub building_table: BuildingTable,
-    /// Building prisms by building id; `None` for a building that could not be meshed.
-    buildings: Vec<Option<Mesh3d>>,
+    /// The buildings, whose prisms are extruded again whenever a tile draws them ([`LodTree::prism`]) rather than
+    /// kept: a million prisms would hold ~0.7 GB through the whole write.
+    footprints: &'h [Building],
+    /// Triangles of each building's prism by building id; `None` for a building that could not be meshed.
+    prism_triangles: Vec<Option<u32>>,
     pub failed_buildings: Vec<(BuildingId, String)>,
     hierarchy: Option<&'h Hierarchy>,
     /// Meshes of the nodes of levels 1.., indexed `[level - 1][node]`.
@@ -88,6 +91,14 @@ pub struct LodTree<'h> {
     models: Vec<Option<ModelChain>>,
     pub model_summary: Option<ModelSummary>,
 }
+
+/// A building's prism: its footprint extruded from its base to its top.
+fn prism_of(b: &Building) -> Result<Mesh3d, citylod_mesh::MeshError> {
+    citylod_mesh::extrude(&b.footprint, b.base_z_m, b.base_z_m + b.height_m)
+}
+
+/// Axis-aligned bounds (min, max) in local ENU metres.
+type Bounds = ([f64; 3], [f64; 3]);
 
 fn concat(meshes: impl Iterator<Item = Mesh3d>) -> Mesh3d {
     let mut out = Mesh3d::default();
@@ -102,21 +113,22 @@ fn concat(meshes: impl Iterator<Item = Mesh3d>) -> Mesh3d {
 
 impl<'h> LodTree<'h> {
     pub fn build(
-        buildings: &[Building],
+        buildings: &'h [Building],
         hierarchy: Option<&'h Hierarchy>,
         kappa: f64,
         collinear_angle_deg: f64,
         model_opts: &ModelOptions,
     ) -> Self {
-        let meshed: Vec<Result<Mesh3d, String>> = buildings
+        let meshed: Vec<Result<u32, String>> = buildings
             .par_iter()
             .map(|b| {
-                citylod_mesh::extrude(&b.footprint, b.base_z_m, b.base_z_m + b.height_m)
+                prism_of(b)
+                    .map(|m| m.triangles.len() as u32)
                     .map_err(|e| e.to_string())
             })
             .collect();
         let mut failed_buildings = Vec::new();
-        let building_meshes: Vec<Option<Mesh3d>> = meshed
+        let prism_triangles: Vec<Option<u32>> = meshed
             .into_iter()
             .enumerate()
             .map(|(i, m)| {
@@ -124,47 +136,49 @@ impl<'h> LodTree<'h> {
                     .ok()
             })
             .collect();
-        let nodes =
-            hierarchy
-                .map(|h| {
-                    h.levels
-                        .iter()
-                        .skip(1)
-                        .map(|level| {
-                            level
-                                .nodes
-                                .par_iter()
-                                .map(|n| {
-                                    match citylod_mesh::extrude(
-                                        &n.footprint,
-                                        n.base_z_m,
-                                        n.base_z_m + n.height_m,
-                                    ) {
-                                        Ok(mesh) => NodeMesh {
-                                            mesh,
-                                            fallback: false,
-                                        },
-                                        Err(_) => NodeMesh {
-                                            mesh: concat(n.members.iter().filter_map(|b| {
-                                                building_meshes[b.0 as usize].clone()
-                                            })),
-                                            fallback: true,
-                                        },
-                                    }
-                                })
-                                .collect()
-                        })
-                        .collect()
-                })
-                .unwrap_or_default();
+        let prism = |b: BuildingId| -> Option<Mesh3d> {
+            prism_triangles[b.0 as usize]?;
+            prism_of(&buildings[b.0 as usize]).ok()
+        };
+        let nodes = hierarchy
+            .map(|h| {
+                h.levels
+                    .iter()
+                    .skip(1)
+                    .map(|level| {
+                        level
+                            .nodes
+                            .par_iter()
+                            .map(|n| {
+                                match citylod_mesh::extrude(
+                                    &n.footprint,
+                                    n.base_z_m,
+                                    n.base_z_m + n.height_m,
+                                ) {
+                                    Ok(mesh) => NodeMesh {
+                                        mesh,
+                                        fallback: false,
+                                    },
+                                    Err(_) => NodeMesh {
+                                        mesh: concat(n.members.iter().filter_map(|&b| prism(b))),
+                                        fallback: true,
+                                    },
+                                }
+                            })
+                            .collect()
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
         let models: Vec<Option<ModelChain>> = buildings
             .par_iter()
-            .zip(building_meshes.par_iter())
-            .map(|(b, prism)| {
-                let (model, prism) = (b.mesh.as_ref()?, prism.as_ref()?);
+            .enumerate()
+            .map(|(i, b)| {
+                let model = b.mesh.as_ref()?;
                 if model.mesh.triangles.is_empty() {
                     return None;
                 }
+                let prism = &prism(BuildingId(i as u32))?;
                 let full = model.mesh.clone();
                 let s = citylod_mesh::simplify::simplify(
                     &full,
@@ -184,7 +198,8 @@ impl<'h> LodTree<'h> {
         let model_summary = summarize_models(buildings, &models, model_opts.rate);
         Self {
             building_table: BuildingTable::new(buildings),
-            buildings: building_meshes,
+            footprints: buildings,
+            prism_triangles,
             failed_buildings,
             hierarchy,
             nodes,
@@ -198,38 +213,31 @@ impl<'h> LodTree<'h> {
     /// The chain below a tile of buildings `ids`: a tile of their simplified models (prisms for buildings
     /// without a model) whose error is the largest simplified model's, holding a tile of the full models (error 0);
     /// just the full models' tile when the simplifier changed none of them. Empty when none of them has a model.
-    fn model_chain(&self, buildings: &[Building], ids: &[BuildingId]) -> Vec<TileSpec> {
+    fn model_chain(&self, ids: Vec<BuildingId>) -> Vec<TileSpec<TileRef>> {
         if !ids.iter().any(|b| self.models[b.0 as usize].is_some()) {
             return Vec::new();
         }
-        let version = |full: bool| -> Vec<ContentFeature> {
-            ids.iter()
-                .filter_map(|&b| {
-                    let mesh = match &self.models[b.0 as usize] {
-                        Some(m) if full => m.full.clone(),
-                        Some(m) => m.simplified.clone(),
-                        None => self.buildings[b.0 as usize].clone()?,
-                    };
-                    Some(self.building_table.feature(&buildings[b.0 as usize], mesh))
-                })
-                .collect()
-        };
         let simplified_error_m = ids
             .iter()
             .filter_map(|b| self.models[b.0 as usize].as_ref())
             .map(|m| m.simplified_error_m)
             .fold(0.0, f64::max);
+        let version = |ids: Vec<BuildingId>, full: bool| TileRef::Models { ids, full };
+        // Models the simplifier left as they were (error 0): no simplified tile, the prisms refine to the full models.
+        if simplified_error_m == 0.0 {
+            return vec![TileSpec {
+                features: version(ids, true),
+                children: vec![],
+                geometric_error_m: 0.0,
+            }];
+        }
         let full = TileSpec {
-            features: version(true),
+            features: version(ids.clone(), true),
             children: vec![],
             geometric_error_m: 0.0,
         };
-        // Models the simplifier left as they were (error 0): no simplified tile, the prisms refine to the full models.
-        if simplified_error_m == 0.0 {
-            return vec![full];
-        }
         vec![TileSpec {
-            features: version(false),
+            features: version(ids, false),
             children: vec![full],
             geometric_error_m: simplified_error_m,
         }]
@@ -271,18 +279,25 @@ impl<'h> LodTree<'h> {
     }
 
     fn building_feature(&self, buildings: &[Building], b: BuildingId) -> Option<ContentFeature> {
-        let mesh = self.buildings[b.0 as usize].clone()?;
+        let mesh = self.prism(b)?;
         Some(self.building_table.feature(&buildings[b.0 as usize], mesh))
+    }
+
+    /// Building `b`'s prism, extruded again (the same mesh every time); `None` when it could not be meshed.
+    fn prism(&self, b: BuildingId) -> Option<Mesh3d> {
+        self.prism_triangles[b.0 as usize]?;
+        prism_of(&self.footprints[b.0 as usize]).ok()
+    }
+
+    /// Triangles of building `b`'s prism (0 when it could not be meshed).
+    fn prism_tris(&self, b: BuildingId) -> usize {
+        self.prism_triangles[b.0 as usize].map_or(0, |t| t as usize)
     }
 
     /// Triangles of the landmarks drawn on top of `node`.
     fn landmark_triangles(&self, node: &Node, nm: &NodeMesh) -> usize {
         self.landmarks_of(node, nm)
-            .map(|b| {
-                self.buildings[b.0 as usize]
-                    .as_ref()
-                    .map_or(0, |m| m.triangles.len())
-            })
+            .map(|b| self.prism_tris(b))
             .sum()
     }
 
@@ -333,7 +348,7 @@ impl<'h> LodTree<'h> {
                 // A fallen-back block shows its buildings' prisms; a building whose prism could not be built is
                 // drawn nowhere (it is in the build report's skips), so not re-outlined into a block tile either.
                 let unchanged = match level {
-                    0 => self.buildings[node.members[0].0 as usize].is_none(),
+                    0 => self.prism_triangles[node.members[0].0 as usize].is_none(),
                     _ => self.nodes[level - 1][n.0 as usize].fallback,
                 };
                 if unchanged {
@@ -398,26 +413,40 @@ impl<'h> LodTree<'h> {
         }
     }
 
-    /// The tile tree to write, and a summary per level.
-    pub fn tiles(
-        &self,
-        buildings: &[Building],
+    /// The tile tree to write (each tile saying what it holds), the plan that makes each tile's features, and a
+    /// summary per level.
+    pub fn tiles<'a>(
+        &'a self,
+        buildings: &'a [Building],
         budget: TileBudget,
         level_ratio: f64,
-    ) -> (TileSpec, Vec<LevelSummary>) {
+    ) -> (TilePlan<'a>, TileSpec<TileRef>, Vec<LevelSummary>) {
         let Some(h) = self.hierarchy else {
-            let features: Vec<ContentFeature> = (0..buildings.len() as u32)
-                .filter_map(|i| match &self.models[i as usize] {
-                    Some(m) => Some(
-                        self.building_table
-                            .feature(&buildings[i as usize], m.full.clone()),
-                    ),
-                    None => self.building_feature(buildings, BuildingId(i)),
+            // Each building's bounds and triangles, for the spatial split; the meshes are made again when written.
+            let measure =
+                |m: &Mesh3d| (point_bounds(m.positions.iter().copied()), m.triangles.len());
+            let drawn: Vec<(BuildingId, (Option<Bounds>, usize))> = (0..buildings.len() as u32)
+                .into_par_iter()
+                .filter_map(|i| {
+                    let b = BuildingId(i);
+                    let m = match &self.models[i as usize] {
+                        Some(m) => measure(&m.full),
+                        None => measure(&self.prism(b)?),
+                    };
+                    Some((b, m))
                 })
                 .collect();
-            let triangles = features.iter().map(|f| f.mesh.triangles.len()).sum();
-            let nodes = features.len();
-            let root = tile_spatially(features, budget.max_features, budget.max_triangles);
+            let triangles = drawn.iter().map(|(_, (_, t))| t).sum();
+            let nodes = drawn.len();
+            let root = tile_spatially_by(
+                drawn,
+                |&(_, m)| m,
+                budget.max_features,
+                budget.max_triangles,
+            );
+            let root = map_tiles(root, &|d: Vec<(BuildingId, (Option<Bounds>, usize))>| {
+                TileRef::Buildings(d.into_iter().map(|(b, _)| b).collect())
+            });
             let summary = LevelSummary {
                 level: 0,
                 nodes,
@@ -430,13 +459,16 @@ impl<'h> LodTree<'h> {
                 geometric_error_max_m: Some(0.0),
                 mesh_fallbacks: 0,
             };
-            return (root, vec![summary]);
+            let plan = TilePlan {
+                tree: self,
+                buildings,
+                levels: None,
+            };
+            return (plan, root, vec![summary]);
         };
         let triangles = |level: usize, n: NodeId| -> usize {
             if level == 0 {
-                self.buildings[h.levels[0].nodes[n.0 as usize].members[0].0 as usize]
-                    .as_ref()
-                    .map_or(0, |m| m.triangles.len())
+                self.prism_tris(h.levels[0].nodes[n.0 as usize].members[0])
             } else {
                 let nm = &self.nodes[level - 1][n.0 as usize];
                 nm.mesh.triangles.len()
@@ -538,100 +570,19 @@ impl<'h> LodTree<'h> {
                 demoted_tile_error.insert((level, n.0), e);
             }
         }
-        let node_and_mesh = |level: usize, n: NodeId| -> (&Node, &NodeMesh) {
-            match &spent.own[level - 1][n.0 as usize] {
-                Some((node, nm)) => (node, nm),
-                None => (
-                    &h.levels[level].nodes[n.0 as usize],
-                    &self.nodes[level - 1][n.0 as usize],
-                ),
-            }
-        };
-        let features = |tile_level: usize, level: usize, n: NodeId| -> Vec<ContentFeature> {
-            let demoted = tile_level > level;
-            // A descendant drawn in a rough block's stead may be rounded, and was re-outlined, within the error
-            // of the tile that draws it.
-            let rounding_m = ROUNDING_SHARE
-                * if demoted {
-                    // Every descendant a tile draws is in the map; 0 (the finest grid) is always safe.
-                    demoted_tile_error
-                        .get(&(level, n.0))
-                        .copied()
-                        .unwrap_or(0.0)
-                } else {
-                    tile_error[level][n.0 as usize]
-                };
-            if level == 0 {
-                let b = h.levels[0].nodes[n.0 as usize].members[0];
-                if !demoted {
-                    return self.building_feature(buildings, b).into_iter().collect();
-                }
-                // A building of a block too rough for its tile, drawn in the block's stead: the level-0 node as a
-                // cluster-class feature of one member (one class per tile, for picking).
-                let (node, mesh) = match spent.demoted.get(&(0, n.0)) {
-                    Some((node, nm)) => (node.clone(), nm.mesh.clone()),
-                    None => {
-                        let Some(mesh) = self.buildings[b.0 as usize].clone() else {
-                            return Vec::new();
-                        };
-                        (self.drawn_node(h, 0, n).into_owned(), mesh)
-                    }
-                };
-                let row = ClusterRow {
-                    level: 0,
-                    node_index: n.0,
-                    node: &node,
-                    source_id: Some(buildings[b.0 as usize].source_id.as_str()),
-                    geometric_error_m: self.node_error(&node).max(self.prism_error(b)),
-                    fallback: false,
-                    max_rounding_m: rounding_m,
-                };
-                return vec![cluster_feature(row, mesh)];
-            }
-            let (node, nm) = match spent.demoted.get(&(level, n.0)).filter(|_| demoted) {
-                Some((node, nm)) => (node, nm),
-                None => node_and_mesh(level, n),
-            };
-            let source_id = (node.members.len() == 1)
-                .then(|| buildings[node.members[0].0 as usize].source_id.as_str());
-            let row = ClusterRow {
-                level,
-                node_index: n.0,
-                node,
-                source_id,
-                geometric_error_m: self.drawn_error(node, nm),
-                fallback: nm.fallback,
-                max_rounding_m: rounding_m,
-            };
-            let mut out = vec![cluster_feature(row, nm.mesh.clone())];
-            out.extend(self.landmarks_of(node, nm).filter_map(|b| {
-                let mesh = self.buildings[b.0 as usize].clone()?;
-                // Every vertex of the building, rounded like the block it stands on: a shift of under 1.4 % of
-                // the tile's error is sub-pixel where the tile is drawn, and the tile keeps one grid, so one mesh
-                // (NYC: 7 of 11 tiles had a second mesh for their landmarks; tileset 2 % smaller).
-                Some(landmark_feature(
-                    level,
-                    n.0,
-                    &buildings[b.0 as usize],
-                    mesh,
-                    self.prism_error(b),
-                    rounding_m,
-                ))
-            }));
-            out
-        };
-        let below = |nodes: &[NodeId]| -> Vec<TileSpec> {
-            let ids: Vec<BuildingId> = nodes
-                .iter()
-                .map(|n| h.levels[0].nodes[n.0 as usize].members[0])
-                .collect();
-            self.model_chain(buildings, &ids)
+        let below = |nodes: &[NodeId]| -> Vec<TileSpec<TileRef>> {
+            self.model_chain(
+                nodes
+                    .iter()
+                    .map(|n| h.levels[0].nodes[n.0 as usize].members[0])
+                    .collect(),
+            )
         };
         let root = assemble(
             &packing,
             &errors,
             &TileContent {
-                nodes: &features,
+                tile: &TileRef::Packed,
                 below_buildings: &below,
             },
         );
@@ -670,7 +621,214 @@ impl<'h> LodTree<'h> {
                 }
             })
             .collect();
-        (root, summary)
+        let plan = TilePlan {
+            tree: self,
+            buildings,
+            levels: Some(PlanLevels {
+                h,
+                packing,
+                spent,
+                tile_error,
+                demoted_tile_error,
+            }),
+        };
+        (plan, root, summary)
+    }
+}
+
+/// What a tile of the tree [`LodTree::tiles`] plans holds, made into features only when the writer encodes the tile
+/// ([`TilePlan::features`]), so a city's meshes are not held twice: a million buildings need ~1.5 GB less.
+#[derive(Debug, Clone, PartialEq)]
+pub enum TileRef {
+    /// Tile `i` of the packing: the nodes it draws (its own, or a rough block's descendants in its stead).
+    Packed(usize),
+    /// The 3D models of these buildings below their prisms' tile: `full`, or simplified (the prism for a building
+    /// without a model).
+    Models { ids: Vec<BuildingId>, full: bool },
+    /// Buildings of a tileset without levels (`--leaves-only`): their full models, else their prisms.
+    Buildings(Vec<BuildingId>),
+}
+
+impl Default for TileRef {
+    fn default() -> Self {
+        TileRef::Buildings(Vec::new())
+    }
+}
+
+/// Applies `f` to what every tile of `t` holds.
+fn map_tiles<A, B>(t: TileSpec<A>, f: &impl Fn(A) -> B) -> TileSpec<B> {
+    TileSpec {
+        features: f(t.features),
+        children: t.children.into_iter().map(|c| map_tiles(c, f)).collect(),
+        geometric_error_m: t.geometric_error_m,
+    }
+}
+
+/// The written levels' packing and what re-outlining spent, kept so each tile's features can be made when it is
+/// written.
+struct PlanLevels<'a> {
+    h: &'a Hierarchy,
+    packing: citylod_tiles::hlod::Packing,
+    spent: Spent,
+    /// The geometric error of the tile each node is written in, `[level][node]`.
+    tile_error: Vec<Vec<f64>>,
+    /// The error of the tile drawing a rough block's descendants in its stead, by (level, node) of the descendant.
+    demoted_tile_error: HashMap<(usize, u32), f64>,
+}
+
+/// Everything needed to make any tile's features from its [`TileRef`].
+pub struct TilePlan<'a> {
+    tree: &'a LodTree<'a>,
+    buildings: &'a [Building],
+    /// `None` without a hierarchy (`--leaves-only`).
+    levels: Option<PlanLevels<'a>>,
+}
+
+impl TilePlan<'_> {
+    /// The features of a tile, in the order the tile draws them.
+    pub fn features(&self, r: &TileRef) -> Vec<ContentFeature> {
+        let tree = self.tree;
+        match r {
+            TileRef::Buildings(ids) => ids
+                .iter()
+                .filter_map(|&b| match &tree.models[b.0 as usize] {
+                    Some(m) => Some(
+                        tree.building_table
+                            .feature(&self.buildings[b.0 as usize], m.full.clone()),
+                    ),
+                    None => tree.building_feature(self.buildings, b),
+                })
+                .collect(),
+            TileRef::Models { ids, full } => ids
+                .iter()
+                .filter_map(|&b| {
+                    let mesh = match &tree.models[b.0 as usize] {
+                        Some(m) if *full => m.full.clone(),
+                        Some(m) => m.simplified.clone(),
+                        None => tree.prism(b)?,
+                    };
+                    Some(
+                        tree.building_table
+                            .feature(&self.buildings[b.0 as usize], mesh),
+                    )
+                })
+                .collect(),
+            TileRef::Packed(i) => {
+                let Some(lv) = &self.levels else {
+                    return Vec::new();
+                };
+                let t = &lv.packing.tiles[*i];
+                t.drawn
+                    .iter()
+                    .flat_map(|&(level, n)| self.node_features(lv, t.level, level, n))
+                    .collect()
+            }
+        }
+    }
+
+    /// A node as written in its own tile: re-outlined within the tile's error when it was.
+    fn node_and_mesh<'s>(
+        &'s self,
+        lv: &'s PlanLevels,
+        level: usize,
+        n: NodeId,
+    ) -> (&'s Node, &'s NodeMesh) {
+        match &lv.spent.own[level - 1][n.0 as usize] {
+            Some((node, nm)) => (node, nm),
+            None => (
+                &lv.h.levels[level].nodes[n.0 as usize],
+                &self.tree.nodes[level - 1][n.0 as usize],
+            ),
+        }
+    }
+
+    /// The features of node `n` of `level` drawn in a tile of `tile_level` (greater when the tile draws it in a rough
+    /// ancestor's stead): its block and the landmarks on it, or a building.
+    fn node_features(
+        &self,
+        lv: &PlanLevels,
+        tile_level: usize,
+        level: usize,
+        n: NodeId,
+    ) -> Vec<ContentFeature> {
+        let tree = self.tree;
+        let demoted = tile_level > level;
+        // A descendant drawn in a rough block's stead may be rounded, and was re-outlined, within the error
+        // of the tile that draws it.
+        let rounding_m = ROUNDING_SHARE
+            * if demoted {
+                // Every descendant a tile draws is in the map; 0 (the finest grid) is always safe.
+                lv.demoted_tile_error
+                    .get(&(level, n.0))
+                    .copied()
+                    .unwrap_or(0.0)
+            } else {
+                lv.tile_error[level][n.0 as usize]
+            };
+        if level == 0 {
+            let b = lv.h.levels[0].nodes[n.0 as usize].members[0];
+            if !demoted {
+                return tree
+                    .building_feature(self.buildings, b)
+                    .into_iter()
+                    .collect();
+            }
+            // A building of a block too rough for its tile, drawn in the block's stead: the level-0 node as a
+            // cluster-class feature of one member (one class per tile, for picking).
+            let (node, mesh) = match lv.spent.demoted.get(&(0, n.0)) {
+                Some((node, nm)) => (node.clone(), nm.mesh.clone()),
+                None => {
+                    let Some(mesh) = tree.prism(b) else {
+                        return Vec::new();
+                    };
+                    (tree.drawn_node(lv.h, 0, n).into_owned(), mesh)
+                }
+            };
+            let row = ClusterRow {
+                level: 0,
+                node_index: n.0,
+                node: &node,
+                source_id: Some(self.buildings[b.0 as usize].source_id.as_str()),
+                geometric_error_m: tree.node_error(&node).max(tree.prism_error(b)),
+                fallback: false,
+                max_rounding_m: rounding_m,
+            };
+            return vec![cluster_feature(row, mesh)];
+        }
+        let (node, nm) = match lv.spent.demoted.get(&(level, n.0)).filter(|_| demoted) {
+            Some((node, nm)) => (node, nm),
+            None => self.node_and_mesh(lv, level, n),
+        };
+        let source_id = (node.members.len() == 1).then(|| {
+            self.buildings[node.members[0].0 as usize]
+                .source_id
+                .as_str()
+        });
+        let row = ClusterRow {
+            level,
+            node_index: n.0,
+            node,
+            source_id,
+            geometric_error_m: tree.drawn_error(node, nm),
+            fallback: nm.fallback,
+            max_rounding_m: rounding_m,
+        };
+        let mut out = vec![cluster_feature(row, nm.mesh.clone())];
+        out.extend(tree.landmarks_of(node, nm).filter_map(|b| {
+            let mesh = tree.prism(b)?;
+            // Every vertex of the building, rounded like the block it stands on: a shift of under 5.4 % of
+            // the tile's error is sub-pixel where the tile is drawn, and the tile keeps one grid, so one mesh
+            // (NYC: 7 of 11 tiles had a second mesh for their landmarks; tileset 2 % smaller).
+            Some(landmark_feature(
+                level,
+                n.0,
+                &self.buildings[b.0 as usize],
+                mesh,
+                tree.prism_error(b),
+                rounding_m,
+            ))
+        }));
+        out
     }
 }
 
