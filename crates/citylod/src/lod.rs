@@ -23,9 +23,11 @@ use std::collections::HashMap;
 /// bytes the 8 views of `citylod check` load 9.53 → 8.49 MB (e/16, a grid of e/8 and up to 1.7 px: 11.55 MB).
 pub const ROUNDING_SHARE: f64 = 1.0 / 32.0;
 
-/// A block's mesh: its extruded merged footprint, or — when that fails — its buildings' own prisms.
+/// How a block is drawn: its merged footprint extruded, or — when that fails — its buildings' own prisms
+/// (`fallback`). The mesh itself is made again where a tile draws the block ([`LodTree::block_mesh`]), not kept.
 struct NodeMesh {
-    mesh: Mesh3d,
+    /// Triangles of the mesh.
+    triangles: usize,
     fallback: bool,
 }
 
@@ -97,6 +99,11 @@ fn prism_of(b: &Building) -> Result<Mesh3d, citylod_mesh::MeshError> {
     citylod_mesh::extrude(&b.footprint, b.base_z_m, b.base_z_m + b.height_m)
 }
 
+/// A block's mesh: its footprint extruded from its base to its (area-weighted mean) top.
+fn extruded(n: &Node) -> Result<Mesh3d, citylod_mesh::MeshError> {
+    citylod_mesh::extrude(&n.footprint, n.base_z_m, n.base_z_m + n.height_m)
+}
+
 /// Axis-aligned bounds (min, max) in local ENU metres.
 type Bounds = ([f64; 3], [f64; 3]);
 
@@ -149,21 +156,21 @@ impl<'h> LodTree<'h> {
                         level
                             .nodes
                             .par_iter()
-                            .map(|n| {
-                                match citylod_mesh::extrude(
-                                    &n.footprint,
-                                    n.base_z_m,
-                                    n.base_z_m + n.height_m,
-                                ) {
-                                    Ok(mesh) => NodeMesh {
-                                        mesh,
-                                        fallback: false,
-                                    },
-                                    Err(_) => NodeMesh {
-                                        mesh: concat(n.members.iter().filter_map(|&b| prism(b))),
-                                        fallback: true,
-                                    },
-                                }
+                            .map(|n| match extruded(n) {
+                                Ok(mesh) => NodeMesh {
+                                    triangles: mesh.triangles.len(),
+                                    fallback: false,
+                                },
+                                Err(_) => NodeMesh {
+                                    triangles: n
+                                        .members
+                                        .iter()
+                                        .map(|b| {
+                                            prism_triangles[b.0 as usize].unwrap_or(0) as usize
+                                        })
+                                        .sum(),
+                                    fallback: true,
+                                },
                             })
                             .collect()
                     })
@@ -283,6 +290,16 @@ impl<'h> LodTree<'h> {
         Some(self.building_table.feature(&buildings[b.0 as usize], mesh))
     }
 
+    /// The mesh of a block as `nm` says it is drawn: its footprint extruded again (the same mesh as when it was
+    /// counted), or its buildings' prisms.
+    fn block_mesh(&self, node: &Node, nm: &NodeMesh) -> Mesh3d {
+        if nm.fallback {
+            return concat(node.members.iter().filter_map(|&b| self.prism(b)));
+        }
+        // It was extruded once already, so this cannot fail; an empty mesh (no content) if it ever did.
+        extruded(node).unwrap_or_default()
+    }
+
     /// Building `b`'s prism, extruded again (the same mesh every time); `None` when it could not be meshed.
     fn prism(&self, b: BuildingId) -> Option<Mesh3d> {
         self.prism_triangles[b.0 as usize]?;
@@ -364,25 +381,20 @@ impl<'h> LodTree<'h> {
                 if r.filled_m2 + r.cut_m2 <= 0.0 {
                     return None;
                 }
-                let mesh = citylod_mesh::extrude(
-                    &r.footprint,
-                    node.base_z_m,
-                    node.base_z_m + node.height_m,
-                )
-                .ok()?;
                 // The block covered its buildings, so it differed from them by Δa; it now differs by at most
                 // Δa + filled + cut (a corner cut off a building counts as much as ground filled).
                 let mut node = node.into_owned();
                 node.da_m2 += r.filled_m2 + r.cut_m2;
                 node.area_m2 = r.footprint.unsigned_area();
                 node.footprint = r.footprint;
+                let triangles = extruded(&node).ok()?.triangles.len();
                 Some((
                     level,
                     n,
                     demoted,
                     node,
                     NodeMesh {
-                        mesh,
+                        triangles,
                         fallback: false,
                     },
                 ))
@@ -471,8 +483,7 @@ impl<'h> LodTree<'h> {
                 self.prism_tris(h.levels[0].nodes[n.0 as usize].members[0])
             } else {
                 let nm = &self.nodes[level - 1][n.0 as usize];
-                nm.mesh.triangles.len()
-                    + self.landmark_triangles(&h.levels[level].nodes[n.0 as usize], nm)
+                nm.triangles + self.landmark_triangles(&h.levels[level].nodes[n.0 as usize], nm)
             }
         };
         let error = |level: usize, n: NodeId| -> f64 {
@@ -521,7 +532,7 @@ impl<'h> LodTree<'h> {
             match level {
                 0 => triangles(0, n),
                 _ => match &spent.own[level - 1][n.0 as usize] {
-                    Some((node, nm)) => nm.mesh.triangles.len() + landmark_triangles(node, nm),
+                    Some((node, nm)) => nm.triangles + landmark_triangles(node, nm),
                     None => triangles(level, n),
                 },
             }
@@ -531,7 +542,7 @@ impl<'h> LodTree<'h> {
         let drawn = |tile_level: usize, l: usize, n: NodeId| -> usize {
             // (A building has no landmarks.)
             match spent.demoted.get(&(l, n.0)).filter(|_| l < tile_level) {
-                Some((node, nm)) => nm.mesh.triangles.len() + landmark_triangles(node, nm),
+                Some((node, nm)) => nm.triangles + landmark_triangles(node, nm),
                 None => written(l, n),
             }
         };
@@ -776,7 +787,7 @@ impl TilePlan<'_> {
             // A building of a block too rough for its tile, drawn in the block's stead: the level-0 node as a
             // cluster-class feature of one member (one class per tile, for picking).
             let (node, mesh) = match lv.spent.demoted.get(&(0, n.0)) {
-                Some((node, nm)) => (node.clone(), nm.mesh.clone()),
+                Some((node, nm)) => (node.clone(), tree.block_mesh(node, nm)),
                 None => {
                     let Some(mesh) = tree.prism(b) else {
                         return Vec::new();
@@ -813,7 +824,7 @@ impl TilePlan<'_> {
             fallback: nm.fallback,
             max_rounding_m: rounding_m,
         };
-        let mut out = vec![cluster_feature(row, nm.mesh.clone())];
+        let mut out = vec![cluster_feature(row, tree.block_mesh(node, nm))];
         out.extend(tree.landmarks_of(node, nm).filter_map(|b| {
             let mesh = tree.prism(b)?;
             // Every vertex of the building, rounded like the block it stands on: a shift of under 5.4 % of
