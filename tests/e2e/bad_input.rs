@@ -178,3 +178,213 @@ fn failed_build_leaves_existing_output_untouched() {
         "temporary folders left behind: {leftovers:?}"
     );
 }
+
+/// splitmix64, for the hostile files below: seeded, so a failure names a case that reproduces.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    fn unit(&mut self) -> f64 {
+        (self.next() >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.unit()
+    }
+    fn pick<'a, T>(&mut self, items: &'a [T]) -> &'a T {
+        &items[(self.next() % items.len() as u64) as usize]
+    }
+}
+
+/// A ring of a hostile kind around (x, y) metres: ordinary rectangles (some a hair wide), stars, bowties, spikes,
+/// repeated and collinear points, random scribbles; closed or not.
+fn hostile_ring(r: &mut Rng, x: f64, y: f64) -> Vec<[f64; 2]> {
+    let mut pts: Vec<[f64; 2]> = match *r.pick(&[0, 0, 0, 0, 0, 1, 2, 3, 4, 5, 6]) {
+        0 => {
+            let (w, h) = (r.range(1e-7, 60.0), r.range(1e-7, 60.0));
+            vec![[x, y], [x + w, y], [x + w, y + h], [x, y + h]]
+        }
+        1 => {
+            let n = 3 + (r.next() % 38) as usize;
+            (0..n)
+                .map(|i| {
+                    let a = std::f64::consts::TAU * i as f64 / n as f64;
+                    let d = r.range(0.1, 30.0);
+                    [x + d * a.cos(), y + d * a.sin()]
+                })
+                .collect()
+        }
+        2 => vec![[x, y], [x + 10.0, y + 10.0], [x + 10.0, y], [x, y + 10.0]],
+        3 => vec![
+            [x, y],
+            [x + 10.0, y],
+            [x + 10.0, y + 10.0],
+            [x + 5.0, y + 10.0],
+            [x + 5.0, y + 1000.0],
+            [x + 5.0, y + 10.0],
+            [x, y + 10.0],
+        ],
+        4 => vec![
+            [x, y],
+            [x, y],
+            [x, y],
+            [x + 5.0, y],
+            [x + 5.0, y],
+            [x + 5.0, y + 5.0],
+        ],
+        5 => (0..10)
+            .map(|i| [x + i as f64, y])
+            .chain([[x, y + 1e-9]])
+            .collect(),
+        _ => (0..(r.next() % 13))
+            .map(|_| [x + r.range(-20.0, 20.0), y + r.range(-20.0, 20.0)])
+            .collect(),
+    };
+    if r.unit() < 0.8 && !pts.is_empty() {
+        pts.push(pts[0]);
+    }
+    pts
+}
+
+/// A FeatureCollection of up to 60 hostile features in lon/lat near Manhattan: polygons with hostile rings and
+/// holes, multipolygons, points, lines, null geometry; heights that are text, negative, zero, huge, missing.
+/// `footprintless`: only points, lines and null geometry.
+fn hostile_collection(r: &mut Rng, footprintless: bool) -> Value {
+    let deg = |p: [f64; 2]| json!([-73.99 + p[0] / 84_000.0, 40.72 + p[1] / 111_000.0]);
+    let ring_deg = |ring: Vec<[f64; 2]>| Value::Array(ring.into_iter().map(deg).collect());
+    let n = 1 + (r.next() % 60) as usize;
+    let features: Vec<Value> = (0..n)
+        .map(|i| {
+            let (x, y) = (
+                *r.pick(&[0.0, 5.0, 10.0, 100.0]) + r.range(-30.0, 30.0),
+                r.range(-30.0, 30.0),
+            );
+            let mut rings = vec![ring_deg(hostile_ring(r, x, y))];
+            if r.unit() < 0.2 {
+                rings.push(ring_deg(hostile_ring(r, x + 2.0, y + 2.0)));
+            }
+            let kinds: &[u8] = if footprintless {
+                &[2, 3, 4]
+            } else {
+                &[0, 0, 0, 0, 0, 0, 0, 1, 2, 3, 4]
+            };
+            let geometry = match *r.pick(kinds) {
+                0 => json!({"type": "Polygon", "coordinates": rings}),
+                1 => json!({"type": "MultiPolygon", "coordinates": [rings, [ring_deg(hostile_ring(r, x + 40.0, y))]]}),
+                2 => json!({"type": "Point", "coordinates": deg([x, y])}),
+                3 => json!({"type": "LineString", "coordinates": rings[0]}),
+                _ => Value::Null,
+            };
+            let height = r
+                .pick(&[
+                    json!(10),
+                    json!(25.5),
+                    json!(0),
+                    json!(-5),
+                    json!(1e-9),
+                    json!(1e6),
+                    json!("12 m"),
+                    Value::Null,
+                    json!("abc"),
+                    json!(3000),
+                ])
+                .clone();
+            let id = r
+                .pick(&[json!(format!("b{i}")), json!(i), Value::Null, json!(""), json!(format!("b{}", i % 3))])
+                .clone();
+            let mut props = json!({"id": id, "height": height});
+            if r.unit() < 0.2 {
+                props["building:levels"] = r.pick(&[json!(3), json!("4"), json!(-1), Value::Null]).clone();
+            }
+            json!({"type": "Feature", "properties": props, "geometry": geometry})
+        })
+        .collect();
+    json!({"type": "FeatureCollection", "features": features})
+}
+
+#[test]
+fn hostile_random_files_never_panic_and_lose_nothing() {
+    use citylod_tiles::read::read_tileset;
+    use citylod_tiles::PropValue;
+    let d = scratch_dir("hostile");
+    let option_sets: [&[&str]; 6] = [
+        &[],
+        &[],
+        &["--leaves-only"],
+        &["--compression", "draco"],
+        &["--level-ratio", "1"],
+        &["--tile-max-features", "1"],
+    ];
+    let (mut built, mut refused) = (0, 0);
+    for case in 0..40u64 {
+        let mut r = Rng(0xC17_10D ^ case);
+        let input = write(
+            &d,
+            &format!("case-{case}.geojson"),
+            &hostile_collection(&mut r, case % 8 == 7).to_string(),
+        );
+        let out = d.join(format!("out-{case}"));
+        let mut args = vec!["build".to_string(), input.display().to_string()];
+        args.extend(r.pick(&option_sets).iter().map(|s| s.to_string()));
+        args.extend(["--out".into(), out.display().to_string(), "--quiet".into()]);
+        let o = citylod(&args.iter().map(String::as_str).collect::<Vec<_>>());
+        assert_no_panic(&o);
+        match o.status.code() {
+            // Nothing readable: a clear error and no output.
+            Some(2) => {
+                refused += 1;
+                assert!(
+                    stderr_of(&o).contains("no building"),
+                    "case {case} {args:?}:\n{}",
+                    stderr_of(&o)
+                );
+                assert!(
+                    !out.exists(),
+                    "case {case}: a failed build left {}",
+                    out.display()
+                );
+            }
+            Some(0) => {
+                built += 1;
+                let report = read_json(&out.join("build-report.json"));
+                let c = &report["counts"];
+                let (read, written, skipped) = (
+                    c["features_read"].as_u64().unwrap(),
+                    c["buildings_written"].as_u64().unwrap(),
+                    c["skipped"].as_u64().unwrap(),
+                );
+                assert_eq!(
+                    read,
+                    written + skipped,
+                    "case {case}: read != written + skipped"
+                );
+                let listed = report["ingest"]["skipped"].as_array().unwrap().len()
+                    + report["mesh_skipped"].as_array().unwrap().len();
+                assert_eq!(listed as u64, skipped, "case {case}: every skip is listed");
+                // Every building written is in exactly one leaf tile.
+                let ts = read_tileset(&out.join("tileset.json")).expect("read back the tileset");
+                let mut seen = vec![0u32; written as usize];
+                for tile in ts.tiles.iter().filter(|t| t.children.is_empty()) {
+                    for row in tile.content.iter().flat_map(|c| &c.features) {
+                        match row.values.get("building_index") {
+                            Some(PropValue::Int(i)) => seen[*i as usize] += 1,
+                            other => panic!("case {case}: building_index {other:?}"),
+                        }
+                    }
+                }
+                assert!(seen.iter().all(|&n| n == 1), "case {case}: {seen:?}");
+            }
+            other => panic!("case {case} {args:?} exited {other:?}:\n{}", stderr_of(&o)),
+        }
+    }
+    // The generator makes both outcomes, so both branches above are exercised.
+    assert!(
+        built >= 20 && refused >= 1,
+        "built {built}, refused {refused}"
+    );
+}
