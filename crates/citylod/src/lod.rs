@@ -99,6 +99,12 @@ fn prism_of(b: &Building) -> Result<Mesh3d, citylod_mesh::MeshError> {
     citylod_mesh::extrude(&b.footprint, b.base_z_m, b.base_z_m + b.height_m)
 }
 
+/// Building `b`'s prism when it could be meshed (`counts[b]`, its triangle count, is set), else `None`.
+fn meshed_prism(counts: &[Option<u32>], buildings: &[Building], b: BuildingId) -> Option<Mesh3d> {
+    counts[b.0 as usize]?;
+    prism_of(&buildings[b.0 as usize]).ok()
+}
+
 /// A block's mesh: its footprint extruded from its base to its (area-weighted mean) top.
 fn extruded(n: &Node) -> Result<Mesh3d, citylod_mesh::MeshError> {
     citylod_mesh::extrude(&n.footprint, n.base_z_m, n.base_z_m + n.height_m)
@@ -143,10 +149,6 @@ impl<'h> LodTree<'h> {
                     .ok()
             })
             .collect();
-        let prism = |b: BuildingId| -> Option<Mesh3d> {
-            prism_triangles[b.0 as usize]?;
-            prism_of(&buildings[b.0 as usize]).ok()
-        };
         let nodes = hierarchy
             .map(|h| {
                 h.levels
@@ -185,7 +187,7 @@ impl<'h> LodTree<'h> {
                 if model.mesh.triangles.is_empty() {
                     return None;
                 }
-                let prism = &prism(BuildingId(i as u32))?;
+                let prism = &meshed_prism(&prism_triangles, buildings, BuildingId(i as u32))?;
                 let full = model.mesh.clone();
                 let s = citylod_mesh::simplify::simplify(
                     &full,
@@ -302,8 +304,7 @@ impl<'h> LodTree<'h> {
 
     /// Building `b`'s prism, extruded again (the same mesh every time); `None` when it could not be meshed.
     fn prism(&self, b: BuildingId) -> Option<Mesh3d> {
-        self.prism_triangles[b.0 as usize]?;
-        prism_of(&self.footprints[b.0 as usize]).ok()
+        meshed_prism(&self.prism_triangles, self.footprints, b)
     }
 
     /// Triangles of building `b`'s prism (0 when it could not be meshed).
