@@ -2,6 +2,8 @@
 //! build never touches an existing output folder.
 
 use crate::common::*;
+// Seeded, so a failure names a case that reproduces.
+use citylod_testdata::SplitMix64 as Rng;
 use serde_json::{json, Value};
 use std::path::Path;
 
@@ -179,28 +181,6 @@ fn failed_build_leaves_existing_output_untouched() {
     );
 }
 
-/// splitmix64, for the hostile files below: seeded, so a failure names a case that reproduces.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.unit()
-    }
-    fn pick<'a, T>(&mut self, items: &'a [T]) -> &'a T {
-        &items[(self.next() % items.len() as u64) as usize]
-    }
-}
-
 /// A ring of a hostile kind around (x, y) metres: ordinary rectangles (some a hair wide), stars, bowties, spikes,
 /// repeated and collinear points, random scribbles; closed or not.
 fn hostile_ring(r: &mut Rng, x: f64, y: f64) -> Vec<[f64; 2]> {
@@ -210,7 +190,7 @@ fn hostile_ring(r: &mut Rng, x: f64, y: f64) -> Vec<[f64; 2]> {
             vec![[x, y], [x + w, y], [x + w, y + h], [x, y + h]]
         }
         1 => {
-            let n = 3 + (r.next() % 38) as usize;
+            let n = 3 + (r.next_u64() % 38) as usize;
             (0..n)
                 .map(|i| {
                     let a = std::f64::consts::TAU * i as f64 / n as f64;
@@ -241,7 +221,7 @@ fn hostile_ring(r: &mut Rng, x: f64, y: f64) -> Vec<[f64; 2]> {
             .map(|i| [x + i as f64, y])
             .chain([[x, y + 1e-9]])
             .collect(),
-        _ => (0..(r.next() % 13))
+        _ => (0..(r.next_u64() % 13))
             .map(|_| [x + r.range(-20.0, 20.0), y + r.range(-20.0, 20.0)])
             .collect(),
     };
@@ -257,7 +237,7 @@ fn hostile_ring(r: &mut Rng, x: f64, y: f64) -> Vec<[f64; 2]> {
 fn hostile_collection(r: &mut Rng, footprintless: bool) -> Value {
     let deg = |p: [f64; 2]| json!([-73.99 + p[0] / 84_000.0, 40.72 + p[1] / 111_000.0]);
     let ring_deg = |ring: Vec<[f64; 2]>| Value::Array(ring.into_iter().map(deg).collect());
-    let n = 1 + (r.next() % 60) as usize;
+    let n = 1 + (r.next_u64() % 60) as usize;
     let features: Vec<Value> = (0..n)
         .map(|i| {
             let (x, y) = (

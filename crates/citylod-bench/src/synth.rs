@@ -3,27 +3,8 @@
 //! here and there, and a small rotation per district. Local ENU metres; same seed and size → same city.
 
 use citylod_model::{Attributes, Building, BuildingId, HeightSource};
+use citylod_testdata::SplitMix64 as Rng;
 use geo_types::{Coord, LineString, MultiPolygon, Polygon};
-
-/// splitmix64: tiny, fast and good enough to scatter buildings.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [lo, hi).
-    fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn chance(&mut self, p: f64) -> bool {
-        self.range(0.0, 1.0) < p
-    }
-}
 
 /// About `n` buildings (exactly `n`: generation stops there), seeded.
 pub fn city(n: usize, seed: u64) -> Vec<Building> {
