@@ -102,8 +102,11 @@ pub(crate) fn enu_to_yup(p: [f64; 3]) -> [f64; 3] {
     [p[0], p[2], -p[1]]
 }
 
+/// Axis-aligned bounds (min corner, max corner).
+pub type Bounds = ([f64; 3], [f64; 3]);
+
 /// Axis-aligned bounds (min, max) of points, `None` when there are none.
-pub fn bounds(points: impl Iterator<Item = [f64; 3]>) -> Option<([f64; 3], [f64; 3])> {
+pub fn bounds(points: impl Iterator<Item = [f64; 3]>) -> Option<Bounds> {
     points.fold(None, |acc, p| {
         let (lo, hi) = acc.unwrap_or((p, p));
         Some((

@@ -43,7 +43,7 @@ pub mod tileset_json;
 mod tiling;
 mod write;
 
-pub use content::bounds as point_bounds;
+pub use content::{bounds as point_bounds, Bounds};
 pub use error::TilesError;
 pub use metadata::{schema_to_json, FeatureRow};
 pub use spec::{

@@ -103,6 +103,15 @@ pub struct TileSpec<C = Vec<ContentFeature>> {
 }
 
 impl<C> TileSpec<C> {
+    /// The same tree with `f` applied to what every tile holds.
+    pub fn map<D>(self, f: &impl Fn(C) -> D) -> TileSpec<D> {
+        TileSpec {
+            features: f(self.features),
+            children: self.children.into_iter().map(|c| c.map(f)).collect(),
+            geometric_error_m: self.geometric_error_m,
+        }
+    }
+
     /// Number of tiles in this subtree, this one included.
     pub fn count_tiles(&self) -> usize {
         1 + self

@@ -3,7 +3,7 @@
 //! triangles; a leaf keeps its features in input order. Inner tiles have no content yet. Deterministic: the same
 //! features in the same order give the same tree.
 
-use crate::content::bounds;
+use crate::content::{bounds, Bounds};
 use crate::spec::{ContentFeature, TileSpec};
 
 /// Placeholder geometric error factor for inner tiles without content: error = factor × box
@@ -63,8 +63,6 @@ pub fn tile_spatially_by<T>(
         .collect();
     split(&mut keyed, 0, max_features.max(1), max_triangles)
 }
-
-type Bounds = ([f64; 3], [f64; 3]);
 
 struct Keyed<T> {
     /// Position in the input: breaks ties between equal centroids and orders a leaf's features.
@@ -184,16 +182,11 @@ mod tests {
             13,
             40,
         );
-        fn resolve(t: TileSpec<Vec<usize>>, feats: &[ContentFeature]) -> TileSpec {
-            TileSpec {
-                features: t.features.iter().map(|&i| feats[i].clone()).collect(),
-                children: t.children.into_iter().map(|c| resolve(c, feats)).collect(),
-                geometric_error_m: t.geometric_error_m,
-            }
-        }
         let direct = tile_spatially(feats.clone(), 13, 40);
         assert!(direct.count_tiles() > 10);
-        assert_eq!(resolve(by_index, &feats), direct);
+        let resolved =
+            by_index.map(&|ids: Vec<usize>| ids.iter().map(|&i| feats[i].clone()).collect());
+        assert_eq!(resolved, direct);
     }
 
     #[test]

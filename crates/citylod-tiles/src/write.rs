@@ -3,7 +3,7 @@
 //! volumes in the root's ENU frame enclosing each tile's content and all its descendants').
 //! Tile paths: the root is `0`, child k of tile `p` is `p/k`; content goes to `tiles/<path>.glb`.
 
-use crate::content::{bounds, encode_content, ContentOptions};
+use crate::content::{bounds, encode_content, Bounds, ContentOptions};
 use crate::external::split_external;
 use crate::spec::{ContentFeature, MetadataSchema, TileSpec};
 use crate::staging::Staging;
@@ -86,9 +86,6 @@ pub struct WriteStats {
     /// Triangles left out because quantization collapsed two of their corners.
     pub dropped_triangles: u64,
 }
-
-/// Box (min, max) in the root ENU frame.
-type Bounds = ([f64; 3], [f64; 3]);
 
 /// Smallest half-size of a box axis (m), so no box is flat.
 const MIN_HALF_M: f64 = 0.005;

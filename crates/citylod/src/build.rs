@@ -464,7 +464,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         max_features: args.tile_max_features,
         max_triangles: args.tile_max_triangles,
     };
-    let (plan, root, lod_summary) = lod.tiles(&ingested.buildings, budget, args.level_ratio);
+    let (plan, root, lod_summary) = lod.tiles(budget, args.level_ratio);
     let write_opts = WriteOptions {
         compression: match args.compression {
             CompressionArg::Meshopt => Compression::Meshopt,

@@ -10,7 +10,7 @@ use crate::features::{cluster_feature, landmark_feature, BuildingTable, ClusterR
 use citylod_mesh::simplify::Simplifier;
 use citylod_model::{Building, BuildingId, Hierarchy, Mesh3d, Node, NodeId};
 use citylod_tiles::hlod::{assemble, pack, tile_errors, NodeCost, TileBudget, TileContent};
-use citylod_tiles::{point_bounds, tile_spatially_by, ContentFeature, TileSpec};
+use citylod_tiles::{point_bounds, tile_spatially_by, Bounds, ContentFeature, TileSpec};
 use geo::Area;
 use rayon::prelude::*;
 use std::borrow::Cow;
@@ -78,7 +78,7 @@ pub struct LodTree<'h> {
     pub building_table: BuildingTable,
     /// The buildings, whose prisms are extruded again whenever a tile draws them ([`LodTree::prism`]) rather than
     /// kept: a million prisms would hold ~0.7 GB through the whole write.
-    footprints: &'h [Building],
+    buildings: &'h [Building],
     /// Triangles of each building's prism by building id; `None` for a building that could not be meshed.
     prism_triangles: Vec<Option<u32>>,
     pub failed_buildings: Vec<(BuildingId, String)>,
@@ -109,9 +109,6 @@ fn meshed_prism(counts: &[Option<u32>], buildings: &[Building], b: BuildingId) -
 fn extruded(n: &Node) -> Result<Mesh3d, citylod_mesh::MeshError> {
     citylod_mesh::extrude(&n.footprint, n.base_z_m, n.base_z_m + n.height_m)
 }
-
-/// Axis-aligned bounds (min, max) in local ENU metres.
-type Bounds = ([f64; 3], [f64; 3]);
 
 fn concat(meshes: impl Iterator<Item = Mesh3d>) -> Mesh3d {
     let mut out = Mesh3d::default();
@@ -207,7 +204,7 @@ impl<'h> LodTree<'h> {
         let model_summary = summarize_models(buildings, &models, model_opts.rate);
         Self {
             building_table: BuildingTable::new(buildings),
-            footprints: buildings,
+            buildings,
             prism_triangles,
             failed_buildings,
             hierarchy,
@@ -287,9 +284,12 @@ impl<'h> LodTree<'h> {
             .fold(self.node_error(node), f64::max)
     }
 
-    fn building_feature(&self, buildings: &[Building], b: BuildingId) -> Option<ContentFeature> {
+    fn building_feature(&self, b: BuildingId) -> Option<ContentFeature> {
         let mesh = self.prism(b)?;
-        Some(self.building_table.feature(&buildings[b.0 as usize], mesh))
+        Some(
+            self.building_table
+                .feature(&self.buildings[b.0 as usize], mesh),
+        )
     }
 
     /// The mesh of a block as `nm` says it is drawn: its footprint extruded again (the same mesh as when it was
@@ -304,7 +304,7 @@ impl<'h> LodTree<'h> {
 
     /// Building `b`'s prism, extruded again (the same mesh every time); `None` when it could not be meshed.
     fn prism(&self, b: BuildingId) -> Option<Mesh3d> {
-        meshed_prism(&self.prism_triangles, self.footprints, b)
+        meshed_prism(&self.prism_triangles, self.buildings, b)
     }
 
     /// Triangles of building `b`'s prism (0 when it could not be meshed).
@@ -428,12 +428,12 @@ impl<'h> LodTree<'h> {
 
     /// The tile tree to write (each tile saying what it holds), the plan that makes each tile's features, and a
     /// summary per level.
-    pub fn tiles<'a>(
-        &'a self,
-        buildings: &'a [Building],
+    pub fn tiles(
+        &self,
         budget: TileBudget,
         level_ratio: f64,
-    ) -> (TilePlan<'a>, TileSpec<TileRef>, Vec<LevelSummary>) {
+    ) -> (TilePlan<'_>, TileSpec<TileRef>, Vec<LevelSummary>) {
+        let buildings = self.buildings;
         let Some(h) = self.hierarchy else {
             // Each building's bounds and triangles, for the spatial split; the meshes are made again when written.
             let measure =
@@ -457,7 +457,7 @@ impl<'h> LodTree<'h> {
                 budget.max_features,
                 budget.max_triangles,
             );
-            let root = map_tiles(root, &|d: Vec<(BuildingId, (Option<Bounds>, usize))>| {
+            let root = root.map(&|d: Vec<(BuildingId, (Option<Bounds>, usize))>| {
                 TileRef::Buildings(d.into_iter().map(|(b, _)| b).collect())
             });
             let summary = LevelSummary {
@@ -474,7 +474,6 @@ impl<'h> LodTree<'h> {
             };
             let plan = TilePlan {
                 tree: self,
-                buildings,
                 levels: None,
             };
             return (plan, root, vec![summary]);
@@ -635,7 +634,6 @@ impl<'h> LodTree<'h> {
             .collect();
         let plan = TilePlan {
             tree: self,
-            buildings,
             levels: Some(PlanLevels {
                 h,
                 packing,
@@ -667,15 +665,6 @@ impl Default for TileRef {
     }
 }
 
-/// Applies `f` to what every tile of `t` holds.
-fn map_tiles<A, B>(t: TileSpec<A>, f: &impl Fn(A) -> B) -> TileSpec<B> {
-    TileSpec {
-        features: f(t.features),
-        children: t.children.into_iter().map(|c| map_tiles(c, f)).collect(),
-        geometric_error_m: t.geometric_error_m,
-    }
-}
-
 /// The written levels' packing and what re-outlining spent, kept so each tile's features can be made when it is
 /// written.
 struct PlanLevels<'a> {
@@ -691,7 +680,6 @@ struct PlanLevels<'a> {
 /// Everything needed to make any tile's features from its [`TileRef`].
 pub struct TilePlan<'a> {
     tree: &'a LodTree<'a>,
-    buildings: &'a [Building],
     /// `None` without a hierarchy (`--leaves-only`).
     levels: Option<PlanLevels<'a>>,
 }
@@ -706,9 +694,9 @@ impl TilePlan<'_> {
                 .filter_map(|&b| match &tree.models[b.0 as usize] {
                     Some(m) => Some(
                         tree.building_table
-                            .feature(&self.buildings[b.0 as usize], m.full.clone()),
+                            .feature(&tree.buildings[b.0 as usize], m.full.clone()),
                     ),
-                    None => tree.building_feature(self.buildings, b),
+                    None => tree.building_feature(b),
                 })
                 .collect(),
             TileRef::Models { ids, full } => ids
@@ -721,7 +709,7 @@ impl TilePlan<'_> {
                     };
                     Some(
                         tree.building_table
-                            .feature(&self.buildings[b.0 as usize], mesh),
+                            .feature(&tree.buildings[b.0 as usize], mesh),
                     )
                 })
                 .collect(),
@@ -780,10 +768,7 @@ impl TilePlan<'_> {
         if level == 0 {
             let b = lv.h.levels[0].nodes[n.0 as usize].members[0];
             if !demoted {
-                return tree
-                    .building_feature(self.buildings, b)
-                    .into_iter()
-                    .collect();
+                return tree.building_feature(b).into_iter().collect();
             }
             // A building of a block too rough for its tile, drawn in the block's stead: the level-0 node as a
             // cluster-class feature of one member (one class per tile, for picking).
@@ -800,7 +785,7 @@ impl TilePlan<'_> {
                 level: 0,
                 node_index: n.0,
                 node: &node,
-                source_id: Some(self.buildings[b.0 as usize].source_id.as_str()),
+                source_id: Some(tree.buildings[b.0 as usize].source_id.as_str()),
                 geometric_error_m: tree.node_error(&node).max(tree.prism_error(b)),
                 fallback: false,
                 max_rounding_m: rounding_m,
@@ -812,7 +797,7 @@ impl TilePlan<'_> {
             None => self.node_and_mesh(lv, level, n),
         };
         let source_id = (node.members.len() == 1).then(|| {
-            self.buildings[node.members[0].0 as usize]
+            tree.buildings[node.members[0].0 as usize]
                 .source_id
                 .as_str()
         });
@@ -834,7 +819,7 @@ impl TilePlan<'_> {
             Some(landmark_feature(
                 level,
                 n.0,
-                &self.buildings[b.0 as usize],
+                &tree.buildings[b.0 as usize],
                 mesh,
                 tree.prism_error(b),
                 rounding_m,
