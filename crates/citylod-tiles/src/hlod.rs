@@ -168,7 +168,7 @@ pub fn pack(h: &Hierarchy, levels: &[usize], cost: &NodeCost, budget: TileBudget
 /// What a tile of `level` holding `nodes` draws when its children are on level `to`: every node as itself, except
 /// the roughest — error over [`DEMOTE_ERROR_RATIO`] × the tile's median, and over the error of its descendants on
 /// `to` — which are drawn as those descendants while the triangles added stay within [`DEMOTE_MAX_ADDED_SHARE`]
-/// of the tile's.
+/// of the tile's. It stops at the first rough node it cannot demote: that node sets the tile's error anyway.
 fn demote(
     h: &Hierarchy,
     level: usize,
@@ -205,8 +205,10 @@ fn demote(
             .map(|&d| (cost.triangles)(to, d))
             .sum::<usize>() as f64
             - (cost.triangles)(level, n) as f64;
+        // A node left as it is keeps the tile's error at `e`, so demoting any smoother one would add triangles
+        // and lower nothing.
         if below_error >= e || added > room {
-            continue;
+            break;
         }
         room -= added.max(0.0);
         demoted.insert(n, below);
@@ -810,6 +812,61 @@ mod tests {
         assert_eq!(p.tiles[t].drawn.len(), 4);
         assert!(p.tiles[t].drawn.iter().all(|&(level, _)| level == 1));
         assert_eq!(e[t], 50.0);
+    }
+
+    #[test]
+    fn no_smoother_node_is_demoted_once_a_rougher_one_stays() {
+        // 16 buildings in pairs under 8 level-1 nodes under one top node. Node 0 (60 m) is too dear to draw as its
+        // buildings; node 1 (50 m) would be cheap, but drawing it as its buildings could not lower the tile's
+        // error below node 0's 60 m: nothing is demoted. Without node 0's cost, both are.
+        let l0 = (0..16)
+            .map(|i| node(10.0 * i as f64, vec![], vec![i], 0.0))
+            .collect();
+        let l1 = (0..8)
+            .map(|i| {
+                node(
+                    20.0 * i as f64,
+                    vec![2 * i, 2 * i + 1],
+                    vec![2 * i, 2 * i + 1],
+                    1.0,
+                )
+            })
+            .collect();
+        let l2 = vec![node(0.0, (0..8).collect(), (0..16).collect(), 2.0)];
+        let h = Hierarchy {
+            levels: [l0, l1, l2]
+                .into_iter()
+                .map(|nodes| Level {
+                    threshold_m: 0.0,
+                    nodes,
+                })
+                .collect(),
+        };
+        let err = |level: usize, n: NodeId| match (level, n.0) {
+            (0, _) => 0.0,
+            (1, 0) => 60.0,
+            (1, 1) => 50.0,
+            (1, _) => 5.0,
+            _ => 100.0,
+        };
+        for (dear, want_demoted, want_error) in [(1_000, 0, 60.0), (12, 2, 5.0)] {
+            let triangles = move |level: usize, n: NodeId| match (level, n.0) {
+                (0, 0 | 1) => dear,
+                (0, _) => 12,
+                _ => 100,
+            };
+            let c = NodeCost {
+                triangles: &triangles,
+                error_m: &err,
+            };
+            let p = pack(&h, &[0, 1], &c, ROOMY);
+            assert_eq!(check_packing(&h, &p), Vec::<String>::new());
+            let t = p.tiles.iter().position(|t| t.level == 1).unwrap();
+            let demoted =
+                p.tiles[t].nodes.len() - p.tiles[t].drawn.iter().filter(|d| d.0 == 1).count();
+            assert_eq!(demoted, want_demoted, "{:?}", p.tiles[t].drawn);
+            assert_eq!(tile_errors(&p, &err)[t], want_error);
+        }
     }
 
     #[test]
