@@ -45,11 +45,15 @@ pub struct GeneralizeOptions {
     pub max_delaunay_points_per_building: usize,
     /// A member whose height exceeds the height of the rest of its block by at least this (m) is a
     /// landmark, drawn at full detail on top of the block (seed 001); ≥ 0, `INFINITY` turns landmarks
-    /// off (default 30: on Boston it cuts the largest Δh of levels 1–2 from 192/200 m to 130/137 m for
-    /// +3 % bytes; 20 m gives the same cut for +6 %; coarser levels' errors are Δa-bound either way). With
-    /// `error_kappa` > 0 a landmark is kept only where leaving it out of the block lowers the block's error
-    /// (otherwise the full-detail copy adds bytes and nothing a client may show): Boston's top five levels
-    /// held 85 towers each (6.6 k triangles a level), now none; its tileset −3 %, NYC's −4 %.
+    /// off. With `error_kappa` > 0 a landmark is kept only where leaving it out of the block lowers the
+    /// block's error (otherwise the full-detail copy adds bytes and nothing a client may show): Boston's top
+    /// five levels held 85 towers each (6.6 k triangles a level), then none; its tileset −3 %, NYC's −4 %.
+    /// Default 20, measured with that rule (2026-11-22, `citylod check`'s 8 views at 800×600, bytes loaded):
+    /// 15 / 20 / 25 / 30 / 40 m give Boston 8.37 / 8.24 / 8.48 / 8.45 / 8.48 MB (tileset 11.84 / 11.81 /
+    /// 11.82 / 11.81 / 11.80 MB); NYC's Lower East Side, whose row blocks stand 5 m houses beside 48 m
+    /// tenements, 4.50 / 4.36 / 4.40 / 4.37 / 4.29 MB with a far view of 107 / 138 / 230 / 231 / 219 kB
+    /// (tileset 631 / 624 / 615 / 611 / 601 kB); Delft 4.75 / 4.73 / 4.73 / 4.73 / 4.73 MB, far view 103 /
+    /// 103 / 99 / 99 / 99 kB.
     pub landmark_min_excess_m: f64,
     /// At most ⌊share × members⌋ members of a node are landmarks, in [0, 1) (default 0.5: a tower may
     /// stand out of a pair; 0.02 left Boston's level-1 Δh of 192 m, a tower beside two houses. With 0.34 a
@@ -85,7 +89,7 @@ impl Default for GeneralizeOptions {
             reach_factor: 0.5,
             reach_far_factor: 6.0,
             max_delaunay_points_per_building: 16,
-            landmark_min_excess_m: 30.0,
+            landmark_min_excess_m: 20.0,
             landmark_max_share: 0.5,
             error_kappa: 20.0 / 200f64.sqrt(),
             street_penalty_m: 30.0,

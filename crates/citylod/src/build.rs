@@ -112,7 +112,7 @@ pub struct BuildArgs {
     #[arg(
         long,
         value_name = "M",
-        default_value_t = 30.0,
+        default_value_t = 20.0,
         help_heading = "Generalization"
     )]
     pub landmark_min_excess: f64,
