@@ -535,12 +535,12 @@ mod tests {
         }
     }
 
-    /// 8 buildings in a row → 4 pairs → 2 blocks → 1 top node.
-    fn row_hierarchy() -> Hierarchy {
-        let l0 = (0..8)
+    /// `n` buildings in a row, 10 m apart, and the level of their pairs.
+    fn row_of_pairs(n: u32) -> [Vec<Node>; 2] {
+        let buildings = (0..n)
             .map(|i| node(10.0 * i as f64, vec![], vec![i], 0.0))
             .collect();
-        let l1 = (0..4)
+        let pairs = (0..n / 2)
             .map(|i| {
                 node(
                     20.0 * i as f64,
@@ -550,6 +550,24 @@ mod tests {
                 )
             })
             .collect();
+        [buildings, pairs]
+    }
+
+    fn hierarchy_of(levels: Vec<Vec<Node>>) -> Hierarchy {
+        Hierarchy {
+            levels: levels
+                .into_iter()
+                .map(|nodes| Level {
+                    threshold_m: 0.0,
+                    nodes,
+                })
+                .collect(),
+        }
+    }
+
+    /// 8 buildings in a row → 4 pairs → 2 blocks → 1 top node.
+    fn row_hierarchy() -> Hierarchy {
+        let [l0, l1] = row_of_pairs(8);
         let l2 = (0..2)
             .map(|i| {
                 node(
@@ -561,15 +579,7 @@ mod tests {
             })
             .collect();
         let l3 = vec![node(0.0, vec![0, 1], (0..8).collect(), 3.0)];
-        Hierarchy {
-            levels: [l0, l1, l2, l3]
-                .into_iter()
-                .map(|nodes| Level {
-                    threshold_m: 0.0,
-                    nodes,
-                })
-                .collect(),
-        }
+        hierarchy_of(vec![l0, l1, l2, l3])
     }
 
     /// A budget no test tile comes near: tiles are cut only to localize errors.
@@ -819,29 +829,9 @@ mod tests {
         // 16 buildings in pairs under 8 level-1 nodes under one top node. Node 0 (60 m) is too dear to draw as its
         // buildings; node 1 (50 m) would be cheap, but drawing it as its buildings could not lower the tile's
         // error below node 0's 60 m: nothing is demoted. Without node 0's cost, both are.
-        let l0 = (0..16)
-            .map(|i| node(10.0 * i as f64, vec![], vec![i], 0.0))
-            .collect();
-        let l1 = (0..8)
-            .map(|i| {
-                node(
-                    20.0 * i as f64,
-                    vec![2 * i, 2 * i + 1],
-                    vec![2 * i, 2 * i + 1],
-                    1.0,
-                )
-            })
-            .collect();
+        let [l0, l1] = row_of_pairs(16);
         let l2 = vec![node(0.0, (0..8).collect(), (0..16).collect(), 2.0)];
-        let h = Hierarchy {
-            levels: [l0, l1, l2]
-                .into_iter()
-                .map(|nodes| Level {
-                    threshold_m: 0.0,
-                    nodes,
-                })
-                .collect(),
-        };
+        let h = hierarchy_of(vec![l0, l1, l2]);
         let err = |level: usize, n: NodeId| match (level, n.0) {
             (0, _) => 0.0,
             (1, 0) => 60.0,
