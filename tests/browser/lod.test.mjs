@@ -204,7 +204,7 @@ describe('NYC Lower East Side, LOD in the browser', () => {
   // hlod::DEMOTE_MAX_ADDED_SHARE) and refines to its level-1 tiles (~44 kB), and every ancestor on the way is loaded.
   // Nothing reaches the leaves any more. The issue's ≤ 20 % does not hold here (it does on Boston,
   // far-city.test.mjs: 0.07). With that block demoted (ratio 2, share 0.25 on levels ≥ 2) the far view loads
-  // ~70 kB (0.15), but Delft's far view 17 % more and NYC's at 400×300 9.3× instead of 10.8× fewer triangles than
+  // ~70 kB (0.15), but Delft's far view 13 % more and NYC's at 400×300 9.3× instead of 10.8× fewer triangles than
   // full detail (docs/coarse-bytes.md, session 12).
   const SHORTFALL = 'known shortfall: one level-2 tile keeps 44.5 m and refines, and the far view loads every ancestor ' +
     '(measured ratio 0.30 in both clients: 143,480 B vs 477,252 B)';
