@@ -378,3 +378,41 @@ fn child_error_above_parent_is_found() {
         "expected error_grows at {child_path}: {f:?}"
     );
 }
+
+/// The checker reads a tileset tile by tile, keeping of each content only what the checks use (a million
+/// buildings' decoded property rows would take gigabytes); what it keeps is what converting the whole decoded
+/// tileset gives — here on NYC split into external tilesets, so content URIs resolve through their folders.
+#[test]
+fn the_checker_reading_tile_by_tile_keeps_what_a_whole_read_gives() {
+    let out = process_dir("check-stream");
+    let input = repo_root().join("examples/nyc-les/les_buildings.geojson");
+    build(
+        &[&input],
+        &out,
+        &[
+            "--tile-max-features",
+            "100",
+            "--max-tileset-json-bytes",
+            "3000",
+        ],
+    );
+    let path = out.join("tileset.json");
+    let whole = citylod_tiles::read::read_tileset(&path).unwrap();
+    assert!(
+        whole.tiles.iter().any(|t| t
+            .content_uri
+            .as_deref()
+            .is_some_and(|u| u.ends_with(".json"))),
+        "expected external tilesets"
+    );
+    let (data, streamed) = citylod_check::LoadedTileset::read(&path).unwrap();
+    assert_eq!(data.tiles.len(), whole.tiles.len());
+    assert!(data.tiles.iter().all(|t| t.content.is_none()));
+    let expected = citylod_check::LoadedTileset::from_data(&whole, Some(&out));
+    assert!(expected.tiles.iter().filter(|t| t.mesh.is_some()).count() > 10);
+    assert!(expected
+        .tiles
+        .iter()
+        .all(|t| t.content_uri.is_none() || t.content_bytes > 0));
+    assert_eq!(streamed, expected);
+}

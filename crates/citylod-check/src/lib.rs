@@ -47,7 +47,7 @@ pub use criterion::{check_criterion, view_error, CriterionStats, Tolerances, Vie
 pub use error::CheckError;
 pub use finding::{Finding, FindingKind, MAX_LISTED};
 pub use image::Image;
-pub use render::{RenderLayers, Renderer, NO_FEATURE, SKY};
+pub use render::{Canvas, RenderLayers, Renderer, NO_FEATURE, SKY};
 pub use scene::{box_mesh, Scene};
 pub use select::{
     compute_sse, meets_threshold, select, OrientedBox, Selection, TileNode, TileTree,

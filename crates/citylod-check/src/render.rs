@@ -143,46 +143,34 @@ impl Renderer {
         width_px: u32,
         height_px: u32,
     ) -> Result<RenderLayers, CheckError> {
+        let mut canvas = self.canvas(camera, width_px, height_px)?;
+        canvas.draw(scene)?;
+        canvas.finish()
+    }
+
+    /// An empty `width_px × height_px` target seen by `camera`, to draw scenes into one after another
+    /// ([`Canvas::draw`]) and read back once ([`Canvas::finish`]): a scene too large to hold at once is drawn in
+    /// batches, each freed before the next, with the same pixels as when drawn whole. Errors when a size is 0 or
+    /// above the device limit.
+    pub fn canvas(
+        &self,
+        camera: &Camera,
+        width_px: u32,
+        height_px: u32,
+    ) -> Result<Canvas<'_>, CheckError> {
         if width_px == 0 || height_px == 0 || width_px.max(height_px) > self.max_size_px {
             return Err(CheckError::Image(format!(
                 "render size {width_px}×{height_px} must be between 1 and {} px",
                 self.max_size_px
             )));
         }
-        let vertices =
-            clip_space_vertices(scene, camera, f64::from(width_px) / f64::from(height_px));
-
-        let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let readback = self.draw(&vertices, width_px, height_px);
-        let errors = [
-            pollster::block_on(validation.pop()),
-            pollster::block_on(oom.pop()),
-        ];
-        if let Some(e) = errors.into_iter().flatten().next() {
-            return Err(CheckError::Render {
-                stage: "drawing",
-                detail: e.to_string(),
-            });
-        }
-        self.read_back(readback?, width_px, height_px)
-    }
-
-    /// Records and submits the render pass and the copies into a mappable buffer.
-    fn draw(
-        &self,
-        vertices: &[Vertex],
-        width: u32,
-        height: u32,
-    ) -> Result<wgpu::Buffer, CheckError> {
-        let device = &self.device;
         let size = wgpu::Extent3d {
-            width,
-            height,
+            width: width_px,
+            height: height_px,
             depth_or_array_layers: 1,
         };
         let target = |label, format| {
-            device.create_texture(&wgpu::TextureDescriptor {
+            self.device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(label),
                 size,
                 mip_level_count: 1,
@@ -193,134 +181,51 @@ impl Renderer {
                 view_formats: &[],
             })
         };
-        let colour = target("colour", COLOUR_FORMAT);
-        let feature = target("feature", FEATURE_FORMAT);
-        let depth = target("depth", DEPTH_FORMAT);
-        let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
-        let (colour_view, feature_view, depth_view) = (view(&colour), view(&feature), view(&depth));
+        Ok(Canvas {
+            renderer: self,
+            camera: *camera,
+            size,
+            colour: target("colour", COLOUR_FORMAT),
+            feature: target("feature", FEATURE_FORMAT),
+            depth: target("depth", DEPTH_FORMAT),
+            cleared: false,
+        })
+    }
 
-        let chunks: Vec<wgpu::Buffer> = vertices
-            .chunks(3 * CHUNK_TRIANGLES)
-            .map(|chunk| {
-                let buffer = device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("vertices"),
-                    size: std::mem::size_of_val(chunk) as u64,
-                    usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
-                    mapped_at_creation: false,
-                });
-                self.queue
-                    .write_buffer(&buffer, 0, bytemuck::cast_slice(chunk));
-                buffer
-            })
-            .collect();
-
-        let row_bytes = padded_row_bytes(width);
-        let layer_bytes = u64::from(row_bytes) * u64::from(height);
-        let readback = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("readback"),
-            size: 3 * layer_bytes,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
-
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("citylod-check render"),
-        });
-        {
-            let [r, g, b, a] = SKY.map(|c| f64::from(c) / 255.0);
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("scene"),
-                color_attachments: &[
-                    Some(wgpu::RenderPassColorAttachment {
-                        view: &colour_view,
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations {
-                            load: wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }),
-                            store: wgpu::StoreOp::Store,
-                        },
-                    }),
-                    Some(wgpu::RenderPassColorAttachment {
-                        view: &feature_view,
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations {
-                            load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
-                            store: wgpu::StoreOp::Store,
-                        },
-                    }),
-                ],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &depth_view,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(0.0),
-                        store: wgpu::StoreOp::Store,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
+    /// Runs `record` on a command encoder, submits it and waits for the GPU; a validation or out-of-memory
+    /// error raised meanwhile is returned as a render error of `stage`.
+    fn submit_and_wait(
+        &self,
+        stage: &'static str,
+        record: impl FnOnce(&mut wgpu::CommandEncoder),
+    ) -> Result<(), CheckError> {
+        let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let validation = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("citylod-check render"),
             });
-            pass.set_pipeline(&self.pipeline);
-            for buffer in &chunks {
-                let n = (buffer.size() / std::mem::size_of::<Vertex>() as u64) as u32;
-                pass.set_vertex_buffer(0, buffer.slice(..));
-                pass.draw(0..n, 0..1);
-            }
-        }
-        for (i, (texture, aspect)) in [
-            (&colour, wgpu::TextureAspect::All),
-            (&feature, wgpu::TextureAspect::All),
-            (&depth, wgpu::TextureAspect::DepthOnly),
-        ]
-        .into_iter()
-        .enumerate()
-        {
-            encoder.copy_texture_to_buffer(
-                wgpu::TexelCopyTextureInfo {
-                    texture,
-                    mip_level: 0,
-                    origin: wgpu::Origin3d::ZERO,
-                    aspect,
-                },
-                wgpu::TexelCopyBufferInfo {
-                    buffer: &readback,
-                    layout: wgpu::TexelCopyBufferLayout {
-                        offset: i as u64 * layer_bytes,
-                        bytes_per_row: Some(row_bytes),
-                        rows_per_image: Some(height),
-                    },
-                },
-                size,
-            );
-        }
+        record(&mut encoder);
         let submission = self.queue.submit([encoder.finish()]);
-
-        let (tx, rx) = mpsc::channel();
-        readback.map_async(wgpu::MapMode::Read, .., move |r| {
-            let _ = tx.send(r);
+        let waited = self.device.poll(wgpu::PollType::Wait {
+            submission_index: Some(submission),
+            timeout: None,
         });
-        self.device
-            .poll(wgpu::PollType::Wait {
-                submission_index: Some(submission),
-                timeout: None,
-            })
-            .map_err(|e| CheckError::Render {
-                stage: "waiting for the GPU",
+        let errors = [
+            pollster::block_on(validation.pop()),
+            pollster::block_on(oom.pop()),
+        ];
+        if let Some(e) = errors.into_iter().flatten().next() {
+            return Err(CheckError::Render {
+                stage,
                 detail: e.to_string(),
-            })?;
-        match rx.recv() {
-            Ok(Ok(())) => Ok(readback),
-            Ok(Err(e)) => Err(CheckError::Render {
-                stage: "mapping the readback buffer",
-                detail: e.to_string(),
-            }),
-            Err(_) => Err(CheckError::Render {
-                stage: "mapping the readback buffer",
-                detail: "the map callback never ran".into(),
-            }),
+            });
         }
+        waited.map(|_| ()).map_err(|e| CheckError::Render {
+            stage: "waiting for the GPU",
+            detail: e.to_string(),
+        })
     }
 
     /// Unpads the three mapped layers into a [`RenderLayers`].
@@ -370,6 +275,180 @@ impl Renderer {
             feature_ids,
             depth_m,
         })
+    }
+}
+
+/// A render target being drawn: see [`Renderer::canvas`].
+pub struct Canvas<'r> {
+    renderer: &'r Renderer,
+    camera: Camera,
+    size: wgpu::Extent3d,
+    colour: wgpu::Texture,
+    feature: wgpu::Texture,
+    depth: wgpu::Texture,
+    /// Whether a pass has cleared the targets yet (the first one does).
+    cleared: bool,
+}
+
+impl Canvas<'_> {
+    /// Draws `scene` over what is already drawn (depth-tested, as if its triangles followed the earlier
+    /// scenes' in one scene), then frees its buffers. Errors when the GPU reports an error.
+    pub fn draw(&mut self, scene: &Scene) -> Result<(), CheckError> {
+        let aspect = f64::from(self.size.width) / f64::from(self.size.height);
+        let vertices = clip_space_vertices(scene, &self.camera, aspect);
+        if vertices.is_empty() && self.cleared {
+            return Ok(());
+        }
+        let r = self.renderer;
+        let chunks: Vec<wgpu::Buffer> = vertices
+            .chunks(3 * CHUNK_TRIANGLES)
+            .map(|chunk| {
+                let buffer = r.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("vertices"),
+                    size: std::mem::size_of_val(chunk) as u64,
+                    usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                });
+                r.queue
+                    .write_buffer(&buffer, 0, bytemuck::cast_slice(chunk));
+                buffer
+            })
+            .collect();
+        drop(vertices);
+        let view = |t: &wgpu::Texture| t.create_view(&wgpu::TextureViewDescriptor::default());
+        let (colour_view, feature_view, depth_view) =
+            (view(&self.colour), view(&self.feature), view(&self.depth));
+        let first = !self.cleared;
+        let load = |clear: wgpu::Color| {
+            if first {
+                wgpu::LoadOp::Clear(clear)
+            } else {
+                wgpu::LoadOp::Load
+            }
+        };
+        let [red, green, blue, alpha] = SKY.map(|c| f64::from(c) / 255.0);
+        r.submit_and_wait("drawing", |encoder| {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("scene"),
+                color_attachments: &[
+                    Some(wgpu::RenderPassColorAttachment {
+                        view: &colour_view,
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations {
+                            load: load(wgpu::Color {
+                                r: red,
+                                g: green,
+                                b: blue,
+                                a: alpha,
+                            }),
+                            store: wgpu::StoreOp::Store,
+                        },
+                    }),
+                    Some(wgpu::RenderPassColorAttachment {
+                        view: &feature_view,
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations {
+                            load: load(wgpu::Color::TRANSPARENT),
+                            store: wgpu::StoreOp::Store,
+                        },
+                    }),
+                ],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &depth_view,
+                    depth_ops: Some(wgpu::Operations {
+                        load: if first {
+                            wgpu::LoadOp::Clear(0.0)
+                        } else {
+                            wgpu::LoadOp::Load
+                        },
+                        store: wgpu::StoreOp::Store,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&r.pipeline);
+            for buffer in &chunks {
+                let n = (buffer.size() / std::mem::size_of::<Vertex>() as u64) as u32;
+                pass.set_vertex_buffer(0, buffer.slice(..));
+                pass.draw(0..n, 0..1);
+            }
+        })?;
+        self.cleared = true;
+        Ok(())
+    }
+
+    /// Reads the three layers back (the sky alone when nothing was drawn).
+    pub fn finish(mut self) -> Result<RenderLayers, CheckError> {
+        if !self.cleared {
+            self.draw(&Scene::new())?;
+        }
+        let r = self.renderer;
+        let (width, height) = (self.size.width, self.size.height);
+        let row_bytes = padded_row_bytes(width);
+        let layer_bytes = u64::from(row_bytes) * u64::from(height);
+        let readback = r.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: 3 * layer_bytes,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        r.submit_and_wait("copying the render out", |encoder| {
+            for (i, (texture, aspect)) in [
+                (&self.colour, wgpu::TextureAspect::All),
+                (&self.feature, wgpu::TextureAspect::All),
+                (&self.depth, wgpu::TextureAspect::DepthOnly),
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                encoder.copy_texture_to_buffer(
+                    wgpu::TexelCopyTextureInfo {
+                        texture,
+                        mip_level: 0,
+                        origin: wgpu::Origin3d::ZERO,
+                        aspect,
+                    },
+                    wgpu::TexelCopyBufferInfo {
+                        buffer: &readback,
+                        layout: wgpu::TexelCopyBufferLayout {
+                            offset: i as u64 * layer_bytes,
+                            bytes_per_row: Some(row_bytes),
+                            rows_per_image: Some(height),
+                        },
+                    },
+                    self.size,
+                );
+            }
+        })?;
+        let (tx, rx) = mpsc::channel();
+        readback.map_async(wgpu::MapMode::Read, .., move |m| {
+            let _ = tx.send(m);
+        });
+        r.device
+            .poll(wgpu::PollType::Wait {
+                submission_index: None,
+                timeout: None,
+            })
+            .map_err(|e| CheckError::Render {
+                stage: "waiting for the GPU",
+                detail: e.to_string(),
+            })?;
+        match rx.recv() {
+            Ok(Ok(())) => r.read_back(readback, width, height),
+            Ok(Err(e)) => Err(CheckError::Render {
+                stage: "mapping the readback buffer",
+                detail: e.to_string(),
+            }),
+            Err(_) => Err(CheckError::Render {
+                stage: "mapping the readback buffer",
+                detail: "the map callback never ran".into(),
+            }),
+        }
     }
 }
 
@@ -511,6 +590,7 @@ fn clip_space_vertices(scene: &Scene, camera: &Camera, aspect: f64) -> Vec<Verte
 mod tests {
     use super::*;
     use crate::scene::box_mesh;
+    use citylod_model::Mesh3d;
 
     fn renderer() -> Renderer {
         Renderer::new().unwrap_or_else(|e| {
@@ -557,19 +637,7 @@ mod tests {
     #[test]
     fn two_renders_are_byte_identical() {
         let r = renderer();
-        let mut scene = cube_scene();
-        for i in 0..40 {
-            let x = f64::from(i % 8) * 12.0 - 48.0;
-            let y = f64::from(i / 8) * 15.0 + 30.0;
-            let h = 5.0 + f64::from((i * 7) % 11) * 3.0;
-            scene
-                .add_mesh(
-                    &box_mesh([x, y, 0.0], [x + 9.0, y + 11.0, h]),
-                    [180, 170, 150, 255],
-                    i,
-                )
-                .unwrap();
-        }
+        let scene = city_scene();
         let cam = Camera::from_enu([0.0, -20.0, 40.0], 10.0, -25.0, 50.0).unwrap();
         let a = r.render_layers(&scene, &cam, 320, 200).unwrap();
         let b = r.render_layers(&scene, &cam, 320, 200).unwrap();
@@ -580,6 +648,59 @@ mod tests {
         assert_eq!(a, b);
         let c = renderer().render_layers(&scene, &cam, 320, 200).unwrap();
         assert_eq!(a, c, "a fresh device must give the same bytes");
+    }
+
+    /// 40 boxes of varying height in rows (they hide one another when seen obliquely), with their ids.
+    fn city_boxes() -> Vec<(Mesh3d, u32)> {
+        (0..40)
+            .map(|i| {
+                let x = f64::from(i % 8) * 12.0 - 48.0;
+                let y = f64::from(i / 8) * 15.0 + 30.0;
+                let h = 5.0 + f64::from((i * 7) % 11) * 3.0;
+                (box_mesh([x, y, 0.0], [x + 9.0, y + 11.0, h]), i)
+            })
+            .collect()
+    }
+
+    /// The cube and the city's boxes.
+    fn city_scene() -> Scene {
+        let mut scene = cube_scene();
+        for (mesh, id) in city_boxes() {
+            scene.add_mesh(&mesh, [180, 170, 150, 255], id).unwrap();
+        }
+        scene
+    }
+
+    #[test]
+    fn a_scene_drawn_in_batches_gives_the_same_layers_as_drawn_whole() {
+        let r = renderer();
+        let whole = city_scene();
+        let cam = Camera::from_enu([0.0, -20.0, 40.0], 10.0, -25.0, 50.0).unwrap();
+        let expected = r.render_layers(&whole, &cam, 320, 200).unwrap();
+        // The same triangles, in the same order, split unevenly over three scenes (one empty).
+        let (mut a, mut b) = (cube_scene(), Scene::new());
+        for (k, (mesh, id)) in city_boxes().into_iter().enumerate() {
+            let target = if k < 13 { &mut a } else { &mut b };
+            target.add_mesh(&mesh, [180, 170, 150, 255], id).unwrap();
+        }
+        assert_eq!(
+            a.triangle_count() + b.triangle_count(),
+            whole.triangle_count()
+        );
+        let mut canvas = r.canvas(&cam, 320, 200).unwrap();
+        for s in [&a, &Scene::new(), &b] {
+            canvas.draw(s).unwrap();
+        }
+        let batched = canvas.finish().unwrap();
+        assert_eq!(batched, expected);
+        // Drawing only the first batch leaves the second's boxes out: the comparison can fail.
+        let mut canvas = r.canvas(&cam, 320, 200).unwrap();
+        canvas.draw(&a).unwrap();
+        assert_ne!(canvas.finish().unwrap(), expected);
+        // Nothing drawn: the sky.
+        let empty = r.canvas(&cam, 4, 3).unwrap().finish().unwrap();
+        assert_eq!(empty.colour.rgba, SKY.repeat(12));
+        assert_eq!(empty.feature_ids, vec![NO_FEATURE; 12]);
     }
 
     #[test]

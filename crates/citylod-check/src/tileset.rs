@@ -8,8 +8,9 @@ use std::collections::BTreeSet;
 use std::path::Path;
 
 use citylod_model::Mesh3d;
-use citylod_tiles::read::{TileData, TilesetData};
+use citylod_tiles::read::{GlbData, TileData, TilesetData};
 use citylod_tiles::PropValue;
+use citylod_tiles::TilesError;
 use serde::Serialize;
 
 use crate::select::{OrientedBox, TileNode, TileTree};
@@ -104,13 +105,45 @@ impl LoadedTileset {
     /// content file sizes. A tile without a `box` gets the bounds of its content and children; a
     /// child link out of range is kept (selection reports it). Never panics on odd input.
     pub fn from_data(data: &TilesetData, base_dir: Option<&Path>) -> LoadedTileset {
+        let contents = data
+            .tiles
+            .iter()
+            .map(|t| t.content.clone().map(content_info))
+            .collect();
+        Self::assemble(data, contents, base_dir)
+    }
+
+    /// Reads the tileset at `path` (a `tileset.json`), keeping of each tile's content only what the checks use
+    /// as it is decoded (see [`citylod_tiles::read::read_tileset_with`]): the reader's tiles come back without
+    /// content. Content sizes are measured next to `path`.
+    pub fn read(path: &Path) -> Result<(TilesetData, LoadedTileset), TilesError> {
+        let mut contents: Vec<Option<Content>> = Vec::new();
+        let data = citylod_tiles::read::read_tileset_with(path, &mut |i, t| {
+            if contents.len() <= i {
+                contents.resize_with(i + 1, || None);
+            }
+            contents[i] = t.content.take().map(content_info);
+        })?;
+        contents.resize_with(data.tiles.len(), || None);
+        let base = path.parent().unwrap_or(Path::new("."));
+        let loaded = Self::assemble(&data, contents, Some(base));
+        Ok((data, loaded))
+    }
+
+    /// `contents[i]`: what is kept of `data.tiles[i]`'s content (the tile's own is not looked at).
+    fn assemble(
+        data: &TilesetData,
+        contents: Vec<Option<Content>>,
+        base_dir: Option<&Path>,
+    ) -> LoadedTileset {
         let n = data.tiles.len();
         let uris = resolved_uris(data);
         let mut tiles: Vec<TileInfo> = data
             .tiles
             .iter()
             .zip(uris)
-            .map(|(t, uri)| tile_info(t, uri, base_dir))
+            .zip(contents)
+            .map(|((t, uri), content)| tile_info(t, content, uri, base_dir))
             .collect();
         let buildings: BTreeSet<u32> = tiles
             .iter()
@@ -244,44 +277,62 @@ fn join_uri(folder: &str, uri: &str) -> String {
     parts.join("/")
 }
 
-fn tile_info(t: &TileData, uri: Option<String>, base_dir: Option<&Path>) -> TileInfo {
+/// What the checks keep of a tile's content: one mesh, its features, and the feature of each triangle
+/// (index into `features` of its first vertex's, `u32::MAX` for none).
+struct Content {
+    mesh: Mesh3d,
+    features: Vec<FeatureInfo>,
+    triangle_features: Vec<u32>,
+}
+
+fn content_info(glb: GlbData) -> Content {
+    let mut bounds: Vec<Option<(Vec3, Vec3)>> = vec![None; glb.features.len()];
+    for (p, &f) in glb.positions_local.iter().zip(&glb.feature_ids) {
+        if let Some(b) = bounds.get_mut(f as usize) {
+            *b = join(*b, Some((*p, *p)));
+        }
+    }
+    let features = glb
+        .features
+        .iter()
+        .enumerate()
+        .map(|(k, row)| feature_info(k as u32, &row.class, &row.values, bounds[k]))
+        .collect();
+    let n = glb.features.len() as u32;
+    let triangle_features = glb
+        .triangles
+        .iter()
+        .map(|t| {
+            glb.feature_ids
+                .get(t[0] as usize)
+                .copied()
+                .filter(|&f| f < n)
+                .unwrap_or(u32::MAX)
+        })
+        .collect();
+    Content {
+        mesh: Mesh3d {
+            positions: glb.positions_local,
+            triangles: glb.triangles,
+        },
+        features,
+        triangle_features,
+    }
+}
+
+fn tile_info(
+    t: &TileData,
+    content: Option<Content>,
+    uri: Option<String>,
+    base_dir: Option<&Path>,
+) -> TileInfo {
     let content_bytes = match (base_dir, &uri) {
         (Some(dir), Some(uri)) => std::fs::metadata(dir.join(uri)).map_or(0, |m| m.len()),
         _ => 0,
     };
-    let (mesh, features, triangle_features) = match &t.content {
+    let (mesh, features, triangle_features) = match content {
         None => (None, Vec::new(), Vec::new()),
-        Some(glb) => {
-            let mut bounds: Vec<Option<(Vec3, Vec3)>> = vec![None; glb.features.len()];
-            for (p, &f) in glb.positions_local.iter().zip(&glb.feature_ids) {
-                if let Some(b) = bounds.get_mut(f as usize) {
-                    *b = join(*b, Some((*p, *p)));
-                }
-            }
-            let features = glb
-                .features
-                .iter()
-                .enumerate()
-                .map(|(k, row)| feature_info(k as u32, &row.class, &row.values, bounds[k]))
-                .collect();
-            let mesh = Mesh3d {
-                positions: glb.positions_local.clone(),
-                triangles: glb.triangles.clone(),
-            };
-            let n = glb.features.len() as u32;
-            let triangle_features = glb
-                .triangles
-                .iter()
-                .map(|t| {
-                    glb.feature_ids
-                        .get(t[0] as usize)
-                        .copied()
-                        .filter(|&f| f < n)
-                        .unwrap_or(u32::MAX)
-                })
-                .collect();
-            (Some(mesh), features, triangle_features)
-        }
+        Some(c) => (Some(c.mesh), c.features, c.triangle_features),
     };
     TileInfo {
         path_in_tree: t.path_in_tree.clone(),

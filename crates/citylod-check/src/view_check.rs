@@ -90,22 +90,15 @@ pub fn check_view(
     findings.extend(criterion_findings);
 
     let offsets = feature_offsets(ts);
-    let mut cut_scene = Scene::new();
-    for &i in &selection.selected {
-        add_tile(&mut cut_scene, ts, &offsets, i)?;
-    }
     let leaves = ts.leaf_tiles();
     let in_view: Vec<usize> = leaves
         .iter()
         .copied()
         .filter(|&i| ts.tree.tiles[i].bounds.is_visible(camera, vp))
         .collect();
-    let mut full_scene = Scene::new();
-    for &i in &in_view {
-        add_tile(&mut full_scene, ts, &offsets, i)?;
-    }
-    let cut = renderer.render_layers(&cut_scene, camera, vp.width_px, vp.height_px)?;
-    let full = renderer.render_layers(&full_scene, camera, vp.width_px, vp.height_px)?;
+    let render = |tiles: &[usize]| render_tiles(renderer, camera, vp, ts, &offsets, tiles);
+    let cut = render(&selection.selected)?;
+    let full = render(&in_view)?;
     let metrics = compare(&cut.colour, &full.colour, SKY)?;
 
     let limit_px = settings.tolerances.dh_px + settings.skyline_tolerance_px;
@@ -179,6 +172,32 @@ fn feature_offsets(ts: &LoadedTileset) -> Vec<u32> {
 fn feature_of<'a>(ts: &'a LoadedTileset, offsets: &[u32], id: u32) -> Option<&'a FeatureInfo> {
     let i = offsets.partition_point(|&o| o <= id).checked_sub(1)?;
     ts.tiles[i].features.get((id - offsets[i]) as usize)
+}
+
+/// Triangles gathered before they are drawn and freed: full detail of a whole city does not fit in memory
+/// at once (a million buildings, ~10 million triangles: ~3 GB of scene, vertices and GPU buffers).
+const BATCH_TRIANGLES: usize = 1 << 20;
+
+/// Renders the content of `tiles`, in order, in batches of about [`BATCH_TRIANGLES`] (the same layers as one
+/// scene of them all, see [`crate::render::Canvas`]).
+fn render_tiles(
+    renderer: &Renderer,
+    camera: &Camera,
+    vp: Viewport,
+    ts: &LoadedTileset,
+    offsets: &[u32],
+    tiles: &[usize],
+) -> Result<RenderLayers, CheckError> {
+    let mut canvas = renderer.canvas(camera, vp.width_px, vp.height_px)?;
+    let mut scene = Scene::new();
+    for &i in tiles {
+        add_tile(&mut scene, ts, offsets, i)?;
+        if scene.triangle_count() >= BATCH_TRIANGLES {
+            canvas.draw(&std::mem::take(&mut scene))?;
+        }
+    }
+    canvas.draw(&scene)?;
+    canvas.finish()
 }
 
 fn add_tile(

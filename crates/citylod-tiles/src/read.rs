@@ -62,6 +62,17 @@ const IDENTITY: [f64; 16] = [
 
 /// Reads a tileset and all its content. Errors name the file that failed.
 pub fn read_tileset(path: &Path) -> Result<TilesetData, TilesError> {
+    read_tileset_with(path, &mut |_, _| {})
+}
+
+/// [`read_tileset`], handing each tile to `visit` (with its index in [`TilesetData::tiles`]) as soon as its
+/// content is decoded, before the next file is read. A caller that takes the content out
+/// ([`Option::take`] on [`TileData::content`]) and keeps only what it needs never holds the whole tileset
+/// decoded: a million buildings' property rows alone take gigabytes.
+pub fn read_tileset_with(
+    path: &Path,
+    visit: &mut dyn FnMut(usize, &mut TileData),
+) -> Result<TilesetData, TilesError> {
     let ts = load_json(path)?;
     let root_transform = ts.root.transform.unwrap_or(IDENTITY);
     let mut tiles = Vec::new();
@@ -78,7 +89,10 @@ pub fn read_tileset(path: &Path) -> Result<TilesetData, TilesError> {
         &root_inv,
         &IDENTITY,
         0,
-        &mut tiles,
+        &mut Walk {
+            out: &mut tiles,
+            visit,
+        },
     )?;
     Ok(TilesetData {
         root_transform,
@@ -96,6 +110,12 @@ fn load_json(path: &Path) -> Result<tj::Tileset, TilesError> {
     })
 }
 
+/// Where [`walk`] puts the tiles, and who sees each one first.
+struct Walk<'a> {
+    out: &'a mut Vec<TileData>,
+    visit: &'a mut dyn FnMut(usize, &mut TileData),
+}
+
 /// `world` is the product of the ancestors' transforms; `root_inv` maps world to the root frame.
 fn walk(
     t: &tj::Tile,
@@ -104,7 +124,7 @@ fn walk(
     root_inv: &[f64; 16],
     parent_world: &[f64; 16],
     depth: usize,
-    out: &mut Vec<TileData>,
+    w: &mut Walk,
 ) -> Result<usize, TilesError> {
     if depth > 64 {
         return Err(TilesError::Tile {
@@ -114,8 +134,8 @@ fn walk(
     }
     let world = mul(parent_world, &t.transform.unwrap_or(IDENTITY));
     let to_root = mul(root_inv, &world);
-    let me = out.len();
-    out.push(TileData {
+    let me = w.out.len();
+    w.out.push(TileData {
         path_in_tree: path.clone(),
         geometric_error_m: t.geometric_error,
         bounding_box: t.bounding_volume.r#box,
@@ -136,7 +156,7 @@ fn walk(
                 root_inv,
                 &world,
                 depth + 1,
-                out,
+                w,
             )?;
             children.push(k);
         } else {
@@ -149,9 +169,10 @@ fn walk(
             for n in &mut glb.normals_local {
                 *n = transform_normal(&nm, *n);
             }
-            out[me].content = Some(glb);
+            w.out[me].content = Some(glb);
         }
     }
+    (w.visit)(me, &mut w.out[me]);
     for (k, c) in t.children.iter().enumerate() {
         children.push(walk(
             c,
@@ -160,10 +181,10 @@ fn walk(
             root_inv,
             &world,
             depth,
-            out,
+            w,
         )?);
     }
-    out[me].children = children;
+    w.out[me].children = children;
     Ok(me)
 }
 

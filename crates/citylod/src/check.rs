@@ -13,7 +13,7 @@ use citylod_model::ecef_to_geodetic;
 use clap::Args;
 use serde_json::{json, Value};
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
@@ -232,13 +232,11 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
     } else {
         args.tileset.clone()
     };
-    let data = citylod_tiles::read::read_tileset(&path).context("reading the tileset")?;
+    let (data, ts) = LoadedTileset::read(&path).context("reading the tileset")?;
     if data.tiles.is_empty() {
         bail!("{} has no tiles", path.display());
     }
     let (tol, tol_source) = tolerances(&args, data.extras.as_ref());
-    let base = path.parent().unwrap_or(Path::new("."));
-    let ts = LoadedTileset::from_data(&data, Some(base));
 
     let origin = [
         data.root_transform[12],
