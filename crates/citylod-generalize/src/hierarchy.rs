@@ -287,7 +287,17 @@ pub fn generalize_with_streets(
             .groups
             .par_iter()
             .zip(bridges.par_iter())
-            .map(|(g, br)| build_node(g, br, below, buildings, delta_a_m2, opts))
+            .map(|(g, br)| {
+                build_node(
+                    g,
+                    br,
+                    below,
+                    buildings,
+                    delta_a_m2,
+                    planned.threshold_m,
+                    opts,
+                )
+            })
             .collect();
         let footprint_fallbacks = built.iter().filter(|(_, f)| *f).count();
         let level = Level {
@@ -536,12 +546,26 @@ fn bridges_per_group(
     bridges
 }
 
+/// The widest gap (m) between two of a node's polygons that its outline may bridge, on a level whose single-link
+/// threshold is `threshold_m`: the largest boundary gap that threshold can join two buildings across, since the
+/// adjacent distance d = d_min·(1 − N·λ) is never below (1 − λ)·d_min. Wider gaps come from spatial splits of a
+/// cluster (its chain of neighbours runs through other nodes), not from proximity at this level's scale: bridging
+/// them drew a 400 m strip across Boston Common into a level-2 block. Those polygons stay apart.
+pub fn island_reach_m(threshold_m: f64, lambda_adjacent: f64) -> f64 {
+    if lambda_adjacent < 1.0 {
+        threshold_m / (1.0 - lambda_adjacent)
+    } else {
+        f64::INFINITY
+    }
+}
+
 fn build_node(
     group: &[u32],
     bridges: &[(usize, usize)],
     below: &[Node],
     buildings: &[Building],
     delta_a_m2: f64,
+    threshold_m: f64,
     opts: &GeneralizeOptions,
 ) -> (Node, bool) {
     if let [only] = group {
@@ -553,7 +577,8 @@ fn build_node(
         .iter()
         .map(|&c| &below[c as usize].footprint)
         .collect();
-    let merged = connect_islands(&merge_footprints(&parts, bridges).footprint);
+    let reach_m = island_reach_m(threshold_m, opts.lambda_adjacent);
+    let merged = connect_islands(&merge_footprints(&parts, bridges).footprint, reach_m);
     let simplified = simplify_footprint(&merged, delta_a_m2, opts.collinear_angle_deg);
     // Coverage guard: a node's footprint can never be smaller than its largest child. Should merging
     // or simplifying lose area anyway, fall back to the unsimplified union, then to the children's
@@ -974,7 +999,8 @@ mod tests {
 
     #[test]
     fn coarse_levels_of_a_real_city_are_single_outlines() {
-        // Before islands were connected, Boston's top node kept ~1,500 separate polygons.
+        // Before islands were connected, Boston's top node kept ~1,500 separate polygons; now a node keeps
+        // apart only polygons no bridge within the level's reach joins.
         let Some(fps) = crate::merge::tests::boston_sample(3000) else {
             return;
         };
@@ -989,14 +1015,38 @@ mod tests {
         let g = generalize(&bs, &Default::default()).unwrap();
         assert_sound(&g, bs.len());
         let levels = &g.hierarchy.levels;
+        let lambda = GeneralizeOptions::default().lambda_adjacent;
+        let mut apart = 0;
         for (l, lv) in levels.iter().enumerate().skip(levels.len() / 2) {
+            let reach_m = island_reach_m(lv.threshold_m, lambda);
+            for node in &lv.nodes {
+                // The polygons a node keeps apart are farther apart than the level's reach.
+                let polys = &node.footprint.0;
+                for (i, p) in polys.iter().enumerate() {
+                    let nearest_m = polys
+                        .iter()
+                        .enumerate()
+                        .filter(|&(j, _)| j != i)
+                        .map(|(_, q)| geo::Distance::distance(&geo::Euclidean, p, q))
+                        .fold(f64::INFINITY, f64::min);
+                    assert!(
+                        nearest_m > reach_m,
+                        "level {l}: polygons {nearest_m:.1} m apart, reach {reach_m:.1} m"
+                    );
+                    apart += usize::from(polys.len() > 1);
+                }
+            }
             let polys: usize = lv.nodes.iter().map(|n| n.footprint.0.len()).sum();
             assert!(
-                polys <= lv.nodes.len() + 1,
+                polys <= 2 * lv.nodes.len(),
                 "level {l}: {polys} polygons in {} nodes",
                 lv.nodes.len()
             );
         }
+        assert!(
+            apart > 0,
+            "the sample has clusters split across open ground"
+        );
     }
 
     #[test]

@@ -10,7 +10,7 @@
 //! - `single_link`  — Kruskal single-link clustering → dendrogram
 //! - `levels`       — condensing the dendrogram into levels and balancing them (§3.3.2)
 //! - `merge`        — merging footprints through constrained-Delaunay connection pairs (§3.2), then
-//!   bridging any islands left so a cluster has one outline
+//!   bridging the islands left within the level's reach so a cluster has one outline
 //! - `simplify`     — removing small or sliver concave triangles and near-collinear vertices (§3.2)
 //! - `stats`        — per-node height (Eq. 5), h_min, h_max, Δh, Δa
 //! - `streets`      — street centre lines as barriers: edges across a street join only above a level
@@ -52,8 +52,9 @@ pub use graph::{
     GraphStats,
 };
 pub use hierarchy::{
-    cluster, generalize, generalize_with_streets, landmarks_of, GeneralizeError, GeneralizeOptions,
-    GeneralizeReport, Generalized, LevelReport, PhaseTimings, StreetBarrierReport,
+    cluster, generalize, generalize_with_streets, island_reach_m, landmarks_of, GeneralizeError,
+    GeneralizeOptions, GeneralizeReport, Generalized, LevelReport, PhaseTimings,
+    StreetBarrierReport,
 };
 pub use levels::{condense, target_levels, LevelKind, LevelOptions, LevelPlan, PlannedLevel};
 pub use merge::{merge_footprints, MergeResult};

@@ -109,15 +109,16 @@ const MAX_CONNECT_ROUNDS: usize = 8;
 /// Nearest islands (by bounding box) weighed as bridge candidates per island and round.
 const CONNECT_NEIGHBOURS: usize = 4;
 
-/// Joins the polygons ("islands") of a merged footprint (local ENU m) into one wherever a clean bridge
-/// exists: per round, a minimum spanning tree over each island's `CONNECT_NEIGHBOURS` nearest islands
-/// (exact boundary gap) is bridged with connection pairs, as in [`merge_footprints`], and unioned.
-/// Seed 000 gives every cluster one outline; without this, an island of a child that the spanning-tree
-/// bridge did not reach stays apart in every ancestor, and the coarse levels keep every such island
-/// (Boston: 1,485 islands and 18k vertices in the top node). The result covers `fp`, and its vertices are
-/// `fp`'s plus union intersection points. Degenerate input: empty or single-polygon footprints come back
-/// unchanged; islands no clean bridge reaches stay apart.
-pub(crate) fn connect_islands(fp: &Footprint) -> Footprint {
+/// Joins the polygons ("islands") of a merged footprint (local ENU m) wherever a clean bridge of at most
+/// `max_gap_m` exists: per round, a minimum spanning tree over each island's `CONNECT_NEIGHBOURS` nearest
+/// islands (exact boundary gap, pairs over `max_gap_m` left out) is bridged with connection pairs, as in
+/// [`merge_footprints`], and unioned. Seed 000 gives every cluster one outline; without this, an island of a
+/// child that the spanning-tree bridge did not reach stays apart in every ancestor, and the coarse levels keep
+/// every such island (Boston: 1,485 islands and 18k vertices in the top node). The cap keeps islands apart that
+/// only a spatial split put together (see `hierarchy::island_reach_m`). The result covers `fp`, and its
+/// vertices are `fp`'s plus union intersection points. Degenerate input: empty or single-polygon footprints
+/// come back unchanged; islands no clean bridge reaches stay apart.
+pub(crate) fn connect_islands(fp: &Footprint, max_gap_m: f64) -> Footprint {
     let mut cur = fp.clone();
     for _ in 0..MAX_CONNECT_ROUNDS {
         let k = cur.0.len();
@@ -164,7 +165,9 @@ pub(crate) fn connect_islands(fp: &Footprint) -> Footprint {
             for &(_, j) in near.iter().take(CONNECT_NEIGHBOURS) {
                 let (a, b) = (i.min(j), i.max(j));
                 let gap_m = gap_between(&ctx.parts[a], &ctx.parts[b]).unwrap_or(0.0);
-                edges.push((gap_m, a, b));
+                if gap_m <= max_gap_m {
+                    edges.push((gap_m, a, b));
+                }
             }
         }
         edges.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
@@ -1148,7 +1151,7 @@ pub(crate) mod tests {
         .map(|&(x, y)| rect(x, y, x + 10.0, y + 10.0))
         .collect();
         let fp = MultiPolygon(squares.iter().flat_map(|s| s.0.clone()).collect());
-        let joined = connect_islands(&fp);
+        let joined = connect_islands(&fp, f64::INFINITY);
         assert_eq!(joined.0.len(), 1, "one outline");
         let parts: Vec<&Footprint> = squares.iter().collect();
         assert!(uncovered_m2(&parts, &joined) < 1e-9, "covers every square");
@@ -1157,6 +1160,29 @@ pub(crate) mod tests {
             assert!(input.contains(&v), "vertex {v:?} is not an input vertex");
         }
         assert!(joined.is_valid());
+    }
+
+    #[test]
+    fn connect_islands_bridges_no_gap_wider_than_asked() {
+        // Gaps: 3 m, 3 m and 6 m between the first four squares; the last is 18 m from the nearest.
+        let squares: Vec<Footprint> = [
+            (0.0, 0.0),
+            (13.0, 0.0),
+            (26.0, 2.0),
+            (5.0, 16.0),
+            (40.0, 30.0),
+        ]
+        .iter()
+        .map(|&(x, y)| rect(x, y, x + 10.0, y + 10.0))
+        .collect();
+        let fp = MultiPolygon(squares.iter().flat_map(|s| s.0.clone()).collect());
+        let parts: Vec<&Footprint> = squares.iter().collect();
+        for (max_gap_m, polygons) in [(f64::INFINITY, 1), (20.0, 1), (7.0, 2), (4.0, 3), (2.0, 5)] {
+            let joined = connect_islands(&fp, max_gap_m);
+            assert_eq!(joined.0.len(), polygons, "max gap {max_gap_m} m");
+            assert!(uncovered_m2(&parts, &joined) < 1e-9);
+            assert!(joined.is_valid());
+        }
     }
 
     /// Up to `n` Boston footprints nearest the data's centre, in local ENU metres; `None` without data.

@@ -1,10 +1,12 @@
 //! The generalization on real cities (Delft 3DBAG, NYC Lower East Side, Boston): every level is a
 //! partition of all buildings, no node has more than δp children, the level count follows the formula,
-//! Δh and Δa are non-negative and Δh never decreases going up.
+//! Δh and Δa are non-negative and Δh never decreases going up; fine blocks never bridge open ground.
 
 mod common;
 
-use citylod_generalize::{generalize, target_levels, GeneralizeOptions, Generalized, LevelKind};
+use citylod_generalize::{
+    generalize, island_reach_m, target_levels, GeneralizeOptions, Generalized, LevelKind,
+};
 use citylod_model::Building;
 
 fn check_hierarchy(name: &str, buildings: &[Building]) -> Generalized {
@@ -124,6 +126,64 @@ fn boston_hierarchy_is_sound() {
     let g = check_hierarchy("boston", &bs);
     // Touching row houses of Back Bay and the South End must have needed spatial splits.
     assert!(g.report.tie_splits > 0);
+    assert_outlines_stay_near_buildings(&g, &bs, 50.0);
+}
+
+/// On every level whose islands may be bridged across less than `open_m` (see `island_reach_m`), every point of
+/// every outline lies within `open_m` of a building: a block may fill gaps between its buildings, but never
+/// draws a strip across open ground (a level-2 block of Boston once reached 131 m into Boston Common).
+fn assert_outlines_stay_near_buildings(g: &Generalized, buildings: &[Building], open_m: f64) {
+    use rstar::primitives::Line;
+    let edges = |fp: &geo_types::MultiPolygon<f64>| -> Vec<([f64; 2], [f64; 2])> {
+        fp.0.iter()
+            .flat_map(|p| std::iter::once(p.exterior()).chain(p.interiors()))
+            .flat_map(|r| {
+                r.lines()
+                    .map(|l| ([l.start.x, l.start.y], [l.end.x, l.end.y]))
+            })
+            .collect()
+    };
+    let walls: Vec<Line<[f64; 2]>> = buildings
+        .iter()
+        .flat_map(|b| edges(&b.footprint))
+        .map(|(a, b)| Line::new(a, b))
+        .collect();
+    let tree = rstar::RTree::bulk_load(walls);
+    let lambda = GeneralizeOptions::default().lambda_adjacent;
+    let mut checked_levels = 0;
+    for (k, level) in g.hierarchy.levels.iter().enumerate().skip(1) {
+        if island_reach_m(g.report.levels[k].threshold_m, lambda) >= open_m {
+            continue;
+        }
+        checked_levels += 1;
+        let mut worst = (0.0f64, 0usize);
+        for (i, node) in level.nodes.iter().enumerate() {
+            for (a, b) in edges(&node.footprint) {
+                let len = ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
+                let steps = (len / 5.0).ceil().max(1.0) as usize;
+                for s in 0..steps {
+                    let t = s as f64 / steps as f64;
+                    let p = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
+                    let d2 = tree
+                        .nearest_neighbor(&p)
+                        .map_or(f64::INFINITY, |w| rstar::PointDistance::distance_2(w, &p));
+                    if d2 > worst.0 {
+                        worst = (d2, i);
+                    }
+                }
+            }
+        }
+        let worst_m = worst.0.sqrt();
+        assert!(
+            worst_m <= open_m,
+            "level {k}: node {} has an outline point {worst_m:.0} m from every building",
+            worst.1
+        );
+    }
+    assert!(
+        checked_levels >= 2,
+        "only {checked_levels} levels reach under {open_m} m"
+    );
 }
 
 /// With landmarks off, Δh is the spread of all members, so it never decreases from a node to its parent.
