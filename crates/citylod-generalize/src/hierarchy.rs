@@ -998,7 +998,7 @@ mod tests {
     }
 
     #[test]
-    fn coarse_levels_of_a_real_city_are_single_outlines() {
+    fn coarse_levels_of_a_real_city_keep_apart_only_distant_islands() {
         // Before islands were connected, Boston's top node kept ~1,500 separate polygons; now a node keeps
         // apart only polygons no bridge within the level's reach joins.
         let Some(fps) = crate::merge::tests::boston_sample(3000) else {
