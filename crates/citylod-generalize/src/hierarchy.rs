@@ -283,21 +283,12 @@ pub fn generalize_with_streets(
         let bridges = bridges_per_group(&planned.groups, below, &merges, n);
         let a_avg_m2 = below.iter().map(|nd| nd.area_m2).sum::<f64>() / below.len().max(1) as f64;
         let delta_a_m2 = a_avg_m2 / opts.lambda_area;
+        let reach_m = island_reach_m(planned.threshold_m, opts.lambda_adjacent);
         let built: Vec<(Node, bool)> = planned
             .groups
             .par_iter()
             .zip(bridges.par_iter())
-            .map(|(g, br)| {
-                build_node(
-                    g,
-                    br,
-                    below,
-                    buildings,
-                    delta_a_m2,
-                    planned.threshold_m,
-                    opts,
-                )
-            })
+            .map(|(g, br)| build_node(g, br, below, buildings, delta_a_m2, reach_m, opts))
             .collect();
         let footprint_fallbacks = built.iter().filter(|(_, f)| *f).count();
         let level = Level {
@@ -565,7 +556,7 @@ fn build_node(
     below: &[Node],
     buildings: &[Building],
     delta_a_m2: f64,
-    threshold_m: f64,
+    reach_m: f64,
     opts: &GeneralizeOptions,
 ) -> (Node, bool) {
     if let [only] = group {
@@ -577,7 +568,6 @@ fn build_node(
         .iter()
         .map(|&c| &below[c as usize].footprint)
         .collect();
-    let reach_m = island_reach_m(threshold_m, opts.lambda_adjacent);
     let merged = connect_islands(&merge_footprints(&parts, bridges).footprint, reach_m);
     let simplified = simplify_footprint(&merged, delta_a_m2, opts.collinear_angle_deg);
     // Coverage guard: a node's footprint can never be smaller than its largest child. Should merging
