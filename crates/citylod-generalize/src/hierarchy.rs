@@ -232,8 +232,12 @@ pub fn generalize_with_streets(
     let index = StreetIndex::new(streets);
     let barrier = (!index.is_empty()).then_some((&index, opts.street_penalty_m));
 
-    let (merges, graph_stats, crossing_pairs) =
-        cluster_with_streets(&footprints, opts, barrier, &mut timings);
+    let Clustered {
+        merges,
+        edges,
+        stats: graph_stats,
+        crossing: crossing_pairs,
+    } = cluster_with_streets(&footprints, opts, barrier, &mut timings);
     let crossing_edges = crossing_pairs.len();
 
     let t = Instant::now();
@@ -242,7 +246,8 @@ pub fn generalize_with_streets(
         d_floor_m: opts.d_floor_m,
         max_inserts_per_level: opts.max_inserts_per_level,
     };
-    let plan = condense(n, &merges, &boxes, &level_opts);
+    let plan = condense(n, &merges, &edges, &boxes, &level_opts);
+    drop(edges);
     timings.levels_ms = ms(t);
     let street_report = barrier.map(|_| {
         let within = merges
@@ -337,22 +342,27 @@ pub fn cluster(
     opts: &GeneralizeOptions,
     timings: &mut PhaseTimings,
 ) -> (Vec<Merge>, GraphStats) {
-    let (merges, stats, _) = cluster_with_streets(footprints, opts, None, timings);
-    (merges, stats)
+    let c = cluster_with_streets(footprints, opts, None, timings);
+    (c.merges, c.stats)
+}
+
+/// What single-link clustering produced: the merges, the weighted candidate edges they came from,
+/// the graph's statistics and the edges a street crosses (a < b).
+struct Clustered {
+    merges: Vec<Merge>,
+    edges: Vec<CandidateEdge>,
+    stats: GraphStats,
+    crossing: std::collections::HashSet<(u32, u32)>,
 }
 
 /// [`cluster`] with the edges a street crosses lengthened by the penalty ([`raise_crossing`]); also returns
-/// those edges (a < b). The merges they cause carry the lengthened distance.
+/// the edges and those a street crosses. The merges they cause carry the lengthened distance.
 fn cluster_with_streets(
     footprints: &[&Footprint],
     opts: &GeneralizeOptions,
     streets: Option<(&StreetIndex, f64)>,
     timings: &mut PhaseTimings,
-) -> (
-    Vec<Merge>,
-    GraphStats,
-    std::collections::HashSet<(u32, u32)>,
-) {
+) -> Clustered {
     let mut crossing = std::collections::HashSet::new();
     let mut raise = |edges: &mut [CandidateEdge]| {
         if let Some((index, d_barrier)) = streets {
@@ -401,7 +411,12 @@ fn cluster_with_streets(
             timings.single_link_ms += ms(t);
         }
     }
-    (merges, stats, crossing)
+    Clustered {
+        merges,
+        edges,
+        stats,
+        crossing,
+    }
 }
 
 fn ms(t: Instant) -> f64 {

@@ -1,9 +1,12 @@
 //! Condensing the single-link dendrogram into a few balanced levels (seed 000 §3.3.2). Thresholds
 //! (m) sit where the sorted merge distance jumps most (rate rᵢ = (dᵢ₊₁ − dᵢ)/max(dᵢ, d_floor)); a level
 //! with more than δp = 2·⌈n^(1/L)⌉ children per node on average gets a lower threshold from the largest
-//! rate inside its crowded clusters, and nodes still over δp are split spatially. Invariant: every level
-//! partitions the level below, no node has more than δp children, and the top level is one node.
+//! rate inside its crowded clusters, and nodes still over δp are split into parts that stay connected
+//! through the candidate edges the level applies (grown region by region along the cluster's longer
+//! axis), the children no part could take being cut spatially. Invariant: every level partitions the
+//! level below, no node has more than δp children, and the top level is one node.
 
+use crate::graph::CandidateEdge;
 use crate::single_link::{Merge, UnionFind};
 
 /// Tuning of the condensing.
@@ -87,10 +90,19 @@ pub fn target_levels(n: usize, depth_divisor: f64) -> usize {
 }
 
 /// Condenses `merges` (from [`crate::single_link`], sorted by d) over `n` buildings into levels.
-/// `boxes[i]` = [min x, min y, max x, max y] of building i (local ENU m), used for spatial splits.
+/// `edges` are the candidate edges single-link ran on (any order; the merges are some of them): a
+/// node over δp children is split into parts connected by the edges its level applies. `boxes[i]` =
+/// [min x, min y, max x, max y] of building i (local ENU m), used to grow compact parts and to cut
+/// what stays over spatially (no edges: every split is spatial).
 /// The number of levels above the buildings is `rate_levels` − `rate_levels_skipped` + inserted
 /// levels + 1 (top) + extra top levels; see [`PlannedLevel::kind`]. n = 0 gives no levels.
-pub fn condense(n: usize, merges: &[Merge], boxes: &[[f64; 4]], opts: &LevelOptions) -> LevelPlan {
+pub fn condense(
+    n: usize,
+    merges: &[Merge],
+    edges: &[CandidateEdge],
+    boxes: &[[f64; 4]],
+    opts: &LevelOptions,
+) -> LevelPlan {
     debug_assert_eq!(boxes.len(), n);
     debug_assert!(merges.windows(2).all(|w| w[0].d_m <= w[1].d_m));
     let l = target_levels(n, opts.depth_divisor);
@@ -140,6 +152,8 @@ pub fn condense(n: usize, merges: &[Merge], boxes: &[[f64; 4]], opts: &LevelOpti
             (d(k - 1) + d(k)) / 2.0
         }
     };
+
+    let mut cross = CrossEdges::new(n, edges);
 
     let mut below: Vec<NodeInfo> = (0..n as u32)
         .map(|i| NodeInfo {
@@ -204,7 +218,13 @@ pub fn condense(n: usize, merges: &[Merge], boxes: &[[f64; 4]], opts: &LevelOpti
                 budget_splits: 0,
             };
             let mut out: Vec<Vec<u32>> = Vec::with_capacity(groups.len());
-            for (mut g, js) in groups.into_iter().zip(internal) {
+            let crowded_links = if groups.iter().any(|g| g.len() > delta_p) {
+                cross.advance(if k == 0 { f64::NEG_INFINITY } else { d(k - 1) });
+                cross.links_inside(&groups, delta_p)
+            } else {
+                vec![Vec::new(); groups.len()]
+            };
+            for ((g, js), links) in groups.into_iter().zip(internal).zip(crowded_links) {
                 if g.len() > delta_p {
                     let tie = js
                         .first()
@@ -214,12 +234,13 @@ pub fn condense(n: usize, merges: &[Merge], boxes: &[[f64; 4]], opts: &LevelOpti
                     } else {
                         level.budget_splits += 1;
                     }
-                    split_spatially(&mut g, &below, delta_p, &mut out);
+                    split_connected(&g, &links, &below, delta_p, &mut out);
                 } else {
                     out.push(g);
                 }
             }
             below = finish_level(&mut level, out, &below);
+            cross.relabel(&level.groups, below.len());
             plan.levels.push(level);
             // Children of later levels are looked up through the merges applied so far.
             for mg in &merges[k_lo..k] {
@@ -246,8 +267,15 @@ pub fn condense(n: usize, merges: &[Merge], boxes: &[[f64; 4]], opts: &LevelOpti
         if all.len() > delta_p {
             level.tie_splits += 1;
         }
-        split_spatially(&mut all, &below, delta_p, &mut out);
+        cross.advance(f64::INFINITY);
+        let groups = vec![std::mem::take(&mut all)];
+        let links = cross
+            .links_inside(&groups, delta_p)
+            .pop()
+            .unwrap_or_default();
+        split_connected(&groups[0], &links, &below, delta_p, &mut out);
         below = finish_level(&mut level, out, &below);
+        cross.relabel(&level.groups, below.len());
         plan.levels.push(level);
     }
     plan
@@ -331,6 +359,282 @@ fn finish_level(
         .collect();
     level.groups = groups;
     infos
+}
+
+/// The candidate edges a level may split along: those up to the level's distance whose buildings lie
+/// in different nodes of the level below. Single-link joins the two ends of every such edge, but a
+/// spatial split can still leave them apart, and the next level sees their cluster (all its parts)
+/// as one crowded group again, so edges are kept until their ends share a node.
+struct CrossEdges {
+    /// Every edge between distinct buildings, by (d, a, b).
+    sorted: Vec<(f64, u32, u32)>,
+    /// Edges of `sorted` before this one have been taken into `pending` or dropped.
+    next: usize,
+    /// Building pairs whose nodes differ on the level below.
+    pending: Vec<(u32, u32)>,
+    /// Each building's node on the level below.
+    node_of: Vec<u32>,
+}
+
+impl CrossEdges {
+    fn new(n: usize, edges: &[CandidateEdge]) -> Self {
+        let mut sorted: Vec<(f64, u32, u32)> = edges
+            .iter()
+            .filter(|e| e.a != e.b && (e.a as usize) < n && (e.b as usize) < n)
+            .map(|e| (e.d_m, e.a, e.b))
+            .collect();
+        sorted.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then((x.1, x.2).cmp(&(y.1, y.2))));
+        CrossEdges {
+            sorted,
+            next: 0,
+            pending: Vec::new(),
+            node_of: (0..n as u32).collect(),
+        }
+    }
+
+    /// Takes the edges up to `d_max_m` (m) in.
+    fn advance(&mut self, d_max_m: f64) {
+        while let Some(&(d, a, b)) = self.sorted.get(self.next) {
+            if d > d_max_m {
+                break;
+            }
+            if self.node_of[a as usize] != self.node_of[b as usize] {
+                self.pending.push((a, b));
+            }
+            self.next += 1;
+        }
+    }
+
+    /// For each group over `max` children (indices into the level below), the pairs of its children
+    /// an edge taken in joins, ascending and without repeats; other groups get none.
+    fn links_inside(&self, groups: &[Vec<u32>], max: usize) -> Vec<Vec<(u32, u32)>> {
+        let n_below = groups.iter().map(Vec::len).sum::<usize>();
+        let mut group_of = vec![u32::MAX; n_below];
+        for (gi, g) in groups.iter().enumerate() {
+            if g.len() > max {
+                for &c in g {
+                    group_of[c as usize] = gi as u32;
+                }
+            }
+        }
+        let mut links = vec![Vec::new(); groups.len()];
+        for &(a, b) in &self.pending {
+            let (ca, cb) = (self.node_of[a as usize], self.node_of[b as usize]);
+            let gi = group_of[ca as usize];
+            if ca != cb && gi != u32::MAX && gi == group_of[cb as usize] {
+                links[gi as usize].push((ca.min(cb), ca.max(cb)));
+            }
+        }
+        for l in &mut links {
+            l.sort_unstable();
+            l.dedup();
+        }
+        links
+    }
+
+    /// Moves every building up to its node of the new level (`groups`: its nodes' children) and drops
+    /// the edges now inside one node.
+    fn relabel(&mut self, groups: &[Vec<u32>], n_nodes: usize) {
+        debug_assert_eq!(groups.len(), n_nodes);
+        let n_below = groups.iter().map(Vec::len).sum::<usize>();
+        let mut parent = vec![0u32; n_below];
+        for (gi, g) in groups.iter().enumerate() {
+            for &c in g {
+                parent[c as usize] = gi as u32;
+            }
+        }
+        for v in &mut self.node_of {
+            *v = parent[*v as usize];
+        }
+        let node_of = &self.node_of;
+        self.pending
+            .retain(|&(a, b)| node_of[a as usize] != node_of[b as usize]);
+    }
+}
+
+/// Splits a node's `children` (ascending indices into `below`) into parts of at most `max`, each
+/// connected through `links` (pairs of children) where it can be: q = ⌈m / max⌉ parts of about m / q
+/// children are grown one after the other, each from the first free child along the longer axis of
+/// the children's centres, taking the linked free child nearest to its seed until full (first those
+/// with no other free neighbour, which would be left alone). A part left smaller than half that size
+/// joins the smallest linked part with room; a child still alone joins the part with room whose child
+/// lies nearest (beside it, though not linked); what is left is cut spatially ([`split_spatially`]).
+/// No links: a spatial split.
+fn split_connected(
+    children: &[u32],
+    links: &[(u32, u32)],
+    below: &[NodeInfo],
+    max: usize,
+    out: &mut Vec<Vec<u32>>,
+) {
+    let m = children.len();
+    let max = max.max(1);
+    if m <= max {
+        out.push(children.to_vec());
+        return;
+    }
+    if links.is_empty() {
+        split_spatially(&mut children.to_vec(), below, max, out);
+        return;
+    }
+    let local = |c: u32| {
+        children
+            .binary_search(&c)
+            .expect("linked children belong to the node")
+    };
+    // Neighbours in compressed rows.
+    let mut degree = vec![0usize; m + 1];
+    for &(a, b) in links {
+        degree[local(a) + 1] += 1;
+        degree[local(b) + 1] += 1;
+    }
+    for i in 0..m {
+        degree[i + 1] += degree[i];
+    }
+    let start = degree;
+    let mut fill = start.clone();
+    let mut nbr = vec![0usize; start[m]];
+    for &(a, b) in links {
+        let (la, lb) = (local(a), local(b));
+        nbr[fill[la]] = lb;
+        fill[la] += 1;
+        nbr[fill[lb]] = la;
+        fill[lb] += 1;
+    }
+    let centre: Vec<[f64; 2]> = children
+        .iter()
+        .map(|&c| {
+            let b = below[c as usize].bbox;
+            [(b[0] + b[2]) / 2.0, (b[1] + b[3]) / 2.0]
+        })
+        .collect();
+    let mut lo = [f64::INFINITY; 2];
+    let mut hi = [f64::NEG_INFINITY; 2];
+    for p in &centre {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let axis = usize::from(hi[1] - lo[1] > hi[0] - lo[0]);
+    let mut seeds: Vec<usize> = (0..m).collect();
+    seeds.sort_unstable_by(|&a, &b| centre[a][axis].total_cmp(&centre[b][axis]).then(a.cmp(&b)));
+
+    let parts_wanted = m.div_ceil(max);
+    let target = m.div_ceil(parts_wanted);
+    const FREE: usize = usize::MAX;
+    let mut part_of = vec![FREE; m];
+    let mut parts: Vec<Vec<usize>> = Vec::new();
+    let mut frontier: Vec<usize> = Vec::new();
+    for &seed in &seeds {
+        if part_of[seed] != FREE {
+            continue;
+        }
+        let pi = parts.len();
+        let mut part = vec![seed];
+        part_of[seed] = pi;
+        frontier.clear();
+        frontier.extend(nbr[start[seed]..start[seed + 1]].iter().copied());
+        let dist2 = |j: usize| {
+            let (p, q) = (centre[j], centre[seed]);
+            (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)
+        };
+        while part.len() < target {
+            frontier.retain(|&j| part_of[j] == FREE);
+            // A child with no other free neighbour is taken first: left behind, it would be alone.
+            let open = |j: usize| {
+                nbr[start[j]..start[j + 1]]
+                    .iter()
+                    .any(|&i| part_of[i] == FREE)
+            };
+            let Some(pos) = (0..frontier.len()).min_by(|&x, &y| {
+                let (a, b) = (frontier[x], frontier[y]);
+                (open(a), dist2(a), a)
+                    .partial_cmp(&(open(b), dist2(b), b))
+                    .unwrap_or(std::cmp::Ordering::Equal)
+            }) else {
+                break;
+            };
+            let j = frontier.swap_remove(pos);
+            part_of[j] = pi;
+            part.push(j);
+            frontier.extend(nbr[start[j]..start[j + 1]].iter().copied());
+        }
+        parts.push(part);
+    }
+
+    // Small parts join the smallest linked part with room (smallest parts first).
+    let mut order: Vec<usize> = (0..parts.len()).collect();
+    order.sort_by_key(|&p| (parts[p].len(), p));
+    for &p in &order {
+        let size = parts[p].len();
+        if size == 0 || 2 * size >= target {
+            continue;
+        }
+        let mut best: Option<(usize, usize)> = None;
+        for &i in &parts[p] {
+            for &j in &nbr[start[i]..start[i + 1]] {
+                let q = part_of[j];
+                if q == p || parts[q].len() + size > max {
+                    continue;
+                }
+                if best.is_none_or(|(bs, bq)| (parts[q].len(), q) < (bs, bq)) {
+                    best = Some((parts[q].len(), q));
+                }
+            }
+        }
+        if let Some((_, q)) = best {
+            let moved = std::mem::take(&mut parts[p]);
+            for &i in &moved {
+                part_of[i] = q;
+            }
+            parts[q].extend(moved);
+        }
+    }
+
+    // A child still alone joins the part with room nearest to it, so that it lies beside its part
+    // (a scan of all children per lone child; beyond ORPHAN_SCAN_LIMIT pairs they are cut spatially).
+    const ORPHAN_SCAN_LIMIT: usize = 50_000_000;
+    let lone = parts.iter().filter(|p| p.len() == 1).count();
+    for o in 0..m {
+        if lone.saturating_mul(m) > ORPHAN_SCAN_LIMIT {
+            break;
+        }
+        let p = part_of[o];
+        if parts[p].len() != 1 {
+            continue;
+        }
+        let near = (0..m)
+            .filter(|&j| part_of[j] != p && parts[part_of[j]].len() < max)
+            .min_by(|&a, &b| {
+                let d = |j: usize| {
+                    (centre[j][0] - centre[o][0]).powi(2) + (centre[j][1] - centre[o][1]).powi(2)
+                };
+                d(a).total_cmp(&d(b)).then(a.cmp(&b))
+            });
+        if let Some(j) = near {
+            let q = part_of[j];
+            parts[p].clear();
+            part_of[o] = q;
+            parts[q].push(o);
+        }
+    }
+
+    let mut alone: Vec<u32> = Vec::new();
+    for part in parts {
+        match part.len() {
+            0 => {}
+            1 => alone.push(children[part[0]]),
+            _ => {
+                let mut v: Vec<u32> = part.into_iter().map(|i| children[i]).collect();
+                v.sort_unstable();
+                out.push(v);
+            }
+        }
+    }
+    if !alone.is_empty() {
+        split_spatially(&mut alone, below, max, out);
+    }
 }
 
 /// Recursive median split along the longer axis of the children's box centres until every piece has
@@ -424,7 +728,7 @@ mod tests {
             depth_divisor: 1.2,
             ..Default::default()
         };
-        let plan = condense(6, &ms, &unit_boxes(6), &opts);
+        let plan = condense(6, &ms, &[], &unit_boxes(6), &opts);
         assert_eq!(plan.target_levels, 2);
         assert_eq!(plan.levels[0].kind, LevelKind::Rate);
         assert_eq!(plan.levels[0].threshold_m, 45.0);
@@ -449,7 +753,7 @@ mod tests {
             depth_divisor: 2.5,
             ..Default::default()
         };
-        let plan = condense(32, &merges(&ms), &unit_boxes(32), &opts);
+        let plan = condense(32, &merges(&ms), &[], &unit_boxes(32), &opts);
         assert_eq!(
             (plan.target_levels, plan.p, plan.delta_p, plan.rate_levels),
             (2, 6, 12, 1)
@@ -484,7 +788,7 @@ mod tests {
             depth_divisor: 0.8,
             ..Default::default()
         };
-        let plan = condense(6, &ms, &unit_boxes(6), &opts);
+        let plan = condense(6, &ms, &[], &unit_boxes(6), &opts);
         check(&plan, 6);
         assert_eq!((plan.rate_levels, plan.rate_levels_skipped), (2, 1));
         assert_eq!(plan.levels[0].threshold_m, 45.0);
@@ -500,7 +804,13 @@ mod tests {
     fn touching_row_houses_are_split_spatially_and_reported() {
         let n = 500;
         let ms: Vec<(f64, u32, u32)> = (0..n as u32 - 1).map(|i| (0.0, i, i + 1)).collect();
-        let plan = condense(n, &merges(&ms), &unit_boxes(n), &LevelOptions::default());
+        let plan = condense(
+            n,
+            &merges(&ms),
+            &[],
+            &unit_boxes(n),
+            &LevelOptions::default(),
+        );
         check(&plan, n);
         assert!(plan.levels.iter().map(|l| l.tie_splits).sum::<usize>() > 0);
         // Spatial pieces of a row are runs of consecutive houses.
@@ -509,16 +819,100 @@ mod tests {
         }
     }
 
+    /// Whether the buildings of `group` are one piece through `edges`.
+    fn connected(group: &[u32], edges: &[CandidateEdge]) -> bool {
+        let mut uf = UnionFind::new(group.len());
+        let pos = |b: u32| group.iter().position(|&x| x == b);
+        for e in edges {
+            if let (Some(a), Some(b)) = (pos(e.a), pos(e.b)) {
+                uf.union(a as u32, b as u32);
+            }
+        }
+        let r = uf.find(0);
+        (0..group.len() as u32).all(|i| uf.find(i) == r)
+    }
+
+    #[test]
+    fn crowded_rows_around_a_yard_are_split_into_connected_parts() {
+        // Two rows of 20 touching houses, 12 m apart across a back yard, joined at one end by a row of
+        // 11: one U-shaped cluster at d = 0, n = 51 so δp = 8. Median cuts across the U put houses of
+        // both rows into one part (linked only through the far end); parts grown along the candidate
+        // edges stay on one side.
+        let mut boxes = Vec::new();
+        for i in 0..20 {
+            boxes.push([i as f64, 0.0, i as f64 + 1.0, 1.0]);
+        }
+        for i in 0..20 {
+            boxes.push([i as f64, 12.0, i as f64 + 1.0, 13.0]);
+        }
+        for j in 1..12 {
+            boxes.push([0.0, j as f64, 1.0, j as f64 + 1.0]);
+        }
+        let n = boxes.len();
+        let e = |a: usize, b: usize| CandidateEdge {
+            a: a as u32,
+            b: b as u32,
+            d_m: 0.0,
+        };
+        let mut edges: Vec<CandidateEdge> = (0..19).map(|i| e(i, i + 1)).collect();
+        edges.extend((20..39).map(|i| e(i, i + 1)));
+        edges.extend((40..50).map(|i| e(i, i + 1)));
+        edges.push(e(0, 40));
+        edges.push(e(50, 20));
+        let ms = crate::single_link::single_link(n, &edges);
+        assert_eq!(ms.len(), n - 1);
+        let opts = LevelOptions::default();
+
+        let plan = condense(n, &ms, &edges, &boxes, &opts);
+        check(&plan, n);
+        assert_eq!(plan.delta_p, 8);
+        let first = &plan.levels[0];
+        assert_eq!(first.tie_splits, 1);
+        assert!(first.groups.iter().all(|g| connected(g, &edges)));
+        // As few parts as a spatial split makes: ⌈51 / 8⌉ = 7 at best.
+        let spatial = condense(n, &ms, &[], &boxes, &opts);
+        check(&spatial, n);
+        assert!(first.groups.len() <= spatial.levels[0].groups.len());
+        assert!(first.groups.len() >= 7);
+        assert!(spatial.levels[0]
+            .groups
+            .iter()
+            .any(|g| !connected(g, &edges)));
+    }
+
+    #[test]
+    fn a_star_split_keeps_its_hub_part_connected_and_cuts_the_leaves_spatially() {
+        // A long hall (0) touched by 30 sheds that touch nothing else: one part holds the hall and its
+        // nearest sheds, the other sheds (alone once the hall is taken) are grouped by a spatial cut.
+        let mut boxes = vec![[0.0, 0.0, 60.0, 10.0]];
+        for i in 0..15 {
+            boxes.push([4.0 * i as f64, 10.0, 4.0 * i as f64 + 2.0, 12.0]);
+            boxes.push([4.0 * i as f64, -2.0, 4.0 * i as f64 + 2.0, 0.0]);
+        }
+        let n = boxes.len();
+        let edges: Vec<CandidateEdge> = (1..n as u32)
+            .map(|b| CandidateEdge { a: 0, b, d_m: 0.0 })
+            .collect();
+        let ms = crate::single_link::single_link(n, &edges);
+        let plan = condense(n, &ms, &edges, &boxes, &LevelOptions::default());
+        check(&plan, n);
+        let first = &plan.levels[0].groups;
+        let hub = first.iter().find(|g| g.contains(&0)).unwrap();
+        assert_eq!(hub.len(), plan.delta_p);
+        // The rest: 31 − δp sheds in parts of at most δp, no part of a single shed more than needed.
+        assert!(first.len() <= 1 + (n - plan.delta_p).div_ceil(plan.delta_p / 2));
+    }
+
     #[test]
     fn single_building_has_one_top_level() {
-        let plan = condense(1, &[], &unit_boxes(1), &LevelOptions::default());
+        let plan = condense(1, &[], &[], &unit_boxes(1), &LevelOptions::default());
         assert_eq!(plan.levels.len(), 1);
         assert_eq!(plan.levels[0].groups, vec![vec![0]]);
     }
 
     #[test]
     fn disconnected_dendrogram_still_gets_one_top() {
-        let plan = condense(40, &[], &unit_boxes(40), &LevelOptions::default());
+        let plan = condense(40, &[], &[], &unit_boxes(40), &LevelOptions::default());
         check(&plan, 40);
         assert!(plan.levels.iter().any(|l| l.kind == LevelKind::ExtraTop));
     }
