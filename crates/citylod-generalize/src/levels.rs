@@ -240,7 +240,7 @@ pub fn condense(
                 }
             }
             below = finish_level(&mut level, out, &below);
-            cross.relabel(&level.groups, below.len());
+            cross.relabel(&level.groups);
             plan.levels.push(level);
             // Children of later levels are looked up through the merges applied so far.
             for mg in &merges[k_lo..k] {
@@ -275,7 +275,7 @@ pub fn condense(
             .unwrap_or_default();
         split_connected(&groups[0], &links, &below, delta_p, &mut out);
         below = finish_level(&mut level, out, &below);
-        cross.relabel(&level.groups, below.len());
+        cross.relabel(&level.groups);
         plan.levels.push(level);
     }
     plan
@@ -434,8 +434,7 @@ impl CrossEdges {
 
     /// Moves every building up to its node of the new level (`groups`: its nodes' children) and drops
     /// the edges now inside one node.
-    fn relabel(&mut self, groups: &[Vec<u32>], n_nodes: usize) {
-        debug_assert_eq!(groups.len(), n_nodes);
+    fn relabel(&mut self, groups: &[Vec<u32>]) {
         let n_below = groups.iter().map(Vec::len).sum::<usize>();
         let mut parent = vec![0u32; n_below];
         for (gi, g) in groups.iter().enumerate() {
