@@ -310,6 +310,30 @@ struct NodeInfo {
     bbox: [f64; 4],
 }
 
+impl NodeInfo {
+    fn centre(&self) -> [f64; 2] {
+        let b = self.bbox;
+        [(b[0] + b[2]) / 2.0, (b[1] + b[3]) / 2.0]
+    }
+}
+
+/// 0 when `points` spread at least as far along x as along y, else 1.
+fn longer_axis(points: impl IntoIterator<Item = [f64; 2]>) -> usize {
+    let mut lo = [f64::INFINITY; 2];
+    let mut hi = [f64::NEG_INFINITY; 2];
+    for p in points {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    usize::from(hi[1] - lo[1] > hi[0] - lo[0])
+}
+
+fn dist2(p: [f64; 2], q: [f64; 2]) -> f64 {
+    (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)
+}
+
 /// Groups the nodes of the level below by their union–find component. Leaves `slot[root]` = group
 /// index for the returned roots (the caller resets them).
 fn group_children(
@@ -502,20 +526,9 @@ fn split_connected(
     }
     let centre: Vec<[f64; 2]> = children
         .iter()
-        .map(|&c| {
-            let b = below[c as usize].bbox;
-            [(b[0] + b[2]) / 2.0, (b[1] + b[3]) / 2.0]
-        })
+        .map(|&c| below[c as usize].centre())
         .collect();
-    let mut lo = [f64::INFINITY; 2];
-    let mut hi = [f64::NEG_INFINITY; 2];
-    for p in &centre {
-        for k in 0..2 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    let axis = usize::from(hi[1] - lo[1] > hi[0] - lo[0]);
+    let axis = longer_axis(centre.iter().copied());
     let mut seeds: Vec<usize> = (0..m).collect();
     seeds.sort_unstable_by(|&a, &b| centre[a][axis].total_cmp(&centre[b][axis]).then(a.cmp(&b)));
 
@@ -534,10 +547,7 @@ fn split_connected(
         part_of[seed] = pi;
         frontier.clear();
         frontier.extend(nbr[start[seed]..start[seed + 1]].iter().copied());
-        let dist2 = |j: usize| {
-            let (p, q) = (centre[j], centre[seed]);
-            (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)
-        };
+        let to_seed = |j: usize| dist2(centre[j], centre[seed]);
         while part.len() < target {
             frontier.retain(|&j| part_of[j] == FREE);
             // A child with no other free neighbour is taken first: left behind, it would be alone.
@@ -548,8 +558,8 @@ fn split_connected(
             };
             let Some(pos) = (0..frontier.len()).min_by(|&x, &y| {
                 let (a, b) = (frontier[x], frontier[y]);
-                (open(a), dist2(a), a)
-                    .partial_cmp(&(open(b), dist2(b), b))
+                (open(a), to_seed(a), a)
+                    .partial_cmp(&(open(b), to_seed(b), b))
                     .unwrap_or(std::cmp::Ordering::Equal)
             }) else {
                 break;
@@ -606,9 +616,7 @@ fn split_connected(
         let near = (0..m)
             .filter(|&j| part_of[j] != p && parts[part_of[j]].len() < max)
             .min_by(|&a, &b| {
-                let d = |j: usize| {
-                    (centre[j][0] - centre[o][0]).powi(2) + (centre[j][1] - centre[o][1]).powi(2)
-                };
+                let d = |j: usize| dist2(centre[j], centre[o]);
                 d(a).total_cmp(&d(b)).then(a.cmp(&b))
             });
         if let Some(j) = near {
@@ -645,20 +653,8 @@ fn split_spatially(children: &mut [u32], below: &[NodeInfo], max: usize, out: &m
         out.push(v);
         return;
     }
-    let centre = |c: u32| {
-        let b = below[c as usize].bbox;
-        [(b[0] + b[2]) / 2.0, (b[1] + b[3]) / 2.0]
-    };
-    let mut lo = [f64::INFINITY; 2];
-    let mut hi = [f64::NEG_INFINITY; 2];
-    for &c in children.iter() {
-        let p = centre(c);
-        for k in 0..2 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    let axis = usize::from(hi[1] - lo[1] > hi[0] - lo[0]);
+    let centre = |c: u32| below[c as usize].centre();
+    let axis = longer_axis(children.iter().map(|&c| centre(c)));
     children.sort_unstable_by(|&a, &b| centre(a)[axis].total_cmp(&centre(b)[axis]).then(a.cmp(&b)));
     let mid = children.len() / 2;
     let (left, right) = children.split_at_mut(mid);
