@@ -16,7 +16,7 @@ import path from 'node:path';
 import { CLIENTS, REPO, VIEWS, launchBrowser, runClient, startServer } from './browser.mjs';
 
 const DATASETS = {
-  boston: { input: '/work/shared/data/boston/boston_buildings.geojson', args: ['--storey-height', '3.5'] },
+  boston: { input: path.join(REPO, '..', 'shared', 'data', 'boston', 'boston_buildings.geojson'), args: ['--storey-height', '3.5'] },
   nyc: { input: path.join(REPO, 'examples/nyc-les/les_buildings.geojson'), args: [] },
 };
 /** The CLI's defaults (citylod build --help). */

@@ -10,7 +10,9 @@ use crate::levels::{condense, LevelKind, LevelOptions};
 use crate::merge::connect_islands;
 use crate::single_link::{single_link, Merge};
 use crate::streets::{raise_crossing, StreetIndex};
-use crate::{fill_concave_within, merge_footprints, node_stats, simplify_footprint, NodeStats};
+use crate::{
+    fill_concave_within, merge_footprints_weighted, node_stats, simplify_footprint, NodeStats,
+};
 use citylod_model::{Building, BuildingId, Footprint, Hierarchy, Level, Node, NodeId};
 use geo::Area;
 use rayon::prelude::*;
@@ -583,7 +585,10 @@ fn build_node(
         .iter()
         .map(|&c| &below[c as usize].footprint)
         .collect();
-    let merged = connect_islands(&merge_footprints(&parts, bridges).footprint, reach_m);
+    let merged = connect_islands(
+        &merge_footprints_weighted(&parts, bridges, opts.lambda_adjacent).footprint,
+        reach_m,
+    );
     let simplified = simplify_footprint(&merged, delta_a_m2, opts.collinear_angle_deg);
     // Coverage guard: a node's footprint can never be smaller than its largest child. Should merging
     // or simplifying lose area anyway, fall back to the unsimplified union, then to the children's

@@ -57,7 +57,7 @@ pub use hierarchy::{
     StreetBarrierReport,
 };
 pub use levels::{condense, target_levels, LevelKind, LevelOptions, LevelPlan, PlannedLevel};
-pub use merge::{merge_footprints, MergeResult};
+pub use merge::{merge_footprints, merge_footprints_weighted, MergeResult, ADJACENT_LAMBDA};
 pub use simplify::{
     fill_concave_within, reoutline_within, simplify_footprint, Reoutlined, CONVEX_COLLINEAR_TOL_M,
     SLIVER_FACTOR,

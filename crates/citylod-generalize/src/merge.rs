@@ -13,8 +13,9 @@ use rstar::{Envelope, RTree, AABB};
 use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
 use std::collections::BTreeMap;
 
-/// Weight λ of the side-similarity term in the adjacent distance (seed 000 Eq. 1), used for d_pair.
-const ADJACENT_LAMBDA: f64 = 0.6;
+/// Weight λ of the side-similarity term in the adjacent distance (seed 000 Eq. 1) that ranks connection pairs
+/// (d_pair) in [`merge_footprints`]; [`merge_footprints_weighted`] takes another.
+pub const ADJACENT_LAMBDA: f64 = 0.6;
 /// Connection pairs tried per footprint pair, best first, before giving up on the pair.
 const MAX_PAIR_TRIES: usize = 64;
 
@@ -50,15 +51,27 @@ pub struct MergeResult {
 /// assert_eq!(merged.footprint.0.len(), 1);
 /// ```
 pub fn merge_footprints(parts: &[&Footprint], bridges_hint: &[(usize, usize)]) -> MergeResult {
-    merge_with_bridges(parts, bridges_hint).0
+    merge_footprints_weighted(parts, bridges_hint, ADJACENT_LAMBDA)
 }
 
-/// `merge_footprints`, also returning the bridges (CCW) that went into the union.
+/// [`merge_footprints`] with connection pairs ranked by the adjacent distance d_min·(1 − N·λ) of weight
+/// `lambda_adjacent` (0–1; the clustering's λ, so that both rank sides alike).
+pub fn merge_footprints_weighted(
+    parts: &[&Footprint],
+    bridges_hint: &[(usize, usize)],
+    lambda_adjacent: f64,
+) -> MergeResult {
+    merge_with_bridges(parts, bridges_hint, lambda_adjacent).0
+}
+
+/// `merge_footprints_weighted`, also returning the bridges (CCW) that went into the union.
 pub(crate) fn merge_with_bridges(
     parts: &[&Footprint],
     bridges_hint: &[(usize, usize)],
+    lambda_adjacent: f64,
 ) -> (MergeResult, Vec<Polygon<f64>>) {
-    let ctx = Context::new(parts);
+    let mut ctx = Context::new(parts);
+    ctx.lambda_adjacent = lambda_adjacent;
     let mut bridges = Vec::new();
     let mut pairs: Vec<(usize, usize)> = bridges_hint
         .iter()
@@ -241,6 +254,8 @@ struct Context {
     /// Segments of every part, for the bridge-crossing and winding tests.
     all_segs: RTree<Seg>,
     max_x: f64,
+    /// λ of the adjacent distance that ranks connection pairs.
+    lambda_adjacent: f64,
 }
 
 impl Context {
@@ -286,6 +301,7 @@ impl Context {
             parts: out,
             all_segs,
             max_x,
+            lambda_adjacent: ADJACENT_LAMBDA,
         }
     }
 
@@ -421,7 +437,7 @@ fn bridge_pair(ctx: &Context, ia: usize, ib: usize) -> PairOutcome {
         let s2 = [ctx.pos(w), ctx.pos(b2)];
         cands.push(Candidate {
             strict: ctx.adjacent(u, a2) && ctx.adjacent(w, b2),
-            d_pair_m: adjacent_distance_m(s1, s2),
+            d_pair_m: adjacent_distance_m(s1, s2, ctx.lambda_adjacent),
             key: (u, a2, w, b2),
             quad: [ctx.pos(u), ctx.pos(a2), ctx.pos(w), ctx.pos(b2)],
         });
@@ -705,10 +721,10 @@ fn nearest_feature_bridge(
 /// Adjacent distance (m) between two segments, seed 000 Eq. 1–2: d_min · (1 − N·λ), where N is the mean
 /// share of each side covered by the other's projection onto it. Parallel, fully facing sides give the
 /// smallest value; staggered or skewed sides a larger one.
-fn adjacent_distance_m(s1: [[f64; 2]; 2], s2: [[f64; 2]; 2]) -> f64 {
+fn adjacent_distance_m(s1: [[f64; 2]; 2], s2: [[f64; 2]; 2], lambda: f64) -> f64 {
     let d_min = segment_dist(s1[0], s1[1], s2[0], s2[1]);
     let n = 0.5 * (projected_share(s1, s2) + projected_share(s2, s1));
-    d_min * (1.0 - n * ADJACENT_LAMBDA)
+    d_min * (1.0 - n * lambda)
 }
 
 /// Share of `onto` covered by the orthogonal projection of `s` onto its line, in [0, 1].
@@ -945,7 +961,7 @@ pub(crate) mod tests {
     #[test]
     fn facing_rectangles_bridge_with_the_gap_quad() {
         let (a, b) = (rect(0.0, 0.0, 10.0, 10.0), rect(13.0, 0.0, 23.0, 10.0));
-        let (m, bridges) = merge_with_bridges(&[&a, &b], &[(0, 1)]);
+        let (m, bridges) = merge_with_bridges(&[&a, &b], &[(0, 1)], ADJACENT_LAMBDA);
         assert!(!m.disconnected);
         assert_eq!(bridges.len(), 1);
         assert!(
@@ -961,7 +977,7 @@ pub(crate) mod tests {
     #[test]
     fn staggered_rectangles_bridge_only_facing_overlap() {
         let (a, b) = (rect(0.0, 0.0, 10.0, 30.0), rect(12.0, 20.0, 22.0, 50.0));
-        let (m, bridges) = merge_with_bridges(&[&a, &b], &[(0, 1)]);
+        let (m, bridges) = merge_with_bridges(&[&a, &b], &[(0, 1)], ADJACENT_LAMBDA);
         assert!(!m.disconnected);
         assert_eq!(bridges.len(), 1);
         let added = m.footprint.unsigned_area() - 600.0;
@@ -974,16 +990,16 @@ pub(crate) mod tests {
     #[test]
     fn intersecting_and_included_parts_need_no_bridge() {
         let (a, b) = (rect(0.0, 0.0, 10.0, 10.0), rect(5.0, 5.0, 15.0, 15.0));
-        let (m, bridges) = merge_with_bridges(&[&a, &b], &[(0, 1)]);
+        let (m, bridges) = merge_with_bridges(&[&a, &b], &[(0, 1)], ADJACENT_LAMBDA);
         assert!(bridges.is_empty() && !m.disconnected);
         assert!((m.footprint.unsigned_area() - 175.0).abs() < 1e-6);
         let inner = rect(2.0, 2.0, 4.0, 4.0);
-        let (m, bridges) = merge_with_bridges(&[&a, &inner], &[(0, 1)]);
+        let (m, bridges) = merge_with_bridges(&[&a, &inner], &[(0, 1)], ADJACENT_LAMBDA);
         assert!(bridges.is_empty() && !m.disconnected);
         assert!((m.footprint.unsigned_area() - 100.0).abs() < 1e-6);
         // A cross: the rectangles overlap though no vertex of either lies inside the other.
         let (h, v) = (rect(0.0, 4.0, 20.0, 6.0), rect(9.0, -5.0, 11.0, 15.0));
-        let (m, bridges) = merge_with_bridges(&[&h, &v], &[(0, 1)]);
+        let (m, bridges) = merge_with_bridges(&[&h, &v], &[(0, 1)], ADJACENT_LAMBDA);
         assert!(bridges.is_empty() && !m.disconnected);
         assert!((m.footprint.unsigned_area() - 76.0).abs() < 1e-6);
     }
@@ -1014,7 +1030,7 @@ pub(crate) mod tests {
     #[test]
     fn part_in_courtyard_is_bridged_inside_the_hole() {
         let (a, b) = (courtyard(), rect(12.0, 12.0, 18.0, 18.0));
-        let (m, bridges) = merge_with_bridges(&[&a, &b], &[(0, 1)]);
+        let (m, bridges) = merge_with_bridges(&[&a, &b], &[(0, 1)], ADJACENT_LAMBDA);
         assert_eq!(bridges.len(), 1);
         assert!(!m.disconnected);
         assert!(m.footprint.is_valid());
@@ -1029,7 +1045,7 @@ pub(crate) mod tests {
             rect(20.0, 0.0, 30.0, 10.0),
             rect(14.0, -50.0, 16.0, 60.0),
         );
-        let (m, bridges) = merge_with_bridges(&[&a, &b, &c], &[(0, 1)]);
+        let (m, bridges) = merge_with_bridges(&[&a, &b, &c], &[(0, 1)], ADJACENT_LAMBDA);
         assert!(bridges.is_empty());
         assert!(m.disconnected);
         assert_eq!(m.footprint.0.len(), 3);
@@ -1042,7 +1058,7 @@ pub(crate) mod tests {
     #[test]
     fn corner_touching_parts_are_joined_by_a_triangle() {
         let (a, b) = (rect(0.0, 0.0, 10.0, 10.0), rect(10.0, 10.0, 20.0, 20.0));
-        let (m, bridges) = merge_with_bridges(&[&a, &b], &[(0, 1)]);
+        let (m, bridges) = merge_with_bridges(&[&a, &b], &[(0, 1)], ADJACENT_LAMBDA);
         assert_eq!(bridges.len(), 1);
         assert_eq!(bridges[0].exterior().0.len(), 4);
         assert!(!m.disconnected && m.footprint.is_valid());
@@ -1356,7 +1372,7 @@ pub(crate) mod tests {
             let parts: Vec<Footprint> = rects.iter().map(|&(x, y, w, h, a)| rotated_rect(x, y, w, h, a)).collect();
             let refs: Vec<&Footprint> = parts.iter().collect();
             let hints: Vec<(usize, usize)> = (1..parts.len()).map(|i| (i - 1, i)).collect();
-            let (m, bridges) = merge_with_bridges(&refs, &hints);
+            let (m, bridges) = merge_with_bridges(&refs, &hints, ADJACENT_LAMBDA);
             prop_assert!(m.footprint.is_valid(), "{:?}", m.footprint.validation_errors());
             let total: f64 = parts.iter().map(|p| p.unsigned_area()).sum();
             prop_assert!(uncovered_m2(&refs, &m.footprint) < 1e-7 * total);

@@ -49,12 +49,12 @@ pub struct BuildArgs {
     #[arg(long, value_name = "LOD", help_heading = "3D buildings")]
     pub lod: Option<String>,
 
-    /// How the 3D models are simplified: `topo-qem` (seed 003: QEM that keeps touching parts together),
-    /// `profile` (seed 004: horizontal profiles) or `qem` (plain QEM, for comparison only).
+    /// How the 3D models are simplified: `topo-qem` (QEM that keeps touching parts together, IJGI 2021),
+    /// `profile` (horizontal profiles, Zhao and Wang 2014) or `qem` (plain QEM, for comparison only).
     #[arg(long, value_enum, default_value_t = SimplifierArg::TopoQem, help_heading = "3D buildings")]
     pub building_simplifier: SimplifierArg,
 
-    /// Share of a model's triangles the simplified level removes (0–1; the seed's rates are 0.5, 0.6, 0.8).
+    /// Share of a model's triangles the simplified level removes (0–1; the IJGI 2021 paper used 0.5, 0.6 and 0.8).
     #[arg(
         long,
         value_name = "RATE",
@@ -63,7 +63,7 @@ pub struct BuildArgs {
     )]
     pub building_rate: f64,
 
-    /// Basic cost ratio `a` of topo-qem for vertices where parts touch (≥ 1; seed 003 suggests 1–3 for
+    /// Basic cost ratio `a` of topo-qem for vertices where parts touch (≥ 1; the IJGI 2021 paper suggests 1–3 for
     /// simple and 2–8 for complex models).
     #[arg(long, value_name = "A", default_value_t = citylod_mesh::simplify::DEFAULT_TOPO_QEM_A, help_heading = "3D buildings")]
     pub topo_qem_a: f64,
@@ -127,7 +127,7 @@ pub struct BuildArgs {
     pub landmark_max_share: f64,
 
     /// Street centre lines (GeoJSON LineString / MultiLineString, in --crs or the file's CRS, else lon/lat) as
-    /// barriers: the first levels do not join buildings on opposite sides of a street (seed 002; DESIGN.md §3.9).
+    /// barriers: the first levels do not join buildings on opposite sides of a street (Zhang et al. 2014).
     /// The build report says up to which level, and lists every street feature not used, with its reason.
     #[arg(long, value_name = "FILE", help_heading = "Generalization")]
     pub streets: Option<PathBuf>,
@@ -146,7 +146,8 @@ pub struct BuildArgs {
     #[arg(long, help_heading = "Generalization")]
     pub leaves_only: bool,
 
-    /// Also write each level as GeoJSON (WGS84) and PNG into this folder, for QGIS or a quick look.
+    /// Also write each level as GeoJSON (WGS84) and PNG into this folder, and levels.png of them all side by side,
+    /// for QGIS or a quick look.
     #[arg(long, value_name = "DIR", help_heading = "Generalization")]
     pub dump_levels: Option<PathBuf>,
 
@@ -186,12 +187,8 @@ pub struct BuildArgs {
     /// written below it, both counted as generalized (before blocks are re-outlined within their tile's error);
     /// 1 = every level. A level that removes little is barely coarser either, so a client would use it over a
     /// short range of distances while every closer view loads it on the way down; but a low value makes clients
-    /// jump further between levels, so views load more. Measured (800×600, `citylod check`'s 8 views): 0.8 drops
-    /// NYC's level 3 (0.83 of level 2's triangles; errors 46–67 m against 43–44 m): tileset 5 % smaller, views 3 %
-    /// lighter, the browsers' far view 0.64 → 0.55 of leaves-only; Delft and Boston unchanged. 0.7 also drops
-    /// Delft's level 2 (0.72): 8 % smaller, views 1 % lighter, but its far view draws 3.0× fewer triangles than
-    /// full detail instead of 6.3×; 0.6 drops Boston's level 2 (0.65): views load 55 % more. On Boston 0.25 gives
-    /// 1.04× the bytes of --leaves-only and 5× the view bytes.
+    /// jump further between levels, so views load more: on Boston 0.25 stores 1.03× the bytes of --leaves-only,
+    /// and `citylod check`'s views load 4.3× the bytes of the default (measurements: docs/coarse-bytes.md).
     #[arg(long, value_name = "R", default_value_t = 0.8, help_heading = "Tiles")]
     pub level_ratio: f64,
 
@@ -232,9 +229,9 @@ pub enum CompressionArg {
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SimplifierArg {
-    /// Seed 003: QEM half-edge collapse that keeps touching parts of a building together (default)
+    /// IJGI 2021: QEM half-edge collapse that keeps touching parts of a building together (default)
     TopoQem,
-    /// Seed 004: horizontal profiles every 1 m, a new profile kept where the outline moves by over 0.5 m
+    /// Zhao and Wang 2014: horizontal profiles every 1 m, a new profile kept where the outline moves by over 0.5 m
     Profile,
     /// Plain QEM (meshoptimizer), for comparison: may tear parts apart
     Qem,

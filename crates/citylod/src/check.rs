@@ -32,13 +32,13 @@ pub struct CheckArgs {
     )]
     pub sse: f64,
 
-    /// Height tolerance δH of the seed criterion in pixels. Default: the tileset's `extras.citylod.dh_px`,
-    /// else 20.
+    /// Height tolerance δH of the refinement criterion (Yang et al. 2011) in pixels. Default: the tileset's
+    /// `extras.citylod.dh_px`, else 20.
     #[arg(long, value_name = "PX", help_heading = "Check")]
     pub dh_px: Option<f64>,
 
-    /// Area tolerance δA of the seed criterion in pixels². Default: the tileset's `extras.citylod.da_px`,
-    /// else 200.
+    /// Area tolerance δA of the refinement criterion (Yang et al. 2011) in pixels². Default: the tileset's
+    /// `extras.citylod.da_px`, else 200.
     #[arg(long, value_name = "PX²", help_heading = "Check")]
     pub da_px: Option<f64>,
 

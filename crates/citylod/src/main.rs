@@ -24,7 +24,8 @@ struct Cli {
 enum Command {
     /// Build a 3D Tiles tileset from building footprints (GeoJSON) or city models (CityJSON, CityJSONSeq).
     Build(build::BuildArgs),
-    /// Print what a tileset holds: tiles, triangles, bytes and geometric errors per level.
+    /// Print what a tileset holds: tiles, triangles, bytes and geometric errors per tree depth (0 is the root,
+    /// the last the buildings).
     Inspect(inspect::InspectArgs),
     /// Check a tileset: validate and render the cut a 3D Tiles client draws from several cameras against full detail.
     Check(check::CheckArgs),
