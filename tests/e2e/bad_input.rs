@@ -110,6 +110,8 @@ fn unreadable_inputs_exit_2_with_a_clear_message() {
         (vec![d.join("does-not-exist.geojson").display().to_string()], "does-not-exist.geojson"),
         (vec![good.display().to_string(), "--crs".into(), "EPSG:999999".into()], "EPSG:999999"),
         (vec![write(&d, "empty.geojson", r#"{"type":"FeatureCollection","features":[]}"#).display().to_string()], "no building"),
+        // Every feature skipped: the message lists them, since no report is written.
+        (vec![write(&d, "all-skipped.geojson", r#"{"type":"FeatureCollection","features":[{"type":"Feature","id":"b1","properties":{},"geometry":null}]}"#).display().to_string()], "b1 in "),
         (vec![good.display().to_string(), "--storey-height=-1".into()], "--storey-height"),
         (vec![good.display().to_string(), "--streets".into(), write(&d, "streets.geojson", r#"{"type":"FeatureCollection","features":["#).display().to_string()], "streets.geojson"),
         (vec![good.display().to_string(), "--streets".into(), d.join("no-streets.geojson").display().to_string()], "no-streets.geojson"),
@@ -179,6 +181,75 @@ fn failed_build_leaves_existing_output_untouched() {
         leftovers.is_empty(),
         "temporary folders left behind: {leftovers:?}"
     );
+}
+
+#[test]
+fn output_paths_that_are_not_tilesets_are_refused() {
+    let d = scratch_dir("refused-out");
+    let user = d.join("user");
+    std::fs::create_dir_all(&user).unwrap();
+    let input = user.join("in.geojson");
+    std::fs::copy(
+        repo_root().join("examples/nyc-les/les_buildings.geojson"),
+        &input,
+    )
+    .unwrap();
+    std::fs::write(user.join("notes.txt"), "keep me").unwrap();
+    let other = d.join("other");
+    std::fs::create_dir_all(&other).unwrap();
+    std::fs::write(other.join("a.txt"), "mine").unwrap();
+    let before = tree_bytes(&d);
+    let (i, u, o) = (
+        input.to_str().unwrap(),
+        user.to_str().unwrap(),
+        other.to_str().unwrap(),
+    );
+    let notes = user.join("notes.txt");
+    let (new_out, new_levels) = (d.join("new"), d.join("new/levels"));
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec![i, "--out", u], "is inside the output folder"),
+        (vec![i, "--out", i], "is a file"),
+        (vec![i, "--out", notes.to_str().unwrap()], "is a file"),
+        (vec![i, "--out", o], "--force"),
+        (
+            vec![
+                i,
+                "--out",
+                new_out.to_str().unwrap(),
+                "--dump-levels",
+                new_levels.to_str().unwrap(),
+            ],
+            "--dump-levels",
+        ),
+    ];
+    for (args, expect) in cases {
+        let mut all = vec!["build"];
+        all.extend(&args);
+        let out = citylod(&all);
+        assert_no_panic(&out);
+        assert_eq!(
+            out.status.code(),
+            Some(2),
+            "{args:?} should be refused:\n{}",
+            stderr_of(&out)
+        );
+        assert!(
+            stderr_of(&out).contains(expect),
+            "{args:?}: stderr should mention {expect}:\n{}",
+            stderr_of(&out)
+        );
+        assert!(
+            before == tree_bytes(&d),
+            "{args:?} changed files it must not touch"
+        );
+    }
+    // With --force the non-tileset folder is replaced; from then on it holds a tileset and is replaced freely.
+    let forced = citylod(&["build", i, "--out", o, "--force"]);
+    assert_eq!(forced.status.code(), Some(0), "{}", stderr_of(&forced));
+    assert!(other.join("tileset.json").is_file() && !other.join("a.txt").exists());
+    let again = citylod(&["build", i, "--out", o]);
+    assert_eq!(again.status.code(), Some(0), "{}", stderr_of(&again));
+    assert_eq!(std::fs::read_to_string(&notes).unwrap(), "keep me");
 }
 
 /// A ring of a hostile kind around (x, y) metres: ordinary rectangles (some a hair wide), stars, bowties, spikes,

@@ -9,7 +9,7 @@ use crate::lod::Target;
 use crate::model3d;
 use crate::report::IssueReason;
 use serde_json::{Map, Value};
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 /// The buildings of a CityJSON document (or sequence) and what its header declares.
 #[derive(Debug)]
@@ -20,7 +20,8 @@ pub(crate) struct CityDoc {
     pub non_building_objects: usize,
 }
 
-/// Integer-vertex decoding: real = v · scale + translate. Identity when the file has none.
+/// Integer-vertex decoding: real = v · scale + translate. Identity for a CityJSON 1.0 file without one (1.0 allowed
+/// real coordinates); later versions require it.
 #[derive(Debug, Clone, Copy)]
 struct Transform {
     scale: [f64; 3],
@@ -30,6 +31,14 @@ struct Transform {
 impl Transform {
     fn of(doc: &Value) -> Result<Self, String> {
         let Some(t) = doc.get("transform") else {
+            let version = doc.get("version").and_then(Value::as_str).unwrap_or("");
+            if !version.starts_with("1.0") {
+                return Err(format!(
+                    "no \"transform\": CityJSON {} requires one (its vertices are integers scaled by it); only \
+                     version 1.0 files may list real coordinates without it",
+                    if version.is_empty() { "without a version" } else { version }
+                ));
+            }
             return Ok(Transform {
                 scale: [1.0; 3],
                 translate: [0.0; 3],
@@ -184,12 +193,46 @@ fn read_objects(
             }
         }
     }
-    for (key, o) in objects {
-        if !parents(o).is_empty() {
-            continue;
+    // A Building is a feature unless it belongs to another Building (which CityJSON does not allow, but files
+    // do): a group it is a member of, a parent missing from the file or its own parent do not stop it. Then any
+    // Building or BuildingPart that no feature covers (cycles of parent links, a part whose building is
+    // missing) becomes a feature of its own, so no building geometry is lost.
+    let is = |o: &Value, t: &str| o.get("type").and_then(Value::as_str) == Some(t);
+    let mut root: HashSet<&str> = objects
+        .iter()
+        .filter(|(k, o)| {
+            is(o, "Building")
+                && !parents(o).iter().any(|p| {
+                    *p != k.as_str() && objects.get(*p).is_some_and(|po| is(po, "Building"))
+                })
+        })
+        .map(|(k, _)| k.as_str())
+        .collect();
+    let mut covered: HashSet<&str> = HashSet::new();
+    for k in &root {
+        covered.insert(k);
+        covered.extend(
+            descendants(k, objects, &children)
+                .into_iter()
+                .map(|(c, _)| c),
+        );
+    }
+    for (k, o) in objects {
+        if !covered.contains(k.as_str()) && (is(o, "Building") || is(o, "BuildingPart")) {
+            root.insert(k.as_str());
+            covered.insert(k.as_str());
+            covered.extend(
+                descendants(k, objects, &children)
+                    .into_iter()
+                    .map(|(c, _)| c),
+            );
         }
-        if o.get("type").and_then(Value::as_str) != Some("Building") {
-            out.non_building_objects += 1;
+    }
+    for (key, o) in objects {
+        if !root.contains(key.as_str()) {
+            if parents(o).is_empty() {
+                out.non_building_objects += 1;
+            }
             continue;
         }
         let mut f = RawFeature {
@@ -597,6 +640,56 @@ mod tests {
         assert_eq!(d.non_building_objects, 1);
     }
 
+    /// The source ids of the features read from `objects` (B1 is the first), sorted.
+    fn feature_ids(b1: Value, objects: Value) -> Vec<String> {
+        let d = read_document(&doc(b1, objects), None).unwrap();
+        let mut ids: Vec<String> = d.features.iter().map(|f| f.source_id.clone()).collect();
+        ids.sort();
+        ids
+    }
+
+    #[test]
+    fn buildings_with_odd_parent_links_are_read_once_each() {
+        let b = |parents: Value| json!({"type": "Building", "parents": parents, "geometry": [cube(true)]});
+        // A member of a group (CityJSON 2.0 lists the group in the member's parents).
+        let group = json!({"G": {"type": "CityObjectGroup", "children": ["B1", "B2"]}, "B2": b(json!(["G"]))});
+        assert_eq!(feature_ids(b(json!(["G"])), group), ["B1", "B2"]);
+        // A parent missing from the file; its own parent.
+        assert_eq!(
+            feature_ids(b(json!(["nowhere"])), json!({"B2": b(json!(["B2"]))})),
+            ["B1", "B2"]
+        );
+        // A building and its part naming each other as parents: one building.
+        let part = json!({"P": {"type": "BuildingPart", "parents": ["B1"], "children": ["B1"], "geometry": [cube(false)]}});
+        assert_eq!(feature_ids(b(json!(["P"])), part), ["B1"]);
+        // A part whose building is missing is a building of its own; a building under a building is part of it.
+        let orphan =
+            json!({"P": {"type": "BuildingPart", "parents": ["gone"], "geometry": [cube(true)]}});
+        assert_eq!(feature_ids(b(json!([])), orphan), ["B1", "P"]);
+        let nested = json!({"B2": b(json!(["B1"]))});
+        assert_eq!(feature_ids(b(json!([])), nested), ["B1"]);
+        // Two buildings naming each other: the first in the file is read, with the other as its member.
+        let pair = json!({"B2": b(json!(["B1"]))});
+        assert_eq!(feature_ids(b(json!(["B2"])), pair), ["B1"]);
+    }
+
+    #[test]
+    fn a_missing_transform_is_an_error_after_cityjson_1_0() {
+        let mut d = doc(
+            json!({"type": "Building", "geometry": [cube(true)]}),
+            json!({}),
+        );
+        d.as_object_mut().unwrap().remove("transform");
+        let e = read_document(&d, None).err().unwrap();
+        assert!(e.contains("transform") && e.contains("2.0"), "{e}");
+        d["version"] = json!("1.0");
+        let f = &read_document(&d, None).unwrap().features[0];
+        assert!(
+            f.polygons[0][0].iter().any(|p| p[0] == 4000.0),
+            "1.0: vertices as given"
+        );
+    }
+
     #[test]
     fn bad_vertex_index_skips_the_building_not_the_file() {
         let mut g = cube(true);
@@ -638,7 +731,10 @@ mod tests {
         );
         assert_eq!(f.footprint_min_z, Some(1.0));
         assert_eq!(d.version.as_deref(), Some("2.0"));
-        let e = read_sequence("{\"type\":\"CityJSON\"}\n{broken", None).unwrap_err();
+        let e = read_sequence(
+            "{\"type\":\"CityJSON\",\"version\":\"2.0\",\"transform\":{\"scale\":[1,1,1],\"translate\":[0,0,0]}}\n{broken",
+            None,
+        ).unwrap_err();
         assert_eq!(e.0, 2);
     }
 

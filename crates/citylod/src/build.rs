@@ -7,7 +7,7 @@ use citylod_tiles::{write_tileset_with, Compression, Staging, WriteOptions};
 use clap::{Args, ValueEnum};
 use serde::Serialize;
 use std::borrow::Cow;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
@@ -206,9 +206,14 @@ pub struct BuildArgs {
     )]
     pub max_tileset_json_bytes: usize,
 
-    /// Output folder; replaced atomically when the build succeeds.
+    /// Output folder; replaced atomically when the build succeeds. It must not exist yet, be empty or hold a
+    /// tileset (a `tileset.json`): any other folder is refused unless --force, since all of it is replaced.
     #[arg(long, short, value_name = "DIR", help_heading = "Output")]
     pub out: PathBuf,
+
+    /// Replace the output folder even when it holds files but no tileset.
+    #[arg(long, help_heading = "Output")]
+    pub force: bool,
 
     /// No progress output.
     #[arg(long, short, help_heading = "Output")]
@@ -355,6 +360,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
     if args.tile_max_features == 0 || args.tile_max_triangles == 0 {
         bail!("--tile-max-features and --tile-max-triangles must be at least 1");
     }
+    check_output_folder(&args)?;
     let t_all = Instant::now();
     let progress = Progress::new(args.quiet);
     let mut timings = Timings::default();
@@ -377,10 +383,28 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
     let ingested = ingest(&args.inputs, &opts).context("reading the input")?;
     timings.ingest = t.elapsed().as_millis() as u64;
     if ingested.buildings.is_empty() {
+        let skipped = &ingested.report.skipped;
+        let mut why: String = skipped
+            .iter()
+            .take(SKIPS_SHOWN)
+            .map(|i| {
+                format!(
+                    "\n  {} in {}: {} ({})",
+                    i.feature_id,
+                    i.file,
+                    i.reason.as_str(),
+                    i.detail
+                )
+            })
+            .collect();
+        if skipped.len() > SKIPS_SHOWN {
+            why += &format!("\n  … and {} more", skipped.len() - SKIPS_SHOWN);
+        }
         bail!(
-            "no building could be read from the input ({} features read, {} skipped; see the reasons above)",
+            "no building could be read from the input ({} features read, {} skipped){}{why}",
             ingested.report.features_read,
-            ingested.report.skipped.len()
+            skipped.len(),
+            if skipped.is_empty() { "" } else { ":" }
         );
     }
 
@@ -573,4 +597,82 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         );
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Skipped features listed when none could be read (the report is not written then).
+const SKIPS_SHOWN: usize = 10;
+
+/// Refuses an output path whose replacement would destroy something that is not a tileset: a file, a symbolic
+/// link, a folder holding an input (or the level dumps), or a non-empty folder without `tileset.json` (unless
+/// `--force`).
+fn check_output_folder(args: &BuildArgs) -> Result<()> {
+    let out = &args.out;
+    let lexically_inside = |p: &Path| {
+        let (Ok(p), Ok(o)) = (std::path::absolute(p), std::path::absolute(out)) else {
+            return false;
+        };
+        p.starts_with(o)
+    };
+    if let Some(d) = &args.dump_levels {
+        if lexically_inside(d) {
+            bail!(
+                "--dump-levels {} is inside the output folder {}, which the build replaces as a whole",
+                d.display(),
+                out.display()
+            );
+        }
+    }
+    let Ok(meta) = std::fs::symlink_metadata(out) else {
+        return Ok(()); // nothing there yet
+    };
+    if meta.file_type().is_symlink() {
+        bail!(
+            "--out {} is a symbolic link; the build would replace it with a folder. Give the folder it points to",
+            out.display()
+        );
+    }
+    if !meta.is_dir() {
+        bail!(
+            "--out {} is a file, not a folder; the build writes a folder there and would replace the file",
+            out.display()
+        );
+    }
+    let out_abs =
+        std::fs::canonicalize(out).with_context(|| format!("resolving {}", out.display()))?;
+    let inside = |p: &Path| {
+        std::fs::canonicalize(p).is_ok_and(|p| p.starts_with(&out_abs)) || lexically_inside(p)
+    };
+    let mut ours: Vec<&Path> = args.inputs.iter().map(PathBuf::as_path).collect();
+    ours.extend(args.streets.as_deref());
+    for p in ours {
+        if inside(p) {
+            bail!(
+                "input {} is inside the output folder {}, which the build replaces as a whole; write the tileset \
+                 elsewhere",
+                p.display(),
+                out.display()
+            );
+        }
+    }
+    if let Some(d) = &args.dump_levels {
+        if inside(d) {
+            bail!(
+                "--dump-levels {} is inside the output folder {}, which the build replaces as a whole",
+                d.display(),
+                out.display()
+            );
+        }
+    }
+    let non_empty = std::fs::read_dir(out)
+        .with_context(|| format!("reading {}", out.display()))?
+        .next()
+        .is_some();
+    if non_empty && !out.join("tileset.json").is_file() && !args.force {
+        bail!(
+            "--out {} holds files but no tileset.json; the build replaces the whole folder. Give a new or empty \
+             folder, or pass --force to replace it anyway",
+            out.display()
+        );
+    }
+    Ok(())
 }
