@@ -551,27 +551,38 @@ fn delft_cityjsonseq_tileset_is_valid_and_complete() {
 fn same_input_gives_byte_identical_output() {
     let input = repo_root().join("examples/nyc-les/les_buildings.geojson");
     let d = scratch_dir("determinism");
-    let (a, b) = (d.join("a"), d.join("b"));
+    let (a, b, c) = (d.join("a"), d.join("b"), d.join("c"));
     build(&[&input], &a, &[]);
     build(&[&input], &b, &[]);
     let (ta, tb) = (tree_bytes(&a), tree_bytes(&b));
     assert_eq!(ta.len(), tb.len());
     for ((na, ba), (nb, bb)) in ta.iter().zip(&tb) {
         assert_eq!(na, nb);
-        if na == "build-report.json" {
-            // The report differs only in its timings.
-            let strip = |bytes: &[u8]| {
-                let mut v: Value = serde_json::from_slice(bytes).unwrap();
-                v.as_object_mut().unwrap().remove("timings_ms");
-                v
-            };
-            assert_eq!(strip(ba), strip(bb));
-        } else {
-            assert!(
-                ba == bb,
-                "{na} differs between two builds of the same input"
-            );
-        }
+        assert!(
+            ba == bb,
+            "{na} differs between two builds of the same input"
+        );
     }
+    // Timings only on request, and then the only difference.
+    let timed = build(&[&input], &c, &["--report-timings"]);
+    assert!(
+        timed["timings_ms"]["total"].as_u64().is_some(),
+        "{}",
+        timed["timings_ms"]
+    );
+    let plain = read_json(&a.join("build-report.json"));
+    assert!(plain.get("timings_ms").is_none());
+    let mut stripped = timed.clone();
+    stripped.as_object_mut().unwrap().remove("timings_ms");
+    stripped["options"]
+        .as_object_mut()
+        .unwrap()
+        .remove("report_timings");
+    let mut plain_opts = plain.clone();
+    plain_opts["options"]
+        .as_object_mut()
+        .unwrap()
+        .remove("report_timings");
+    assert_eq!(stripped, plain_opts);
     let _ = std::fs::remove_dir_all(&d);
 }

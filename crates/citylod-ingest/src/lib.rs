@@ -316,16 +316,25 @@ fn winding(r: &geo_types::LineString) -> f64 {
         .sum()
 }
 
+/// A file's text without the byte-order mark some editors put first (JSON parsers reject it).
+pub(crate) fn read_text(path: &Path) -> Result<String, IngestError> {
+    let mut text = std::fs::read_to_string(path).map_err(|source| IngestError::Read {
+        path: path.into(),
+        source,
+    })?;
+    if text.starts_with('\u{feff}') {
+        text.drain(..'\u{feff}'.len_utf8());
+    }
+    Ok(text)
+}
+
 /// Reads, detects and parses one file, and settles its CRS.
 fn load(
     path: &Path,
     opts: &IngestOptions,
     model_target: Option<lod::Target>,
 ) -> Result<LoadedFile, IngestError> {
-    let text = std::fs::read_to_string(path).map_err(|source| IngestError::Read {
-        path: path.into(),
-        source,
-    })?;
+    let text = read_text(path)?;
     let file_name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())

@@ -42,10 +42,7 @@ pub fn read_streets(
     crs: Option<&str>,
     frame: &LocalFrame,
 ) -> Result<Streets, IngestError> {
-    let text = std::fs::read_to_string(path).map_err(|source| IngestError::Read {
-        path: path.into(),
-        source,
-    })?;
+    let text = crate::read_text(path)?;
     let doc: Value = serde_json::from_str(&text).map_err(|source| IngestError::Json {
         path: path.into(),
         line: source.line(),

@@ -46,6 +46,18 @@ fn truncated_json_is_a_file_error_naming_the_file() {
 }
 
 #[test]
+fn a_byte_order_mark_is_ignored() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = format!("\u{feff}{}", collection(&[feature("a", "{}", SQUARE)]));
+    let out = ingest(
+        &[write(&dir, "bom.geojson", &text)],
+        &IngestOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(out.buildings.len(), 1);
+}
+
+#[test]
 fn degenerate_and_out_of_range_features_are_skipped_with_their_reason() {
     let dir = tempfile::tempdir().unwrap();
     let text = collection(&[

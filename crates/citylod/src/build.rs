@@ -215,6 +215,11 @@ pub struct BuildArgs {
     #[arg(long, help_heading = "Output")]
     pub force: bool,
 
+    /// Record each stage's time in build-report.json (`timings_ms`). Without it the report, like the tiles, is
+    /// byte-identical for the same input and options.
+    #[arg(long, help_heading = "Output")]
+    pub report_timings: bool,
+
     /// No progress output.
     #[arg(long, short, help_heading = "Output")]
     pub quiet: bool,
@@ -276,7 +281,9 @@ struct BuildReport<'a> {
     #[serde(skip_serializing_if = "Option::is_none")]
     models: Option<&'a crate::lod::ModelSummary>,
     tiles: &'a citylod_tiles::WriteStats,
-    timings_ms: Timings,
+    /// Only with --report-timings.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    timings_ms: Option<Timings>,
 }
 
 #[derive(Serialize)]
@@ -556,7 +563,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         lod: lod_summary,
         models: lod.model_summary.as_ref(),
         tiles: &stats,
-        timings_ms: timings,
+        timings_ms: args.report_timings.then_some(timings),
     };
     let mut bytes = serde_json::to_vec_pretty(&report)?;
     bytes.push(b'\n');
