@@ -113,6 +113,9 @@ fn unreadable_inputs_exit_2_with_a_clear_message() {
         // Every feature skipped: the message lists them, since no report is written.
         (vec![write(&d, "all-skipped.geojson", r#"{"type":"FeatureCollection","features":[{"type":"Feature","id":"b1","properties":{},"geometry":null}]}"#).display().to_string()], "b1 in "),
         (vec![good.display().to_string(), "--storey-height=-1".into()], "--storey-height"),
+        (vec![good.display().to_string(), "--default-height=1e-300".into()], "--default-height"),
+        (vec![good.display().to_string(), "--collinear-angle=NaN".into()], "--collinear-angle"),
+        (vec![good.display().to_string(), "--collinear-angle=360".into()], "--collinear-angle"),
         (vec![good.display().to_string(), "--streets".into(), write(&d, "streets.geojson", r#"{"type":"FeatureCollection","features":["#).display().to_string()], "streets.geojson"),
         (vec![good.display().to_string(), "--streets".into(), d.join("no-streets.geojson").display().to_string()], "no-streets.geojson"),
         (vec![good.display().to_string(), "--streets".into(), good.display().to_string(), "--leaves-only".into()], "--leaves-only"),

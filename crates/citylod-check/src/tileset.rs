@@ -488,6 +488,7 @@ mod tests {
             geometric_error_m: if children.is_empty() { 0.0 } else { 10.0 },
             bounding_box: None,
             content_uri: None,
+            content_bytes: None,
             content: Some(content(content_rows)),
             children,
         }
@@ -540,6 +541,7 @@ mod tests {
     fn content_uris_inside_external_tilesets_resolve_against_their_folder() {
         let with_uri = |path: &str, uri: &str, children: Vec<usize>| TileData {
             content_uri: Some(uri.into()),
+            content_bytes: None,
             content: None,
             ..tile(path, vec![], children)
         };

@@ -32,6 +32,8 @@ pub struct TileData {
     /// The `box` bounding volume as written (in the tile's frame), if the tile has one.
     pub bounding_box: Option<[f64; 12]>,
     pub content_uri: Option<String>,
+    /// Size of the content file (glb or external tileset.json), bytes.
+    pub content_bytes: Option<u64>,
     /// Decoded glb content (`None` without content or for external-tileset links).
     pub content: Option<GlbData>,
     /// Indices into `TilesetData::tiles`.
@@ -74,6 +76,8 @@ pub fn read_tileset_with(
     visit: &mut dyn FnMut(usize, &mut TileData),
 ) -> Result<TilesetData, TilesError> {
     let ts = load_json(path)?;
+    let folder = std::fs::canonicalize(path.parent().unwrap_or(Path::new(".")))
+        .map_err(TilesError::io(path))?;
     let root_transform = ts.root.transform.unwrap_or(IDENTITY);
     let mut tiles = Vec::new();
     let base = path.parent().unwrap_or(Path::new("")).to_path_buf();
@@ -92,6 +96,7 @@ pub fn read_tileset_with(
         &mut Walk {
             out: &mut tiles,
             visit,
+            folder: &folder,
         },
     )?;
     Ok(TilesetData {
@@ -102,18 +107,109 @@ pub fn read_tileset_with(
     })
 }
 
+/// Largest file the reader opens: a glb's length field is 32 bits.
+const MAX_FILE_BYTES: u64 = u32::MAX as u64;
+
+/// Reads a regular file of at most [`MAX_FILE_BYTES`] (not a device or pipe, which could be endless).
+fn read_file(path: &Path) -> Result<Vec<u8>, TilesError> {
+    let meta = std::fs::metadata(path).map_err(TilesError::io(path))?;
+    if !meta.is_file() || meta.len() > MAX_FILE_BYTES {
+        return Err(TilesError::Tile {
+            tile: path.display().to_string(),
+            msg: if meta.is_file() {
+                format!(
+                    "{} bytes: larger than any glb or tileset.json can be",
+                    meta.len()
+                )
+            } else {
+                "not a regular file".into()
+            },
+        });
+    }
+    std::fs::read(path).map_err(TilesError::io(path))
+}
+
 fn load_json(path: &Path) -> Result<tj::Tileset, TilesError> {
-    let bytes = std::fs::read(path).map_err(TilesError::io(path))?;
-    serde_json::from_slice(&bytes).map_err(|source| TilesError::Json {
+    let bytes = read_file(path)?;
+    let ts: tj::Tileset = serde_json::from_slice(&bytes).map_err(|source| TilesError::Json {
         path: path.to_path_buf(),
         source,
-    })
+    })?;
+    if !(ts.geometric_error.is_finite() && ts.geometric_error >= 0.0) {
+        return Err(TilesError::Tile {
+            tile: path.display().to_string(),
+            msg: format!(
+                "geometricError {} is not a non-negative number",
+                ts.geometric_error
+            ),
+        });
+    }
+    Ok(ts)
+}
+
+/// What 3D Tiles 1.1 asks of one tile that the serde structs cannot say: one bounding volume with sane values, a
+/// non-negative geometricError, `refine` ADD or REPLACE.
+fn check_tile(t: &tj::Tile) -> Result<(), String> {
+    let bv = &t.bounding_volume;
+    let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+    match (bv.r#box, bv.region, bv.sphere) {
+        (Some(b), None, None) if finite(&b) => {}
+        (None, Some(r), None)
+            if finite(&r)
+                && r[1] <= r[3]
+                && r[4] <= r[5]
+                && r.iter().take(4).all(|a| a.abs() <= std::f64::consts::PI) => {}
+        (None, None, Some(s)) if finite(&s) && s[3] >= 0.0 => {}
+        (None, None, None) => {
+            return Err("boundingVolume has none of box, region and sphere".into())
+        }
+        (b, r, s)
+            if [b.is_some(), r.is_some(), s.is_some()]
+                .iter()
+                .filter(|x| **x)
+                .count()
+                > 1 =>
+        {
+            return Err("boundingVolume has more than one of box, region and sphere".into())
+        }
+        _ => return Err(format!("boundingVolume has invalid values: {bv:?}")),
+    }
+    if !(t.geometric_error.is_finite() && t.geometric_error >= 0.0) {
+        return Err(format!(
+            "geometricError {} is not a non-negative number",
+            t.geometric_error
+        ));
+    }
+    match t.refine.as_deref() {
+        None | Some("ADD") | Some("REPLACE") => Ok(()),
+        Some(r) => Err(format!("refine is {r:?}, not ADD or REPLACE")),
+    }
+}
+
+/// The file a content uri names, which must stay inside the tileset's folder (`folder`, canonical).
+fn content_file(base: &Path, uri: &str, folder: &Path) -> Result<std::path::PathBuf, String> {
+    if uri.contains("://") || uri.starts_with("data:") {
+        return Err(format!(
+            "content uri {uri:?} is not a relative file path (only local tilesets are read)"
+        ));
+    }
+    let file = base.join(uri);
+    let real =
+        std::fs::canonicalize(&file).map_err(|e| format!("content {}: {e}", file.display()))?;
+    if !real.starts_with(folder) {
+        return Err(format!(
+            "content uri {uri:?} points outside the tileset's folder"
+        ));
+    }
+    Ok(file)
 }
 
 /// Where [`walk`] puts the tiles, and who sees each one first.
 struct Walk<'a> {
     out: &'a mut Vec<TileData>,
     visit: &'a mut dyn FnMut(usize, &mut TileData),
+    /// The root tileset's folder, canonical: content must lie inside it.
+    folder: &'a Path,
 }
 
 /// `world` is the product of the ancestors' transforms; `root_inv` maps world to the root frame.
@@ -132,6 +228,10 @@ fn walk(
             msg: "tileset nesting deeper than 64 (a cycle of external tilesets?)".into(),
         });
     }
+    check_tile(t).map_err(|msg| TilesError::Tile {
+        tile: path.clone(),
+        msg,
+    })?;
     let world = mul(parent_world, &t.transform.unwrap_or(IDENTITY));
     let to_root = mul(root_inv, &world);
     let me = w.out.len();
@@ -140,12 +240,17 @@ fn walk(
         geometric_error_m: t.geometric_error,
         bounding_box: t.bounding_volume.r#box,
         content_uri: t.content.as_ref().map(|c| c.uri.clone()),
+        content_bytes: None,
         content: None,
         children: Vec::new(),
     });
     let mut children = Vec::new();
     if let Some(c) = &t.content {
-        let file = base.join(&c.uri);
+        let file = content_file(base, &c.uri, w.folder).map_err(|msg| TilesError::Tile {
+            tile: path.clone(),
+            msg,
+        })?;
+        w.out[me].content_bytes = std::fs::metadata(&file).ok().map(|m| m.len());
         if c.uri.ends_with(".json") {
             let ext = load_json(&file)?;
             let ext_base = file.parent().unwrap_or(Path::new("")).to_path_buf();
@@ -160,7 +265,7 @@ fn walk(
             )?;
             children.push(k);
         } else {
-            let bytes = std::fs::read(&file).map_err(TilesError::io(&file))?;
+            let bytes = read_file(&file)?;
             let mut glb = read_glb(&bytes, &file)?;
             for p in &mut glb.positions_local {
                 *p = apply(&to_root, *p);
@@ -400,7 +505,17 @@ impl Decoder<'_> {
         match &b.uri {
             None if i == 0 => Ok(Cow::Borrowed(self.bin)),
             None => Err(format!("buffer {i} has no data")),
-            Some(uri) => std::fs::read(self.base.join(uri))
+            Some(uri)
+                if uri.contains("://")
+                    || uri.starts_with("data:")
+                    || Path::new(uri).is_absolute()
+                    || Path::new(uri)
+                        .components()
+                        .any(|c| c == std::path::Component::ParentDir) =>
+            {
+                Err(format!("buffer uri {uri:?} is not a file beside the glb"))
+            }
+            Some(uri) => read_file(&self.base.join(uri))
                 .map(Cow::Owned)
                 .map_err(|e| format!("buffer {uri}: {e}")),
         }
@@ -735,6 +850,77 @@ mod tests {
         assert!(
             (p[0] - 1.0).abs() < 1e-12 && (p[1] - 3.0).abs() < 1e-12 && (p[2] - 3.0).abs() < 1e-12,
             "{p:?}"
+        );
+    }
+
+    #[test]
+    fn invalid_tiles_and_content_outside_the_folder_are_errors() {
+        let root = tempfile::tempdir().unwrap();
+        let dir = root.path().join("ts");
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(root.path().join("outside.glb"), b"glTF").unwrap();
+        let bx = serde_json::json!({"box": [0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1]});
+        let cases = [
+            (serde_json::json!({}), "REPLACE", None, "none of box"),
+            (
+                serde_json::json!({"sphere": [0, 0, 0, -5]}),
+                "REPLACE",
+                None,
+                "invalid values",
+            ),
+            (
+                serde_json::json!({"region": [0.1, 0.5, 0.2, 0.4, 0, 10]}),
+                "REPLACE",
+                None,
+                "invalid values",
+            ),
+            (
+                serde_json::json!({"box": [0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1], "sphere": [0, 0, 0, 1]}),
+                "ADD",
+                None,
+                "more than one",
+            ),
+            (bx.clone(), "FOO", None, "not ADD or REPLACE"),
+            (
+                bx.clone(),
+                "REPLACE",
+                Some("../outside.glb"),
+                "outside the tileset's folder",
+            ),
+            (
+                bx.clone(),
+                "REPLACE",
+                Some("/dev/zero"),
+                "outside the tileset's folder",
+            ),
+            (
+                bx.clone(),
+                "REPLACE",
+                Some("https://example.com/a.glb"),
+                "not a relative file path",
+            ),
+        ];
+        for (bv, refine, uri, expect) in cases {
+            let mut tile =
+                serde_json::json!({"boundingVolume": bv, "geometricError": 0, "refine": refine});
+            if let Some(u) = uri {
+                tile["content"] = serde_json::json!({"uri": u});
+            }
+            let ts =
+                serde_json::json!({"asset": {"version": "1.1"}, "geometricError": 1, "root": tile});
+            std::fs::write(dir.join("tileset.json"), ts.to_string()).unwrap();
+            let e = read_tileset(&dir.join("tileset.json"))
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(expect), "{expect}: {e}");
+        }
+        // A well-formed one reads.
+        let ts = serde_json::json!({"asset": {"version": "1.1"}, "geometricError": 1,
+            "root": {"boundingVolume": bx, "geometricError": 0, "refine": "REPLACE"}});
+        std::fs::write(dir.join("tileset.json"), ts.to_string()).unwrap();
+        assert_eq!(
+            read_tileset(&dir.join("tileset.json")).unwrap().tiles.len(),
+            1
         );
     }
 

@@ -328,14 +328,23 @@ struct Timings {
     total: u64,
 }
 
+/// Lowest storey or default height accepted: lower prisms vanish on the leaves' 2 cm grid.
+const MIN_HEIGHT_M: f64 = 0.1;
+
 pub fn run(args: BuildArgs) -> Result<ExitCode> {
     for (name, v) in [
         ("--storey-height", args.storey_height),
         ("--default-height", args.default_height),
     ] {
-        if !(v.is_finite() && v > 0.0) {
-            bail!("{name} must be a positive number of metres, got {v}");
+        if !(v.is_finite() && v >= MIN_HEIGHT_M) {
+            bail!("{name} must be a number of metres of at least {MIN_HEIGHT_M}, got {v}");
         }
+    }
+    if !(args.collinear_angle > 90.0 && args.collinear_angle <= 180.0) {
+        bail!(
+            "--collinear-angle must be over 90 and at most 180 degrees, got {}",
+            args.collinear_angle
+        );
     }
     for (name, v) in [
         ("--dh-px", args.dh_px),

@@ -19,7 +19,6 @@ pub fn run(args: InspectArgs) -> Result<ExitCode> {
         args.tileset.clone()
     };
     let ts = citylod_tiles::read::read_tileset(&path).context("reading the tileset")?;
-    let base = path.parent().unwrap_or(std::path::Path::new("."));
     let mut rows: Vec<Row> = Vec::new();
     let mut stack = vec![(0usize, 0usize)];
     while let Some((i, depth)) = stack.pop() {
@@ -30,11 +29,7 @@ pub fn run(args: InspectArgs) -> Result<ExitCode> {
         let row = &mut rows[depth];
         row.tiles += 1;
         row.errors.push(tile.geometric_error_m);
-        if let Some(uri) = &tile.content_uri {
-            row.bytes += std::fs::metadata(base.join(uri))
-                .map(|m| m.len())
-                .unwrap_or(0);
-        }
+        row.bytes += tile.content_bytes.unwrap_or(0);
         if let Some(c) = &tile.content {
             row.with_content += 1;
             row.triangles += c.triangles.len() as u64;
