@@ -91,6 +91,11 @@ type Skip = (IssueReason, String);
 
 /// Repairs polygons given as open rings (`[exterior, holes…]`) in plane metres. `assemble`: the
 /// polygons are pieces of one outline (always unioned, not reported). `Err` = skip with reason.
+/// Most vertices of an invalid polygon that `repair` rebuilds: the rebuild and the validity checks of its pieces
+/// grow faster than quadratically (a self-intersecting star of 2,000 vertices takes ~4 s, of 4,000 ~30 s), while
+/// invalid building footprints have tens of vertices. Larger ones are skipped with the reason.
+pub(crate) const MAX_REPAIR_VERTICES: usize = 1_000;
+
 pub(crate) fn repair(polygons: Vec<Vec<Vec<Coord>>>, assemble: bool) -> Result<Repaired, Skip> {
     let mut issues = Vec::new();
     let n_in = polygons.len();
@@ -137,6 +142,17 @@ pub(crate) fn repair(polygons: Vec<Vec<Vec<Coord>>>, assemble: bool) -> Result<R
         match p.check_validation() {
             Ok(()) => parts.push(p),
             Err(why) => {
+                let vertices =
+                    p.exterior().0.len() + p.interiors().iter().map(|r| r.0.len()).sum::<usize>();
+                if vertices > MAX_REPAIR_VERTICES {
+                    return Err((
+                        IssueReason::RepairFailed,
+                        format!(
+                            "{why}; not repaired: {vertices} vertices, over the {MAX_REPAIR_VERTICES} that rebuilding \
+                             an invalid polygon handles in reasonable time"
+                        ),
+                    ));
+                }
                 let area_before = p.unsigned_area();
                 let fixed = p.make_valid().map_err(|e| {
                     (
@@ -391,6 +407,22 @@ mod tests {
         assert_eq!(a[0].exterior().0[0], Coord { x: -5.0, y: 0.0 });
         // Winding is kept: the exterior stays counter-clockwise.
         assert!(signed_area(a[1].exterior()) > 0.0);
+    }
+
+    #[test]
+    fn huge_invalid_rings_are_skipped_not_rebuilt() {
+        // A star whose every other point lies across the centre: self-intersecting everywhere.
+        let n = MAX_REPAIR_VERTICES + 1;
+        let pts: Vec<(f64, f64)> = (0..n)
+            .map(|i| {
+                let a = i as f64 * std::f64::consts::TAU * 0.37;
+                let r = if i % 2 == 0 { 50.0 } else { 20.0 };
+                (r * a.cos(), r * a.sin())
+            })
+            .collect();
+        let e = repair(vec![vec![ring(&pts)]], false).err().unwrap();
+        assert_eq!(e.0, IssueReason::RepairFailed);
+        assert!(e.1.contains("vertices"), "{}", e.1);
     }
 
     #[test]
