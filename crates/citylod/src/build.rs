@@ -623,20 +623,24 @@ const SKIPS_SHOWN: usize = 10;
 /// `--force`).
 fn check_output_folder(args: &BuildArgs) -> Result<()> {
     let out = &args.out;
-    let lexically_inside = |p: &Path| {
-        let (Ok(p), Ok(o)) = (std::path::absolute(p), std::path::absolute(out)) else {
-            return false;
-        };
-        p.starts_with(o)
+    // Inside `out` as written, or once symbolic links are resolved (only when `out` exists).
+    let out_real = std::fs::canonicalize(out).ok();
+    let inside = |p: &Path| {
+        let lexical = matches!(
+            (std::path::absolute(p), std::path::absolute(out)),
+            (Ok(p), Ok(o)) if p.starts_with(&o)
+        );
+        let resolved = out_real
+            .as_ref()
+            .is_some_and(|o| std::fs::canonicalize(p).is_ok_and(|p| p.starts_with(o)));
+        lexical || resolved
     };
-    if let Some(d) = &args.dump_levels {
-        if lexically_inside(d) {
-            bail!(
-                "--dump-levels {} is inside the output folder {}, which the build replaces as a whole",
-                d.display(),
-                out.display()
-            );
-        }
+    if let Some(d) = args.dump_levels.as_deref().filter(|d| inside(d)) {
+        bail!(
+            "--dump-levels {} is inside the output folder {}, which the build replaces as a whole",
+            d.display(),
+            out.display()
+        );
     }
     let Ok(meta) = std::fs::symlink_metadata(out) else {
         return Ok(()); // nothing there yet
@@ -653,31 +657,18 @@ fn check_output_folder(args: &BuildArgs) -> Result<()> {
             out.display()
         );
     }
-    let out_abs =
-        std::fs::canonicalize(out).with_context(|| format!("resolving {}", out.display()))?;
-    let inside = |p: &Path| {
-        std::fs::canonicalize(p).is_ok_and(|p| p.starts_with(&out_abs)) || lexically_inside(p)
-    };
-    let mut ours: Vec<&Path> = args.inputs.iter().map(PathBuf::as_path).collect();
-    ours.extend(args.streets.as_deref());
-    for p in ours {
-        if inside(p) {
-            bail!(
-                "input {} is inside the output folder {}, which the build replaces as a whole; write the tileset \
-                 elsewhere",
-                p.display(),
-                out.display()
-            );
-        }
-    }
-    if let Some(d) = &args.dump_levels {
-        if inside(d) {
-            bail!(
-                "--dump-levels {} is inside the output folder {}, which the build replaces as a whole",
-                d.display(),
-                out.display()
-            );
-        }
+    let ours = args
+        .inputs
+        .iter()
+        .map(PathBuf::as_path)
+        .chain(args.streets.as_deref());
+    if let Some(p) = ours.into_iter().find(|p| inside(p)) {
+        bail!(
+            "input {} is inside the output folder {}, which the build replaces as a whole; write the tileset \
+             elsewhere",
+            p.display(),
+            out.display()
+        );
     }
     let non_empty = std::fs::read_dir(out)
         .with_context(|| format!("reading {}", out.display()))?
