@@ -81,7 +81,7 @@ pub struct GeneralizeOptions {
 impl Default for GeneralizeOptions {
     fn default() -> Self {
         GeneralizeOptions {
-            lambda_adjacent: 0.6,
+            lambda_adjacent: crate::ADJACENT_LAMBDA,
             depth_divisor: 1.5,
             lambda_area: 50.0,
             collinear_angle_deg: 175.0,
@@ -588,6 +588,7 @@ fn build_node(
     let merged = connect_islands(
         &merge_footprints_weighted(&parts, bridges, opts.lambda_adjacent).footprint,
         reach_m,
+        opts.lambda_adjacent,
     );
     let simplified = simplify_footprint(&merged, delta_a_m2, opts.collinear_angle_deg);
     // Coverage guard: a node's footprint can never be smaller than its largest child. Should merging

@@ -13,8 +13,9 @@ use rstar::{Envelope, RTree, AABB};
 use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
 use std::collections::BTreeMap;
 
-/// Weight λ of the side-similarity term in the adjacent distance (seed 000 Eq. 1) that ranks connection pairs
-/// (d_pair) in [`merge_footprints`]; [`merge_footprints_weighted`] takes another.
+/// Default weight λ of the side-similarity term in the adjacent distance (seed 000 Eq. 1): the clustering's and
+/// the one that ranks connection pairs (d_pair) in [`merge_footprints`]; [`merge_footprints_weighted`] and
+/// `connect_islands` take the caller's.
 pub const ADJACENT_LAMBDA: f64 = 0.6;
 /// Connection pairs tried per footprint pair, best first, before giving up on the pair.
 const MAX_PAIR_TRIES: usize = 64;
@@ -70,8 +71,7 @@ pub(crate) fn merge_with_bridges(
     bridges_hint: &[(usize, usize)],
     lambda_adjacent: f64,
 ) -> (MergeResult, Vec<Polygon<f64>>) {
-    let mut ctx = Context::new(parts);
-    ctx.lambda_adjacent = lambda_adjacent;
+    let ctx = Context::new(parts);
     let mut bridges = Vec::new();
     let mut pairs: Vec<(usize, usize)> = bridges_hint
         .iter()
@@ -82,7 +82,7 @@ pub(crate) fn merge_with_bridges(
     pairs.sort_unstable();
     pairs.dedup();
     for (i, j) in pairs {
-        if let PairOutcome::Bridged(pieces) = bridge_pair(&ctx, i, j) {
+        if let PairOutcome::Bridged(pieces) = bridge_pair(&ctx, i, j, lambda_adjacent) {
             bridges.extend(pieces.iter().map(|p| bridge_polygon(p)));
         }
     }
@@ -130,8 +130,9 @@ const CONNECT_NEIGHBOURS: usize = 4;
 /// every such island (Boston: 1,485 islands and 18k vertices in the top node). The cap keeps islands apart that
 /// only a spatial split put together (see `hierarchy::island_reach_m`). The result covers `fp`, and its
 /// vertices are `fp`'s plus union intersection points. Degenerate input: empty or single-polygon footprints
-/// come back unchanged; islands no clean bridge reaches stay apart.
-pub(crate) fn connect_islands(fp: &Footprint, max_gap_m: f64) -> Footprint {
+/// come back unchanged; islands no clean bridge reaches stay apart. Connection pairs are ranked with
+/// `lambda_adjacent`.
+pub(crate) fn connect_islands(fp: &Footprint, max_gap_m: f64, lambda_adjacent: f64) -> Footprint {
     let mut cur = fp.clone();
     for _ in 0..MAX_CONNECT_ROUNDS {
         let k = cur.0.len();
@@ -191,7 +192,7 @@ pub(crate) fn connect_islands(fp: &Footprint, max_gap_m: f64) -> Footprint {
             if uf.find(a as u32) == uf.find(b as u32) {
                 continue;
             }
-            match bridge_pair(&ctx, a, b) {
+            match bridge_pair(&ctx, a, b, lambda_adjacent) {
                 PairOutcome::Bridged(ps) => {
                     pieces.extend(ps.iter().map(|p| bridge_polygon(p)));
                     uf.union(a as u32, b as u32);
@@ -254,8 +255,6 @@ struct Context {
     /// Segments of every part, for the bridge-crossing and winding tests.
     all_segs: RTree<Seg>,
     max_x: f64,
-    /// λ of the adjacent distance that ranks connection pairs.
-    lambda_adjacent: f64,
 }
 
 impl Context {
@@ -301,7 +300,6 @@ impl Context {
             parts: out,
             all_segs,
             max_x,
-            lambda_adjacent: ADJACENT_LAMBDA,
         }
     }
 
@@ -361,7 +359,7 @@ struct Candidate {
     quad: [[f64; 2]; 4],
 }
 
-fn bridge_pair(ctx: &Context, ia: usize, ib: usize) -> PairOutcome {
+fn bridge_pair(ctx: &Context, ia: usize, ib: usize, lambda_adjacent: f64) -> PairOutcome {
     let (pa, pb) = (&ctx.parts[ia], &ctx.parts[ib]);
     let (Some(_), Some(_)) = (pa.bbox, pb.bbox) else {
         return PairOutcome::Unbridged;
@@ -437,7 +435,7 @@ fn bridge_pair(ctx: &Context, ia: usize, ib: usize) -> PairOutcome {
         let s2 = [ctx.pos(w), ctx.pos(b2)];
         cands.push(Candidate {
             strict: ctx.adjacent(u, a2) && ctx.adjacent(w, b2),
-            d_pair_m: adjacent_distance_m(s1, s2, ctx.lambda_adjacent),
+            d_pair_m: adjacent_distance_m(s1, s2, lambda_adjacent),
             key: (u, a2, w, b2),
             quad: [ctx.pos(u), ctx.pos(a2), ctx.pos(w), ctx.pos(b2)],
         });
@@ -1167,7 +1165,7 @@ pub(crate) mod tests {
         .map(|&(x, y)| rect(x, y, x + 10.0, y + 10.0))
         .collect();
         let fp = MultiPolygon(squares.iter().flat_map(|s| s.0.clone()).collect());
-        let joined = connect_islands(&fp, f64::INFINITY);
+        let joined = connect_islands(&fp, f64::INFINITY, ADJACENT_LAMBDA);
         assert_eq!(joined.0.len(), 1, "one outline");
         let parts: Vec<&Footprint> = squares.iter().collect();
         assert!(uncovered_m2(&parts, &joined) < 1e-9, "covers every square");
@@ -1178,7 +1176,7 @@ pub(crate) mod tests {
         assert!(joined.is_valid());
         // Gaps: 3 m, 3 m and 6 m between the first four squares; the last is 18 m from the nearest.
         for (max_gap_m, polygons) in [(20.0, 1), (7.0, 2), (4.0, 3), (2.0, 5)] {
-            let joined = connect_islands(&fp, max_gap_m);
+            let joined = connect_islands(&fp, max_gap_m, ADJACENT_LAMBDA);
             assert_eq!(joined.0.len(), polygons, "max gap {max_gap_m} m");
             assert!(uncovered_m2(&parts, &joined) < 1e-9);
             assert!(joined.is_valid());

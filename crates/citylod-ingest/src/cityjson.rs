@@ -169,8 +169,8 @@ fn parents(o: &Value) -> Vec<&str> {
     }
 }
 
-fn read_objects(
-    objects: &Map<String, Value>,
+fn read_objects<'a>(
+    objects: &'a Map<String, Value>,
     vertices: Result<&[[f64; 3]], &str>,
     model_target: Option<Target>,
     out: &mut CityDoc,
@@ -209,23 +209,21 @@ fn read_objects(
         .map(|(k, _)| k.as_str())
         .collect();
     let mut covered: HashSet<&str> = HashSet::new();
-    for k in &root {
+    let cover = |k: &'a str, covered: &mut HashSet<&'a str>| {
         covered.insert(k);
         covered.extend(
             descendants(k, objects, &children)
                 .into_iter()
                 .map(|(c, _)| c),
         );
+    };
+    for k in &root {
+        cover(k, &mut covered);
     }
     for (k, o) in objects {
         if !covered.contains(k.as_str()) && (is(o, "Building") || is(o, "BuildingPart")) {
             root.insert(k.as_str());
-            covered.insert(k.as_str());
-            covered.extend(
-                descendants(k, objects, &children)
-                    .into_iter()
-                    .map(|(c, _)| c),
-            );
+            cover(k, &mut covered);
         }
     }
     for (key, o) in objects {

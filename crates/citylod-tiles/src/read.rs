@@ -135,16 +135,20 @@ fn load_json(path: &Path) -> Result<tj::Tileset, TilesError> {
         path: path.to_path_buf(),
         source,
     })?;
-    if !(ts.geometric_error.is_finite() && ts.geometric_error >= 0.0) {
-        return Err(TilesError::Tile {
-            tile: path.display().to_string(),
-            msg: format!(
-                "geometricError {} is not a non-negative number",
-                ts.geometric_error
-            ),
-        });
-    }
+    check_error(ts.geometric_error).map_err(|msg| TilesError::Tile {
+        tile: path.display().to_string(),
+        msg,
+    })?;
     Ok(ts)
+}
+
+/// A geometricError must be a finite number ≥ 0.
+fn check_error(e: f64) -> Result<(), String> {
+    if e.is_finite() && e >= 0.0 {
+        Ok(())
+    } else {
+        Err(format!("geometricError {e} is not a non-negative number"))
+    }
 }
 
 /// What 3D Tiles 1.1 asks of one tile that the serde structs cannot say: one bounding volume with sane values, a
@@ -152,34 +156,25 @@ fn load_json(path: &Path) -> Result<tj::Tileset, TilesError> {
 fn check_tile(t: &tj::Tile) -> Result<(), String> {
     let bv = &t.bounding_volume;
     let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
-    match (bv.r#box, bv.region, bv.sphere) {
-        (Some(b), None, None) if finite(&b) => {}
-        (None, Some(r), None)
-            if finite(&r)
-                && r[1] <= r[3]
-                && r[4] <= r[5]
-                && r.iter().take(4).all(|a| a.abs() <= std::f64::consts::PI) => {}
-        (None, None, Some(s)) if finite(&s) && s[3] >= 0.0 => {}
+    let sane = match (bv.r#box, bv.region, bv.sphere) {
         (None, None, None) => {
             return Err("boundingVolume has none of box, region and sphere".into())
         }
-        (b, r, s)
-            if [b.is_some(), r.is_some(), s.is_some()]
-                .iter()
-                .filter(|x| **x)
-                .count()
-                > 1 =>
-        {
-            return Err("boundingVolume has more than one of box, region and sphere".into())
+        (Some(b), None, None) => finite(&b),
+        // Radians west, south, east, north; metres min and max height (west > east crosses the antimeridian).
+        (None, Some(r), None) => {
+            finite(&r)
+                && r[1] <= r[3]
+                && r[4] <= r[5]
+                && r[..4].iter().all(|a| a.abs() <= std::f64::consts::PI)
         }
-        _ => return Err(format!("boundingVolume has invalid values: {bv:?}")),
+        (None, None, Some(s)) => finite(&s) && s[3] >= 0.0,
+        _ => return Err("boundingVolume has more than one of box, region and sphere".into()),
+    };
+    if !sane {
+        return Err(format!("boundingVolume has invalid values: {bv:?}"));
     }
-    if !(t.geometric_error.is_finite() && t.geometric_error >= 0.0) {
-        return Err(format!(
-            "geometricError {} is not a non-negative number",
-            t.geometric_error
-        ));
-    }
+    check_error(t.geometric_error)?;
     match t.refine.as_deref() {
         None | Some("ADD") | Some("REPLACE") => Ok(()),
         Some(r) => Err(format!("refine is {r:?}, not ADD or REPLACE")),

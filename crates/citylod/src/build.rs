@@ -72,7 +72,7 @@ pub struct BuildArgs {
     #[arg(
         long,
         value_name = "λ",
-        default_value_t = 0.6,
+        default_value_t = citylod_generalize::ADJACENT_LAMBDA,
         help_heading = "Generalization"
     )]
     pub lambda_adjacent: f64,
