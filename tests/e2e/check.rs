@@ -239,15 +239,17 @@ fn explicit_camera_is_used_and_unreadable_tileset_is_exit_2() {
         out.to_str().unwrap(),
     ]);
     assert_eq!(missing.status.code(), Some(2));
-    let bad = citylod(&[
-        "check",
-        nyc().to_str().unwrap(),
-        "--camera",
-        "1,2,3",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert_eq!(bad.status.code(), Some(2));
+    for camera in ["1,2,3", "-73.985,40.715,-7000000,30,-45"] {
+        let bad = citylod(&[
+            "check",
+            nyc().to_str().unwrap(),
+            "--camera",
+            camera,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_eq!(bad.status.code(), Some(2), "--camera {camera}");
+    }
 }
 
 /// A copy of the NYC tileset with `edit` applied to its tileset.json.
@@ -376,6 +378,35 @@ fn child_error_above_parent_is_found() {
     assert!(
         f.contains(&("error_grows".to_string(), child_path.clone())),
         "expected error_grows at {child_path}: {f:?}"
+    );
+}
+
+#[test]
+fn content_outside_its_box_is_found() {
+    // A leaf's box shrunk to a tenth of its half-axes around its centre: most of its buildings now lie outside
+    // it and outside nothing else (its parent's box is untouched).
+    let mut leaf_path = String::new();
+    let dir = damaged("outside-box", |ts| {
+        let (path, ptr) = parent_of_leaves(ts);
+        leaf_path = format!("{path}/0");
+        let b = ts
+            .pointer_mut(&format!("{ptr}/children/0/boundingVolume/box"))
+            .unwrap();
+        for k in 3..12 {
+            b[k] = Value::from(b[k].as_f64().unwrap() / 10.0);
+        }
+    });
+    let f = run_damaged("outside-box", &dir);
+    assert!(
+        f.contains(&("content_outside_volume".to_string(), leaf_path.clone())),
+        "expected content_outside_volume at {leaf_path}: {f:?}"
+    );
+    assert_eq!(
+        f.iter()
+            .filter(|(k, _)| k == "content_outside_volume")
+            .count(),
+        1,
+        "only the shrunk box: {f:?}"
     );
 }
 

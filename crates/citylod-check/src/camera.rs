@@ -56,6 +56,10 @@ pub(crate) struct Plane {
     pub d: f64,
 }
 
+/// Lowest eye height `--camera` accepts (m above the ellipsoid): below the deepest ocean floor (−10.9 km) an eye
+/// is inside the solid Earth and sees nothing of a city.
+pub const LOWEST_EYE_M: f64 = -12_000.0;
+
 impl Camera {
     /// A camera at `eye_m` in the root frame looking along heading/pitch measured in the root frame's
     /// own east-north-up axes. Heading 0 looks north, 90 east; pitch −90 looks straight down (image up is
@@ -100,6 +104,11 @@ impl Camera {
         if !(-90.0..=90.0).contains(&lat_deg) {
             return Err(CheckError::Camera(format!(
                 "latitude {lat_deg}° out of range"
+            )));
+        }
+        if height_m < LOWEST_EYE_M {
+            return Err(CheckError::Camera(format!(
+                "height {height_m} m is inside the Earth (below {LOWEST_EYE_M} m, deeper than any ocean floor)"
             )));
         }
         let (forward_local, up_local) = heading_pitch_basis(heading_deg, pitch_deg)?;
@@ -398,6 +407,9 @@ mod tests {
         }
         let singular = [0.0; 16];
         assert!(Camera::from_geodetic(lon, lat, h, 0.0, 0.0, 45.0, &singular).is_err());
+        // Inside the Earth.
+        assert!(Camera::from_geodetic(lon, lat, -6.0e6, 0.0, 0.0, 45.0, &enu_root).is_err());
+        assert!(Camera::from_geodetic(lon, lat, -400.0, 0.0, 0.0, 45.0, &enu_root).is_ok());
     }
 
     #[test]

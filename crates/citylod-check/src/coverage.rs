@@ -13,7 +13,8 @@ use crate::tileset::{LoadedTileset, NodeRef};
 const ERROR_SLACK: f64 = 1e-9;
 
 /// View-independent checks of the whole tree: errors monotone, buildings in one leaf only, member
-/// counts consistent between a tile and its children, features identifiable.
+/// counts consistent between a tile and its children, features identifiable, content inside its tile's and
+/// its ancestors' boxes ([`crate::check_volumes`]).
 pub fn check_tree(ts: &LoadedTileset) -> Vec<Finding> {
     let mut out = Vec::new();
     let n = ts.tiles.len();
@@ -123,6 +124,7 @@ pub fn check_tree(ts: &LoadedTileset) -> Vec<Finding> {
             );
         }
     }
+    out.extend(crate::volumes::check_volumes(ts));
     out
 }
 

@@ -34,6 +34,8 @@ pub enum FindingKind {
     TilesetNotDrawn,
     /// The skyline of the cut moved more than δH plus the tolerance from full detail's.
     SkylineShift,
+    /// A tile draws vertices outside its own bounding box or an ancestor's: a client culling that box loses them.
+    ContentOutsideVolume,
 }
 
 /// One problem.

@@ -37,6 +37,7 @@ mod tileset;
 mod vec3;
 mod view_check;
 mod views;
+mod volumes;
 
 pub use camera::{globe_enu_axes, Camera, Viewport, NEAR_M};
 pub use compare::{
@@ -58,3 +59,4 @@ pub use view_check::{
     check_view, skyline, CheckSettings, Skyline, ViewOutcome, SKYLINE_TOLERANCE_PX,
 };
 pub use views::{standard_views, STANDARD_FOVY_DEG, STREET_HEIGHT_M};
+pub use volumes::check_volumes;

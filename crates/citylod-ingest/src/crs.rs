@@ -90,6 +90,14 @@ impl Crs {
     fn from_proj(label: String, src: Proj) -> Result<Self, CrsError> {
         let dst = Proj::from_proj_string("+proj=longlat +datum=WGS84 +no_defs")
             .map_err(|e| CrsError(format!("WGS84 definition rejected: {e}")))?;
+        if src.is_geocent() {
+            // x, y, z on the Earth-centred axes (EPSG:4978 and the like) are not a map projection: x and y alone
+            // give no position, and every building would fail one by one.
+            return Err(CrsError(format!(
+                "{label} is geocentric (Earth-centred x, y, z); give the buildings in a projected or \
+                 geographic CRS"
+            )));
+        }
         let src_is_latlong = src.is_latlong();
         Ok(Crs {
             label,
@@ -213,6 +221,14 @@ mod tests {
             .is_wgs84());
         assert!(Crs::parse("EPSG:4326").unwrap().is_wgs84());
         assert!(Crs::parse("EPSG:7415").unwrap().label.contains("28992"));
+    }
+
+    #[test]
+    fn geocentric_crs_are_rejected_with_the_reason() {
+        for name in ["EPSG:4978", "+proj=geocent +datum=WGS84 +units=m +no_defs"] {
+            let e = Crs::parse(name).err().expect(name).0;
+            assert!(e.contains("geocentric"), "{name}: {e}");
+        }
     }
 
     #[test]

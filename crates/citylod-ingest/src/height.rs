@@ -93,9 +93,17 @@ pub(crate) fn resolve(
         (_, Some(z)) if z.is_finite() => (z, GroundSource::Geometry),
         _ => (0.0, GroundSource::Zero),
     };
-    let base_offset_m = number(attrs, MIN_HEIGHT_ATTR)
-        .filter(|m| *m > 0.0 && *m < MAX_HEIGHT_M)
-        .unwrap_or(0.0);
+    // A `min_height` that is not a number in [0, 1000) m is rejected (reported) and the base stays on the ground.
+    let base_offset_m = match attrs.get(MIN_HEIGHT_ATTR) {
+        None | Some(AttrValue::Null) => 0.0,
+        Some(v) => match v.as_number().filter(|m| (0.0..MAX_HEIGHT_M).contains(m)) {
+            Some(m) => m,
+            None => {
+                rejected.push(MIN_HEIGHT_ATTR.to_string());
+                0.0
+            }
+        },
+    };
 
     let try_attr =
         |name: &str, scale: f64, offset: f64, rejected: &mut Vec<String>| -> Option<f64> {
@@ -254,6 +262,27 @@ mod tests {
             (h.height_m, h.source, h.ground_m),
             (12.5, HeightSource::Geometry, 2.0)
         );
+    }
+
+    #[test]
+    fn implausible_min_heights_are_rejected_and_reported() {
+        let d = IngestOptions::default();
+        for bad in [
+            AttrValue::Float(-3.0),
+            AttrValue::Float(5000.0),
+            AttrValue::String("tall".into()),
+        ] {
+            let a = attrs(&[("height", AttrValue::Int(20)), ("min_height", bad.clone())]);
+            let h = resolve(&a, None, None, &d);
+            assert_eq!(h.base_offset_m, 0.0, "{bad:?}");
+            assert_eq!(h.height_m, 20.0, "{bad:?}");
+            assert_eq!(h.rejected, vec!["min_height".to_string()], "{bad:?}");
+        }
+        for ok in [AttrValue::Int(0), AttrValue::Null] {
+            let a = attrs(&[("height", AttrValue::Int(20)), ("min_height", ok.clone())]);
+            let h = resolve(&a, None, None, &d);
+            assert_eq!((h.base_offset_m, h.rejected.len()), (0.0, 0), "{ok:?}");
+        }
     }
 
     #[test]

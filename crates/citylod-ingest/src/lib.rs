@@ -53,6 +53,7 @@ use geo_types::{Coord, MultiPolygon};
 use height::Heights;
 use rayon::prelude::*;
 use repair::Plane;
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 /// How to read the input.
@@ -192,8 +193,10 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
         mesh_lod_asked: opts.lod.as_ref().map(LodChoice::to_string),
         ..Default::default()
     };
-    let mut buildings = Vec::new();
-    for (file, outs) in files.iter().zip(&outcomes) {
+    let mut buildings: Vec<Building> = Vec::new();
+    // The first written building of each source id, and the file it came from.
+    let mut first_with_id: HashMap<&str, (usize, usize)> = HashMap::new();
+    for (file_index, (file, outs)) in files.iter().zip(&outcomes).enumerate() {
         let file_label = file.path.display().to_string();
         type Placed<'a> = (&'a Prepared, citylod_model::Footprint, f64, model3d::Meshed);
         let placed: Vec<Result<Placed, &Skip>> = outs
@@ -227,6 +230,27 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
                 reason,
                 detail: detail.to_string(),
             };
+            let earlier = first_with_id.get(raw.source_id.as_str()).copied();
+            if let (Ok((p, footprint, base_z_m, _)), Some((b, f))) = (&placed, earlier) {
+                let o = &buildings[b];
+                if o.footprint == *footprint
+                    && o.base_z_m == *base_z_m
+                    && o.height_m == p.heights.height_m
+                {
+                    let from = if f == file_index {
+                        "earlier in this file".to_string()
+                    } else {
+                        format!("from {}", files[f].path.display())
+                    };
+                    report.skipped.push(issue(
+                        IssueReason::Duplicate,
+                        &format!("the same id, footprint and heights as a building read {from}: written once"),
+                    ));
+                    fr.skipped += 1;
+                    continue;
+                }
+                report.duplicate_ids += 1;
+            }
             match placed {
                 Ok((p, footprint, base_z_m, meshed)) => {
                     debug_assert!(footprint.0.iter().all(|q| winding(q.exterior()) > 0.0));
@@ -262,6 +286,9 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
                         *report.mesh_lods.entry(m.lod.clone()).or_default() += 1;
                         report.mesh_lod_fallbacks += usize::from(meshed.fell_back);
                     }
+                    first_with_id
+                        .entry(raw.source_id.as_str())
+                        .or_insert((buildings.len(), file_index));
                     buildings.push(Building {
                         id: BuildingId(buildings.len() as u32),
                         source_id: raw.source_id.clone(),

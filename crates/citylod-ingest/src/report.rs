@@ -36,6 +36,9 @@ pub enum IssueReason {
     RepairFailed,
     /// The footprint could not be turned into a mesh (reported by the mesh stage, after ingest).
     MeshFailed,
+    /// The same id, footprint and heights as a building read before (a file given twice, overlapping
+    /// extracts): written once.
+    Duplicate,
     // --- repairs ---
     /// A GeoJSON ring whose last point did not repeat the first was closed.
     RingClosed,
@@ -80,6 +83,7 @@ impl IssueReason {
             NoFootprint => "no_footprint",
             RepairFailed => "repair_failed",
             MeshFailed => "mesh_failed",
+            Duplicate => "duplicate",
             RingClosed => "ring_closed",
             RepeatedPointsRemoved => "repeated_points_removed",
             DegenerateHoleDropped => "degenerate_hole_dropped",
@@ -156,6 +160,9 @@ pub struct IngestReport {
     pub building_parts: usize,
     /// Written buildings whose base was raised by an OSM `min_height`.
     pub min_height_bases: usize,
+    /// Written buildings whose source id an earlier written building has, with another footprint or height
+    /// (both kept; exact repeats are skipped as `duplicate`).
+    pub duplicate_ids: usize,
     /// Rings whose winding was flipped to the ENU convention. Not a defect: RFC 7946 readers must
     /// accept either winding, and CityJSON ground surfaces face down.
     pub rings_reoriented: usize,

@@ -345,3 +345,55 @@ fn the_same_input_gives_identical_output() {
         );
     }
 }
+
+#[test]
+fn repeated_buildings_are_written_once_and_reused_ids_are_counted() {
+    let dir = tempfile::tempdir().unwrap();
+    let moved = SQUARE
+        .replace("4.36,", "4.37,")
+        .replace("4.3601,", "4.3701,");
+    let a = write(
+        &dir,
+        "a.geojson",
+        &collection(&[
+            feature("same", r#"{"height":10}"#, SQUARE),
+            feature("same", r#"{"height":10}"#, SQUARE),
+            feature("taller", r#"{"height":10}"#, SQUARE),
+            feature("moved", r#"{"height":10}"#, SQUARE),
+        ]),
+    );
+    let b = write(
+        &dir,
+        "b.geojson",
+        &collection(&[
+            feature("same", r#"{"height":10}"#, SQUARE),
+            feature("taller", r#"{"height":25}"#, SQUARE),
+            feature("moved", r#"{"height":10}"#, &moved),
+        ]),
+    );
+    let out = ingest(&[a, b.clone()], &IngestOptions::default()).unwrap();
+    let r = &out.report;
+    // The exact repeats of "same" (in its own file and in b) are skipped, named and counted.
+    let dups: Vec<_> = r
+        .skipped
+        .iter()
+        .filter(|s| s.reason == IssueReason::Duplicate)
+        .collect();
+    assert_eq!(dups.len(), 2, "{dups:?}");
+    assert!(dups.iter().all(|s| s.feature_id == "same"));
+    assert!(
+        dups[0].detail.contains("earlier in this file"),
+        "{}",
+        dups[0].detail
+    );
+    assert!(dups[1].detail.contains("a.geojson"), "{}", dups[1].detail);
+    assert_eq!(r.skipped_by_reason.get("duplicate"), Some(&2));
+    // Same id, other height or place: both kept, counted.
+    assert_eq!(r.duplicate_ids, 2);
+    assert_eq!(out.buildings.len(), 5);
+    assert_eq!(r.check_invariants(), Ok(()));
+    // The same file twice: the second copy adds nothing.
+    let twice = ingest(&[b.clone(), b], &IngestOptions::default()).unwrap();
+    assert_eq!(twice.buildings.len(), 3);
+    assert_eq!(twice.report.skipped_by_reason.get("duplicate"), Some(&3));
+}

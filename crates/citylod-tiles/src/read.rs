@@ -29,7 +29,8 @@ pub struct TileData {
     /// `0` for the root, `p/k` for child k of `p`; the root of an external tileset under `p` is `p/ext`.
     pub path_in_tree: String,
     pub geometric_error_m: f64,
-    /// The `box` bounding volume as written (in the tile's frame), if the tile has one.
+    /// The `box` bounding volume in the root frame (as written when no tile below the root has a `transform`),
+    /// if the tile has one.
     pub bounding_box: Option<[f64; 12]>,
     pub content_uri: Option<String>,
     /// Size of the content file (glb or external tileset.json), bytes.
@@ -81,17 +82,19 @@ pub fn read_tileset_with(
     let root_transform = ts.root.transform.unwrap_or(IDENTITY);
     let mut tiles = Vec::new();
     let base = path.parent().unwrap_or(Path::new("")).to_path_buf();
-    // The root frame: positions are expressed relative to the root's own transform.
-    let root_inv = affine_inverse(&root_transform).ok_or_else(|| TilesError::Tile {
-        tile: "0".into(),
-        msg: "root transform is not invertible".into(),
-    })?;
+    // The root frame: positions and boxes are expressed relative to the root's own transform, which must
+    // therefore be invertible.
+    if affine_inverse(&root_transform).is_none() {
+        return Err(TilesError::Tile {
+            tile: "0".into(),
+            msg: "root transform is not invertible".into(),
+        });
+    }
     walk(
         &ts.root,
         &base,
         "0".into(),
-        &root_inv,
-        &IDENTITY,
+        None,
         0,
         &mut Walk {
             out: &mut tiles,
@@ -207,13 +210,13 @@ struct Walk<'a> {
     folder: &'a Path,
 }
 
-/// `world` is the product of the ancestors' transforms; `root_inv` maps world to the root frame.
+/// `parent_to_root` maps the parent tile's frame to the root frame (the product of the transforms below the
+/// root's); `None` for the root itself, whose frame is the root frame whatever its transform.
 fn walk(
     t: &tj::Tile,
     base: &Path,
     path: String,
-    root_inv: &[f64; 16],
-    parent_world: &[f64; 16],
+    parent_to_root: Option<&[f64; 16]>,
     depth: usize,
     w: &mut Walk,
 ) -> Result<usize, TilesError> {
@@ -227,13 +230,16 @@ fn walk(
         tile: path.clone(),
         msg,
     })?;
-    let world = mul(parent_world, &t.transform.unwrap_or(IDENTITY));
-    let to_root = mul(root_inv, &world);
+    let to_root = match (parent_to_root, t.transform) {
+        (None, _) => IDENTITY,
+        (Some(p), None) => *p,
+        (Some(p), Some(own)) => mul(p, &own),
+    };
     let me = w.out.len();
     w.out.push(TileData {
         path_in_tree: path.clone(),
         geometric_error_m: t.geometric_error,
-        bounding_box: t.bounding_volume.r#box,
+        bounding_box: t.bounding_volume.r#box.map(|b| box_to_root(&to_root, b)),
         content_uri: t.content.as_ref().map(|c| c.uri.clone()),
         content_bytes: None,
         content: None,
@@ -253,8 +259,7 @@ fn walk(
                 &ext.root,
                 &ext_base,
                 format!("{path}/ext"),
-                root_inv,
-                &world,
+                Some(&to_root),
                 depth + 1,
                 w,
             )?;
@@ -278,8 +283,7 @@ fn walk(
             c,
             base,
             format!("{path}/{k}"),
-            root_inv,
-            &world,
+            Some(&to_root),
             depth,
             w,
         )?);
@@ -728,6 +732,23 @@ fn mul(a: &[f64; 16], b: &[f64; 16]) -> [f64; 16] {
 
 fn apply(m: &[f64; 16], p: [f64; 3]) -> [f64; 3] {
     std::array::from_fn(|r| m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r])
+}
+
+/// A `box` bounding volume (centre, three half-axes) mapped by `m`: the centre moved, the half-axes by the
+/// linear part. Exact for the identity.
+fn box_to_root(m: &[f64; 16], b: [f64; 12]) -> [f64; 12] {
+    if *m == IDENTITY {
+        return b;
+    }
+    let c = apply(m, [b[0], b[1], b[2]]);
+    let axis = |k: usize| -> [f64; 3] {
+        let h = [b[3 + 3 * k], b[4 + 3 * k], b[5 + 3 * k]];
+        std::array::from_fn(|r| m[r] * h[0] + m[4 + r] * h[1] + m[8 + r] * h[2])
+    };
+    let (x, y, z) = (axis(0), axis(1), axis(2));
+    [
+        c[0], c[1], c[2], x[0], x[1], x[2], y[0], y[1], y[2], z[0], z[1], z[2],
+    ]
 }
 
 /// Inverse of an affine column-major matrix (last row 0 0 0 1), `None` when singular.

@@ -596,6 +596,12 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         for (reason, n) in &r.skipped_by_reason {
             eprintln!("  skipped {n:>6} × {reason}");
         }
+        if r.duplicate_ids > 0 {
+            eprintln!(
+                "  {} buildings share their id with an earlier one (another footprint or height: both written)",
+                r.duplicate_ids
+            );
+        }
         if let Some(s) = &report.streets {
             let barrier = generalized.as_ref().and_then(|g| g.report.streets.as_ref());
             eprintln!(

@@ -1,0 +1,175 @@
+//! Content inside bounding volumes: a client culls a tile, and never visits its descendants, when the tile's
+//! bounding volume is outside the view, so everything a tile or any of its descendants draws must lie inside
+//! its box (3D Tiles' spatial coherence). A vertex outside is drawn late or not at all: it is missing from the
+//! picture whenever the box that should hold it is off screen while the vertex is on it. Root frame, metres.
+//! Tiles without a `box` in the file got the bounds of their content and children (see [`LoadedTileset`]),
+//! so only written boxes can fail.
+
+use crate::finding::{Finding, FindingKind};
+use crate::tileset::{LoadedTileset, NodeRef};
+use crate::vec3::{self, Vec3};
+
+/// How far (m) a vertex may lie outside a box before it counts: rounding, not geometry — a millimetre, plus the
+/// single-precision step of glTF positions at the vertex's distance from the root frame's origin.
+fn slack_m(p: Vec3) -> f64 {
+    1e-3 + 2.0 * f64::from(f32::EPSILON) * vec3::norm(p)
+}
+
+/// One finding per (tile, box) pair where some vertex the tile draws lies outside the tile's own box or an
+/// ancestor's: how many of its vertices, the farthest distance, and the feature that vertex belongs to.
+pub fn check_volumes(ts: &LoadedTileset) -> Vec<Finding> {
+    let n = ts.tiles.len();
+    // Parent links, first one seen (a tile linked twice is a bad link reported elsewhere).
+    let mut parent = vec![usize::MAX; n];
+    for (i, t) in ts.tree.tiles.iter().enumerate() {
+        for &c in &t.children {
+            if c < n && c != i && parent[c] == usize::MAX {
+                parent[c] = i;
+            }
+        }
+    }
+    let mut out = Vec::new();
+    for (i, info) in ts.tiles.iter().enumerate() {
+        let Some(mesh) = &info.mesh else { continue };
+        // The vertices the tile draws, each with the feature of a triangle using it.
+        let mut feature_of = vec![None; mesh.positions.len()];
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            for &v in tri {
+                if let Some(slot) = feature_of.get_mut(v as usize) {
+                    slot.get_or_insert(info.triangle_features.get(t).copied().unwrap_or(u32::MAX));
+                }
+            }
+        }
+        // The tile itself, then its ancestors up to the root (guarding against cycles).
+        let mut owner = i;
+        let mut steps = 0;
+        while owner < n && steps <= n {
+            let b = &ts.tree.tiles[owner].bounds;
+            let mut outside = 0usize;
+            let mut worst: Option<(f64, u32)> = None;
+            for (p, f) in mesh.positions.iter().zip(&feature_of) {
+                let Some(f) = f else { continue };
+                let d = b.distance_to(*p);
+                if d > slack_m(*p) {
+                    outside += 1;
+                    if worst.is_none_or(|(w, _)| d > w) {
+                        worst = Some((d, *f));
+                    }
+                }
+            }
+            if let Some((d, f)) = worst {
+                let drawn = feature_of.iter().filter(|f| f.is_some()).count();
+                let whose = if owner == i {
+                    "this tile's bounding box".to_string()
+                } else {
+                    format!(
+                        "the bounding box of its ancestor {} (a client culling that tile never draws them)",
+                        ts.tiles[owner].path_in_tree
+                    )
+                };
+                let mut finding = Finding::at(
+                    FindingKind::ContentOutsideVolume,
+                    ts,
+                    i,
+                    format!("{outside} of the {drawn} vertices drawn lie outside {whose}, up to {d:.3} m"),
+                )
+                .values(d, slack_m([0.0; 3]));
+                if let Some(fi) = info.features.get(f as usize) {
+                    finding = finding.node(fi.node);
+                    if let NodeRef::Building { building_index } = fi.node {
+                        finding = finding.buildings(&[building_index]);
+                    }
+                }
+                out.push(finding);
+            }
+            owner = parent[owner];
+            steps += 1;
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::select::{OrientedBox, TileNode, TileTree};
+    use crate::tileset::{FeatureInfo, TileInfo};
+    use citylod_model::Mesh3d;
+
+    fn tile(path: &str, positions: Vec<Vec3>) -> TileInfo {
+        let triangles = (0..positions.len() as u32 / 3)
+            .map(|k| [3 * k, 3 * k + 1, 3 * k + 2])
+            .collect::<Vec<_>>();
+        TileInfo {
+            path_in_tree: path.into(),
+            content_uri: Some(format!("{path}.glb")),
+            content_bytes: 0,
+            triangle_features: vec![0; triangles.len()],
+            mesh: Some(Mesh3d {
+                positions,
+                triangles,
+            }),
+            features: vec![FeatureInfo {
+                node: NodeRef::Building { building_index: 7 },
+                member_count: Some(1),
+                members: Some(vec![7]),
+                dh_m: 0.0,
+                da_m2: 0.0,
+                fallback: false,
+                bounds_m: None,
+            }],
+            under: vec![],
+        }
+    }
+
+    fn node(lo: Vec3, hi: Vec3, children: Vec<usize>) -> TileNode {
+        TileNode {
+            bounds: OrientedBox::from_min_max(lo, hi),
+            geometric_error_m: 0.0,
+            children,
+            has_content: true,
+            external_tileset: false,
+        }
+    }
+
+    fn tileset(child_box_hi: f64, child_vertex_x: f64) -> LoadedTileset {
+        let tri = |x: f64| vec![[x, 0.0, 0.0], [x, 1.0, 0.0], [x, 0.0, 1.0]];
+        LoadedTileset {
+            tree: TileTree {
+                tiles: vec![
+                    node([0.0; 3], [10.0; 3], vec![1]),
+                    node([0.0; 3], [child_box_hi; 3], vec![]),
+                ],
+                root: 0,
+                tileset_geometric_error_m: 1.0,
+            },
+            tiles: vec![tile("0", tri(5.0)), tile("0/0", tri(child_vertex_x))],
+            buildings: Default::default(),
+        }
+    }
+
+    #[test]
+    fn content_inside_every_box_passes() {
+        assert!(check_volumes(&tileset(10.0, 4.0)).is_empty());
+        // Within the slack.
+        assert!(check_volumes(&tileset(10.0, 10.0005)).is_empty());
+    }
+
+    #[test]
+    fn content_outside_its_own_box_and_an_ancestors_is_found() {
+        let f = check_volumes(&tileset(5.0, 12.0));
+        assert_eq!(f.len(), 2, "{f:?}");
+        assert!(f
+            .iter()
+            .all(|f| f.kind == FindingKind::ContentOutsideVolume && f.tile == "0/0"));
+        assert!(f[0].message.contains("this tile's"), "{}", f[0].message);
+        assert!((f[0].measured.unwrap() - 7.0).abs() < 1e-9);
+        assert!(f[1].message.contains("ancestor 0 "), "{}", f[1].message);
+        assert!((f[1].measured.unwrap() - 2.0).abs() < 1e-9);
+        assert_eq!(f[0].buildings, vec![7]);
+        // Outside the ancestor only: a child box poking out of its parent is allowed, content is not.
+        let f = check_volumes(&tileset(20.0, 12.0));
+        assert_eq!(f.len(), 1, "{f:?}");
+        assert!(f[0].message.contains("ancestor"));
+    }
+}
