@@ -37,6 +37,7 @@ mod place;
 mod repair;
 mod report;
 mod streets;
+mod valid;
 
 pub use crs::{CoordError, Crs, CrsError};
 pub use error::IngestError;

@@ -4,6 +4,7 @@
 //! overlapping or assembled pieces, drop parts under 0.01 m², and wind exteriors CCW, holes CW.
 
 use crate::report::IssueReason;
+use crate::valid;
 use geo::{Area, BooleanOps, MakeValid, Validation};
 use geo_types::{Coord, LineString, MultiPolygon, Polygon};
 
@@ -134,25 +135,29 @@ pub(crate) fn repair(polygons: Vec<Vec<Vec<Coord>>>, assemble: bool) -> Result<R
     let mut rebuilt = false;
     let mut parts: Vec<Polygon> = Vec::with_capacity(polys.len());
     for p in polys {
-        if p.is_valid() {
+        if valid::polygon_is_valid(&p) {
             parts.push(p);
             continue;
         }
         let p = drop_holes_outside_shell(p, &mut issues);
+        if valid::polygon_is_valid(&p) {
+            parts.push(p);
+            continue;
+        }
+        let vertices =
+            p.exterior().0.len() + p.interiors().iter().map(|r| r.0.len()).sum::<usize>();
+        if vertices > MAX_REPAIR_VERTICES {
+            return Err((
+                IssueReason::RepairFailed,
+                format!(
+                    "invalid (a ring crosses itself or another); not repaired: {vertices} vertices, over the \
+                     {MAX_REPAIR_VERTICES} that rebuilding an invalid polygon handles in reasonable time"
+                ),
+            ));
+        }
         match p.check_validation() {
             Ok(()) => parts.push(p),
             Err(why) => {
-                let vertices =
-                    p.exterior().0.len() + p.interiors().iter().map(|r| r.0.len()).sum::<usize>();
-                if vertices > MAX_REPAIR_VERTICES {
-                    return Err((
-                        IssueReason::RepairFailed,
-                        format!(
-                            "{why}; not repaired: {vertices} vertices, over the {MAX_REPAIR_VERTICES} that rebuilding \
-                             an invalid polygon handles in reasonable time"
-                        ),
-                    ));
-                }
                 let area_before = p.unsigned_area();
                 let fixed = p.make_valid().map_err(|e| {
                     (
@@ -176,7 +181,7 @@ pub(crate) fn repair(polygons: Vec<Vec<Vec<Coord>>>, assemble: bool) -> Result<R
     }
 
     let mut footprint = MultiPolygon(parts);
-    if footprint.0.len() > 1 && (assemble || !footprint.is_valid()) {
+    if footprint.0.len() > 1 && (assemble || !valid::multipolygon_is_valid(&footprint)) {
         let n = footprint.0.len();
         let merged = geo::unary_union(footprint.0.iter());
         if !assemble {
@@ -193,7 +198,7 @@ pub(crate) fn repair(polygons: Vec<Vec<Vec<Coord>>>, assemble: bool) -> Result<R
     }
 
     // make_valid snaps and union splits; re-check what they built and give up cleanly if needed.
-    if rebuilt && !footprint.is_valid() {
+    if rebuilt && !valid::multipolygon_is_valid(&footprint) {
         footprint = geo::unary_union(footprint.0.iter());
         if let Err(e) = footprint.check_validation() {
             return Err((
