@@ -40,11 +40,38 @@ pub fn check_volumes(ts: &LoadedTileset) -> Vec<Finding> {
                 }
             }
         }
+        // The drawn vertices' bounds: a box (convex) holding their 8 corners holds them all, which settles most
+        // boxes without looking at every vertex again.
+        let Some((lo, hi)) = mesh
+            .positions
+            .iter()
+            .zip(&feature_of)
+            .filter(|(_, f)| f.is_some())
+            .fold(None, |acc: Option<(Vec3, Vec3)>, (p, _)| {
+                Some(match acc {
+                    None => (*p, *p),
+                    Some((l, h)) => (
+                        std::array::from_fn(|k| l[k].min(p[k])),
+                        std::array::from_fn(|k| h[k].max(p[k])),
+                    ),
+                })
+            })
+        else {
+            continue;
+        };
+        let corners: Vec<Vec3> = (0..8)
+            .map(|c| std::array::from_fn(|k| if c >> k & 1 == 1 { hi[k] } else { lo[k] }))
+            .collect();
         // The tile itself, then its ancestors up to the root (guarding against cycles).
         let mut owner = i;
         let mut steps = 0;
         while owner < n && steps <= n {
             let b = &ts.tree.tiles[owner].bounds;
+            if corners.iter().all(|c| b.distance_to(*c) <= slack_m(*c)) {
+                owner = parent[owner];
+                steps += 1;
+                continue;
+            }
             let mut outside = 0usize;
             let mut worst: Option<(f64, u32)> = None;
             for (p, f) in mesh.positions.iter().zip(&feature_of) {
