@@ -438,7 +438,8 @@ pub(crate) fn box_aabb(b: &OrientedBox) -> (Vec3, Vec3) {
     )
 }
 
-fn mesh_bounds(m: &Mesh3d) -> Option<(Vec3, Vec3)> {
+/// Axis-aligned bounds (min, max) of a mesh's vertices; `None` without vertices.
+pub(crate) fn mesh_bounds(m: &Mesh3d) -> Option<(Vec3, Vec3)> {
     m.positions
         .iter()
         .fold(None, |acc, p| join(acc, Some((*p, *p))))

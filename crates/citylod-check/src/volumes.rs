@@ -6,7 +6,7 @@
 //! so only written boxes can fail.
 
 use crate::finding::{Finding, FindingKind};
-use crate::tileset::{LoadedTileset, NodeRef};
+use crate::tileset::{mesh_bounds, LoadedTileset, NodeRef, TileInfo};
 use crate::vec3::{self, Vec3};
 
 /// How far (m) a vertex may lie outside a box before it counts: rounding, not geometry — a millimetre, plus the
@@ -31,50 +31,32 @@ pub fn check_volumes(ts: &LoadedTileset) -> Vec<Finding> {
     let mut out = Vec::new();
     for (i, info) in ts.tiles.iter().enumerate() {
         let Some(mesh) = &info.mesh else { continue };
-        // The vertices the tile draws, each with the feature of a triangle using it.
-        let mut feature_of = vec![None; mesh.positions.len()];
-        for (t, tri) in mesh.triangles.iter().enumerate() {
-            for &v in tri {
-                if let Some(slot) = feature_of.get_mut(v as usize) {
-                    slot.get_or_insert(info.triangle_features.get(t).copied().unwrap_or(u32::MAX));
-                }
-            }
-        }
-        // The drawn vertices' bounds: a box (convex) holding their 8 corners holds them all, which settles most
-        // boxes without looking at every vertex again.
-        let Some((lo, hi)) = mesh
-            .positions
-            .iter()
-            .zip(&feature_of)
-            .filter(|(_, f)| f.is_some())
-            .fold(None, |acc: Option<(Vec3, Vec3)>, (p, _)| {
-                Some(match acc {
-                    None => (*p, *p),
-                    Some((l, h)) => (
-                        std::array::from_fn(|k| l[k].min(p[k])),
-                        std::array::from_fn(|k| h[k].max(p[k])),
-                    ),
-                })
-            })
-        else {
+        let mut feature_of = None;
+        // The bounds of all its vertices: a box (convex) holding their 8 corners holds every vertex, which settles
+        // most boxes without looking at each vertex; the others are checked vertex by vertex.
+        let Some((lo, hi)) = mesh_bounds(mesh) else {
             continue;
         };
         let corners: Vec<Vec3> = (0..8)
             .map(|c| std::array::from_fn(|k| if c >> k & 1 == 1 { hi[k] } else { lo[k] }))
             .collect();
-        // The tile itself, then its ancestors up to the root (guarding against cycles).
-        let mut owner = i;
-        let mut steps = 0;
-        while owner < n && steps <= n {
+        // The tile itself, then its ancestors up to the root (a cycle of links ends the walk).
+        let mut chain = vec![i];
+        while let Some(&p) = parent.get(*chain.last().unwrap()) {
+            if p >= n || chain.contains(&p) {
+                break;
+            }
+            chain.push(p);
+        }
+        for owner in chain {
             let b = &ts.tree.tiles[owner].bounds;
             if corners.iter().all(|c| b.distance_to(*c) <= slack_m(*c)) {
-                owner = parent[owner];
-                steps += 1;
                 continue;
             }
+            let feature_of = feature_of.get_or_insert_with(|| drawn_vertices(info));
             let mut outside = 0usize;
             let mut worst: Option<(f64, u32)> = None;
-            for (p, f) in mesh.positions.iter().zip(&feature_of) {
+            for (p, f) in mesh.positions.iter().zip(feature_of.iter()) {
                 let Some(f) = f else { continue };
                 let d = b.distance_to(*p);
                 if d > slack_m(*p) {
@@ -109,18 +91,33 @@ pub fn check_volumes(ts: &LoadedTileset) -> Vec<Finding> {
                 }
                 out.push(finding);
             }
-            owner = parent[owner];
-            steps += 1;
         }
     }
     out
+}
+
+/// Per vertex of the tile's mesh: the feature of a triangle using it (`u32::MAX` for none), `None` when no
+/// triangle does (such a vertex draws nothing).
+fn drawn_vertices(info: &TileInfo) -> Vec<Option<u32>> {
+    let Some(mesh) = &info.mesh else {
+        return Vec::new();
+    };
+    let mut feature_of = vec![None; mesh.positions.len()];
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        for &v in tri {
+            if let Some(slot) = feature_of.get_mut(v as usize) {
+                slot.get_or_insert(info.triangle_features.get(t).copied().unwrap_or(u32::MAX));
+            }
+        }
+    }
+    feature_of
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::select::{OrientedBox, TileNode, TileTree};
-    use crate::tileset::{FeatureInfo, TileInfo};
+    use crate::tileset::FeatureInfo;
     use citylod_model::Mesh3d;
 
     fn tile(path: &str, positions: Vec<Vec3>) -> TileInfo {

@@ -941,6 +941,35 @@ mod tests {
     }
 
     #[test]
+    fn boxes_come_in_the_root_frame_through_inner_transforms() {
+        let dir = tempfile::tempdir().unwrap();
+        let bx = |c: f64| serde_json::json!({"box": [c, 0, 0, 2, 0, 0, 0, 1, 0, 0, 0, 1]});
+        // The root's own transform (far from the origin) defines the root frame; the child turns by 90° about z
+        // and moves 100 m east, the grandchild another 10 m along the child's x (north in the root frame).
+        let mut far = IDENTITY;
+        far[12..15].copy_from_slice(&[1.3e6, -4.6e6, 4.1e6]);
+        let turn = [
+            0.0, 1.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 100.0, 0.0, 0.0, 1.0,
+        ];
+        let ts = serde_json::json!({"asset": {"version": "1.1"}, "geometricError": 1, "root": {
+            "boundingVolume": bx(5.0), "geometricError": 1, "refine": "REPLACE", "transform": far,
+            "children": [{"boundingVolume": bx(0.0), "geometricError": 0, "transform": turn,
+                "children": [{"boundingVolume": bx(10.0), "geometricError": 0}]}]}});
+        std::fs::write(dir.path().join("tileset.json"), ts.to_string()).unwrap();
+        let back = read_tileset(&dir.path().join("tileset.json")).unwrap();
+        let b: Vec<[f64; 12]> = back.tiles.iter().map(|t| t.bounding_box.unwrap()).collect();
+        assert_eq!(
+            b[0],
+            [5.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
+        );
+        let close =
+            |a: [f64; 12], e: [f64; 12]| a.iter().zip(e).all(|(x, y)| (x - y).abs() < 1e-12);
+        let turned = |cy: f64| [100.0, cy, 0.0, 0.0, 2.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 1.0];
+        assert!(close(b[1], turned(0.0)), "{:?}", b[1]);
+        assert!(close(b[2], turned(10.0)), "{:?}", b[2]);
+    }
+
+    #[test]
     fn corrupt_glbs_give_errors_not_panics() {
         use crate::spec::*;
         let schema = MetadataSchema {
