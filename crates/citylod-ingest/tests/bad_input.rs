@@ -27,6 +27,13 @@ fn collection(features: &[String]) -> String {
 /// A 0.0001° square near Delft (≈ 7 m × 11 m).
 const SQUARE: &str = "[[[4.36,52.0],[4.3601,52.0],[4.3601,52.0001],[4.36,52.0001],[4.36,52.0]]]";
 
+/// [`SQUARE`] moved 0.01° (≈ 690 m) east.
+fn square_further_east() -> String {
+    SQUARE
+        .replace("4.36,", "4.37,")
+        .replace("4.3601,", "4.3701,")
+}
+
 fn reason_of(out: &citylod_ingest::Ingested, id: &str) -> Option<IssueReason> {
     out.report
         .skipped
@@ -283,9 +290,7 @@ fn other_file_level_problems_are_clear_errors() {
 #[test]
 fn ids_follow_input_order_across_files_and_fall_back_to_file_index() {
     let dir = tempfile::tempdir().unwrap();
-    let anon = SQUARE
-        .replace("4.36,", "4.37,")
-        .replace("4.3601,", "4.3701,");
+    let anon = square_further_east();
     let a = write(
         &dir,
         "a.geojson",
@@ -349,9 +354,7 @@ fn the_same_input_gives_identical_output() {
 #[test]
 fn repeated_buildings_are_written_once_and_reused_ids_are_counted() {
     let dir = tempfile::tempdir().unwrap();
-    let moved = SQUARE
-        .replace("4.36,", "4.37,")
-        .replace("4.3601,", "4.3701,");
+    let moved = square_further_east();
     let a = write(
         &dir,
         "a.geojson",
