@@ -654,7 +654,13 @@ mod tests {
     fn triangle_keys(glb: &crate::read::GlbData) -> Vec<[(Vec<u64>, u32); 3]> {
         let corner = |i: u32| {
             let i = i as usize;
-            let mut bits: Vec<u64> = glb.positions_local[i].iter().map(|c| c.to_bits()).collect();
+            // Positions to the nanometre: Draco stores SHORT positions about the chunk's centre, the other
+            // encodings UNSIGNED_SHORT from its corner, so the same grid point comes back through another
+            // node translation and may differ in the last bit of the f64.
+            let mut bits: Vec<u64> = glb.positions_local[i]
+                .iter()
+                .map(|c| (c * 1e9).round() as i64 as u64)
+                .collect();
             bits.extend(
                 glb.normals_local
                     .get(i)
