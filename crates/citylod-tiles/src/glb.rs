@@ -1,6 +1,7 @@
-//! The GLB container (glTF 2.0 §4.4): a 12-byte header, a JSON chunk padded with spaces and a BIN
-//! chunk padded with zeros, both to 4 bytes. Also the binary buffer builder that keeps every buffer
-//! view 8-byte aligned (EXT_structural_metadata requires it; vertex data needs 4).
+//! The GLB container (glTF 2.0 §4.4): a 12-byte header, a JSON chunk padded with spaces so that it ends on an
+//! 8-byte boundary of the file (EXT_structural_metadata asks for it: the BIN chunk's data then starts on one
+//! too, so a client can view a FLOAT64 or INT64 column in place), and a BIN chunk padded with zeros to 4 bytes.
+//! Also the binary buffer builder that keeps every buffer view 8-byte aligned within the buffer.
 
 const MAGIC: u32 = 0x4654_6C67; // "glTF"
 const CHUNK_JSON: u32 = 0x4E4F_534A;
@@ -37,7 +38,9 @@ impl BinBuilder {
 
 /// Assembles a glb from its JSON text and binary chunk (which may be empty: then no BIN chunk).
 pub(crate) fn write_glb(json: &[u8], bin: &[u8]) -> Vec<u8> {
-    let json_len = json.len().next_multiple_of(4);
+    // The JSON data starts at byte 20 of the file; it ends on an 8-byte boundary, so its padded length is 4
+    // more than a multiple of 8, and the BIN data (8 bytes after it) starts on one too.
+    let json_len = (json.len() + 4).next_multiple_of(8) - 4;
     let bin_len = bin.len().next_multiple_of(4);
     let total = 12 + 8 + json_len + if bin.is_empty() { 0 } else { 8 + bin_len };
     let mut out = Vec::with_capacity(total);
@@ -99,8 +102,18 @@ mod tests {
         let glb = write_glb(b"{\"a\":1}", &[1, 2, 3]);
         assert_eq!(glb.len() % 4, 0);
         let (j, bin) = parse_glb(&glb).unwrap();
-        assert_eq!(j, b"{\"a\":1} ");
+        assert_eq!(j, b"{\"a\":1}     ");
         assert_eq!(bin, &[1, 2, 3, 0]);
+        for n in 0..24 {
+            let json = format!("[{}]", " ".repeat(n));
+            let glb = write_glb(json.as_bytes(), &[7; 8]);
+            let (j, bin) = parse_glb(&glb).unwrap();
+            assert_eq!(std::str::from_utf8(j).unwrap().trim_end(), json);
+            // The JSON chunk ends on an 8-byte boundary of the file, so the BIN data starts on one.
+            let bin_at = bin.as_ptr() as usize - glb.as_ptr() as usize;
+            assert_eq!((20 + j.len()) % 8, 0, "json of {} bytes", json.len());
+            assert_eq!(bin_at % 8, 0, "json of {} bytes", json.len());
+        }
         assert!(parse_glb(b"glTF").is_err());
         assert!(parse_glb(&glb[..20]).is_err());
     }
