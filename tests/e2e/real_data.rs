@@ -155,6 +155,8 @@ fn top_is_condensed(name: &str, report: &Value, ts: &TilesetData) {
 fn glb_schemas_match_schemas_metadata_json(name: &str, out: &Path) {
     let doc = read_json(&repo_root().join("schemas/metadata.json"));
     let mut glbs = 0;
+    // A schema id names one set of class definitions: `citylod_` and 8 hex digits, one id per distinct set.
+    let mut ids: std::collections::BTreeMap<String, Value> = Default::default();
     for (rel, bytes) in tree_bytes(out) {
         if !rel.ends_with(".glb") {
             continue;
@@ -163,7 +165,19 @@ fn glb_schemas_match_schemas_metadata_json(name: &str, out: &Path) {
         let len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
         let gltf: Value = serde_json::from_slice(&bytes[20..20 + len]).unwrap();
         let schema = &gltf["extensions"]["EXT_structural_metadata"]["schema"];
-        assert_eq!(schema["id"], doc["id"], "{name}: {rel}");
+        let id = schema["id"].as_str().unwrap();
+        let hex = id.strip_prefix("citylod_").unwrap_or("");
+        assert!(
+            hex.len() == 8 && hex.bytes().all(|b| b.is_ascii_hexdigit()),
+            "{name}: {rel}: schema id {id}"
+        );
+        let first = ids
+            .entry(id.to_string())
+            .or_insert(schema["classes"].clone());
+        assert_eq!(
+            *first, schema["classes"],
+            "{name}: {rel}: another schema with id {id}"
+        );
         let classes = schema["classes"].as_object().unwrap();
         assert!(!classes.is_empty(), "{name}: {rel} has no class");
         for (class, def) in classes {
@@ -188,6 +202,13 @@ fn glb_schemas_match_schemas_metadata_json(name: &str, out: &Path) {
         }
     }
     assert!(glbs > 0, "{name}: no glb");
+    let distinct: std::collections::BTreeSet<String> =
+        ids.values().map(|v| v.to_string()).collect();
+    assert_eq!(
+        distinct.len(),
+        ids.len(),
+        "{name}: one class set under two ids"
+    );
 }
 
 /// Blocks are re-outlined within their tile's geometricError: every block's own error, recomputed from the Δh and

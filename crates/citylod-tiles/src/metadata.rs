@@ -25,7 +25,7 @@ pub fn schema_to_json(schema: &MetadataSchema) -> serde_json::Value {
 /// blocks does not carry the building class's many attribute properties, and without the properties'
 /// descriptions unless `descriptions` (they are documentation, the same in every tile: about 1 KB a tile).
 pub(crate) fn schema_json(schema: &MetadataSchema, used: &[&str], descriptions: bool) -> Schema {
-    let classes = schema
+    let classes: BTreeMap<String, Class> = schema
         .classes
         .iter()
         .filter(|c| used.contains(&c.id.as_str()))
@@ -65,10 +65,27 @@ pub(crate) fn schema_json(schema: &MetadataSchema, used: &[&str], descriptions: 
             (c.id.clone(), Class { properties })
         })
         .collect();
+    // The spec makes `id` the schema's unique identifier, and glbs of one tileset carry different class sets
+    // (blocks, buildings, both) and builds different attributes: the id names the classes it holds, by a hash
+    // of their definitions (descriptions left out, they document and do not define).
+    let mut definitions = classes.clone();
+    for class in definitions.values_mut() {
+        for p in class.properties.values_mut() {
+            p.description = None;
+        }
+    }
+    let text = serde_json::to_vec(&definitions).expect("schema structs always serialize");
     Schema {
-        id: schema.id.clone(),
+        id: format!("{}_{:08x}", schema.id, fnv1a32(&text)),
         classes,
     }
+}
+
+/// The 32-bit FNV-1a hash (deterministic across platforms and runs, unlike the std hasher).
+fn fnv1a32(bytes: &[u8]) -> u32 {
+    bytes.iter().fold(0x811c_9dc5, |h: u32, &b| {
+        (h ^ b as u32).wrapping_mul(0x0100_0193)
+    })
 }
 
 /// One encoded column: the `values` bytes and, for strings, the `stringOffsets` bytes and their
@@ -479,5 +496,19 @@ mod tests {
                 .as_deref(),
             Some("what p means")
         );
+        // The id names the definitions: descriptions do not change it, another set of classes does.
+        assert_eq!(documented.id, inline.id);
+        assert!(inline.id.starts_with("s_") && inline.id.len() == 10);
+        let mut two = schema.clone();
+        two.classes.push(ClassDef {
+            id: "d".into(),
+            ..schema.classes[0].clone()
+        });
+        let one_class = schema_json(&two, &["c"], false);
+        let both = schema_json(&two, &["c", "d"], false);
+        assert_eq!(one_class.id, inline.id);
+        assert_ne!(both.id, inline.id);
+        two.classes[0].properties[0].kind = PropertyKind::Float64;
+        assert_ne!(schema_json(&two, &["c"], false).id, inline.id);
     }
 }

@@ -48,6 +48,8 @@ const FIXED: [(&str, PropertyKind, &str); 5] = [
 impl BuildingTable {
     pub fn new(buildings: &[Building]) -> Self {
         let mut kinds: BTreeMap<&str, Option<PropertyKind>> = BTreeMap::new();
+        // Buildings with a value (not null) per attribute.
+        let mut present: BTreeMap<&str, usize> = BTreeMap::new();
         for b in buildings {
             for (k, v) in &b.attributes {
                 let seen = kinds.entry(k.as_str()).or_insert(None);
@@ -58,6 +60,7 @@ impl BuildingTable {
                     AttrValue::Int(_) | AttrValue::Float(_) => PropertyKind::Float64,
                     AttrValue::String(_) => PropertyKind::String,
                 };
+                *present.entry(k.as_str()).or_default() += 1;
                 *seen = Some(match (*seen, this) {
                     (None, _) => this,
                     (Some(prev), _) if prev == this => prev,
@@ -85,7 +88,17 @@ impl BuildingTable {
             // An attribute that is null everywhere still gets a column, so no attribute is dropped.
             let kind = kind.unwrap_or(PropertyKind::String);
             let id = unique_id(name, &mut used);
-            let description = (id != name).then(|| format!("input attribute `{name}`"));
+            let mut description = (id != name).then(|| format!("input attribute `{name}`"));
+            // A BOOLEAN property has no noData value in EXT_structural_metadata, so a missing value would read
+            // back as false: true/false absent from some buildings are written as 1/0 with noData instead.
+            let kind = if kind == PropertyKind::Boolean && present[name] < buildings.len() {
+                description = Some(format!(
+                    "input attribute `{name}`: true 1, false 0 (some buildings have no value)"
+                ));
+                PropertyKind::UInt32
+            } else {
+                kind
+            };
             properties.push(PropertyDef {
                 name: id,
                 kind,
@@ -119,6 +132,7 @@ impl BuildingTable {
             values.push(match (b.attributes.get(name), kind) {
                 (None | Some(AttrValue::Null), _) => PropValue::Null,
                 (Some(AttrValue::Bool(v)), PropertyKind::Boolean) => PropValue::Bool(*v),
+                (Some(AttrValue::Bool(v)), PropertyKind::UInt32) => PropValue::Int(*v as i64),
                 (Some(AttrValue::Int(v)), PropertyKind::Int32) => PropValue::Int(*v),
                 (Some(AttrValue::Int(v)), PropertyKind::Float64) => PropValue::Float(*v as f64),
                 (Some(AttrValue::Float(v)), PropertyKind::Float64) => PropValue::Float(*v),
@@ -409,30 +423,46 @@ mod tests {
                     ("wide", Int(1)),
                     ("flag", Bool(true)),
                     ("text", Int(1)),
+                    ("every", Bool(true)),
                 ],
             ),
             b(
                 1,
                 &[
+                    ("every", Bool(false)),
                     ("ints", Null),
                     ("mixed", Float(2.5)),
                     ("wide", Int(1 << 40)),
                     ("text", String("x".into())),
                 ],
             ),
-            b(2, &[("ints", Int(i32::MAX as i64)), ("flag", Bool(false))]),
+            b(
+                2,
+                &[
+                    ("ints", Int(i32::MAX as i64)),
+                    ("flag", Bool(false)),
+                    ("every", Bool(true)),
+                ],
+            ),
         ];
         let t = BuildingTable::new(&buildings);
         let kind = |name: &str| t.attrs.iter().find(|(n, _)| n == name).unwrap().1;
         assert_eq!(kind("ints"), PropertyKind::Int32);
         assert_eq!(kind("mixed"), PropertyKind::Float64);
         assert_eq!(kind("wide"), PropertyKind::Float64);
-        assert_eq!(kind("flag"), PropertyKind::Boolean);
+        // Booleans stay BOOLEAN where every building has one; where some have none, 1/0 with noData (a
+        // BOOLEAN has no noData, a missing value would read back as false).
+        assert_eq!(kind("every"), PropertyKind::Boolean);
+        assert_eq!(kind("flag"), PropertyKind::UInt32);
         assert_eq!(kind("text"), PropertyKind::String);
         // Values as written: integers stay integers, nulls stay null, a number in a text column becomes text.
         let values = |i: usize| t.feature(&buildings[i], Mesh3d::default()).values;
         let col = |name: &str| 5 + t.attrs.iter().position(|(n, _)| n == name).unwrap();
         assert_eq!(values(0)[col("ints")], PropValue::Int(-7));
+        assert_eq!(values(0)[col("flag")], PropValue::Int(1));
+        assert_eq!(values(1)[col("flag")], PropValue::Null);
+        assert_eq!(values(2)[col("flag")], PropValue::Int(0));
+        assert_eq!(values(1)[col("every")], PropValue::Bool(false));
         assert_eq!(values(1)[col("ints")], PropValue::Null);
         assert_eq!(values(0)[col("mixed")], PropValue::Float(3.0));
         assert_eq!(
@@ -450,7 +480,7 @@ mod tests {
         let path =
             std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../schemas/metadata.json");
         let mut doc = serde_json::json!({
-            "$comment": "The EXT_structural_metadata schema inline in every citylod glb, there without the descriptions (a glb lists only the classes its property tables use). Besides the five fixed properties listed here, the building class has one property per input attribute (named after it, made safe as an identifier; nullable, noData declared), so it differs per build. Only nullable properties declare noData. Generated from crates/citylod/src/features.rs; a test keeps the two equal.",
+            "$comment": "The EXT_structural_metadata schema inline in every citylod glb, there without the descriptions (a glb lists only the classes its property tables use). Besides the five fixed properties listed here, the building class has one property per input attribute (named after it, made safe as an identifier; nullable, noData declared), so it differs per build. Only nullable properties declare noData. The id is `citylod_` and a hash of the classes a schema defines, so a glb of blocks, one of buildings and a build with other attributes each carry their own id (the id below is this file's). Generated from crates/citylod/src/features.rs; a test keeps the two equal.",
         });
         let generated = citylod_tiles::schema_to_json(&schema(&BuildingTable::new(&[])));
         for (k, v) in generated.as_object().unwrap() {
