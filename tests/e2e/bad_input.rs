@@ -120,6 +120,8 @@ fn unreadable_inputs_exit_2_with_a_clear_message() {
         (vec![good.display().to_string(), "--streets".into(), d.join("no-streets.geojson").display().to_string()], "no-streets.geojson"),
         (vec![good.display().to_string(), "--streets".into(), good.display().to_string(), "--leaves-only".into()], "--leaves-only"),
         (vec![good.display().to_string(), "--street-penalty=-5".into()], "--street-penalty"),
+        (vec![good.display().to_string(), "--height-offset=NaN".into()], "--height-offset"),
+        (vec![good.display().to_string(), "--height-offset=-5000".into()], "--height-offset"),
     ];
     for (inputs, expect) in cases {
         let out = d.join("out");

@@ -607,3 +607,55 @@ fn same_input_gives_byte_identical_output() {
     assert_eq!(stripped, plain_opts);
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// `--height-offset` raises the tileset's frame along its up axis and changes nothing else: every glb is
+/// byte-identical, the root transform's origin moves by the offset, the report says so.
+#[test]
+fn height_offset_raises_the_frame_and_nothing_else() {
+    let input = repo_root().join("examples/nyc-les/les_buildings.geojson");
+    let d = scratch_dir("height-offset");
+    let (plain, raised) = (d.join("plain"), d.join("raised"));
+    const OFFSET_M: f64 = -33.25;
+    let r0 = build(&[&input], &plain, &[]);
+    let r1 = build(
+        &[&input],
+        &raised,
+        &[&format!("--height-offset={OFFSET_M}")],
+    );
+    let (t0, t1) = (tree_bytes(&plain), tree_bytes(&raised));
+    assert_eq!(t0.len(), t1.len());
+    let mut glbs = 0;
+    for ((n0, b0), (n1, b1)) in t0.iter().zip(&t1) {
+        assert_eq!(n0, n1);
+        if n0.ends_with(".glb") {
+            assert!(b0 == b1, "{n0} changed with --height-offset");
+            glbs += 1;
+        }
+    }
+    assert!(glbs > 5);
+    let h = |r: &Value| r["frame"]["origin_h_m"].as_f64().unwrap();
+    assert!(
+        (h(&r1) - h(&r0) - OFFSET_M).abs() < 1e-9,
+        "{} vs {}",
+        h(&r1),
+        h(&r0)
+    );
+    assert_eq!(r1["options"]["height_offset_m"], OFFSET_M);
+    assert!(r1["ingest"]["frame_rule"]
+        .as_str()
+        .unwrap()
+        .contains("--height-offset"));
+    // The root transform's origin (ECEF) moved by the offset along the ellipsoid normal at the origin.
+    let origin = |dir: &Path| -> [f64; 3] {
+        let m = &read_json(&dir.join("tileset.json"))["root"]["transform"];
+        std::array::from_fn(|i| m[12 + i].as_f64().unwrap())
+    };
+    let (o0, o1) = (origin(&plain), origin(&raised));
+    let (g0, g1) = (ecef_to_geodetic(o0), ecef_to_geodetic(o1));
+    assert!(
+        (g1[0] - g0[0]).abs() < 1e-9 && (g1[1] - g0[1]).abs() < 1e-9,
+        "{g0:?} {g1:?}"
+    );
+    assert!((g1[2] - g0[2] - OFFSET_M).abs() < 1e-3, "{g0:?} {g1:?}");
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -1,7 +1,8 @@
 //! Placement: choose the local ENU frame for the ingested buildings and map footprints into it.
 //! Rule: the origin is the centre of the lon/lat bounding box of all written buildings, at the
 //! lowest ground height among them. Data heights (NAP, …) are taken as ellipsoidal heights as they
-//! are: no geoid model is applied, so the whole city sits offset by the local geoid height.
+//! are: no geoid model is applied, so the whole city sits offset by the local geoid height (the build's
+//! `--height-offset` raises the frame by what the user gives).
 
 use citylod_model::LocalFrame;
 use geo_types::{Coord, LineString, MultiPolygon, Polygon};

@@ -42,6 +42,20 @@ pub struct BuildArgs {
     #[arg(long, value_name = "M", default_value_t = 10.0, help_heading = "Input")]
     pub default_height: f64,
 
+    /// Metres added to every height on output (the tileset's frame is raised by it). 3D Tiles places content by
+    /// ellipsoidal (WGS84) height, while data heights are usually above a geoid or local datum (NAP, NAVD88, …):
+    /// give the geoid's height where the data lies (tens of metres, positive in most of Europe, negative in most of
+    /// North America) so the buildings stand on a globe's terrain, not above or below it. Footprints without
+    /// ground heights stand at 0 m; this lifts them too. Default 0: heights are used as ellipsoidal heights.
+    #[arg(
+        long,
+        value_name = "M",
+        default_value_t = 0.0,
+        allow_negative_numbers = true,
+        help_heading = "Input"
+    )]
+    pub height_offset: f64,
+
     /// Read the 3D geometry of CityJSON buildings at this LoD (`2.2`, `2`, `1.3`, … or `highest`) and give every
     /// building a chain of detail below its footprint prism: the full model (error 0), a simplified model and the
     /// prism, each with its measured error (sampled two-sided Hausdorff distance to the full model, metres).
@@ -331,6 +345,9 @@ struct Timings {
 /// Lowest storey or default height accepted: lower prisms vanish on the leaves' 2 cm grid.
 const MIN_HEIGHT_M: f64 = 0.1;
 
+/// Largest `--height-offset` accepted (m): geoid heights stay within ±110 m, local datums closer still.
+const MAX_HEIGHT_OFFSET_M: f64 = 1000.0;
+
 pub fn run(args: BuildArgs) -> Result<ExitCode> {
     for (name, v) in [
         ("--storey-height", args.storey_height),
@@ -339,6 +356,12 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         if !(v.is_finite() && v >= MIN_HEIGHT_M) {
             bail!("{name} must be a number of metres of at least {MIN_HEIGHT_M}, got {v}");
         }
+    }
+    if !(args.height_offset.is_finite() && args.height_offset.abs() <= MAX_HEIGHT_OFFSET_M) {
+        bail!(
+            "--height-offset must be a number of metres between -{MAX_HEIGHT_OFFSET_M} and {MAX_HEIGHT_OFFSET_M}, got {}",
+            args.height_offset
+        );
     }
     if !(args.collinear_angle > 90.0 && args.collinear_angle <= 180.0) {
         bail!(
@@ -396,7 +419,15 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
             .transpose()
             .map_err(|e| anyhow::anyhow!("--lod: {e}"))?,
     };
-    let ingested = ingest(&args.inputs, &opts).context("reading the input")?;
+    let mut ingested = ingest(&args.inputs, &opts).context("reading the input")?;
+    if args.height_offset != 0.0 && !ingested.buildings.is_empty() {
+        // Positions are relative to the frame's origin, so raising the origin raises everything.
+        ingested.frame.origin_h_m += args.height_offset;
+        ingested.report.frame_rule = format!(
+            "{}; then raised by --height-offset {} m",
+            ingested.report.frame_rule, args.height_offset
+        );
+    }
     timings.ingest = t.elapsed().as_millis() as u64;
     if ingested.buildings.is_empty() {
         let skipped = &ingested.report.skipped;
@@ -547,6 +578,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         options: serde_json::json!({
             "crs": args.crs, "height_attr": args.height_attr, "storey_attr": args.storey_attr,
             "storey_height_m": args.storey_height, "default_height_m": args.default_height,
+            "height_offset_m": args.height_offset,
             "tile_max_features": args.tile_max_features, "tile_max_triangles": args.tile_max_triangles,
             "lod": args.lod, "building_simplifier": args.building_simplifier, "building_rate": args.building_rate,
             "topo_qem_a": args.topo_qem_a,
