@@ -447,3 +447,220 @@ fn the_checker_reading_tile_by_tile_keeps_what_a_whole_read_gives() {
         .all(|t| t.content_uri.is_none() || t.content_bytes > 0));
     assert_eq!(streamed, expected);
 }
+
+/// The 8 corners of a `box` (centre, three half-axes), in its frame.
+fn box_corners(b: &[f64]) -> Vec<[f64; 3]> {
+    (0..8)
+        .map(|c: usize| {
+            std::array::from_fn(|i| {
+                b[i] + (0..3)
+                    .map(|k| if c >> k & 1 == 1 { 1.0 } else { -1.0 } * b[3 + 3 * k + i])
+                    .sum::<f64>()
+            })
+        })
+        .collect()
+}
+
+/// A `region` (radians, metres) holding the root box of `ts`, with a metre to spare.
+fn region_around_root(ts: &Value) -> Value {
+    let m: Vec<f64> = serde_json::from_value(ts["root"]["transform"].clone()).unwrap();
+    let b: Vec<f64> = serde_json::from_value(ts["root"]["boundingVolume"]["box"].clone()).unwrap();
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for p in box_corners(&b) {
+        let ecef: [f64; 3] =
+            std::array::from_fn(|r| m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r]);
+        let g = citylod_model::ecef_to_geodetic(ecef);
+        for k in 0..3 {
+            lo[k] = lo[k].min(g[k]);
+            hi[k] = hi[k].max(g[k]);
+        }
+    }
+    let pad = 1e-5; // degrees, ~1 m
+    serde_json::json!({"region": [
+        (lo[0] - pad).to_radians(), (lo[1] - pad).to_radians(),
+        (hi[0] + pad).to_radians(), (hi[1] + pad).to_radians(), lo[2] - 1.0, hi[2] + 1.0]})
+}
+
+/// 3D Tiles 1.1 allows `region` and `sphere` volumes: the check bounds content by the boxes enclosing them, so a
+/// region around the city and spheres around the leaves' boxes pass, and volumes far from the content fail.
+#[test]
+fn region_and_sphere_volumes_are_checked() {
+    let dir = damaged("region-sphere-ok", |ts| {
+        let region = region_around_root(ts);
+        ts["root"]["boundingVolume"] = region;
+        for (_, ptr) in tile_pointers(ts) {
+            let t = ts.pointer_mut(&ptr).unwrap();
+            if children_len(t) == 0 {
+                let b: Vec<f64> =
+                    serde_json::from_value(t["boundingVolume"]["box"].clone()).unwrap();
+                let r = (3..12).map(|k| b[k] * b[k]).sum::<f64>().sqrt();
+                t["boundingVolume"] = serde_json::json!({"sphere": [b[0], b[1], b[2], r]});
+            }
+        }
+    });
+    let out = scratch_dir("region-sphere-ok-out");
+    let (code, report) = check(&dir, &out, &["--views", "2"]);
+    assert_eq!(code, 0, "{:?}", findings(&report));
+
+    // The reviewer's case: the root volume a region (or sphere) nowhere near the buildings.
+    for (name, volume) in [
+        (
+            "region",
+            serde_json::json!({"region": [0, 0, 0.01, 0.01, 0, 10]}),
+        ),
+        ("sphere", serde_json::json!({"sphere": [5000, 5000, 0, 10]})),
+    ] {
+        let dir = damaged(&format!("far-{name}"), |ts| {
+            ts["root"]["boundingVolume"] = volume
+        });
+        let out = scratch_dir(&format!("far-{name}-out"));
+        let (code, report) = check(&dir, &out, &["--views", "1"]);
+        assert_eq!(code, 1, "{name}: {:?}", findings(&report));
+        let root_finding = report["tileset_findings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|f| f["kind"] == "content_outside_volume" && f["tile"] == "0")
+            .unwrap_or_else(|| panic!("{name}: no finding at the root: {:?}", findings(&report)));
+        let msg = root_finding["message"].as_str().unwrap();
+        assert!(msg.contains(&format!("bounding {name}")), "{msg}");
+    }
+}
+
+/// 3D Tiles 1.1 `contents`: every content of the array is read, so a tile that lists its glb there is checked
+/// like one with `content`, and two contents add up.
+#[test]
+fn multiple_contents_are_read() {
+    let dir = damaged("contents", |ts| {
+        let c = ts["root"]["content"].take();
+        ts["root"].as_object_mut().unwrap().remove("content");
+        ts["root"]["contents"] = serde_json::json!([c]);
+    });
+    let out = scratch_dir("contents-out");
+    let (code, report) = check(&dir, &out, &["--views", "2"]);
+    assert_eq!(code, 0, "{:?}", findings(&report));
+
+    let root_row = |dir: &Path| -> Vec<String> {
+        let o = citylod(&["inspect", dir.to_str().unwrap()]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let text = String::from_utf8_lossy(&o.stdout).to_string();
+        let row = text.lines().nth(1).unwrap().to_string();
+        row.split_whitespace().map(str::to_string).collect()
+    };
+    let plain = root_row(nyc());
+    // Root and its first child's content on the root: contents, features and triangles add up.
+    let two = damaged("contents-two", |ts| {
+        let c = ts["root"]["content"].take();
+        let child = ts["root"]["children"][0]["content"].clone();
+        ts["root"].as_object_mut().unwrap().remove("content");
+        ts["root"]["contents"] = serde_json::json!([c, child]);
+    });
+    let merged = root_row(&two);
+    let ts = read_json(&nyc().join("tileset.json"));
+    let child_uri = ts["root"]["children"][0]["content"]["uri"]
+        .as_str()
+        .unwrap();
+    let child = citylod_tiles::read::read_glb(
+        &std::fs::read(nyc().join(child_uri)).unwrap(),
+        &nyc().join(child_uri),
+    )
+    .unwrap();
+    let num = |row: &[String], k: usize| row[k].parse::<usize>().unwrap();
+    assert_eq!(num(&merged, 2), 1, "{merged:?}");
+    assert_eq!(num(&merged, 3), num(&plain, 3) + child.features.len());
+    assert_eq!(num(&merged, 4), num(&plain, 4) + child.triangles.len());
+}
+
+/// Input the reader cannot use is exit 2 with the file and what is wrong: a glb cut short of the length its
+/// header gives, and a tree nested deeper than one tileset.json holds.
+#[test]
+fn truncated_glb_and_too_deep_tree_are_exit_2() {
+    let dir = damaged("glb-len", |_| {});
+    let ts = read_json(&dir.join("tileset.json"));
+    let uri = ts["root"]["content"]["uri"].as_str().unwrap().to_string();
+    let glb = dir.join(&uri);
+    let mut bytes = std::fs::read(&glb).unwrap();
+    let claimed = bytes.len() as u32 + 64;
+    bytes[8..12].copy_from_slice(&claimed.to_le_bytes());
+    std::fs::write(&glb, &bytes).unwrap();
+    for cmd in ["inspect", "check"] {
+        let out = scratch_dir("glb-len-out");
+        let mut args = vec![cmd, dir.to_str().unwrap()];
+        if cmd == "check" {
+            args.extend(["--out", out.to_str().unwrap()]);
+        }
+        let o = citylod(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{cmd}: {err}");
+        assert!(err.contains(glb.to_str().unwrap()), "{cmd}: {err}");
+        assert!(
+            err.contains(&format!(
+                "truncated: the header gives a length of {claimed} bytes"
+            )),
+            "{err}"
+        );
+    }
+
+    let deep = scratch_dir("deep-tree");
+    let bx = serde_json::json!({"box": [0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1]});
+    let mut t = serde_json::json!({"boundingVolume": bx, "geometricError": 0});
+    for _ in 0..70 {
+        t = serde_json::json!({"boundingVolume": bx, "geometricError": 0, "children": [t]});
+    }
+    let ts = serde_json::json!({"asset": {"version": "1.1"}, "geometricError": 1, "root": t});
+    std::fs::write(deep.join("tileset.json"), ts.to_string()).unwrap();
+    let o = citylod(&["inspect", deep.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains(&format!("tile 0{}", "/0".repeat(62))), "{err}");
+    assert!(err.contains("holds tiles down to level 61"), "{err}");
+    assert!(
+        err.contains(deep.join("tileset.json").to_str().unwrap()),
+        "{err}"
+    );
+}
+
+/// Option errors print plain values, and `--out` may not be the tileset's folder or inside it (nothing is
+/// written there).
+#[test]
+fn bad_options_and_out_inside_the_tileset_are_exit_2() {
+    let dir = damaged("out-inside", |_| {});
+    let out = scratch_dir("bad-options-out");
+    for (flag, value) in [("--dh-px", "0"), ("--da-px", "-3"), ("--sse", "0")] {
+        let arg = format!("{flag}={value}");
+        let o = citylod(&[
+            "check",
+            dir.to_str().unwrap(),
+            &arg,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{flag}: {err}");
+        assert!(
+            err.contains(&format!("{flag} must be a positive number")),
+            "{err}"
+        );
+        assert!(
+            err.contains(&format!("got {value}")) && !err.contains("Some("),
+            "{err}"
+        );
+    }
+    let before = tree_bytes(&dir);
+    for inside in [dir.clone(), dir.join("check"), dir.join("tiles")] {
+        let o = citylod(&[
+            "check",
+            dir.to_str().unwrap(),
+            "--out",
+            inside.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{}: {err}", inside.display());
+        assert!(err.contains("inside the tileset's folder"), "{err}");
+    }
+    assert_eq!(
+        tree_bytes(&dir),
+        before,
+        "the tileset's folder was written to"
+    );
+}

@@ -376,6 +376,8 @@ mod tests {
             path_in_tree: path.into(),
             content_uri: Some(format!("tiles/{path}.glb")),
             content_bytes: 0,
+            content_uris: vec![],
+            volume_kind: Default::default(),
             mesh: None,
             features,
             triangle_features: Vec::new(),

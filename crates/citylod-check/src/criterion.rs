@@ -223,6 +223,8 @@ mod tests {
             path_in_tree: "0".into(),
             content_uri: None,
             content_bytes: 0,
+            content_uris: vec![],
+            volume_kind: Default::default(),
             mesh: Some(citylod_model::Mesh3d {
                 positions,
                 triangles,

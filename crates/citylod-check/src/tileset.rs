@@ -8,7 +8,7 @@ use std::collections::BTreeSet;
 use std::path::Path;
 
 use citylod_model::Mesh3d;
-use citylod_tiles::read::{GlbData, TileData, TilesetData};
+use citylod_tiles::read::{GlbData, TileData, TilesetData, VolumeKind};
 use citylod_tiles::PropValue;
 use citylod_tiles::TilesError;
 use serde::Serialize;
@@ -55,8 +55,12 @@ pub struct TileInfo {
     /// `..` resolved; URIs inside an external tileset are prefixed with its folder), as a client
     /// resolves it. Absolute URIs are kept as written.
     pub content_uri: Option<String>,
-    /// Size of the content file (0 when unknown).
+    /// Every content URI resolved alike: `content_uri` alone, or each of a 3D Tiles 1.1 `contents` array.
+    pub content_uris: Vec<String>,
+    /// Size of the content files (0 when unknown).
     pub content_bytes: u64,
+    /// The bounding volume the file gives; the tree's box is exact for a `box`, encloses the others.
+    pub volume_kind: VolumeKind,
     /// The content as one mesh in the root frame; `None` without content.
     pub mesh: Option<Mesh3d>,
     pub features: Vec<FeatureInfo>,
@@ -143,7 +147,7 @@ impl LoadedTileset {
             .iter()
             .zip(uris)
             .zip(contents)
-            .map(|((t, uri), content)| tile_info(t, content, uri, base_dir))
+            .map(|((t, uris), content)| tile_info(t, content, uris, base_dir))
             .collect();
         let buildings: BTreeSet<u32> = tiles
             .iter()
@@ -234,7 +238,7 @@ fn leaf_buildings(t: &TileInfo) -> Vec<u32> {
 
 /// Content URIs relative to the main tileset's folder: a tile inside an external tileset resolves its
 /// URI against the folder of that tileset's JSON (the reader names its root `p/ext` under link `p`).
-fn resolved_uris(data: &TilesetData) -> Vec<Option<String>> {
+fn resolved_uris(data: &TilesetData) -> Vec<Vec<String>> {
     let n = data.tiles.len();
     let mut folder: Vec<String> = vec![String::new(); n];
     for (i, t) in data.tiles.iter().enumerate() {
@@ -254,7 +258,13 @@ fn resolved_uris(data: &TilesetData) -> Vec<Option<String>> {
     data.tiles
         .iter()
         .zip(&folder)
-        .map(|(t, f)| t.content_uri.as_deref().map(|u| join_uri(f, u)))
+        .map(|(t, f)| {
+            if t.content_uris.is_empty() {
+                t.content_uri.iter().map(|u| join_uri(f, u)).collect()
+            } else {
+                t.content_uris.iter().map(|u| join_uri(f, u)).collect()
+            }
+        })
         .collect()
 }
 
@@ -323,21 +333,24 @@ fn content_info(glb: GlbData) -> Content {
 fn tile_info(
     t: &TileData,
     content: Option<Content>,
-    uri: Option<String>,
+    uris: Vec<String>,
     base_dir: Option<&Path>,
 ) -> TileInfo {
-    let content_bytes = match (base_dir, &uri) {
-        (Some(dir), Some(uri)) => std::fs::metadata(dir.join(uri)).map_or(0, |m| m.len()),
-        _ => 0,
-    };
+    let content_bytes = base_dir.map_or(0, |dir| {
+        uris.iter()
+            .map(|u| std::fs::metadata(dir.join(u)).map_or(0, |m| m.len()))
+            .sum()
+    });
     let (mesh, features, triangle_features) = match content {
         None => (None, Vec::new(), Vec::new()),
         Some(c) => (Some(c.mesh), c.features, c.triangle_features),
     };
     TileInfo {
         path_in_tree: t.path_in_tree.clone(),
-        content_uri: uri,
+        content_uri: uris.first().cloned(),
+        content_uris: uris,
         content_bytes,
+        volume_kind: t.volume_kind,
         mesh,
         features,
         triangle_features,
@@ -488,7 +501,9 @@ mod tests {
             path_in_tree: path.into(),
             geometric_error_m: if children.is_empty() { 0.0 } else { 10.0 },
             bounding_box: None,
+            volume_kind: VolumeKind::Box,
             content_uri: None,
+            content_uris: vec![],
             content_bytes: None,
             content: Some(content(content_rows)),
             children,

@@ -2,12 +2,14 @@
 //! bounding volume is outside the view, so everything a tile or any of its descendants draws must lie inside
 //! its box (3D Tiles' spatial coherence). A vertex outside is drawn late or not at all: it is missing from the
 //! picture whenever the box that should hold it is off screen while the vertex is on it. Root frame, metres.
-//! Tiles without a `box` in the file got the bounds of their content and children (see [`LoadedTileset`]),
-//! so only written boxes can fail.
+//! A `sphere` or `region` is checked as the box enclosing it (the reader's), which can miss content just outside
+//! the volume but inside that box, never report content inside the volume. Tiles without any volume (hand-made
+//! data) got the bounds of their content and children (see [`LoadedTileset`]), so only written volumes can fail.
 
 use crate::finding::{Finding, FindingKind};
 use crate::tileset::{mesh_bounds, LoadedTileset, NodeRef, TileInfo};
 use crate::vec3::{self, Vec3};
+use citylod_tiles::read::VolumeKind;
 
 /// How far (m) a vertex may lie outside a box before it counts: rounding, not geometry — a millimetre, plus the
 /// single-precision step of glTF positions at the vertex's distance from the root frame's origin.
@@ -68,11 +70,15 @@ pub fn check_volumes(ts: &LoadedTileset) -> Vec<Finding> {
             }
             if let Some((d, f)) = worst {
                 let drawn = feature_of.iter().filter(|f| f.is_some()).count();
+                let volume = match ts.tiles[owner].volume_kind {
+                    VolumeKind::Box => "bounding box".to_string(),
+                    k => format!("bounding {} (the box enclosing it)", k.name()),
+                };
                 let whose = if owner == i {
-                    "this tile's bounding box".to_string()
+                    format!("this tile's {volume}")
                 } else {
                     format!(
-                        "the bounding box of its ancestor {} (a client culling that tile never draws them)",
+                        "the {volume} of its ancestor {} (a client culling that tile never draws them)",
                         ts.tiles[owner].path_in_tree
                     )
                 };
@@ -128,6 +134,8 @@ mod tests {
             path_in_tree: path.into(),
             content_uri: Some(format!("{path}.glb")),
             content_bytes: 0,
+            content_uris: vec![],
+            volume_kind: Default::default(),
             triangle_features: vec![0; triangles.len()],
             mesh: Some(Mesh3d {
                 positions,

@@ -109,6 +109,7 @@ fn leaf_copy(t: &tj::Tile) -> tj::Tile {
         geometric_error: t.geometric_error,
         refine: t.refine.clone(),
         content: None,
+        contents: Vec::new(),
         children: Vec::new(),
     }
 }

@@ -74,7 +74,20 @@ pub(crate) fn parse_glb(b: &[u8]) -> Result<(&[u8], &[u8]), String> {
     if u32_at(4)? != 2 {
         return Err(format!("glb version {} is not 2", u32_at(4)?));
     }
-    let total = (u32_at(8)? as usize).min(b.len());
+    // The header's length is the whole file's (glTF 2.0 §4.4.3.1): a file shorter than that was cut off.
+    let total = u32_at(8)? as usize;
+    if total > b.len() {
+        return Err(format!(
+            "truncated: the header gives a length of {total} bytes, the file has {}",
+            b.len()
+        ));
+    }
+    if total < 20 {
+        return Err(format!(
+            "the header gives a length of {total} bytes, less than a header and one chunk"
+        ));
+    }
+    let b = &b[..total];
     let mut pos = 12;
     let (mut json, mut bin): (Option<&[u8]>, &[u8]) = (None, &[]);
     while pos + 8 <= total {
@@ -82,7 +95,11 @@ pub(crate) fn parse_glb(b: &[u8]) -> Result<(&[u8], &[u8]), String> {
         let ty = u32_at(pos + 4)?;
         let data = b
             .get(pos + 8..pos + 8 + len)
-            .ok_or("chunk runs past the end")?;
+            .ok_or_else(|| {
+                format!(
+                    "chunk at byte {pos} claims {len} bytes, past the length of {total} the header gives"
+                )
+            })?;
         match ty {
             CHUNK_JSON if json.is_none() => json = Some(data),
             CHUNK_BIN if bin.is_empty() => bin = data,
@@ -116,6 +133,30 @@ mod tests {
         }
         assert!(parse_glb(b"glTF").is_err());
         assert!(parse_glb(&glb[..20]).is_err());
+    }
+
+    #[test]
+    fn a_glb_shorter_than_its_header_says_is_truncated() {
+        let glb = write_glb(b"{\"a\":1}", &[1, 2, 3, 4, 5, 6, 7, 8]);
+        assert!(parse_glb(&glb).is_ok());
+        // Cut anywhere, including inside the BIN chunk where a clamped length would still find the JSON.
+        for cut in 12..glb.len() {
+            let e = parse_glb(&glb[..cut]).unwrap_err();
+            assert!(e.contains("truncated"), "cut at {cut}: {e}");
+        }
+        // The header lying about a larger length than the file has.
+        let mut lie = glb.clone();
+        lie[8..12].copy_from_slice(&(glb.len() as u32 + 100).to_le_bytes());
+        let e = parse_glb(&lie).unwrap_err();
+        assert!(
+            e.contains(&format!("length of {} bytes", glb.len() + 100)),
+            "{e}"
+        );
+        // A chunk running past the header's length (the file itself longer) is an error too.
+        let mut long = glb.clone();
+        long.extend_from_slice(&[0; 16]);
+        long[8..12].copy_from_slice(&(glb.len() as u32 - 4).to_le_bytes());
+        assert!(parse_glb(&long).unwrap_err().contains("past the length"));
     }
 
     #[test]

@@ -27,6 +27,7 @@
 //! assert_eq!(back.tiles[0].content.as_ref().unwrap().features[0].values["name"], PropValue::Str("hall".into()));
 //! ```
 
+mod bounding_volume;
 mod content;
 mod draco;
 mod error;

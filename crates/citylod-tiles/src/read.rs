@@ -1,8 +1,12 @@
 //! A tileset reader for tests and the checker: walks `tileset.json` (and external tilesets named by
 //! `content.uri` ending in `.json`), decodes glb content (plain or EXT_meshopt_compression buffers, KHR_draco_mesh_compression primitives,
 //! any quantized or float positions, node transforms, feature ids, property tables).
-//! Output positions are in the root tile's frame (z up; for citylod: local ENU metres).
+//! Output positions are in the root tile's frame (z up; for citylod: local ENU metres), and so is every tile's
+//! bounding volume, as a box (a `sphere` or `region` as the box enclosing it). 3D Tiles 1.1 `contents` (several
+//! glbs on one tile) are appended into one content. Input it cannot use is an error naming the file and the tile.
 
+pub use crate::bounding_volume::VolumeKind;
+use crate::bounding_volume::{region_box_ecef, sphere_box};
 use crate::glb::parse_glb;
 use crate::gltf_json::{self as gj, Gltf};
 use crate::metadata::{decode_column, FeatureRow};
@@ -29,13 +33,20 @@ pub struct TileData {
     /// `0` for the root, `p/k` for child k of `p`; the root of an external tileset under `p` is `p/ext`.
     pub path_in_tree: String,
     pub geometric_error_m: f64,
-    /// The `box` bounding volume in the root frame (as written when no tile below the root has a `transform`),
-    /// if the tile has one.
+    /// The bounding volume as a box in the root frame: a `box` as written (when no tile below the root has a
+    /// `transform`), the cube around a `sphere`, or a box enclosing a `region` (see [`VolumeKind`]). The reader
+    /// always sets it; `None` only in hand-made data.
     pub bounding_box: Option<[f64; 12]>,
+    /// Which volume the file gives (`bounding_box` is exact only for a `box`).
+    pub volume_kind: VolumeKind,
+    /// The first of `content_uris` (the only one unless the tile has 3D Tiles 1.1 `contents`).
     pub content_uri: Option<String>,
-    /// Size of the content file (glb or external tileset.json), bytes.
+    /// Every content URI: `content.uri`, or each `contents[].uri` in order.
+    pub content_uris: Vec<String>,
+    /// Size of the content files (glbs or external tileset.json), bytes, summed over `content_uris`.
     pub content_bytes: Option<u64>,
-    /// Decoded glb content (`None` without content or for external-tileset links).
+    /// Decoded glb content, several `contents` appended into one (`None` without content or for
+    /// external-tileset links).
     pub content: Option<GlbData>,
     /// Indices into `TilesetData::tiles`.
     pub children: Vec<usize>,
@@ -76,30 +87,34 @@ pub fn read_tileset_with(
     path: &Path,
     visit: &mut dyn FnMut(usize, &mut TileData),
 ) -> Result<TilesetData, TilesError> {
-    let ts = load_json(path)?;
+    let ts = load_json(path, "0")?;
     let folder = std::fs::canonicalize(path.parent().unwrap_or(Path::new(".")))
         .map_err(TilesError::io(path))?;
     let root_transform = ts.root.transform.unwrap_or(IDENTITY);
     let mut tiles = Vec::new();
-    let base = path.parent().unwrap_or(Path::new("")).to_path_buf();
     // The root frame: positions and boxes are expressed relative to the root's own transform, which must
-    // therefore be invertible.
-    if affine_inverse(&root_transform).is_none() {
+    // therefore be invertible (regions, in ECEF, come in through its inverse).
+    let Some(ecef_to_root) = affine_inverse(&root_transform) else {
         return Err(TilesError::Tile {
-            tile: "0".into(),
+            tile: format!("0 ({})", path.display()),
             msg: "root transform is not invertible".into(),
         });
-    }
+    };
+    let place = Place {
+        json: path,
+        path: "0".into(),
+        external_depth: 0,
+        level: 0,
+    };
     walk(
         &ts.root,
-        &base,
-        "0".into(),
+        place,
         None,
-        0,
         &mut Walk {
             out: &mut tiles,
             visit,
             folder: &folder,
+            ecef_to_root,
         },
     )?;
     Ok(TilesetData {
@@ -132,17 +147,114 @@ fn read_file(path: &Path) -> Result<Vec<u8>, TilesError> {
     std::fs::read(path).map_err(TilesError::io(path))
 }
 
-fn load_json(path: &Path) -> Result<tj::Tileset, TilesError> {
+/// Parses a `tileset.json` whose root is tile `root_path` of the whole tree.
+fn load_json(path: &Path, root_path: &str) -> Result<tj::Tileset, TilesError> {
     let bytes = read_file(path)?;
-    let ts: tj::Tileset = serde_json::from_slice(&bytes).map_err(|source| TilesError::Json {
-        path: path.to_path_buf(),
-        source,
+    let ts: tj::Tileset = serde_json::from_slice(&bytes).map_err(|source| {
+        if source.to_string().starts_with("recursion limit exceeded") {
+            too_deep(&bytes, path, root_path, &source)
+        } else {
+            TilesError::Json {
+                path: path.to_path_buf(),
+                source,
+            }
+        }
     })?;
     check_error(ts.geometric_error).map_err(|msg| TilesError::Tile {
         tile: path.display().to_string(),
         msg,
     })?;
     Ok(ts)
+}
+
+/// How deep JSON may nest in one file: serde_json's limit. A tile at level L below its file's root opens its
+/// `boundingVolume` array at nesting 4 + 2·L, so one file holds tiles down to level [`MAX_TILE_LEVEL_PER_FILE`].
+const JSON_NESTING_LIMIT: usize = 127;
+const MAX_TILE_LEVEL_PER_FILE: usize = (JSON_NESTING_LIMIT - 4) / 2;
+
+/// The error for a tree nested deeper than the JSON parser allows, naming the tile where it stopped.
+fn too_deep(bytes: &[u8], path: &Path, root_path: &str, e: &serde_json::Error) -> TilesError {
+    let line_start = bytes
+        .split_inclusive(|&b| b == b'\n')
+        .take(e.line().saturating_sub(1))
+        .map(<[u8]>::len)
+        .sum::<usize>();
+    let levels = tile_path_at(bytes, line_start + e.column().saturating_sub(1));
+    let mut tile = root_path.to_string();
+    for k in &levels {
+        tile.push_str(&format!("/{k}"));
+    }
+    TilesError::Tile {
+        tile: format!("{tile} ({}, line {} column {})", path.display(), e.line(), e.column()),
+        msg: format!(
+            "this tile is {} levels below its tileset.json's root; one tileset.json holds tiles down to level \
+             {MAX_TILE_LEVEL_PER_FILE} (JSON nesting limit {JSON_NESTING_LIMIT}). Split deeper trees into external \
+             tilesets",
+            levels.len()
+        ),
+    }
+}
+
+/// The child indices leading from the root tile to the tile whose JSON text holds byte `at` of a `tileset.json`
+/// (a light scan of brackets, strings and keys: it works on text the parser gave up on).
+fn tile_path_at(text: &[u8], at: usize) -> Vec<usize> {
+    struct Frame {
+        array: bool,
+        /// Objects: the last key read, and whether the next string is a key.
+        key: Vec<u8>,
+        expect_key: bool,
+        /// Arrays: the index of the current element.
+        index: usize,
+    }
+    let mut stack: Vec<Frame> = Vec::new();
+    let mut string: Option<Vec<u8>> = None;
+    let mut escaped = false;
+    for &b in &text[..at.min(text.len())] {
+        if let Some(s) = string.as_mut() {
+            if escaped {
+                escaped = false;
+            } else if b == b'\\' {
+                escaped = true;
+            } else if b == b'"' {
+                let s = string.take().unwrap_or_default();
+                if let Some(f) = stack.last_mut().filter(|f| !f.array && f.expect_key) {
+                    f.key = s;
+                }
+            } else {
+                s.push(b);
+            }
+            continue;
+        }
+        match b {
+            b'"' => string = Some(Vec::new()),
+            b'{' | b'[' => stack.push(Frame {
+                array: b == b'[',
+                key: Vec::new(),
+                expect_key: b == b'{',
+                index: 0,
+            }),
+            b'}' | b']' => {
+                stack.pop();
+            }
+            b':' => {
+                if let Some(f) = stack.last_mut() {
+                    f.expect_key = false;
+                }
+            }
+            b',' => {
+                if let Some(f) = stack.last_mut() {
+                    f.index += 1;
+                    f.expect_key = !f.array;
+                }
+            }
+            _ => {}
+        }
+    }
+    stack
+        .windows(2)
+        .filter(|w| !w[0].array && w[0].key == b"children" && w[1].array)
+        .map(|w| w[1].index)
+        .collect()
 }
 
 /// A geometricError must be a finite number ≥ 0.
@@ -154,33 +266,44 @@ fn check_error(e: f64) -> Result<(), String> {
     }
 }
 
-/// What 3D Tiles 1.1 asks of one tile that the serde structs cannot say: one bounding volume with sane values, a
-/// non-negative geometricError, `refine` ADD or REPLACE.
-fn check_tile(t: &tj::Tile) -> Result<(), String> {
+/// What 3D Tiles 1.1 asks of one tile that the serde structs cannot say: one bounding volume with sane values,
+/// a non-negative geometricError, `refine` ADD or REPLACE, not both `content` and `contents`. Returns the volume
+/// as a box in the tile's frame (`box`, `sphere`) or in ECEF (`region`).
+fn check_tile(t: &tj::Tile) -> Result<(VolumeKind, [f64; 12]), String> {
     let bv = &t.bounding_volume;
     let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
-    let sane = match (bv.r#box, bv.region, bv.sphere) {
+    let plain = |v: &[f64]| v.iter().map(f64::to_string).collect::<Vec<_>>().join(", ");
+    let volume = match (bv.r#box, bv.region, bv.sphere) {
         (None, None, None) => {
             return Err("boundingVolume has none of box, region and sphere".into())
         }
-        (Some(b), None, None) => finite(&b),
-        // Radians west, south, east, north; metres min and max height (west > east crosses the antimeridian).
-        (None, Some(r), None) => {
-            finite(&r)
-                && r[1] <= r[3]
-                && r[4] <= r[5]
-                && r[..4].iter().all(|a| a.abs() <= std::f64::consts::PI)
+        (Some(b), None, None) if finite(&b) => (VolumeKind::Box, b),
+        (Some(b), None, None) => {
+            return Err(format!(
+                "boundingVolume box [{}] has invalid values: not all finite",
+                plain(&b)
+            ))
         }
-        (None, None, Some(s)) => finite(&s) && s[3] >= 0.0,
+        (None, Some(r), None) => (
+            VolumeKind::Region,
+            region_box_ecef(r).map_err(|e| format!("boundingVolume {e}"))?,
+        ),
+        (None, None, Some(s)) if finite(&s) && s[3] >= 0.0 => (VolumeKind::Sphere, sphere_box(s)),
+        (None, None, Some(s)) => {
+            return Err(format!(
+                "boundingVolume sphere [{}] has invalid values: centre and radius must be finite, the radius ≥ 0",
+                plain(&s)
+            ))
+        }
         _ => return Err("boundingVolume has more than one of box, region and sphere".into()),
     };
-    if !sane {
-        return Err(format!("boundingVolume has invalid values: {bv:?}"));
-    }
     check_error(t.geometric_error)?;
+    if t.content.is_some() && !t.contents.is_empty() {
+        return Err("has both `content` and `contents` (3D Tiles 1.1 allows one of them)".into());
+    }
     match t.refine.as_deref() {
-        None | Some("ADD") | Some("REPLACE") => Ok(()),
-        Some(r) => Err(format!("refine is {r:?}, not ADD or REPLACE")),
+        None | Some("ADD") | Some("REPLACE") => Ok(volume),
+        Some(r) => Err(format!("refine is \"{r}\", not ADD or REPLACE")),
     }
 }
 
@@ -208,88 +331,178 @@ struct Walk<'a> {
     visit: &'a mut dyn FnMut(usize, &mut TileData),
     /// The root tileset's folder, canonical: content must lie inside it.
     folder: &'a Path,
+    /// The inverse of the root transform: where `region` volumes (ECEF) go.
+    ecef_to_root: [f64; 16],
+}
+
+/// Deepest tile the reader follows, counted in tiles below the root across external tilesets (an external
+/// tileset's root is one level below its link): far beyond any real tree, well within the stack.
+pub const MAX_TREE_LEVEL: usize = 512;
+
+/// Where a tile sits: the tileset.json holding it, its path, how many external tilesets and how many tiles lie
+/// above it.
+struct Place<'a> {
+    json: &'a Path,
+    path: String,
+    external_depth: usize,
+    level: usize,
 }
 
 /// `parent_to_root` maps the parent tile's frame to the root frame (the product of the transforms below the
 /// root's); `None` for the root itself, whose frame is the root frame whatever its transform.
 fn walk(
     t: &tj::Tile,
-    base: &Path,
-    path: String,
+    at: Place,
     parent_to_root: Option<&[f64; 16]>,
-    depth: usize,
     w: &mut Walk,
 ) -> Result<usize, TilesError> {
-    if depth > 64 {
-        return Err(TilesError::Tile {
-            tile: path,
-            msg: "tileset nesting deeper than 64 (a cycle of external tilesets?)".into(),
-        });
-    }
-    check_tile(t).map_err(|msg| TilesError::Tile {
-        tile: path.clone(),
+    let Place {
+        json,
+        path,
+        external_depth,
+        level,
+    } = at;
+    let fail = |msg: String| TilesError::Tile {
+        tile: format!("{path} ({})", json.display()),
         msg,
-    })?;
+    };
+    if external_depth > 64 {
+        return Err(fail(
+            "external tilesets nested deeper than 64 (a cycle of external tilesets?)".into(),
+        ));
+    }
+    if level > MAX_TREE_LEVEL {
+        return Err(fail(format!(
+            "the tree is deeper than {MAX_TREE_LEVEL} levels of tiles (across external tilesets), the most the \
+             reader follows"
+        )));
+    }
+    let (volume_kind, volume) = check_tile(t).map_err(fail)?;
     let to_root = match (parent_to_root, t.transform) {
         (None, _) => IDENTITY,
         (Some(p), None) => *p,
         (Some(p), Some(own)) => mul(p, &own),
     };
+    let bounding_box = match volume_kind {
+        VolumeKind::Region => box_to_root(&w.ecef_to_root, volume),
+        VolumeKind::Box | VolumeKind::Sphere => box_to_root(&to_root, volume),
+    };
+    if !bounding_box.iter().all(|v| v.is_finite()) {
+        return Err(fail(format!(
+            "boundingVolume {} is not finite in the root frame",
+            volume_kind.name()
+        )));
+    }
+    let uris: Vec<String> = t
+        .content
+        .iter()
+        .chain(&t.contents)
+        .map(|c| c.uri.clone())
+        .collect();
+    if uris.len() > 1 {
+        if let Some(u) = uris.iter().find(|u| u.ends_with(".json")) {
+            return Err(fail(format!(
+                "`contents` (multiple contents) names the external tileset {u:?}; only glb contents are \
+                 supported in `contents`"
+            )));
+        }
+    }
+    let base = json.parent().unwrap_or(Path::new(""));
+    let files = uris
+        .iter()
+        .map(|u| content_file(base, u, w.folder))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(fail)?;
     let me = w.out.len();
     w.out.push(TileData {
         path_in_tree: path.clone(),
         geometric_error_m: t.geometric_error,
-        bounding_box: t.bounding_volume.r#box.map(|b| box_to_root(&to_root, b)),
-        content_uri: t.content.as_ref().map(|c| c.uri.clone()),
-        content_bytes: None,
+        bounding_box: Some(bounding_box),
+        volume_kind,
+        content_uri: uris.first().cloned(),
+        content_bytes: (!files.is_empty()).then(|| {
+            files
+                .iter()
+                .filter_map(|f| std::fs::metadata(f).ok())
+                .map(|m| m.len())
+                .sum()
+        }),
+        content_uris: uris.clone(),
         content: None,
         children: Vec::new(),
     });
     let mut children = Vec::new();
-    if let Some(c) = &t.content {
-        let file = content_file(base, &c.uri, w.folder).map_err(|msg| TilesError::Tile {
-            tile: path.clone(),
-            msg,
-        })?;
-        w.out[me].content_bytes = std::fs::metadata(&file).ok().map(|m| m.len());
-        if c.uri.ends_with(".json") {
-            let ext = load_json(&file)?;
-            let ext_base = file.parent().unwrap_or(Path::new("")).to_path_buf();
-            let k = walk(
-                &ext.root,
-                &ext_base,
-                format!("{path}/ext"),
-                Some(&to_root),
-                depth + 1,
-                w,
-            )?;
-            children.push(k);
-        } else {
-            let bytes = read_file(&file)?;
-            let mut glb = read_glb(&bytes, &file)?;
-            for p in &mut glb.positions_local {
-                *p = apply(&to_root, *p);
-            }
-            let nm = normal_matrix(&to_root);
-            for n in &mut glb.normals_local {
-                *n = transform_normal(&nm, *n);
-            }
-            w.out[me].content = Some(glb);
+    if let [ext] = &files[..] {
+        if uris[0].ends_with(".json") {
+            let ext_path = format!("{path}/ext");
+            let ts = load_json(ext, &ext_path)?;
+            let place = Place {
+                json: ext,
+                path: ext_path,
+                external_depth: external_depth + 1,
+                level: level + 1,
+            };
+            children.push(walk(&ts.root, place, Some(&to_root), w)?);
         }
+    }
+    if children.is_empty() && !files.is_empty() {
+        let mut glb = GlbData::default();
+        for file in &files {
+            glb.append(read_glb(&read_file(file)?, file)?);
+        }
+        for p in &mut glb.positions_local {
+            *p = apply(&to_root, *p);
+        }
+        let nm = normal_matrix(&to_root);
+        for n in &mut glb.normals_local {
+            *n = transform_normal(&nm, *n);
+        }
+        w.out[me].content = Some(glb);
     }
     (w.visit)(me, &mut w.out[me]);
     for (k, c) in t.children.iter().enumerate() {
-        children.push(walk(
-            c,
-            base,
-            format!("{path}/{k}"),
-            Some(&to_root),
-            depth,
-            w,
-        )?);
+        let place = Place {
+            json,
+            path: format!("{path}/{k}"),
+            external_depth,
+            level: level + 1,
+        };
+        children.push(walk(c, place, Some(&to_root), w)?);
     }
     w.out[me].children = children;
     Ok(me)
+}
+
+impl GlbData {
+    /// Appends another content's vertices, triangles and features (its feature ids and vertex indices shifted
+    /// past this one's). Normals are kept only when both have them for every vertex.
+    pub fn append(&mut self, other: GlbData) {
+        let had_normals = self.normals_local.len() == self.positions_local.len();
+        let vertex_base = self.positions_local.len() as u32;
+        let feature_base = self.features.len() as u32;
+        let keep_normals = (self.positions_local.is_empty() || had_normals)
+            && other.normals_local.len() == other.positions_local.len();
+        self.triangles.extend(
+            other
+                .triangles
+                .iter()
+                .map(|t| t.map(|v| v.saturating_add(vertex_base))),
+        );
+        self.feature_ids.extend(other.feature_ids.iter().map(|&f| {
+            if f == u32::MAX {
+                f
+            } else {
+                f.saturating_add(feature_base)
+            }
+        }));
+        self.positions_local.extend(other.positions_local);
+        if keep_normals {
+            self.normals_local.extend(other.normals_local);
+        } else {
+            self.normals_local.clear();
+        }
+        self.features.extend(other.features);
+    }
 }
 
 /// Decodes a glb; positions are in the tile's frame (glTF y-up converted to z-up). `path` is only
@@ -888,7 +1101,7 @@ mod tests {
                 serde_json::json!({"region": [0.1, 0.5, 0.2, 0.4, 0, 10]}),
                 "REPLACE",
                 None,
-                "invalid values",
+                "south ≤ north",
             ),
             (
                 serde_json::json!({"box": [0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1], "sphere": [0, 0, 0, 1]}),
@@ -1040,5 +1253,245 @@ mod tests {
                 assert!(read_glb(&crate::glb::write_glb(hostile.as_bytes(), bin), path).is_err());
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod volume_and_contents_tests {
+    use super::*;
+    use crate::PropValue;
+    use serde_json::json;
+
+    fn write_tileset(dir: &Path, root: serde_json::Value) -> PathBuf {
+        let ts = json!({"asset": {"version": "1.1"}, "geometricError": 100, "root": root});
+        let p = dir.join("tileset.json");
+        std::fs::write(&p, ts.to_string()).unwrap();
+        p
+    }
+
+    /// A glb of one triangle feature per entry of `names` (class `c`, property `n`).
+    fn glb_of(names: &[&str]) -> Vec<u8> {
+        use crate::spec::*;
+        let schema = MetadataSchema {
+            id: "s".into(),
+            classes: vec![ClassDef {
+                id: "c".into(),
+                properties: vec![PropertyDef {
+                    name: "n".into(),
+                    kind: PropertyKind::String,
+                    description: None,
+                    nullable: false,
+                }],
+            }],
+        };
+        let features: Vec<ContentFeature> = names
+            .iter()
+            .enumerate()
+            .map(|(k, n)| {
+                let x = 10.0 * k as f64;
+                ContentFeature {
+                    mesh: citylod_model::Mesh3d {
+                        positions: vec![[x, 0.0, 0.0], [x + 4.0, 0.0, 0.0], [x, 4.0, 2.0]],
+                        triangles: vec![[0, 1, 2]],
+                    },
+                    class: 0,
+                    values: vec![PropValue::Str((*n).into())],
+                    max_rounding_m: 0.0,
+                }
+            })
+            .collect();
+        crate::content::encode_content(
+            "0",
+            &features,
+            &schema,
+            &crate::content::ContentOptions {
+                compression: crate::Compression::None,
+                normals: false,
+                quantization_step_m: 0.01,
+            },
+            "t",
+        )
+        .unwrap()
+        .unwrap()
+        .glb
+    }
+
+    fn contains(b: &[f64; 12], p: [f64; 3]) -> bool {
+        (0..3).all(|k| {
+            let h = [b[3 + 3 * k], b[4 + 3 * k], b[5 + 3 * k]];
+            let len2 = h.iter().map(|v| v * v).sum::<f64>();
+            let t = (0..3).map(|c| (p[c] - b[c]) * h[c]).sum::<f64>() / len2;
+            t.abs() <= 1.0 + 1e-9
+        })
+    }
+
+    #[test]
+    fn region_and_sphere_volumes_become_boxes_in_the_root_frame() {
+        let dir = tempfile::tempdir().unwrap();
+        // The root frame is east-north-up at (-73.99°, 40.71°): a region of ±0.001° around it, 0–50 m, comes in as
+        // a box about the root frame's origin; a child sphere under a transform moving 100 m east is moved too.
+        let frame = citylod_model::LocalFrame::new(-73.99, 40.71, 0.0);
+        let (lon, lat) = (-73.99f64.to_radians(), 40.71f64.to_radians());
+        let d = 0.001f64.to_radians();
+        let mut east = IDENTITY;
+        east[12] = 100.0;
+        let root = json!({
+            "transform": frame.enu_to_ecef_column_major(),
+            "boundingVolume": {"region": [lon - d, lat - d, lon + d, lat + d, 0, 50]},
+            "geometricError": 10, "refine": "REPLACE",
+            "children": [{"transform": east, "boundingVolume": {"sphere": [0, 0, 5, 20]}, "geometricError": 0}]
+        });
+        let back = read_tileset(&write_tileset(dir.path(), root)).unwrap();
+        let (r, s) = (&back.tiles[0], &back.tiles[1]);
+        assert_eq!(
+            (r.volume_kind, s.volume_kind),
+            (VolumeKind::Region, VolumeKind::Sphere)
+        );
+        let rb = r.bounding_box.unwrap();
+        // ±0.001° is ±84 m east and ±111 m north; 0–50 m up, less the curvature over 111 m (1 mm).
+        for p in [[80.0, 108.0, 1.0], [-80.0, -108.0, 49.0], [0.0, 0.0, 25.0]] {
+            assert!(contains(&rb, p), "{p:?} not in {rb:?}");
+        }
+        for p in [
+            [90.0, 0.0, 25.0],
+            [0.0, 115.0, 25.0],
+            [0.0, 0.0, 52.0],
+            [0.0, 0.0, -2.0],
+        ] {
+            assert!(!contains(&rb, p), "{p:?} in {rb:?}");
+        }
+        let sb = s.bounding_box.unwrap();
+        let expect = [
+            100.0, 0.0, 5.0, 20.0, 0.0, 0.0, 0.0, 20.0, 0.0, 0.0, 0.0, 20.0,
+        ];
+        assert!(
+            sb.iter().zip(expect).all(|(a, b)| (a - b).abs() < 1e-9),
+            "{sb:?}"
+        );
+    }
+
+    #[test]
+    fn region_the_reader_cannot_bound_is_an_error_naming_tile_and_volume() {
+        let dir = tempfile::tempdir().unwrap();
+        let root = json!({"boundingVolume": {"box": [0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1]}, "geometricError": 1,
+            "children": [{"boundingVolume": {"region": [0, 0, 0.1, 0.1, -2e6, 0]}, "geometricError": 0}]});
+        let e = read_tileset(&write_tileset(dir.path(), root))
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("tile 0/0 ("), "{e}");
+        assert!(e.contains("tileset.json): boundingVolume region"), "{e}");
+        assert!(e.contains("deeper than"), "{e}");
+    }
+
+    #[test]
+    fn multiple_contents_are_read_into_one_content() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("a.glb"), glb_of(&["a0", "a1"])).unwrap();
+        std::fs::write(dir.path().join("b.glb"), glb_of(&["b0"])).unwrap();
+        let bx = json!({"box": [0, 0, 0, 50, 0, 0, 0, 50, 0, 0, 0, 50]});
+        let root = json!({"boundingVolume": bx, "geometricError": 0,
+            "contents": [{"uri": "a.glb"}, {"uri": "b.glb"}]});
+        let back = read_tileset(&write_tileset(dir.path(), root)).unwrap();
+        let t = &back.tiles[0];
+        assert_eq!(t.content_uris, vec!["a.glb", "b.glb"]);
+        assert_eq!(t.content_uri.as_deref(), Some("a.glb"));
+        let sizes =
+            ["a.glb", "b.glb"].map(|f| std::fs::metadata(dir.path().join(f)).unwrap().len());
+        assert_eq!(t.content_bytes, Some(sizes[0] + sizes[1]));
+        let c = t.content.as_ref().unwrap();
+        assert_eq!(c.triangles.len(), 3);
+        let names: Vec<_> = c.features.iter().map(|f| f.values["n"].clone()).collect();
+        assert_eq!(
+            names,
+            ["a0", "a1", "b0"]
+                .map(|n| PropValue::Str(n.into()))
+                .to_vec()
+        );
+        // The second content's triangle uses its own vertices and its feature (index 2 after appending).
+        let last = c.triangles[2];
+        assert!(last
+            .iter()
+            .all(|&v| v as usize >= 6 && (v as usize) < c.positions_local.len()));
+        assert!(
+            last.iter().all(|&v| c.feature_ids[v as usize] == 2),
+            "{:?}",
+            c.feature_ids
+        );
+        assert!((c.positions_local[last[0] as usize][0] - 0.0).abs() < 0.02);
+    }
+
+    #[test]
+    fn contents_with_an_external_tileset_or_beside_content_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("a.glb"), glb_of(&["a0"])).unwrap();
+        let bx = json!({"box": [0, 0, 0, 50, 0, 0, 0, 50, 0, 0, 0, 50]});
+        std::fs::create_dir(dir.path().join("sub")).unwrap();
+        write_tileset(
+            &dir.path().join("sub"),
+            json!({"boundingVolume": bx, "geometricError": 0}),
+        );
+        for (tile, expect) in [
+            (
+                json!({"boundingVolume": bx, "geometricError": 1, "children": [{"boundingVolume": bx,
+                    "geometricError": 0, "contents": [{"uri": "a.glb"}, {"uri": "sub/tileset.json"}]}]}),
+                "tile 0/0 (",
+            ),
+            (
+                json!({"boundingVolume": bx, "geometricError": 0, "content": {"uri": "a.glb"},
+                    "contents": [{"uri": "a.glb"}]}),
+                "both `content` and `contents`",
+            ),
+        ] {
+            let e = read_tileset(&write_tileset(dir.path(), tile))
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(expect), "{expect}: {e}");
+        }
+        // One external tileset in `contents` is the same as `content` naming it.
+        let back = read_tileset(&write_tileset(
+            dir.path(),
+            json!({"boundingVolume": bx, "geometricError": 1, "contents": [{"uri": "sub/tileset.json"}]}),
+        ))
+        .unwrap();
+        assert_eq!(back.tiles[1].path_in_tree, "0/ext");
+    }
+
+    /// A chain of `levels` tiles below the root.
+    fn chain(levels: usize) -> serde_json::Value {
+        let bx = json!({"box": [0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1]});
+        let mut t = json!({"boundingVolume": bx, "geometricError": 0});
+        for _ in 0..levels {
+            t = json!({"boundingVolume": bx, "geometricError": 0, "children": [{"boundingVolume": bx,
+                "geometricError": 0}, t]});
+        }
+        t
+    }
+
+    #[test]
+    fn trees_deeper_than_one_file_holds_name_the_limit_and_the_tile() {
+        let dir = tempfile::tempdir().unwrap();
+        let ok = read_tileset(&write_tileset(dir.path(), chain(MAX_TILE_LEVEL_PER_FILE))).unwrap();
+        assert_eq!(ok.tiles.len(), 2 * MAX_TILE_LEVEL_PER_FILE + 1);
+        let e = read_tileset(&write_tileset(
+            dir.path(),
+            chain(MAX_TILE_LEVEL_PER_FILE + 5),
+        ))
+        .unwrap_err()
+        .to_string();
+        // Each level's second child carries on, so parsing stops at the first child one level too deep.
+        let tile = format!("tile 0{}/0 (", "/1".repeat(MAX_TILE_LEVEL_PER_FILE));
+        assert!(e.starts_with(&tile), "{e}");
+        assert!(
+            e.contains(&format!("down to level {MAX_TILE_LEVEL_PER_FILE}")),
+            "{e}"
+        );
+        assert!(e.contains("JSON nesting limit 127"), "{e}");
+        assert!(e.contains("external tilesets"), "{e}");
+    }
+
+    #[test]
+    fn tile_path_at_follows_children_arrays_past_strings_and_other_keys() {
+        let text = br#"{"root": {"extras": {"children": ["x\"]{,", 1]}, "children": [{}, {"children": [{"a": ["#;
+        assert_eq!(tile_path_at(text, text.len()), vec![1, 0]);
     }
 }

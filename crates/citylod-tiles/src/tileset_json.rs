@@ -34,6 +34,9 @@ pub struct Tile {
     pub refine: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub content: Option<Content>,
+    /// 3D Tiles 1.1 multiple contents (exclusive with `content`); citylod writes `content` only.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub contents: Vec<Content>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub children: Vec<Tile>,
 }

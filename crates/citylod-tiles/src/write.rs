@@ -293,6 +293,7 @@ fn build_tile<C>(
         geometric_error: t.geometric_error_m,
         refine: None,
         content: me.uri.clone().map(|uri| tj::Content { uri }),
+        contents: Vec::new(),
         children,
     };
     (tile, b)
@@ -1329,6 +1330,7 @@ mod tests {
                 content: Some(crate::tileset_json::Content {
                     uri: "inner/tileset.json".into(),
                 }),
+                contents: vec![],
                 children: vec![],
             },
         };

@@ -13,7 +13,7 @@ use citylod_model::ecef_to_geodetic;
 use clap::Args;
 use serde_json::{json, Value};
 use std::collections::BTreeMap;
-use std::path::PathBuf;
+use std::path::{Component, Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
@@ -70,7 +70,8 @@ pub struct CheckArgs {
     #[arg(long, value_name = "PX", default_value_t = 600, help_heading = "Views")]
     pub height: u32,
 
-    /// Output folder for view-K/{cut,full,diff}.png, views.png and report.json (created if missing).
+    /// Output folder for view-K/{cut,full,diff}.png, views.png and report.json (created if missing; not the
+    /// tileset's folder or inside it).
     #[arg(short, long, value_name = "DIR", help_heading = "Output")]
     pub out: PathBuf,
 
@@ -86,16 +87,16 @@ fn parse_camera(s: &str, fovy_deg: f64, root_to_ecef: &[f64; 16]) -> Result<Came
         .map(|x| x.trim().parse::<f64>())
         .collect::<Result<_, _>>()
         .with_context(|| {
-            format!("--camera {s:?}: expected five numbers lon,lat,height,heading,pitch")
+            format!("--camera {s}: expected five numbers lon,lat,height,heading,pitch")
         })?;
     let [lon, lat, h, heading, pitch] = v[..] else {
         bail!(
-            "--camera {s:?}: expected five numbers lon,lat,height,heading,pitch, got {}",
+            "--camera {s}: expected five numbers lon,lat,height,heading,pitch, got {}",
             v.len()
         );
     };
     Camera::from_geodetic(lon, lat, h, heading, pitch, fovy_deg, root_to_ecef)
-        .with_context(|| format!("--camera {s:?}"))
+        .with_context(|| format!("--camera {s}"))
 }
 
 /// δH and δA: the flags, else the tileset's `extras.citylod`, else the seed defaults; with where they came from.
@@ -171,7 +172,7 @@ fn traversal_json<'a>(
         .selected
         .iter()
         .chain(&sel.selected_empty)
-        .filter_map(|&i| ts.tiles[i].content_uri.as_deref())
+        .flat_map(|&i| ts.tiles[i].content_uris.iter().map(String::as_str))
         .filter(|u| !u.ends_with(".json"))
         .collect();
     uris.sort_unstable();
@@ -199,6 +200,54 @@ fn traversal_json<'a>(
     (uris, visited)
 }
 
+/// Refuses an output folder that is a file, or the tileset's own folder or inside it: check writes report.json,
+/// views.png and `view-K/` there, which would mix into (and could overwrite) the tileset it reads.
+fn check_out_folder(out: &Path, tileset_json: &Path) -> Result<()> {
+    if out.exists() && !out.is_dir() {
+        bail!(
+            "--out {} is a file, not a folder; check writes report.json, views.png and view-K/ into a folder",
+            out.display()
+        );
+    }
+    let folder = match tileset_json.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let (Ok(folder_real), Ok(out_real)) = (std::fs::canonicalize(folder), resolved(out)) else {
+        return Ok(()); // a missing tileset is reported when it is read
+    };
+    if out_real.starts_with(&folder_real) {
+        bail!(
+            "--out {} is inside the tileset's folder {}; check would write report.json, views.png and view-K/ into \
+             the tileset. Give a folder outside it",
+            out.display(),
+            folder.display()
+        );
+    }
+    Ok(())
+}
+
+/// `p` made absolute with every symbolic link resolved, also when its last components do not exist yet (`..`
+/// after a link goes up from where the link points, as the file system does).
+fn resolved(p: &Path) -> std::io::Result<PathBuf> {
+    let mut out = PathBuf::new();
+    for c in std::path::absolute(p)?.components() {
+        match c {
+            Component::CurDir => {}
+            Component::ParentDir => {
+                out.pop();
+            }
+            c => {
+                out.push(c);
+                if let Ok(real) = std::fs::canonicalize(&out) {
+                    out = real;
+                }
+            }
+        }
+    }
+    Ok(out)
+}
+
 fn findings_json(f: &[Finding]) -> Value {
     serde_json::to_value(f).unwrap_or(Value::Null)
 }
@@ -214,8 +263,8 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
         );
     }
     for (name, v) in [("--dh-px", args.dh_px), ("--da-px", args.da_px)] {
-        if v.is_some_and(|v| !(v.is_finite() && v > 0.0)) {
-            bail!("{name} must be a positive number, got {v:?}");
+        if let Some(v) = v.filter(|v| !(v.is_finite() && *v > 0.0)) {
+            bail!("{name} must be a positive number, got {v}");
         }
     }
     if args.width == 0 || args.height == 0 {
@@ -232,6 +281,7 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
     } else {
         args.tileset.clone()
     };
+    check_out_folder(&args.out, &path)?;
     let (data, ts) = LoadedTileset::read(&path).context("reading the tileset")?;
     if data.tiles.is_empty() {
         bail!("{} has no tiles", path.display());
@@ -436,4 +486,44 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
     } else {
         ExitCode::from(1)
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn out_inside_the_tileset_folder_is_refused_however_it_is_spelled() {
+        let root = tempfile::tempdir().unwrap();
+        let ts = root.path().join("tiles");
+        std::fs::create_dir_all(ts.join("tiles")).unwrap();
+        std::fs::write(ts.join("tileset.json"), "{}").unwrap();
+        let json = ts.join("tileset.json");
+        std::os::unix::fs::symlink(&ts, root.path().join("link")).unwrap();
+        for out in [
+            ts.clone(),
+            ts.join("check"),
+            ts.join("tiles/new/deeper"),
+            root.path().join("link/check"),
+            root.path().join("elsewhere/../tiles/./check"),
+        ] {
+            let e = check_out_folder(&out, &json).unwrap_err().to_string();
+            assert!(
+                e.contains("inside the tileset's folder"),
+                "{}: {e}",
+                out.display()
+            );
+        }
+        std::fs::write(root.path().join("file"), "x").unwrap();
+        let e = check_out_folder(&root.path().join("file"), &json)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("is a file"), "{e}");
+        for out in [root.path().join("check"), root.path().join("tiles-check")] {
+            check_out_folder(&out, &json).unwrap();
+        }
+        // A relative tileset path (`tileset.json` in the working folder: its parent is "") resolves too.
+        let here = std::env::current_dir().unwrap();
+        check_out_folder(&here.join("x"), Path::new("tileset.json")).unwrap_err();
+    }
 }
