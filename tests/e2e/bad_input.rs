@@ -444,3 +444,108 @@ fn hostile_random_files_never_panic_and_lose_nothing() {
         "built {built}, refused {refused}"
     );
 }
+
+/// The reviewed gaps of the readers: collections, properties, legacy CRS members, templates and non-numeric
+/// vertices are read and reported, or refused with the file and what in it was not understood.
+#[test]
+fn odd_but_readable_inputs_are_kept_and_unreadable_ones_named() {
+    let d = scratch_dir("reader-gaps");
+    let (lon, lat) = (-73.99, 40.72);
+    let gc = |members: Value| json!({"type": "GeometryCollection", "geometries": members});
+    let point = json!({"type": "Point", "coordinates": [lon, lat]});
+    let lonlat = json!({"type": "FeatureCollection", "features": [
+        feature("nested", json!({"height": 12}), gc(json!([gc(json!([point])), {"type": "Polygon", "coordinates": square(lon, lat, 0.0002)}]))),
+        feature("array-props", json!([1, 2, 3]), json!({"type": "Polygon", "coordinates": square(lon + 0.001, lat, 0.0002)})),
+    ]});
+    // NY Long Island state plane (US feet), the same neighbourhood, declared the GeoJSON 2008 way.
+    let feet = json!({"type": "FeatureCollection", "crs": {"type": "EPSG", "properties": {"code": 2263}},
+        "features": [feature("feet", json!({"height": 12}), json!({"type": "Polygon", "coordinates":
+            [[[987000, 203000], [987060, 203000], [987060, 203060], [987000, 203060], [987000, 203000]]]}))]});
+    let a = write(&d, "lonlat.geojson", &lonlat.to_string());
+    let b = write(&d, "feet.geojson", &feet.to_string());
+    let report = build(&[&a, &b], &d.join("out"), &[]);
+    assert_eq!(
+        schema_errors("build-report.schema.json", &report),
+        Vec::<String>::new()
+    );
+    assert_eq!(report["counts"]["buildings_written"], 3, "{report:#}");
+    assert_eq!(report["ingest"]["files"][1]["crs"], "EPSG:2263");
+    let repaired: Vec<(&str, &str)> = report["ingest"]["repaired"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|i| {
+            (
+                i["feature_id"].as_str().unwrap(),
+                i["reason"].as_str().unwrap(),
+            )
+        })
+        .collect();
+    assert!(
+        repaired.contains(&("nested", "non_polygon_member_dropped")),
+        "{repaired:?}"
+    );
+    assert!(
+        repaired.contains(&("array-props", "properties_not_object")),
+        "{repaired:?}"
+    );
+
+    // A building given as an instance of a geometry template (a 10 m cube at vertex 0).
+    let city = |reference_system: Value, vertices: Value| {
+        json!({"type": "CityJSON", "version": "2.0",
+            "transform": {"scale": [1, 1, 1], "translate": [85000, 446000, 0]},
+            "metadata": {"referenceSystem": reference_system},
+            "geometry-templates": {"templates": [{"type": "Solid", "lod": "2", "boundaries": [[
+                [[0, 3, 2, 1]], [[4, 5, 6, 7]], [[0, 1, 5, 4]], [[1, 2, 6, 5]], [[2, 3, 7, 6]], [[3, 0, 4, 7]]]]}],
+                "vertices-templates": [[0, 0, 0], [10, 0, 0], [10, 10, 0], [0, 10, 0], [0, 0, 10], [10, 0, 10], [10, 10, 10], [0, 10, 10]]},
+            "CityObjects": {"tpl": {"type": "Building", "geometry": [{"type": "GeometryInstance", "template": 0,
+                "boundaries": [0], "transformationMatrix": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]}]}},
+            "vertices": vertices})
+        .to_string()
+    };
+    let rd = json!({"authority": "EPSG", "code": 7415});
+    let t = write(
+        &d,
+        "template.city.json",
+        &city(rd.clone(), json!([[0, 0, 0]])),
+    );
+    let report = build(&[&t], &d.join("out-template"), &[]);
+    assert_eq!(report["counts"]["buildings_written"], 1, "{report:#}");
+    assert_eq!(
+        report["ingest"]["height_sources"]["geometry"], 1,
+        "the template's 10 m: {report:#}"
+    );
+
+    let refused = [
+        (
+            write(&d, "link.geojson", &json!({"type": "FeatureCollection", "features": [],
+                "crs": {"type": "link", "properties": {"href": "http://e/2263.proj4", "type": "proj4"}}}).to_string()),
+            "the crs member is not understood",
+        ),
+        (
+            write(&d, "shifted.city.json", &city(rd.clone(), json!([[0, null, 0, 0]]))),
+            "vertex 0 is not three numbers",
+        ),
+        (
+            write(&d, "named.city.json", &city(json!({"name": "RD"}), json!([[0, 0, 0]]))),
+            "metadata.referenceSystem member is not understood",
+        ),
+    ];
+    for (input, says) in refused {
+        let out = d.join("refused");
+        let o = citylod(&[
+            "build",
+            &input.display().to_string(),
+            "--out",
+            &out.display().to_string(),
+        ]);
+        assert_no_panic(&o);
+        let e = stderr_of(&o);
+        assert_eq!(o.status.code(), Some(2), "{}: {e}", input.display());
+        let name = input.file_name().unwrap().to_string_lossy();
+        assert!(
+            e.contains(says) && e.contains(name.as_ref()),
+            "{name} should say {says}:\n{e}"
+        );
+    }
+}

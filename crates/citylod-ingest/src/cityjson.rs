@@ -1,13 +1,17 @@
 //! CityJSON 0.8–2.0 and CityJSONSeq reader. One raw feature per top-level `Building` object: its
 //! LoD0 footprint, else the GroundSurface of its lowest-LoD 3D geometry, else that geometry's
 //! lowest horizontal surfaces; a building whose geometry lives only in `BuildingPart` children gets
-//! the pieces of all parts, to be unioned. Vertices are decoded with `transform` (scale, translate).
+//! the pieces of all parts, to be unioned. Vertices are decoded with `transform` (scale, translate);
+//! a vertex that is not three numbers is an error, never read as another. Geometry instances are
+//! expanded from their templates first ([`crate::template`]).
 //! When a 3D model is asked for, the building and its BuildingParts also go to [`crate::model3d`].
 
+use crate::crs::DeclaredCrs;
 use crate::feature::{attributes, RawFeature, RawPolygon};
 use crate::lod::Target;
 use crate::model3d;
 use crate::report::IssueReason;
+use crate::template::{self, Templates};
 use serde_json::{Map, Value};
 use std::collections::{HashMap, HashSet};
 
@@ -15,7 +19,7 @@ use std::collections::{HashMap, HashSet};
 #[derive(Debug)]
 pub(crate) struct CityDoc {
     pub features: Vec<RawFeature>,
-    pub declared_crs: Option<String>,
+    pub declared_crs: Option<DeclaredCrs>,
     pub version: Option<String>,
     pub non_building_objects: usize,
 }
@@ -45,15 +49,8 @@ impl Transform {
             });
         };
         let triple = |k: &str| -> Result<[f64; 3], String> {
-            let a = t
-                .get(k)
-                .and_then(Value::as_array)
-                .ok_or(format!("transform.{k} missing"))?;
-            let v: Vec<f64> = a.iter().filter_map(Value::as_f64).collect();
-            match v.as_slice() {
-                [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([*x, *y, *z]),
-                _ => Err(format!("transform.{k} is not three finite numbers")),
-            }
+            let v = t.get(k).ok_or(format!("transform.{k} missing"))?;
+            three_numbers(v).ok_or(format!("transform.{k} is not three numbers: {v}"))
         };
         Ok(Transform {
             scale: triple("scale")?,
@@ -66,36 +63,42 @@ impl Transform {
         list.iter()
             .enumerate()
             .map(|(i, p)| {
-                let c: Vec<f64> = p
-                    .as_array()
-                    .map(|a| a.iter().filter_map(Value::as_f64).collect())
-                    .unwrap_or_default();
-                match c.as_slice() {
-                    [x, y, z] => Ok(std::array::from_fn(|k| {
-                        [*x, *y, *z][k] * self.scale[k] + self.translate[k]
-                    })),
-                    _ => Err(format!("vertex {i} is not three numbers")),
-                }
+                let c = three_numbers(p)
+                    .ok_or_else(|| format!("vertex {i} is not three numbers: {p}"))?;
+                // A product beyond f64 stays infinite here: only the buildings using it are skipped.
+                Ok(std::array::from_fn(|k| {
+                    c[k] * self.scale[k] + self.translate[k]
+                }))
             })
             .collect()
     }
 }
 
-fn header_crs(doc: &Value) -> Option<String> {
+/// `[x, y, z]`: exactly three JSON numbers (JSON numbers are finite), else `None`.
+pub(crate) fn three_numbers(v: &Value) -> Option<[f64; 3]> {
+    match v.as_array()?.as_slice() {
+        [x, y, z] => Some([x.as_f64()?, y.as_f64()?, z.as_f64()?]),
+        _ => None,
+    }
+}
+
+fn header_crs(doc: &Value) -> Option<DeclaredCrs> {
     doc.pointer("/metadata/referenceSystem")
-        .and_then(Value::as_str)
-        .map(str::to_string)
+        .and_then(DeclaredCrs::from_cityjson)
 }
 
 /// Reads a whole CityJSON document (`"type": "CityJSON"`); with `model_target`, each building also
 /// gets its 3D model at that LoD.
 pub(crate) fn read_document(doc: &Value, model_target: Option<Target>) -> Result<CityDoc, String> {
     let transform = Transform::of(doc)?;
-    let vertices = transform.vertices(doc.get("vertices"))?;
+    let mut vertices = transform.vertices(doc.get("vertices"))?;
+    let templates = Templates::of(doc)?;
     let objects = doc
         .get("CityObjects")
         .and_then(Value::as_object)
         .ok_or("no \"CityObjects\" object")?;
+    let expanded = template::expand(objects, &mut vertices, &templates);
+    let objects = expanded.as_ref().unwrap_or(objects);
     let mut out = CityDoc {
         features: Vec::new(),
         declared_crs: header_crs(doc),
@@ -126,10 +129,11 @@ pub(crate) fn read_sequence(
     if header.get("type").and_then(Value::as_str) != Some("CityJSON") {
         return Ok(Err("first line is not a CityJSON header".into()));
     }
-    let transform = match Transform::of(&header) {
-        Ok(t) => t,
-        Err(e) => return Ok(Err(e)),
-    };
+    let (transform, templates) =
+        match Transform::of(&header).and_then(|t| Ok((t, Templates::of(&header)?))) {
+            Ok(t) => t,
+            Err(e) => return Ok(Err(e)),
+        };
     let mut out = CityDoc {
         features: Vec::new(),
         declared_crs: header_crs(&header),
@@ -150,9 +154,16 @@ pub(crate) fn read_sequence(
                 i + 1
             )));
         };
-        let vertices = transform.vertices(f.get("vertices"));
+        // A line's vertices are its own: a bad one skips this line's buildings, with the line named.
+        let mut vertices = transform
+            .vertices(f.get("vertices"))
+            .map_err(|e| format!("line {}: {e}", i + 1));
+        let expanded = vertices
+            .as_mut()
+            .ok()
+            .and_then(|v| template::expand(objects, v, &templates));
         read_objects(
-            objects,
+            expanded.as_ref().unwrap_or(objects),
             vertices.as_deref().map_err(|e| e.as_str()),
             model_target,
             &mut out,
@@ -387,7 +398,14 @@ pub(crate) fn surfaces(g: &Value) -> Result<Vec<Surface<'_>>, String> {
         Some("MultiSurface" | "CompositeSurface") => 0,
         Some("Solid") => 1,
         Some("MultiSolid" | "CompositeSolid") => 2,
-        _ => return Ok(Vec::new()), // points, lines, templates: no surfaces
+        Some("GeometryInstance") => {
+            return match g.get(template::UNRESOLVED).and_then(Value::as_str) {
+                Some(why) => Err(why.to_string()),
+                // Not expanded: outside the building family, where no surface is read.
+                None => Ok(Vec::new()),
+            };
+        }
+        _ => return Ok(Vec::new()), // points, lines: no surfaces
     };
     let kinds: Vec<Option<&str>> = g
         .pointer("/semantics/surfaces")
@@ -603,8 +621,10 @@ mod tests {
         assert_eq!(f.footprint_min_z, Some(0.0));
         assert_eq!(f.top_z, Some(5.0));
         assert_eq!(
-            d.declared_crs.as_deref(),
-            Some("https://www.opengis.net/def/crs/EPSG/0/7415")
+            d.declared_crs,
+            Some(DeclaredCrs::Name(
+                "https://www.opengis.net/def/crs/EPSG/0/7415".into()
+            ))
         );
     }
 
@@ -734,6 +754,131 @@ mod tests {
             None,
         ).unwrap_err();
         assert_eq!(e.0, 2);
+    }
+
+    #[test]
+    fn vertices_that_are_not_three_numbers_are_a_file_error() {
+        let b = json!({"type": "Building", "geometry": [cube(true)]});
+        for bad in [
+            json!([0, null, 0, 0]),
+            json!(["x", 0, 0, 0]),
+            json!([0, 0]),
+            json!([0, 0, "5"]),
+        ] {
+            let mut d = doc(b.clone(), json!({}));
+            d["vertices"][1] = bad.clone();
+            let e = read_document(&d, None).expect_err("rejected");
+            assert!(
+                e.contains("vertex 1 ") && e.contains(&bad.to_string()),
+                "{bad}: {e}"
+            );
+        }
+        for k in ["scale", "translate"] {
+            let mut d = doc(b.clone(), json!({}));
+            d["transform"][k] = json!([1, null, 1, 1]);
+            let e = read_document(&d, None).expect_err("rejected");
+            assert!(e.contains(&format!("transform.{k}")), "{e}");
+        }
+        // A sequence line's vertices are its own: its buildings are skipped, naming the line and vertex.
+        let text = concat!(
+            r#"{"type":"CityJSON","version":"2.0","transform":{"scale":[1,1,1],"translate":[0,0,0]},"CityObjects":{},"vertices":[]}"#,
+            "\n",
+            r#"{"type":"CityJSONFeature","id":"A","CityObjects":{"A":{"type":"Building","geometry":[{"type":"MultiSurface","lod":"0","boundaries":[[[0,1,2]]]}]}},"vertices":[[0,0,0],[8,null,0,0],[8,6,0]]}"#,
+            "\n"
+        );
+        let d = read_sequence(text, None).unwrap().unwrap();
+        let (reason, detail) = d.features[0].skip.as_ref().unwrap();
+        assert_eq!(*reason, IssueReason::MalformedGeometry);
+        assert!(
+            detail.contains("line 2") && detail.contains("vertex 1 "),
+            "{detail}"
+        );
+    }
+
+    fn instance(template: usize, reference: usize) -> Value {
+        json!({"type": "GeometryInstance", "template": template, "boundaries": [reference],
+            "transformationMatrix": [2, 0, 0, 0,  0, 2, 0, 0,  0, 0, 2, 0,  0, 0, 0, 1]})
+    }
+
+    #[test]
+    fn geometry_instances_give_their_template_footprint_and_model() {
+        let mut d = doc(
+            json!({"type": "Building", "geometry": [instance(0, 1)]}),
+            json!({}),
+        );
+        // Template: a unit cube in real coordinates (the transform does not apply to it).
+        d["geometry-templates"] = json!({"templates": [cube(true)], "vertices-templates":
+            [[0,0,0],[1,0,0],[1,1,0],[0,1,0],[0,0,1],[1,0,1],[1,1,1],[0,1,1]]});
+        let target = Target::of(&crate::LodChoice::Highest).unwrap();
+        let f = &read_document(&d, Some(target)).unwrap().features[0];
+        assert!(f.skip.is_none(), "{:?}", f.skip);
+        // Vertex 1 decodes to (1004, 2000, 0); the cube is scaled by 2 from there.
+        let mut ring = f.polygons[0][0].clone();
+        ring.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        assert_eq!(
+            ring,
+            [
+                [1004.0, 2000.0],
+                [1004.0, 2002.0],
+                [1006.0, 2000.0],
+                [1006.0, 2002.0]
+            ]
+        );
+        assert_eq!((f.footprint_min_z, f.top_z), (Some(0.0), Some(2.0)));
+        let model = f
+            .model
+            .as_ref()
+            .unwrap()
+            .as_ref()
+            .expect("the template is the model");
+        assert_eq!(model.surfaces.len(), 6);
+        assert!(model
+            .positions_src
+            .iter()
+            .all(|p| p[0] >= 1004.0 && p[2] <= 2.0));
+    }
+
+    #[test]
+    fn unresolvable_instances_skip_the_building_with_the_reason() {
+        let d = doc(
+            json!({"type": "Building", "geometry": [instance(0, 1)]}),
+            json!({}),
+        );
+        let (reason, detail) = read_document(&d, None).unwrap().features[0]
+            .skip
+            .clone()
+            .unwrap();
+        assert_eq!(reason, IssueReason::MalformedGeometry);
+        assert!(detail.contains("no geometry-templates"), "{detail}");
+        let mut d = doc(
+            json!({"type": "Building", "geometry": [instance(0, 1)]}),
+            json!({}),
+        );
+        d["geometry-templates"] =
+            json!({"templates": [cube(true)], "vertices-templates": [[0, 0, "z"]]});
+        let e = read_document(&d, None).expect_err("broken template vertices are a file error");
+        assert!(e.contains("vertices-templates"), "{e}");
+    }
+
+    #[test]
+    fn reference_system_objects_are_read_or_reported() {
+        let mut d = doc(
+            json!({"type": "Building", "geometry": [cube(true)]}),
+            json!({}),
+        );
+        d["metadata"]["referenceSystem"] = json!({"authority": "EPSG", "code": 7415});
+        assert_eq!(
+            read_document(&d, None).unwrap().declared_crs,
+            Some(DeclaredCrs::Name("EPSG:7415".into()))
+        );
+        d["metadata"]["referenceSystem"] = json!({"type": "Projected"});
+        assert!(matches!(
+            read_document(&d, None).unwrap().declared_crs,
+            Some(DeclaredCrs::NotUnderstood {
+                member: "metadata.referenceSystem",
+                ..
+            })
+        ));
     }
 
     #[test]

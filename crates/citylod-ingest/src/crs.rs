@@ -2,8 +2,11 @@
 //! convert source x/y to WGS84 lon/lat degrees with proj4rs and the offline crs-definitions table.
 //! Heights are not transformed: a vertical datum (NAP, …) is used as ellipsoidal height as it is —
 //! no geoid model is applied. Compound CRSs use their horizontal part (EPSG:7415 → EPSG:28992).
+//! A CRS a file declares (legacy GeoJSON `crs`, CityJSON `metadata.referenceSystem`) is read into a name
+//! first ([`DeclaredCrs`]); a declaration that cannot be read is kept as such, never dropped.
 
 use proj4rs::Proj;
+use serde_json::Value;
 
 /// A source CRS able to give WGS84 lon/lat degrees.
 pub struct Crs {
@@ -180,6 +183,114 @@ fn lon_lat_in_range(lon: f64, lat: f64) -> bool {
     lon.abs() <= 180.0 && lat.abs() <= 90.0
 }
 
+/// A CRS as an input file declares it, before it is parsed.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum DeclaredCrs {
+    /// A name for [`Crs::parse`], as written or built from an authority and code (`EPSG:2263`).
+    Name(String),
+    /// A declaration that names no CRS this reader can use: the member (`crs`,
+    /// `metadata.referenceSystem`) and why.
+    NotUnderstood {
+        member: &'static str,
+        detail: String,
+    },
+}
+
+impl DeclaredCrs {
+    /// A GeoJSON `crs` member (GeoJSON 2008 §3; RFC 7946 dropped it): `{"type": "name", "properties":
+    /// {"name": N}}`, the older `{"type": "EPSG", "properties": {"code": C}}` and `{"type": "OGC",
+    /// "properties": {"urn": U}}`. `null` declares nothing; a `link` (a CRS definition elsewhere) and any
+    /// other form are [`DeclaredCrs::NotUnderstood`].
+    pub(crate) fn from_geojson(crs: &Value) -> Option<Self> {
+        const MEMBER: &str = "crs";
+        let not_understood = |detail: String| {
+            Some(DeclaredCrs::NotUnderstood {
+                member: MEMBER,
+                detail,
+            })
+        };
+        let props = crs.get("properties");
+        let text = |k: &str| props.and_then(|p| p.get(k)).and_then(Value::as_str);
+        match crs {
+            Value::Null => return None,
+            Value::String(s) => return Some(DeclaredCrs::Name(s.clone())),
+            Value::Object(_) => {}
+            other => return not_understood(format!("{} is not a crs object", brief(other))),
+        }
+        match crs.get("type").and_then(Value::as_str) {
+            Some("EPSG") => match props.and_then(|p| p.get("code")).and_then(code_text) {
+                Some(code) => Some(DeclaredCrs::Name(format!("EPSG:{code}"))),
+                None => not_understood(format!(
+                    "type \"EPSG\" without a numeric properties.code: {}",
+                    brief(crs)
+                )),
+            },
+            Some("OGC") => match text("urn") {
+                Some(urn) => Some(DeclaredCrs::Name(urn.to_string())),
+                None => not_understood(format!(
+                    "type \"OGC\" without properties.urn: {}",
+                    brief(crs)
+                )),
+            },
+            Some("link") => not_understood(format!(
+                "a link to a CRS definition ({}) is not followed",
+                brief(crs)
+            )),
+            // `name`, and files that give a name under another or no type.
+            _ if text("name").is_some() => text("name").map(|n| DeclaredCrs::Name(n.to_string())),
+            Some(t) => not_understood(format!(
+                "type {t:?} is none of name, EPSG, OGC: {}",
+                brief(crs)
+            )),
+            None => not_understood(format!("no type and no properties.name: {}", brief(crs))),
+        }
+    }
+
+    /// CityJSON `metadata.referenceSystem`: a CRS URL by the specification
+    /// (`https://www.opengis.net/def/crs/EPSG/0/7415`); also the object `{"authority": "EPSG", "code":
+    /// 7415}` some writers put there. `null` declares nothing; any other form is
+    /// [`DeclaredCrs::NotUnderstood`].
+    pub(crate) fn from_cityjson(reference_system: &Value) -> Option<Self> {
+        const MEMBER: &str = "metadata.referenceSystem";
+        let authority = reference_system.get("authority").and_then(Value::as_str);
+        let code = reference_system.get("code").and_then(code_text);
+        match (reference_system, authority, code) {
+            (Value::Null, _, _) => None,
+            (Value::String(s), _, _) => Some(DeclaredCrs::Name(s.clone())),
+            (Value::Object(_), Some(a), Some(c)) if !a.trim().is_empty() => {
+                Some(DeclaredCrs::Name(format!("{}:{c}", a.trim())))
+            }
+            (other, _, _) => Some(DeclaredCrs::NotUnderstood {
+                member: MEMBER,
+                detail: format!(
+                    "{} is neither a CRS URL nor an object with an authority and a code",
+                    brief(other)
+                ),
+            }),
+        }
+    }
+}
+
+/// A CRS code given as a number or a string of digits.
+fn code_text(v: &Value) -> Option<String> {
+    match v {
+        Value::Number(n) => n.as_u64().map(|c| c.to_string()),
+        Value::String(s) if !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit()) => {
+            Some(s.clone())
+        }
+        _ => None,
+    }
+}
+
+/// Compact JSON text of a value, cut to 200 characters for messages.
+fn brief(v: &Value) -> String {
+    let s = v.to_string();
+    match s.char_indices().nth(200) {
+        Some((at, _)) => format!("{}…", &s[..at]),
+        None => s,
+    }
+}
+
 /// The EPSG code in an upper-cased CRS name: `EPSG:N`, `EPSG::N`, `…/EPSG/0/N`, `URN:OGC:DEF:CRS:EPSG:6.3:N`.
 fn epsg_code(upper: &str) -> Option<u32> {
     let at = upper.rfind("EPSG")?;
@@ -229,6 +340,97 @@ mod tests {
             let e = Crs::parse(name).err().expect(name).0;
             assert!(e.contains("geocentric"), "{name}: {e}");
         }
+    }
+
+    fn not_understood(d: Option<DeclaredCrs>) -> (&'static str, String) {
+        match d {
+            Some(DeclaredCrs::NotUnderstood { member, detail }) => (member, detail),
+            other => panic!("expected NotUnderstood, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn legacy_geojson_crs_members_name_a_crs_or_say_why_not() {
+        use serde_json::json;
+        let name = |s: &str| Some(DeclaredCrs::Name(s.into()));
+        let read = |v: serde_json::Value| DeclaredCrs::from_geojson(&v);
+        assert_eq!(
+            read(json!({"type": "EPSG", "properties": {"code": 2263}})),
+            name("EPSG:2263")
+        );
+        assert_eq!(
+            read(json!({"type": "EPSG", "properties": {"code": "2263"}})),
+            name("EPSG:2263")
+        );
+        assert_eq!(
+            read(json!({"type": "OGC", "properties": {"urn": "urn:ogc:def:crs:OGC:1.3:CRS84"}})),
+            name("urn:ogc:def:crs:OGC:1.3:CRS84")
+        );
+        assert_eq!(
+            read(json!({"type": "name", "properties": {"name": "EPSG:26986"}})),
+            name("EPSG:26986")
+        );
+        assert_eq!(read(json!(null)), None);
+        // Each name it builds parses.
+        assert_eq!(Crs::parse("EPSG:2263").unwrap().label, "EPSG:2263");
+        for (v, says) in [
+            (
+                json!({"type": "link", "properties": {"href": "http://e/2263.wkt", "type": "ogcwkt"}}),
+                "link",
+            ),
+            (
+                json!({"type": "EPSG", "properties": {"code": "NAD83"}}),
+                "numeric",
+            ),
+            (
+                json!({"type": "EPSG", "properties": {"code": -5}}),
+                "numeric",
+            ),
+            (
+                json!({"type": "esri", "properties": {"wkid": 102100}}),
+                "\"esri\"",
+            ),
+            (json!({"properties": {}}), "no type"),
+            (json!(2263), "not a crs object"),
+        ] {
+            let (member, detail) = not_understood(read(v.clone()));
+            assert_eq!(member, "crs");
+            assert!(detail.contains(says), "{v}: {detail}");
+        }
+    }
+
+    #[test]
+    fn cityjson_reference_system_objects_are_read_when_unambiguous() {
+        use serde_json::json;
+        let read = |v: serde_json::Value| DeclaredCrs::from_cityjson(&v);
+        assert_eq!(
+            read(json!({"authority": "EPSG", "code": 7415})),
+            Some(DeclaredCrs::Name("EPSG:7415".into()))
+        );
+        assert_eq!(
+            read(json!("https://www.opengis.net/def/crs/EPSG/0/7415")),
+            Some(DeclaredCrs::Name(
+                "https://www.opengis.net/def/crs/EPSG/0/7415".into()
+            ))
+        );
+        assert_eq!(read(json!(null)), None);
+        assert!(Crs::parse("EPSG:7415").unwrap().label.contains("28992"));
+        for v in [
+            json!({"code": 7415}),
+            json!({"authority": "EPSG"}),
+            json!({"epsg": 7415}),
+            json!(7415),
+        ] {
+            let (member, detail) = not_understood(read(v.clone()));
+            assert_eq!(member, "metadata.referenceSystem");
+            assert!(detail.contains(&v.to_string()), "{detail}");
+        }
+        let long = json!({"name": "x".repeat(500)});
+        let (_, detail) = not_understood(read(long));
+        assert!(
+            detail.chars().count() < 300,
+            "messages quote at most 200 characters"
+        );
     }
 
     #[test]

@@ -35,6 +35,14 @@ pub enum IngestError {
         crs: String,
         detail: String,
     },
+    /// A CRS declaration in the file that names no usable CRS (a legacy GeoJSON `crs` link, an unknown
+    /// form of `crs` or `metadata.referenceSystem`), and no CRS was given by the user.
+    #[error("{path}: the {member} member is not understood: {detail}; pass the CRS with --crs, e.g. --crs EPSG:2263")]
+    CrsNotUnderstood {
+        path: PathBuf,
+        member: &'static str,
+        detail: String,
+    },
     /// An ingest option out of its range (e.g. a non-positive default height).
     #[error("option {name}: {detail}")]
     InvalidOption { name: &'static str, detail: String },

@@ -1,8 +1,10 @@
 //! GeoJSON reader (RFC 7946): a FeatureCollection, a single Feature or a bare geometry. Polygon,
-//! MultiPolygon and the polygons of a GeometryCollection become raw footprints in source
-//! coordinates; other geometries are marked as skipped. Properties become attributes.
+//! MultiPolygon and the polygons of a GeometryCollection (nested ones flattened; other members dropped
+//! and reported) become raw footprints in source coordinates; other geometries are marked as skipped.
+//! Properties become attributes. A legacy `crs` member (GeoJSON 2008) is read as [`DeclaredCrs`].
 
-use crate::feature::{attributes, RawFeature, RawPolygon};
+use crate::crs::DeclaredCrs;
+use crate::feature::{attr_value, attributes, RawFeature, RawPolygon};
 use crate::report::IssueReason;
 use rayon::prelude::*;
 use serde_json::value::RawValue;
@@ -11,15 +13,12 @@ use serde_json::Value;
 /// The features of a GeoJSON document and the CRS it declares (legacy `crs` member), if any.
 pub(crate) struct GeoJsonDoc {
     pub features: Vec<RawFeature>,
-    pub declared_crs: Option<String>,
+    pub declared_crs: Option<DeclaredCrs>,
 }
 
 /// Reads a parsed GeoJSON document; `Err` (a detail) when it is not GeoJSON at all.
 pub(crate) fn read(doc: &Value, file_name: &str) -> Result<GeoJsonDoc, String> {
-    let declared_crs = doc
-        .pointer("/crs/properties/name")
-        .and_then(Value::as_str)
-        .map(str::to_string);
+    let declared_crs = doc.get("crs").and_then(DeclaredCrs::from_geojson);
     let kind = doc.get("type").and_then(Value::as_str).unwrap_or("");
     let features: Vec<RawFeature> = match kind {
         "FeatureCollection" => {
@@ -79,12 +78,7 @@ pub(crate) fn read_collection_text(
     let (Some("FeatureCollection"), Some(raw)) = (c.kind.as_deref(), c.features) else {
         return Ok(None);
     };
-    let declared_crs = c
-        .crs
-        .as_ref()
-        .and_then(|v| v.pointer("/properties/name"))
-        .and_then(Value::as_str)
-        .map(str::to_string);
+    let declared_crs = c.crs.as_ref().and_then(DeclaredCrs::from_geojson);
     let features = raw
         .par_iter()
         .enumerate()
@@ -119,6 +113,19 @@ fn read_feature(f: &Value, file_name: &str, index: usize) -> RawFeature {
         attributes: attributes(props),
         ..Default::default()
     };
+    // RFC 7946 §3.2 allows an object or null; anything else is kept whole as one attribute.
+    if let Some(p) = props.filter(|p| !(p.is_object() || p.is_null())) {
+        out.attributes = [(NON_OBJECT_PROPERTIES.to_string(), attr_value(p))]
+            .into_iter()
+            .collect();
+        out.repairs.push((
+            IssueReason::PropertiesNotObject,
+            format!(
+                "\"properties\" is {}, not an object; kept as the attribute \"{NON_OBJECT_PROPERTIES}\"",
+                json_kind(p)
+            ),
+        ));
+    }
     out.is_building_part = props
         .and_then(|p| p.get("building:part"))
         .is_some_and(|v| !v.is_null() && v != "no");
@@ -131,6 +138,20 @@ fn read_feature(f: &Value, file_name: &str, index: usize) -> RawFeature {
     }
     fill_geometry(&mut out, f.get("geometry"));
     out
+}
+
+/// The attribute that holds a feature's `properties` when they are not an object (an array, a string).
+pub(crate) const NON_OBJECT_PROPERTIES: &str = "properties";
+
+fn json_kind(v: &Value) -> &'static str {
+    match v {
+        Value::Null => "null",
+        Value::Bool(_) => "a boolean",
+        Value::Number(_) => "a number",
+        Value::String(_) => "a string",
+        Value::Array(_) => "an array",
+        Value::Object(_) => "an object",
+    }
 }
 
 /// GeoJSON `id`, else `properties.id` / `properties["@id"]`, else OSM `osm_type/osm_id`, else `FILE#INDEX`.
@@ -184,29 +205,8 @@ fn collect_polygons(
     repairs: &mut Vec<(IssueReason, String)>,
 ) -> Result<(), Skip> {
     let kind = g.get("type").and_then(Value::as_str).unwrap_or("(none)");
-    let coords = || {
-        g.get("coordinates")
-            .and_then(Value::as_array)
-            .ok_or_else(|| {
-                (
-                    IssueReason::MalformedGeometry,
-                    format!("{kind} without a coordinates array"),
-                )
-            })
-    };
     match kind {
-        "Polygon" => polygons.push(polygon(coords()?, repairs)?),
-        "MultiPolygon" => {
-            for p in coords()? {
-                let rings = p.as_array().ok_or_else(|| {
-                    (
-                        IssueReason::MalformedGeometry,
-                        "MultiPolygon member is not an array".into(),
-                    )
-                })?;
-                polygons.push(polygon(rings, repairs)?);
-            }
-        }
+        "Polygon" | "MultiPolygon" => polygonal(g, polygons, repairs),
         "GeometryCollection" => {
             let members = g
                 .get("geometries")
@@ -217,28 +217,116 @@ fn collect_polygons(
                         "GeometryCollection without geometries".to_string(),
                     )
                 })?;
+            let mut dropped = Vec::new();
             let before = polygons.len();
-            for m in members {
-                let t = m.get("type").and_then(Value::as_str).unwrap_or("");
-                if matches!(t, "Polygon" | "MultiPolygon" | "GeometryCollection") {
-                    collect_polygons(m, polygons, repairs)?;
-                }
+            for (i, m) in members.iter().enumerate() {
+                flatten_member(m, &i.to_string(), polygons, repairs, &mut dropped)?;
             }
             if polygons.len() == before {
                 return Err((
                     IssueReason::UnsupportedGeometry,
-                    "GeometryCollection without polygons".into(),
+                    format!(
+                        "GeometryCollection without polygons (members: {})",
+                        listing(&dropped)
+                    ),
                 ));
             }
+            if !dropped.is_empty() {
+                repairs.push((
+                    IssueReason::NonPolygonMemberDropped,
+                    format!(
+                        "{} GeometryCollection member(s) not polygonal, dropped: {}",
+                        dropped.len(),
+                        listing(&dropped)
+                    ),
+                ));
+            }
+            Ok(())
         }
+        other => Err((
+            IssueReason::UnsupportedGeometry,
+            format!("{other} geometry is not a footprint"),
+        )),
+    }
+}
+
+/// One member of a GeometryCollection at `path` (`1/0`: member 0 of member 1): its polygons are
+/// collected, nested collections flattened, anything else listed in `dropped` as "member path (Type)".
+/// A malformed polygon is an error, as it is outside a collection.
+fn flatten_member(
+    m: &Value,
+    path: &str,
+    polygons: &mut Vec<RawPolygon>,
+    repairs: &mut Vec<(IssueReason, String)>,
+    dropped: &mut Vec<String>,
+) -> Result<(), Skip> {
+    let kind = m.get("type").and_then(Value::as_str).unwrap_or("no type");
+    match kind {
+        "Polygon" | "MultiPolygon" => polygonal(m, polygons, repairs),
+        "GeometryCollection" => match m.get("geometries").and_then(Value::as_array) {
+            Some(members) => {
+                for (i, inner) in members.iter().enumerate() {
+                    flatten_member(inner, &format!("{path}/{i}"), polygons, repairs, dropped)?;
+                }
+                Ok(())
+            }
+            None => {
+                dropped.push(format!(
+                    "member {path} (GeometryCollection without geometries)"
+                ));
+                Ok(())
+            }
+        },
         other => {
-            return Err((
-                IssueReason::UnsupportedGeometry,
-                format!("{other} geometry is not a footprint"),
-            ));
+            dropped.push(format!("member {path} ({other})"));
+            Ok(())
         }
     }
+}
+
+/// The rings of a Polygon or each polygon of a MultiPolygon.
+fn polygonal(
+    g: &Value,
+    polygons: &mut Vec<RawPolygon>,
+    repairs: &mut Vec<(IssueReason, String)>,
+) -> Result<(), Skip> {
+    let kind = g.get("type").and_then(Value::as_str).unwrap_or("(none)");
+    let coords = g
+        .get("coordinates")
+        .and_then(Value::as_array)
+        .ok_or_else(|| {
+            (
+                IssueReason::MalformedGeometry,
+                format!("{kind} without a coordinates array"),
+            )
+        })?;
+    if kind == "Polygon" {
+        polygons.push(polygon(coords, repairs)?);
+        return Ok(());
+    }
+    for p in coords {
+        let rings = p.as_array().ok_or_else(|| {
+            (
+                IssueReason::MalformedGeometry,
+                "MultiPolygon member is not an array".into(),
+            )
+        })?;
+        polygons.push(polygon(rings, repairs)?);
+    }
     Ok(())
+}
+
+/// Dropped members for a message: the first ten, then how many more.
+fn listing(dropped: &[String]) -> String {
+    const SHOWN: usize = 10;
+    if dropped.is_empty() {
+        return "none".into();
+    }
+    let mut s = dropped[..dropped.len().min(SHOWN)].join(", ");
+    if dropped.len() > SHOWN {
+        s.push_str(&format!(" and {} more", dropped.len() - SHOWN));
+    }
+    s
 }
 
 fn polygon(rings: &[Value], repairs: &mut Vec<(IssueReason, String)>) -> Result<RawPolygon, Skip> {
@@ -292,6 +380,7 @@ fn ring(r: &Value) -> Result<(Vec<[f64; 2]>, bool), Skip> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use citylod_model::AttrValue;
     use serde_json::json;
 
     #[test]
@@ -322,6 +411,140 @@ mod tests {
         assert_eq!(d.features[1].source_id, "f.json#1");
     }
 
+    fn square_at(x: f64) -> Value {
+        json!({"type": "Polygon", "coordinates": [[[x, 0], [x + 1.0, 0], [x + 1.0, 1], [x, 1], [x, 0]]]})
+    }
+
+    #[test]
+    fn nested_collections_keep_every_polygon_and_report_dropped_members() {
+        let point = json!({"type": "Point", "coordinates": [0, 0]});
+        let line = json!({"type": "LineString", "coordinates": [[0, 0], [1, 1]]});
+        let gc = |members: Value| json!({"type": "GeometryCollection", "geometries": members});
+        let doc = json!({"type": "FeatureCollection", "features": [
+            // A polygon beside a collection of only a point (was skipped whole).
+            {"type": "Feature", "id": "nested", "properties": {}, "geometry": gc(json!([gc(json!([point])), square_at(0.0)]))},
+            // Polygons at two depths, with a line and a point among them.
+            {"type": "Feature", "id": "mixed", "properties": {}, "geometry":
+                gc(json!([square_at(0.0), line, gc(json!([point, square_at(5.0), {"type": "MultiPolygon",
+                    "coordinates": [square_at(9.0)["coordinates"]]}]))]))},
+            {"type": "Feature", "id": "no-polygon", "properties": {}, "geometry": gc(json!([point, gc(json!([line]))]))},
+            {"type": "Feature", "id": "empty", "properties": {}, "geometry": gc(json!([]))},
+        ]});
+        let d = read(&doc, "f.json").unwrap();
+        let [nested, mixed, none, empty] = &d.features[..] else {
+            panic!("4 features")
+        };
+        assert!(nested.skip.is_none(), "{:?}", nested.skip);
+        assert_eq!(nested.polygons.len(), 1);
+        assert_eq!(nested.repairs.len(), 1);
+        assert_eq!(nested.repairs[0].0, IssueReason::NonPolygonMemberDropped);
+        assert!(
+            nested.repairs[0].1.contains("member 0/0 (Point)"),
+            "{:?}",
+            nested.repairs
+        );
+
+        assert!(mixed.skip.is_none(), "{:?}", mixed.skip);
+        let xs: Vec<f64> = mixed.polygons.iter().map(|p| p[0][0][0]).collect();
+        assert_eq!(xs, [0.0, 5.0, 9.0], "every polygon, in document order");
+        let note = &mixed.repairs[0].1;
+        assert!(
+            note.starts_with("2 ")
+                && note.contains("member 1 (LineString)")
+                && note.contains("member 2/0 (Point)"),
+            "{note}"
+        );
+
+        let (reason, detail) = none.skip.as_ref().unwrap();
+        assert_eq!(*reason, IssueReason::UnsupportedGeometry);
+        assert!(
+            detail.contains("member 0 (Point)") && detail.contains("member 1/0 (LineString)"),
+            "{detail}"
+        );
+        assert_eq!(
+            empty.skip.as_ref().unwrap().0,
+            IssueReason::UnsupportedGeometry
+        );
+    }
+
+    #[test]
+    fn dropped_member_listing_is_bounded() {
+        let points: Vec<Value> = (0..25)
+            .map(|_| json!({"type": "Point", "coordinates": [0, 0]}))
+            .collect();
+        let mut members = vec![square_at(0.0)];
+        members.extend(points);
+        let doc = json!({"type": "GeometryCollection", "geometries": members});
+        let f = &read(&doc, "f.json").unwrap().features[0];
+        let note = &f.repairs[0].1;
+        assert!(
+            note.starts_with("25 ") && note.ends_with("and 15 more"),
+            "{note}"
+        );
+    }
+
+    #[test]
+    fn properties_that_are_not_objects_are_kept_as_one_attribute_and_reported() {
+        let doc = json!({"type": "FeatureCollection", "features": [
+            {"type": "Feature", "id": "a", "properties": [1, 2, 3], "geometry": square_at(0.0)},
+            {"type": "Feature", "id": "s", "properties": "str", "geometry": square_at(2.0)},
+            {"type": "Feature", "id": "n", "properties": null, "geometry": square_at(4.0)},
+        ]});
+        let d = read(&doc, "f.json").unwrap();
+        let a = &d.features[0];
+        assert_eq!(
+            a.attributes["properties"],
+            AttrValue::String("[1,2,3]".into())
+        );
+        assert_eq!(a.repairs[0].0, IssueReason::PropertiesNotObject);
+        assert!(a.repairs[0].1.contains("an array"), "{:?}", a.repairs);
+        let s = &d.features[1];
+        assert_eq!(s.attributes["properties"], AttrValue::String("str".into()));
+        assert!(s.repairs[0].1.contains("a string"), "{:?}", s.repairs);
+        let n = &d.features[2];
+        assert!(
+            n.attributes.is_empty() && n.repairs.is_empty(),
+            "null properties are allowed"
+        );
+    }
+
+    #[test]
+    fn legacy_crs_members_reach_both_readers() {
+        for (crs, expected) in [
+            (
+                json!({"type": "EPSG", "properties": {"code": 2263}}),
+                Some(DeclaredCrs::Name("EPSG:2263".into())),
+            ),
+            (
+                json!({"type": "name", "properties": {"name": "EPSG:2249"}}),
+                Some(DeclaredCrs::Name("EPSG:2249".into())),
+            ),
+            (Value::Null, None),
+        ] {
+            let doc = json!({"type": "FeatureCollection", "crs": crs, "features": []});
+            assert_eq!(read(&doc, "f").unwrap().declared_crs, expected);
+            let fast = read_collection_text(&doc.to_string(), "f")
+                .unwrap()
+                .unwrap();
+            assert_eq!(fast.declared_crs, expected);
+        }
+        let link = json!({"type": "FeatureCollection", "features": [],
+            "crs": {"type": "link", "properties": {"href": "http://x/2263.proj4", "type": "proj4"}}});
+        let Some(DeclaredCrs::NotUnderstood { member, detail }) =
+            read_collection_text(&link.to_string(), "f")
+                .unwrap()
+                .unwrap()
+                .declared_crs
+        else {
+            panic!("a link is not understood")
+        };
+        assert_eq!(member, "crs");
+        assert!(
+            detail.contains("link") && detail.contains("2263.proj4"),
+            "{detail}"
+        );
+    }
+
     #[test]
     fn collection_fast_path_matches_the_value_reader() {
         let text = r#"{"type": "FeatureCollection", "crs": {"properties": {"name": "EPSG:2249"}}, "features": [
@@ -329,7 +552,10 @@ mod tests {
             {"type": "Feature", "properties": null, "geometry": {"type": "Point", "coordinates": [0, 0]}}]}"#;
         let fast = read_collection_text(text, "f").unwrap().unwrap();
         let slow = read(&serde_json::from_str(text).unwrap(), "f").unwrap();
-        assert_eq!(fast.declared_crs.as_deref(), Some("EPSG:2249"));
+        assert_eq!(
+            fast.declared_crs,
+            Some(DeclaredCrs::Name("EPSG:2249".into()))
+        );
         assert_eq!(fast.declared_crs, slow.declared_crs);
         assert_eq!(fast.features.len(), 2);
         for (a, b) in fast.features.iter().zip(&slow.features) {

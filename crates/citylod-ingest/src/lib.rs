@@ -37,6 +37,7 @@ mod place;
 mod repair;
 mod report;
 mod streets;
+mod template;
 mod valid;
 
 pub use crs::{CoordError, Crs, CrsError};
@@ -49,6 +50,7 @@ pub use report::{FeatureIssue, FileReport, IngestReport, InputFormat, IssueReaso
 pub use streets::{read_streets, Streets, StreetsReport};
 
 use citylod_model::{Building, BuildingId, LocalFrame};
+use crs::DeclaredCrs;
 use feature::RawFeature;
 use geo_types::{Coord, MultiPolygon};
 use height::Heights;
@@ -470,11 +472,20 @@ fn load(
             crs: c.clone(),
             detail: e.0,
         })?,
-        (None, Some(d)) => Crs::parse(d).map_err(|e| IngestError::UnknownCrs {
-            origin: path.display().to_string(),
-            crs: d.clone(),
-            detail: e.0,
-        })?,
+        (None, Some(DeclaredCrs::Name(d))) => {
+            Crs::parse(d).map_err(|e| IngestError::UnknownCrs {
+                origin: path.display().to_string(),
+                crs: d.clone(),
+                detail: e.0,
+            })?
+        }
+        (None, Some(DeclaredCrs::NotUnderstood { member, detail })) => {
+            return Err(IngestError::CrsNotUnderstood {
+                path: path.into(),
+                member,
+                detail: detail.clone(),
+            })
+        }
         (None, None) if format == InputFormat::GeoJson => Crs::wgs84(),
         (None, None) => return Err(IngestError::MissingCrs { path: path.into() }),
     };

@@ -54,6 +54,12 @@ pub enum IssueReason {
     SelfIntersection,
     /// Overlapping or edge-sharing polygons of one multi-polygon were merged by union.
     OverlappingPartsMerged,
+    /// Members of a GeoJSON GeometryCollection that are not polygonal (Point, LineString, …) were
+    /// dropped; its polygons make the footprint.
+    NonPolygonMemberDropped,
+    /// GeoJSON `properties` that are not an object (an array, a string) were kept whole as one
+    /// attribute, `properties`.
+    PropertiesNotObject,
     // --- 3D models (building written, listed in `mesh_issues`) ---
     /// No Solid or surface geometry at the asked LoD or below: no mesh. When only one part lacks
     /// it, the mesh is built from the other parts.
@@ -91,6 +97,8 @@ impl IssueReason {
             HoleOutsideShell => "hole_outside_shell",
             SelfIntersection => "self_intersection",
             OverlappingPartsMerged => "overlapping_parts_merged",
+            NonPolygonMemberDropped => "non_polygon_member_dropped",
+            PropertiesNotObject => "properties_not_object",
             ModelMissing => "model_missing",
             ModelInvalid => "model_invalid",
             ModelSurfaceDropped => "model_surface_dropped",

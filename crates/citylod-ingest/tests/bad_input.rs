@@ -400,3 +400,27 @@ fn repeated_buildings_are_written_once_and_reused_ids_are_counted() {
     assert_eq!(twice.buildings.len(), 3);
     assert_eq!(twice.report.skipped_by_reason.get("duplicate"), Some(&3));
 }
+
+#[test]
+fn a_crs_member_not_understood_is_an_error_unless_crs_is_given() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = format!(
+        r#"{{"type":"FeatureCollection","crs":{{"type":"link","properties":{{"href":"http://e/4326.wkt","type":"ogcwkt"}}}},"features":[{}]}}"#,
+        feature("a", "{}", SQUARE)
+    );
+    let p = write(&dir, "link.geojson", &text);
+    let e = ingest(std::slice::from_ref(&p), &IngestOptions::default()).unwrap_err();
+    assert!(
+        matches!(&e, IngestError::CrsNotUnderstood { path, member: "crs", .. } if path.ends_with("link.geojson")),
+        "{e}"
+    );
+    assert!(e.to_string().contains("--crs"), "{e}");
+    // The user's CRS replaces whatever the file declares.
+    let opts = IngestOptions {
+        crs: Some("EPSG:4326".into()),
+        ..Default::default()
+    };
+    let out = ingest(&[p], &opts).unwrap();
+    assert_eq!(out.report.buildings_written, 1);
+    assert_eq!(out.report.files[0].crs, "EPSG:4326");
+}
