@@ -659,3 +659,80 @@ fn height_offset_raises_the_frame_and_nothing_else() {
     assert!((g1[2] - g0[2] - OFFSET_M).abs() < 1e-3, "{g0:?} {g1:?}");
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// A square house of `d` degrees at (lon, lat), 12 m tall, as a GeoJSON feature.
+fn house(id: &str, lon: f64, lat: f64, d: f64) -> Value {
+    serde_json::json!({"type": "Feature", "id": id, "properties": {"height": 12.0}, "geometry": {"type": "Polygon",
+        "coordinates": [[[lon, lat], [lon + d, lat], [lon + d, lat + d], [lon, lat + d], [lon, lat]]]}})
+}
+
+/// Houses on both sides of the antimeridian (and one across it, its ring jumping from 179.9999° to −179.9999°) are
+/// placed where they are, standing upright: the frame is centred on the antimeridian, not on the far side of the
+/// Earth. Buildings too far apart for one local frame are refused with the reason.
+#[test]
+fn antimeridian_data_is_placed_upright_and_too_wide_data_is_refused() {
+    let d = scratch_dir("antimeridian");
+    let mut features = Vec::new();
+    for (i, lon) in [179.9990, 179.9995, -179.9999, -179.9993]
+        .into_iter()
+        .enumerate()
+    {
+        features.push(house(&format!("h{i}"), lon, -16.5, 0.0001));
+    }
+    let across = serde_json::json!({"type": "Feature", "id": "across", "properties": {"height": 12.0},
+        "geometry": {"type": "Polygon", "coordinates": [[[179.99995, -16.5005], [-179.99995, -16.5005],
+            [-179.99995, -16.5004], [179.99995, -16.5004], [179.99995, -16.5005]]]}});
+    features.push(across);
+    let input = d.join("fiji.geojson");
+    std::fs::write(
+        &input,
+        serde_json::json!({"type": "FeatureCollection", "features": features}).to_string(),
+    )
+    .unwrap();
+    let out = d.join("out");
+    let report = build(&[&input], &out, &[]);
+    assert_eq!(
+        report["counts"]["buildings_written"], 5,
+        "{}",
+        report["ingest"]
+    );
+    let ts = read_tileset(&out.join("tileset.json")).unwrap();
+    let m = ts.root_transform;
+    let mut vertices = 0;
+    for tile in ts.tiles.iter().filter(|t| t.children.is_empty()) {
+        for p in &tile.content.as_ref().unwrap().positions_local {
+            let e: [f64; 3] = std::array::from_fn(|r| {
+                m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r]
+            });
+            let g = ecef_to_geodetic(e);
+            assert!(g[0].abs() > 179.998 && (g[1] + 16.5).abs() < 0.001, "{g:?}");
+            // Ground at 0 m, roofs at 12 m: upright prisms on the ellipsoid (the 2 cm grid, Earth's curvature
+            // over ~200 m well under it).
+            assert!(g[2].abs() < 0.03 || (g[2] - 12.0).abs() < 0.03, "{g:?}");
+            vertices += 1;
+        }
+    }
+    assert!(vertices >= 5 * 8, "{vertices}");
+
+    let nyc = repo_root().join("examples/nyc-les/les_buildings.geojson");
+    let sydney = d.join("sydney.geojson");
+    std::fs::write(
+        &sydney,
+        serde_json::json!({"type": "FeatureCollection", "features": [house("s", 151.2, -33.87, 0.0001)]}).to_string(),
+    )
+    .unwrap();
+    let far_out = d.join("far");
+    let args = [
+        "build",
+        nyc.to_str().unwrap(),
+        sydney.to_str().unwrap(),
+        "--out",
+        far_out.to_str().unwrap(),
+    ];
+    let o = citylod(&args);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("tile each region separately"), "{stderr}");
+    assert!(!far_out.exists());
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -49,4 +49,7 @@ pub enum IngestError {
     /// A CityJSON file that declares no `referenceSystem`, and no CRS was given by the user.
     #[error("{path}: the file declares no CRS (no metadata.referenceSystem); pass one with --crs, e.g. --crs EPSG:28992")]
     MissingCrs { path: PathBuf },
+    /// The written buildings lie too far apart for one local frame (see `place::MAX_DISTANCE_FROM_ORIGIN_M`).
+    #[error("{detail}")]
+    TooWide { detail: String },
 }

@@ -10,49 +10,106 @@ use geo_types::{Coord, LineString, MultiPolygon, Polygon};
 use crate::repair::Plane;
 
 /// The frame rule in words, for the report.
-pub const FRAME_RULE: &str = "origin = centre of the lon/lat bounding box of all written buildings, at the lowest \
-     ground height among them; data heights are used as ellipsoidal heights (no geoid model applied)";
+pub const FRAME_RULE: &str = "origin = centre of the lon/lat bounding box of all written buildings (longitudes \
+     taken in -180..180 or 0..360 degrees, whichever box is narrower, so data across the antimeridian is centred \
+     there), at the lowest ground height among them; data heights are used as ellipsoidal heights (no geoid model \
+     applied)";
 
-/// A lon/lat bounding box in degrees, `[min_lon, min_lat, max_lon, max_lat]`.
-pub(crate) type LonLatBox = [f64; 4];
+/// A lon/lat bounding box in degrees, kept with longitudes in [−180°, 180°] and again in [0°, 360°): buildings
+/// on both sides of the antimeridian make a box around the world in the first and a narrow one in the second.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct LonLatBox {
+    /// `[min_lon, min_lat, max_lon, max_lat]`, longitudes in [−180°, 180°].
+    west: [f64; 4],
+    /// The same with longitudes in [0°, 360°).
+    east: [f64; 4],
+}
 
-pub(crate) fn union_box(a: LonLatBox, b: LonLatBox) -> LonLatBox {
-    [
-        a[0].min(b[0]),
-        a[1].min(b[1]),
-        a[2].max(b[2]),
-        a[3].max(b[3]),
-    ]
+impl LonLatBox {
+    pub fn point(lon: f64, lat: f64) -> Self {
+        let e = lon.rem_euclid(360.0);
+        LonLatBox {
+            west: [lon, lat, lon, lat],
+            east: [e, lat, e, lat],
+        }
+    }
+
+    pub fn union(self, o: Self) -> Self {
+        let u = |a: [f64; 4], b: [f64; 4]| {
+            [
+                a[0].min(b[0]),
+                a[1].min(b[1]),
+                a[2].max(b[2]),
+                a[3].max(b[3]),
+            ]
+        };
+        LonLatBox {
+            west: u(self.west, o.west),
+            east: u(self.east, o.east),
+        }
+    }
+
+    /// `[min_lon, min_lat, max_lon, max_lat]` in whichever convention gives the narrower box (the usual
+    /// [−180°, 180°] on a tie), so `min_lon` may be over 180° when the box crosses the antimeridian.
+    pub fn narrow(&self) -> [f64; 4] {
+        if self.east[2] - self.east[0] < self.west[2] - self.west[0] {
+            self.east
+        } else {
+            self.west
+        }
+    }
+
+    /// The centre (lon in [−180°, 180°), lat) of the narrower box.
+    pub fn centre(&self) -> (f64, f64) {
+        let b = self.narrow();
+        let lon = ((b[0] + b[2]) / 2.0 + 180.0).rem_euclid(360.0) - 180.0;
+        (lon, (b[1] + b[3]) / 2.0)
+    }
 }
 
 /// The bounding box of a plane footprint, in lon/lat degrees.
 pub(crate) fn lon_lat_box(plane: &Plane, fp: &MultiPolygon<f64>) -> LonLatBox {
-    let mut b = [
-        f64::INFINITY,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::NEG_INFINITY,
-    ];
-    for p in &fp.0 {
-        for c in &p.exterior().0 {
-            let (lon, lat) = plane.to_lon_lat(*c);
-            b = union_box(b, [lon, lat, lon, lat]);
-        }
-    }
-    b
+    let mut points = fp.0.iter().flat_map(|p| &p.exterior().0).map(|c| {
+        let (lon, lat) = plane.to_lon_lat(*c);
+        LonLatBox::point(lon, lat)
+    });
+    let first = points.next().expect("a repaired footprint has vertices");
+    points.fold(first, LonLatBox::union)
 }
 
 /// The frame for buildings with the given total lon/lat box and lowest ground height (m).
-/// With no buildings the frame is at (0°, 0°, 0 m). Boxes across the antimeridian are not handled.
+/// With no buildings the frame is at (0°, 0°, 0 m).
 pub(crate) fn frame_for(bbox: Option<LonLatBox>, min_ground_m: Option<f64>) -> LocalFrame {
     match bbox {
-        Some(b) => LocalFrame::new(
-            (b[0] + b[2]) / 2.0,
-            (b[1] + b[3]) / 2.0,
-            min_ground_m.unwrap_or(0.0),
-        ),
+        Some(b) => {
+            let (lon, lat) = b.centre();
+            LocalFrame::new(lon, lat, min_ground_m.unwrap_or(0.0))
+        }
         None => LocalFrame::new(0.0, 0.0, 0.0),
     }
+}
+
+/// Farthest a building may lie from the frame's origin (m). Footprints are planar in the frame and prisms rise
+/// along its up axis, while the ground turns away by 1° every ~111 km: at 100 km a building leans 0.9° and a
+/// 100 m footprint's ends are 1.6 m off the ground. A region wider than 200 km is tiled in parts.
+pub const MAX_DISTANCE_FROM_ORIGIN_M: f64 = 100_000.0;
+
+/// The farthest (m, horizontally in the frame) that the box's corners and edge midpoints lie from the origin.
+pub(crate) fn farthest_from_origin_m(frame: &EnuMap, b: &LonLatBox) -> f64 {
+    let n = b.narrow();
+    let (lons, lats) = (
+        [n[0], (n[0] + n[2]) / 2.0, n[2]],
+        [n[1], (n[1] + n[3]) / 2.0, n[3]],
+    );
+    let mut far: f64 = 0.0;
+    for lon in lons {
+        for lat in lats {
+            let e = frame.geodetic_to_enu(lon, lat, 0.0);
+            // Points past a quarter of the globe have a negative up coordinate; count them by their chord.
+            far = far.max((e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt());
+        }
+    }
+    far
 }
 
 /// `LocalFrame::geodetic_to_enu` with the frame's axes and origin computed once (same result).
@@ -110,8 +167,8 @@ pub(crate) fn to_enu(
             })
             .collect(),
     );
-    let b = lon_lat_box(plane, fp);
-    let base_z_m = frame.geodetic_to_enu((b[0] + b[2]) / 2.0, (b[1] + b[3]) / 2.0, base_h_m)[2];
+    let (lon, lat) = lon_lat_box(plane, fp).centre();
+    let base_z_m = frame.geodetic_to_enu(lon, lat, base_h_m)[2];
     (out, base_z_m)
 }
 
@@ -132,7 +189,8 @@ mod tests {
 
     #[test]
     fn frame_origin_is_box_centre_at_lowest_ground() {
-        let f = frame_for(Some([4.0, 52.0, 4.2, 52.1]), Some(-2.5));
+        let b = LonLatBox::point(4.0, 52.0).union(LonLatBox::point(4.2, 52.1));
+        let f = frame_for(Some(b), Some(-2.5));
         assert!((f.origin_lon_deg - 4.1).abs() < 1e-12 && (f.origin_lat_deg - 52.05).abs() < 1e-12);
         assert_eq!(f.origin_h_m, -2.5);
     }
