@@ -104,6 +104,7 @@ fn broken_features_are_skipped_or_repaired_with_reasons() {
 fn unreadable_inputs_exit_2_with_a_clear_message() {
     let d = scratch_dir("unreadable");
     let good = repo_root().join("examples/nyc-les/les_buildings.geojson");
+    let roads = repo_root().join("examples/nyc-les/les_roads.geojson");
     let cases: Vec<(Vec<String>, &str)> = vec![
         (vec![write(&d, "truncated.geojson", r#"{"type":"FeatureCollection","features":[{"type":"Fea"#).display().to_string()], "truncated.geojson"),
         (vec![write(&d, "nan.geojson", r#"{"type":"FeatureCollection","features":[{"type":"Feature","properties":{},"geometry":{"type":"Polygon","coordinates":[[[NaN,1],[2,2],[3,1],[NaN,1]]]}}]}"#).display().to_string()], "nan.geojson"),
@@ -121,6 +122,14 @@ fn unreadable_inputs_exit_2_with_a_clear_message() {
         (vec![good.display().to_string(), "--streets".into(), good.display().to_string(), "--leaves-only".into()], "--leaves-only"),
         (vec![good.display().to_string(), "--street-penalty=-5".into()], "--street-penalty"),
         (vec![good.display().to_string(), "--height-offset=NaN".into()], "--height-offset"),
+        // A misspelt attribute name would give every building the next rule's height.
+        (vec![good.display().to_string(), "--storey-attr".into(), "storys".into()], "--storey-attr storys: no building has this attribute"),
+        (vec![good.display().to_string(), "--height-attr".into(), "hieght".into()], "--height-attr hieght: no building has this attribute"),
+        // Streets read in the wrong CRS land nowhere near the buildings and would bar nothing.
+        (vec![good.display().to_string(), "--streets".into(), roads.display().to_string(), "--streets-crs".into(), "EPSG:28992".into()], "street segments comes within 1000 m"),
+        (vec![good.display().to_string(), "--streets-crs".into(), "EPSG:28992".into()], "--streets-crs"),
+        (vec![good.display().to_string(), "--dh-px=1e308".into()], "got 1e308"),
+        (vec![good.display().to_string(), "--storey-height=1e308".into()], "--storey-height must be a number of metres from 0.1 to 1000, got 1e308"),
         (vec![good.display().to_string(), "--height-offset=-5000".into()], "--height-offset"),
     ];
     for (inputs, expect) in cases {

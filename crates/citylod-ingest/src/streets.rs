@@ -2,7 +2,7 @@
 //! frame, for the generalization's street barriers (DESIGN.md §3.9, seed 002 §3.2.1: buildings on opposite
 //! sides of a street are not aggregated). Every feature is used or listed as skipped with its id and reason.
 
-use crate::crs::{CoordError, Crs};
+use crate::crs::{CoordError, Crs, DeclaredCrs};
 use crate::report::{FeatureIssue, IssueReason};
 use crate::IngestError;
 use citylod_model::LocalFrame;
@@ -32,14 +32,16 @@ pub struct StreetsReport {
 }
 
 /// Reads the street lines of a GeoJSON file (a FeatureCollection, a Feature or a bare LineString /
-/// MultiLineString) and maps them into `frame`. Coordinates are in `crs` when given, else in the CRS the file
-/// declares (legacy `crs` member), else RFC 7946 lon/lat. Features without a line geometry, or with fewer than
+/// MultiLineString) and maps them into `frame`. Coordinates are in `crs` when given (`--streets-crs`), else in the
+/// CRS the file declares (legacy `crs` member), else in `fallback_crs` (the buildings' `--crs`), else RFC 7946
+/// lon/lat. Features without a line geometry, or with fewer than
 /// two distinct points, or with a coordinate that cannot be placed, are skipped and listed in the report.
 ///
 /// Errors for the whole file: unreadable, not JSON, not GeoJSON, or an unknown CRS.
 pub fn read_streets(
     path: &Path,
     crs: Option<&str>,
+    fallback_crs: Option<&str>,
     frame: &LocalFrame,
 ) -> Result<Streets, IngestError> {
     let text = crate::read_text(path)?;
@@ -48,11 +50,25 @@ pub fn read_streets(
         line: source.line(),
         source,
     })?;
-    let declared = doc.pointer("/crs/properties/name").and_then(Value::as_str);
-    let (crs_name, origin) = match (crs, declared) {
-        (Some(c), _) => (Some(c), "--crs".to_string()),
-        (None, Some(d)) => (Some(d), path.display().to_string()),
-        (None, None) => (None, String::new()),
+    // The file's own `crs` member, read like the buildings' (name, EPSG code or OGC URN); one that names no
+    // usable CRS is an error unless --streets-crs says which.
+    let declared = match doc.get("crs").and_then(DeclaredCrs::from_geojson) {
+        Some(DeclaredCrs::Name(n)) => Some(n),
+        Some(DeclaredCrs::NotUnderstood { member, detail }) if crs.is_none() => {
+            return Err(IngestError::CrsNotUnderstood {
+                path: path.into(),
+                member,
+                detail,
+            })
+        }
+        _ => None,
+    };
+    let declared = declared.as_deref();
+    let (crs_name, origin) = match (crs, declared, fallback_crs) {
+        (Some(c), _, _) => (Some(c), "--streets-crs".to_string()),
+        (None, Some(d), _) => (Some(d), path.display().to_string()),
+        (None, None, Some(c)) => (Some(c), "--crs".to_string()),
+        (None, None, None) => (None, String::new()),
     };
     let crs = match crs_name {
         Some(c) => Crs::parse(c).map_err(|e| IngestError::UnknownCrs {
@@ -229,7 +245,7 @@ mod tests {
             ]}"#,
         );
         let frame = LocalFrame::new(4.0, 52.0, 0.0);
-        let s = read_streets(&p, None, &frame).unwrap();
+        let s = read_streets(&p, None, None, &frame).unwrap();
         let r = &s.report;
         assert_eq!((r.features_read, r.features_used, r.segments), (6, 2, 2));
         assert_eq!(r.features_read, r.features_used + r.skipped.len());
@@ -260,6 +276,41 @@ mod tests {
     }
 
     #[test]
+    fn the_files_own_crs_comes_before_the_buildings_and_streets_crs_before_both() {
+        // A 100 m line in Delft, in RD New (EPSG:28992), declared in the legacy EPSG-code form.
+        let frame = LocalFrame::new(4.3571, 52.0116, 0.0);
+        let rd = r#"{"type": "FeatureCollection", "crs": {"type": "EPSG", "properties": {"code": 28992}},
+            "features": [{"type": "Feature", "properties": {}, "geometry": {"type": "LineString",
+            "coordinates": [[84600, 447000], [84700, 447000]]}}]}"#;
+        let p = write("rd.geojson", rd);
+        // The declaration wins over the buildings' --crs (here lon/lat, which would read 84600° as nonsense).
+        let s = read_streets(&p, None, Some("EPSG:4326"), &frame).unwrap();
+        assert_eq!(s.report.features_used, 1, "{:?}", s.report.skipped);
+        assert!(
+            (s.report.length_m - 100.0).abs() < 0.5,
+            "{}",
+            s.report.length_m
+        );
+        let [a, _] = s.segments[0];
+        assert!(a[0].hypot(a[1]) < 2000.0, "{a:?}: not near Delft");
+        // --streets-crs wins over the declaration: the same numbers read in EPSG:2263 (US feet) land elsewhere.
+        let s = read_streets(&p, Some("EPSG:2263"), None, &frame).unwrap();
+        let [a, _] = s.segments[0];
+        assert!(a[0].hypot(a[1]) > 1e6, "{a:?}");
+        // A declaration that names no usable CRS is an error, unless --streets-crs says which.
+        let link = rd.replace(
+            r#"{"type": "EPSG", "properties": {"code": 28992}}"#,
+            r#"{"type": "link", "properties": {"href": "http://example.com/crs"}}"#,
+        );
+        let p = write("link.geojson", &link);
+        assert!(matches!(
+            read_streets(&p, None, None, &frame),
+            Err(IngestError::CrsNotUnderstood { .. })
+        ));
+        assert!(read_streets(&p, Some("EPSG:28992"), None, &frame).is_ok());
+    }
+
+    #[test]
     fn broken_files_are_errors_naming_the_file() {
         let frame = LocalFrame::new(0.0, 0.0, 0.0);
         let p = write(
@@ -267,22 +318,27 @@ mod tests {
             r#"{"type": "FeatureCollection", "features": ["#,
         );
         assert!(matches!(
-            read_streets(&p, None, &frame),
+            read_streets(&p, None, None, &frame),
             Err(IngestError::Json { .. })
         ));
         let p = write("polygon.geojson", r#"{"type": "Topology"}"#);
-        let e = read_streets(&p, None, &frame).unwrap_err();
+        let e = read_streets(&p, None, None, &frame).unwrap_err();
         assert!(e.to_string().contains("polygon.geojson"), "{e}");
         let p = write(
             "crs.geojson",
             r#"{"type": "FeatureCollection", "features": []}"#,
         );
         assert!(matches!(
-            read_streets(&p, Some("EPSG:999999"), &frame),
+            read_streets(&p, Some("EPSG:999999"), None, &frame),
             Err(IngestError::UnknownCrs { .. })
         ));
         assert!(matches!(
-            read_streets(Path::new("/nonexistent/streets.geojson"), None, &frame),
+            read_streets(
+                Path::new("/nonexistent/streets.geojson"),
+                None,
+                None,
+                &frame
+            ),
             Err(IngestError::Read { .. })
         ));
     }

@@ -140,11 +140,16 @@ pub struct BuildArgs {
     )]
     pub landmark_max_share: f64,
 
-    /// Street centre lines (GeoJSON LineString / MultiLineString, in --crs or the file's CRS, else lon/lat) as
-    /// barriers: the first levels do not join buildings on opposite sides of a street (Zhang et al. 2014).
-    /// The build report says up to which level, and lists every street feature not used, with its reason.
+    /// Street centre lines (GeoJSON LineString / MultiLineString) as barriers: the first levels do not join
+    /// buildings on opposite sides of a street (Zhang et al. 2014). The build report says up to which level, and
+    /// lists every street feature not used, with its reason. A file none of whose lines comes within 1 km of the
+    /// buildings is refused (usually a CRS mix-up).
     #[arg(long, value_name = "FILE", help_heading = "Generalization")]
     pub streets: Option<PathBuf>,
+
+    /// CRS of the --streets coordinates. Default: the CRS the streets file declares, else --crs, else lon/lat.
+    #[arg(long, value_name = "EPSG:CODE", help_heading = "Generalization")]
+    pub streets_crs: Option<String>,
 
     /// With --streets: metres added to the distance of two buildings a street separates, so blocks join across
     /// a street only after the gaps of up to this width within street blocks.
@@ -345,6 +350,12 @@ struct Timings {
 /// Lowest storey or default height accepted: lower prisms vanish on the leaves' 2 cm grid.
 const MIN_HEIGHT_M: f64 = 0.1;
 
+/// Tallest storey or default height accepted (m): the ingest's limit on any height.
+const MAX_HEIGHT_M: f64 = citylod_ingest::MAX_HEIGHT_M;
+
+/// Largest `--dh-px` accepted (px; `--da-px` up to its square): a tolerance larger than any screen.
+const MAX_DH_PX: f64 = 10_000.0;
+
 /// Largest `--height-offset` accepted (m): geoid heights stay within ±110 m, local datums closer still.
 const MAX_HEIGHT_OFFSET_M: f64 = 1000.0;
 
@@ -353,48 +364,63 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         ("--storey-height", args.storey_height),
         ("--default-height", args.default_height),
     ] {
-        if !(v.is_finite() && v >= MIN_HEIGHT_M) {
-            bail!("{name} must be a number of metres of at least {MIN_HEIGHT_M}, got {v}");
+        if !(v.is_finite() && (MIN_HEIGHT_M..=MAX_HEIGHT_M).contains(&v)) {
+            bail!(
+                "{name} must be a number of metres from {MIN_HEIGHT_M} to {MAX_HEIGHT_M}, got {}",
+                shown(v)
+            );
         }
     }
     if !(args.height_offset.is_finite() && args.height_offset.abs() <= MAX_HEIGHT_OFFSET_M) {
         bail!(
             "--height-offset must be a number of metres between -{MAX_HEIGHT_OFFSET_M} and {MAX_HEIGHT_OFFSET_M}, got {}",
-            args.height_offset
+            shown(args.height_offset)
         );
     }
     if !(args.collinear_angle > 90.0 && args.collinear_angle <= 180.0) {
         bail!(
             "--collinear-angle must be over 90 and at most 180 degrees, got {}",
-            args.collinear_angle
+            shown(args.collinear_angle)
         );
     }
-    for (name, v) in [
-        ("--dh-px", args.dh_px),
-        ("--da-px", args.da_px),
-        ("--lambda-area", args.lambda_area),
+    for (name, v, max) in [
+        ("--dh-px", args.dh_px, MAX_DH_PX),
+        ("--da-px", args.da_px, MAX_DH_PX * MAX_DH_PX),
+        ("--lambda-area", args.lambda_area, f64::MAX),
     ] {
-        if !(v.is_finite() && v > 0.0) {
-            bail!("{name} must be a positive number, got {v}");
+        if !(v.is_finite() && v > 0.0 && v <= max) {
+            if max < f64::MAX {
+                bail!(
+                    "{name} must be a positive number up to {max}, got {}",
+                    shown(v)
+                );
+            }
+            bail!("{name} must be a positive number, got {}", shown(v));
         }
     }
     if !(args.building_rate > 0.0 && args.building_rate < 1.0) {
         bail!(
             "--building-rate must be in (0, 1), got {}",
-            args.building_rate
+            shown(args.building_rate)
         );
     }
     if !(args.topo_qem_a >= 1.0 && args.topo_qem_a.is_finite()) {
-        bail!("--topo-qem-a must be at least 1, got {}", args.topo_qem_a);
+        bail!(
+            "--topo-qem-a must be at least 1, got {}",
+            shown(args.topo_qem_a)
+        );
     }
     if !(args.street_penalty.is_finite() && args.street_penalty >= 0.0) {
         bail!(
             "--street-penalty must be a non-negative number of metres, got {}",
-            args.street_penalty
+            shown(args.street_penalty)
         );
     }
     if !(args.level_ratio > 0.0 && args.level_ratio <= 1.0) {
-        bail!("--level-ratio must be in (0, 1], got {}", args.level_ratio);
+        bail!(
+            "--level-ratio must be in (0, 1], got {}",
+            shown(args.level_ratio)
+        );
     }
     if args.tile_max_features == 0 || args.tile_max_triangles == 0 {
         bail!("--tile-max-features and --tile-max-triangles must be at least 1");
@@ -429,6 +455,14 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         );
     }
     timings.ingest = t.elapsed().as_millis() as u64;
+    for (flag, name) in [
+        ("--height-attr", &args.height_attr),
+        ("--storey-attr", &args.storey_attr),
+    ] {
+        if let Some(name) = name {
+            named_attribute_is_present(flag, name, &ingested.buildings)?;
+        }
+    }
     if ingested.buildings.is_empty() {
         let skipped = &ingested.report.skipped;
         let mut why: String = skipped
@@ -457,6 +491,9 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
 
     let mut generalized = None;
     let mut streets_report = None;
+    if args.streets_crs.is_some() && args.streets.is_none() {
+        bail!("--streets-crs is the CRS of --streets, which is not given");
+    }
     if args.leaves_only && args.streets.is_some() {
         bail!("--streets shapes the generalization, which --leaves-only leaves out");
     }
@@ -476,8 +513,24 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         };
         let segments = match &args.streets {
             Some(path) => {
-                let s = citylod_ingest::read_streets(path, args.crs.as_deref(), &ingested.frame)
-                    .context("reading the streets")?;
+                let s = citylod_ingest::read_streets(
+                    path,
+                    args.streets_crs.as_deref(),
+                    args.crs.as_deref(),
+                    &ingested.frame,
+                )
+                .context("reading the streets")?;
+                streets_near_buildings(&s.segments, &ingested.buildings).with_context(|| {
+                    format!(
+                        "--streets {}: read in {}",
+                        path.display(),
+                        match (&args.streets_crs, &args.crs) {
+                            (Some(c), _) => format!("--streets-crs {c}"),
+                            (None, Some(c)) => format!("the CRS the file declares, else --crs {c}"),
+                            (None, None) => "the CRS the file declares, else lon/lat".to_string(),
+                        }
+                    )
+                })?;
                 let segments = s.segments;
                 streets_report = Some(s.report);
                 segments
@@ -586,7 +639,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
             "lambda_adjacent": args.lambda_adjacent, "depth_divisor": args.depth_divisor,
             "lambda_area": args.lambda_area, "collinear_angle_deg": args.collinear_angle,
             "landmark_min_excess_m": args.landmark_min_excess, "landmark_max_share": args.landmark_max_share,
-            "leaves_only": args.leaves_only, "streets": args.streets, "street_penalty_m": args.street_penalty, "dh_px": args.dh_px, "da_px": args.da_px,
+            "leaves_only": args.leaves_only, "streets": args.streets, "streets_crs": args.streets_crs, "street_penalty_m": args.street_penalty, "dh_px": args.dh_px, "da_px": args.da_px,
             "compression": format!("{:?}", args.compression).to_lowercase(),
             "max_tileset_json_bytes": args.max_tileset_json_bytes,
         }),
@@ -717,6 +770,89 @@ fn check_output_folder(args: &BuildArgs) -> Result<()> {
             "--out {} holds files but no tileset.json; the build replaces the whole folder. Give a new or empty \
              folder, or pass --force to replace it anyway",
             out.display()
+        );
+    }
+    Ok(())
+}
+
+/// A number as a user reads it: plain, or in exponent form when huge or tiny (1e308, not 309 digits).
+fn shown(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-6..1e9).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+/// Farthest a street line may lie from every building for the streets file to be taken (m).
+const STREETS_REACH_M: f64 = 1000.0;
+
+/// An error unless some street segment comes within [`STREETS_REACH_M`] of the buildings' bounding rectangle:
+/// streets read in the wrong CRS land far away (or all on a point) and would silently bar nothing.
+fn streets_near_buildings(
+    segments: &[[[f64; 2]; 2]],
+    buildings: &[citylod_model::Building],
+) -> Result<()> {
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for b in buildings {
+        for p in &b.footprint.0 {
+            for c in &p.exterior().0 {
+                lo = [lo[0].min(c.x), lo[1].min(c.y)];
+                hi = [hi[0].max(c.x), hi[1].max(c.y)];
+            }
+        }
+    }
+    let near = segments.iter().any(|[a, b]| {
+        (0..2).all(|k| {
+            a[k].max(b[k]) >= lo[k] - STREETS_REACH_M && a[k].min(b[k]) <= hi[k] + STREETS_REACH_M
+        })
+    });
+    if !near && !buildings.is_empty() {
+        bail!(
+            "none of its {} street segments comes within {STREETS_REACH_M} m of the buildings; are they in another \
+             CRS? (give it with --streets-crs)",
+            segments.len()
+        );
+    }
+    Ok(())
+}
+
+/// An error when a height or storey attribute the user named is held by no written building (a misspelt name
+/// would otherwise give every building the next rule's height, silently).
+fn named_attribute_is_present(
+    flag: &str,
+    name: &str,
+    buildings: &[citylod_model::Building],
+) -> Result<()> {
+    if buildings.is_empty() {
+        return Ok(());
+    }
+    let present = buildings.iter().any(|b| {
+        b.attributes
+            .iter()
+            .any(|(k, v)| k == name && *v != citylod_model::AttrValue::Null)
+    });
+    if !present {
+        let mut seen: Vec<&str> = buildings
+            .iter()
+            .flat_map(|b| b.attributes.iter().map(|(k, _)| k.as_str()))
+            .collect::<std::collections::BTreeSet<_>>()
+            .into_iter()
+            .collect();
+        let more = seen.len().saturating_sub(20);
+        seen.truncate(20);
+        bail!(
+            "{flag} {name}: no building has this attribute; attributes seen: {}{}",
+            if seen.is_empty() {
+                "none".to_string()
+            } else {
+                seen.join(", ")
+            },
+            if more > 0 {
+                format!(" and {more} more")
+            } else {
+                String::new()
+            }
         );
     }
     Ok(())

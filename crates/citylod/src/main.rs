@@ -23,7 +23,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Build a 3D Tiles tileset from building footprints (GeoJSON) or city models (CityJSON, CityJSONSeq).
-    Build(build::BuildArgs),
+    Build(Box<build::BuildArgs>),
     /// Print what a tileset holds: tiles, triangles, bytes and geometric errors per tree depth (0 is the root,
     /// the last the buildings).
     Inspect(inspect::InspectArgs),
@@ -47,7 +47,7 @@ fn main() -> ExitCode {
         }
     };
     let result = match cli.command {
-        Command::Build(args) => build::run(args),
+        Command::Build(args) => build::run(*args),
         Command::Inspect(args) => inspect::run(args),
         Command::Check(args) => check::run(args),
     };
