@@ -57,17 +57,23 @@ impl BuildingTable {
                     AttrValue::Null => continue,
                     AttrValue::Bool(_) => PropertyKind::Boolean,
                     AttrValue::Int(i) if PropertyKind::int32_holds(*i) => PropertyKind::Int32,
-                    AttrValue::Int(_) | AttrValue::Float(_) => PropertyKind::Float64,
+                    AttrValue::Int(_) => PropertyKind::Int64,
+                    AttrValue::Float(_) => PropertyKind::Float64,
                     AttrValue::String(_) => PropertyKind::String,
                 };
                 *present.entry(k.as_str()).or_default() += 1;
                 *seen = Some(match (*seen, this) {
                     (None, _) => this,
                     (Some(prev), _) if prev == this => prev,
-                    // Numbers mixed with integers (or integers past 32 bits) are all written as doubles.
+                    // Integers past 32 bits make the column INT64 (a double holds them exactly only to 2^53);
+                    // integers mixed with other numbers are all written as doubles.
                     (
-                        Some(PropertyKind::Int32 | PropertyKind::Float64),
-                        PropertyKind::Int32 | PropertyKind::Float64,
+                        Some(PropertyKind::Int32 | PropertyKind::Int64),
+                        PropertyKind::Int32 | PropertyKind::Int64,
+                    ) => PropertyKind::Int64,
+                    (
+                        Some(PropertyKind::Int32 | PropertyKind::Int64 | PropertyKind::Float64),
+                        PropertyKind::Int32 | PropertyKind::Int64 | PropertyKind::Float64,
                     ) => PropertyKind::Float64,
                     (Some(_), _) => PropertyKind::String,
                 });
@@ -133,7 +139,9 @@ impl BuildingTable {
                 (None | Some(AttrValue::Null), _) => PropValue::Null,
                 (Some(AttrValue::Bool(v)), PropertyKind::Boolean) => PropValue::Bool(*v),
                 (Some(AttrValue::Bool(v)), PropertyKind::UInt32) => PropValue::Int(*v as i64),
-                (Some(AttrValue::Int(v)), PropertyKind::Int32) => PropValue::Int(*v),
+                (Some(AttrValue::Int(v)), PropertyKind::Int32 | PropertyKind::Int64) => {
+                    PropValue::Int(*v)
+                }
                 (Some(AttrValue::Int(v)), PropertyKind::Float64) => PropValue::Float(*v as f64),
                 (Some(AttrValue::Float(v)), PropertyKind::Float64) => PropValue::Float(*v),
                 (Some(v), _) => PropValue::Str(as_text(v)),
@@ -424,12 +432,15 @@ mod tests {
                     ("flag", Bool(true)),
                     ("text", Int(1)),
                     ("every", Bool(true)),
+                    ("huge", Int((1 << 53) + 1)),
+                    ("big_mixed", Int(1 << 40)),
                 ],
             ),
             b(
                 1,
                 &[
                     ("every", Bool(false)),
+                    ("big_mixed", Float(0.5)),
                     ("ints", Null),
                     ("mixed", Float(2.5)),
                     ("wide", Int(1 << 40)),
@@ -449,7 +460,9 @@ mod tests {
         let kind = |name: &str| t.attrs.iter().find(|(n, _)| n == name).unwrap().1;
         assert_eq!(kind("ints"), PropertyKind::Int32);
         assert_eq!(kind("mixed"), PropertyKind::Float64);
-        assert_eq!(kind("wide"), PropertyKind::Float64);
+        assert_eq!(kind("wide"), PropertyKind::Int64);
+        assert_eq!(kind("huge"), PropertyKind::Int64);
+        assert_eq!(kind("big_mixed"), PropertyKind::Float64);
         // Booleans stay BOOLEAN where every building has one; where some have none, 1/0 with noData (a
         // BOOLEAN has no noData, a missing value would read back as false).
         assert_eq!(kind("every"), PropertyKind::Boolean);
@@ -465,10 +478,10 @@ mod tests {
         assert_eq!(values(1)[col("every")], PropValue::Bool(false));
         assert_eq!(values(1)[col("ints")], PropValue::Null);
         assert_eq!(values(0)[col("mixed")], PropValue::Float(3.0));
-        assert_eq!(
-            values(1)[col("wide")],
-            PropValue::Float((1u64 << 40) as f64)
-        );
+        // 2^53 + 1 has no double: INT64 keeps it.
+        assert_eq!(values(0)[col("huge")], PropValue::Int((1 << 53) + 1));
+        assert_eq!(values(1)[col("big_mixed")], PropValue::Float(0.5));
+        assert_eq!(values(1)[col("wide")], PropValue::Int(1 << 40));
         assert_eq!(values(0)[col("text")], PropValue::Str("1".into()));
     }
 
