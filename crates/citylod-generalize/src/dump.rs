@@ -33,6 +33,34 @@ pub enum DumpError {
     },
 }
 
+/// Removes the files a dump writes (`level-<digits>.geojson` / `.png`, `levels.png`) from `dir`.
+fn remove_earlier_dump(dir: &Path) -> Result<(), DumpError> {
+    let io = |source| DumpError::Io {
+        path: dir.to_path_buf(),
+        source,
+    };
+    for entry in std::fs::read_dir(dir).map_err(io)? {
+        let entry = entry.map_err(io)?;
+        let name = entry.file_name();
+        let name = name.to_string_lossy();
+        let ours = name == "levels.png"
+            || name
+                .strip_prefix("level-")
+                .and_then(|r| {
+                    r.strip_suffix(".geojson")
+                        .or_else(|| r.strip_suffix(".png"))
+                })
+                .is_some_and(|k| !k.is_empty() && k.bytes().all(|b| b.is_ascii_digit()));
+        if ours && entry.file_type().map_err(io)?.is_file() {
+            std::fs::remove_file(entry.path()).map_err(|source| DumpError::Io {
+                path: entry.path(),
+                source,
+            })?;
+        }
+    }
+    Ok(())
+}
+
 /// Writes into `dir` (created if missing), for every level k of `hierarchy`: `level-<k>.geojson` (one
 /// Feature per node: MultiPolygon in WGS84 lon/lat through `frame`, coordinates rounded to 1e-8°, and
 /// properties `level`, `node`, `members`, `landmarks`, `height_m`, `h_min_m`, `h_max_m`, `dh_m`, `da_m2`,
@@ -40,7 +68,9 @@ pub enum DumpError {
 /// colour derived from the node index, outlines darker, holes left white); then `levels.png` with all
 /// levels in a grid of 3 per row, each labelled with its level number. All pictures share the extent of
 /// `buildings` (or of the nodes when `buildings` is empty). Returns the paths written, in order.
-/// An empty hierarchy writes only `levels.png` (a blank 1 × 1 image).
+/// An empty hierarchy writes only `levels.png` (a blank 1 × 1 image). Files of an earlier dump in `dir`
+/// (`level-<k>.geojson`, `level-<k>.png`, `levels.png`) are removed first, so no level of another build is left
+/// beside these; other files are left alone.
 pub fn dump_levels(
     dir: &Path,
     hierarchy: &Hierarchy,
@@ -51,6 +81,7 @@ pub fn dump_levels(
         path: dir.to_path_buf(),
         source,
     })?;
+    remove_earlier_dump(dir)?;
     let extent = Extent::of(buildings.iter().map(|b| &b.footprint)).or_else(|| {
         Extent::of(
             hierarchy
@@ -507,8 +538,15 @@ mod tests {
         let (buildings, h) = sample();
         let frame = LocalFrame::new(-71.06, 42.35, 0.0);
         let dir = scratch("files");
+        // An earlier dump of more levels, and a file of the user's.
+        for f in ["level-7.geojson", "level-7.png", "level-x.png", "notes.txt"] {
+            std::fs::create_dir_all(&dir).unwrap();
+            std::fs::write(dir.join(f), b"old").unwrap();
+        }
         let written = dump_levels(&dir, &h, &buildings, &frame).unwrap();
         assert_eq!(written.len(), 3 * 2 + 1);
+        assert!(!dir.join("level-7.geojson").exists() && !dir.join("level-7.png").exists());
+        assert!(dir.join("level-x.png").exists() && dir.join("notes.txt").exists());
         for (k, want) in [(0, 12), (1, 6), (2, 1)] {
             let text = std::fs::read_to_string(dir.join(format!("level-{k}.geojson"))).unwrap();
             let v: Value = serde_json::from_str(&text).unwrap();

@@ -22,15 +22,52 @@ fn sibling(dest: &Path, tag: &str) -> PathBuf {
     dest.with_file_name(format!("{name}.{tag}-{}", std::process::id()))
 }
 
+/// Removes `<dest>.tmp-<pid>` and `<dest>.old-<pid>` left beside `dest` by runs that were killed (their process
+/// is gone: no `/proc/<pid>`). Where there is no `/proc`, or the process still runs (a concurrent build), nothing
+/// is removed. Failures to remove are ignored: the leftovers only take space.
+fn remove_stale_siblings(dest: &Path) {
+    let (Some(parent), Some(name)) = (dest.parent(), dest.file_name()) else {
+        return;
+    };
+    if !Path::new("/proc/self").exists() {
+        return;
+    }
+    let name = name.to_string_lossy();
+    let Ok(entries) = std::fs::read_dir(if parent.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        parent
+    }) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let file = entry.file_name();
+        let file = file.to_string_lossy();
+        let Some(rest) = file.strip_prefix(&*name) else {
+            continue;
+        };
+        let pid = ["tmp", "old"]
+            .iter()
+            .find_map(|tag| rest.strip_prefix(&format!(".{tag}-")))
+            .and_then(|p| p.parse::<u32>().ok());
+        if let Some(pid) = pid {
+            if pid != std::process::id() && !Path::new(&format!("/proc/{pid}")).exists() {
+                let _ = std::fs::remove_dir_all(entry.path());
+            }
+        }
+    }
+}
+
 impl Staging {
     /// Creates an empty `<dest>.tmp-<pid>` (removing a stale one left by a crashed run with the same
-    /// pid) and the parent directories of `dest`.
+    /// pid, and those of killed runs) and the parent directories of `dest`.
     pub fn create(dest: &Path) -> Result<Staging, TilesError> {
         let dest = if dest.file_name().is_none() {
             std::path::absolute(dest).map_err(TilesError::io(dest))?
         } else {
             dest.to_path_buf()
         };
+        remove_stale_siblings(&dest);
         let tmp = sibling(&dest, "tmp");
         if tmp.exists() {
             std::fs::remove_dir_all(&tmp).map_err(TilesError::io(&tmp))?;
@@ -112,6 +149,24 @@ mod tests {
         assert!(!dest.join("tiles").exists());
         let left: Vec<_> = std::fs::read_dir(root.path()).unwrap().collect();
         assert_eq!(left.len(), 1, "no tmp or old directory left behind");
+    }
+
+    #[test]
+    fn leftovers_of_killed_runs_are_removed_and_those_of_running_ones_kept() {
+        let root = tempfile::tempdir().unwrap();
+        let dest = root.path().join("out");
+        // A pid above the kernel's limit (2^22) never runs; pid 1 always does.
+        let dead = root.path().join("out.tmp-4194999");
+        let dead_old = root.path().join("out.old-4194999");
+        let alive = root.path().join("out.tmp-1");
+        let other = root.path().join("outer.tmp-4194999");
+        for d in [&dead, &dead_old, &alive, &other] {
+            std::fs::create_dir_all(d.join("tiles")).unwrap();
+        }
+        let s = Staging::create(&dest).unwrap();
+        assert!(!dead.exists() && !dead_old.exists());
+        assert!(alive.exists() && other.exists());
+        drop(s);
     }
 
     #[test]
