@@ -536,26 +536,40 @@ fn split_connected(
     let target = m.div_ceil(parts_wanted);
     const FREE: usize = usize::MAX;
     let mut part_of = vec![FREE; m];
+    // Free neighbours of each child (with the links' multiplicity), kept as children are taken, and the part
+    // whose frontier last queued a child: a dense cluster (hundreds of touching or stacked footprints) would
+    // otherwise rescan every neighbour list at every step, and queue a child once per neighbour taken.
+    let mut free_nbrs: Vec<usize> = (0..m).map(|i| start[i + 1] - start[i]).collect();
+    let mut queued = vec![FREE; m];
     let mut parts: Vec<Vec<usize>> = Vec::new();
     let mut frontier: Vec<usize> = Vec::new();
+    let mut take = |x: usize,
+                    pi: usize,
+                    part_of: &mut [usize],
+                    frontier: &mut Vec<usize>,
+                    free_nbrs: &mut [usize]| {
+        part_of[x] = pi;
+        for &n in &nbr[start[x]..start[x + 1]] {
+            free_nbrs[n] -= 1;
+            if part_of[n] == FREE && queued[n] != pi {
+                queued[n] = pi;
+                frontier.push(n);
+            }
+        }
+    };
     for &seed in &seeds {
         if part_of[seed] != FREE {
             continue;
         }
         let pi = parts.len();
         let mut part = vec![seed];
-        part_of[seed] = pi;
         frontier.clear();
-        frontier.extend(nbr[start[seed]..start[seed + 1]].iter().copied());
+        take(seed, pi, &mut part_of, &mut frontier, &mut free_nbrs);
         let to_seed = |j: usize| dist2(centre[j], centre[seed]);
         while part.len() < target {
             frontier.retain(|&j| part_of[j] == FREE);
             // A child with no other free neighbour is taken first: left behind, it would be alone.
-            let open = |j: usize| {
-                nbr[start[j]..start[j + 1]]
-                    .iter()
-                    .any(|&i| part_of[i] == FREE)
-            };
+            let open = |j: usize| free_nbrs[j] > 0;
             let Some(pos) = (0..frontier.len()).min_by(|&x, &y| {
                 let (a, b) = (frontier[x], frontier[y]);
                 (open(a), to_seed(a), a)
@@ -565,9 +579,8 @@ fn split_connected(
                 break;
             };
             let j = frontier.swap_remove(pos);
-            part_of[j] = pi;
             part.push(j);
-            frontier.extend(nbr[start[j]..start[j + 1]].iter().copied());
+            take(j, pi, &mut part_of, &mut frontier, &mut free_nbrs);
         }
         parts.push(part);
     }
@@ -896,6 +909,30 @@ mod tests {
         assert_eq!(hub.len(), plan.delta_p);
         // The rest: 31 − δp sheds in parts of at most δp, no part of a single shed more than needed.
         assert!(first.len() <= 1 + (n - plan.delta_p).div_ceil(plan.delta_p / 2));
+    }
+
+    #[test]
+    fn stacked_footprints_split_into_full_connected_parts() {
+        // 400 copies of one footprint (a file listing every storey, say): every pair touches, so each part of
+        // the first level's split is a clique; all parts but at most one are full, none alone.
+        let n = 400;
+        let boxes = vec![[0.0, 0.0, 10.0, 10.0]; n];
+        let mut edges = Vec::new();
+        for a in 0..n as u32 {
+            for b in a + 1..n as u32 {
+                edges.push(CandidateEdge { a, b, d_m: 0.0 });
+            }
+        }
+        let ms = crate::single_link::single_link(n, &edges);
+        let plan = condense(n, &ms, &edges, &boxes, &LevelOptions::default());
+        check(&plan, n);
+        let first = &plan.levels[0].groups;
+        let target = n.div_ceil(n.div_ceil(plan.delta_p));
+        assert!(first.iter().all(|g| g.len() > 1), "{first:?}");
+        assert!(
+            first.iter().filter(|g| g.len() < target).count() <= 1,
+            "{first:?}"
+        );
     }
 
     #[test]
