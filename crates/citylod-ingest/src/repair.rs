@@ -37,9 +37,16 @@ impl Plane {
         }
     }
 
+    /// Longitudes are taken the short way round from `lon0`, so a ring across the antimeridian stays small.
     pub fn to_xy(self, lon: f64, lat: f64) -> Coord {
+        let mut d_lon = lon - self.lon0;
+        if d_lon > 180.0 {
+            d_lon -= 360.0;
+        } else if d_lon < -180.0 {
+            d_lon += 360.0;
+        }
         Coord {
-            x: (lon - self.lon0) * self.m_per_deg_lon,
+            x: d_lon * self.m_per_deg_lon,
             y: (lat - self.lat0) * self.m_per_deg_lat,
         }
     }
@@ -522,5 +529,12 @@ mod tests {
             (c.y - 1111.0).abs() < 3.0 && (c.x - 823.0).abs() < 3.0,
             "{c:?}"
         );
+        // Across the antimeridian the short way round: 0.0001° east of 179.99995° is −179.99995°.
+        let p = Plane::new(179.99995, -16.5);
+        let c = p.to_xy(-179.99995, -16.5);
+        assert!(c.x > 10.0 && c.x < 11.0, "{c:?}");
+        assert!(p.to_xy(179.9999, -16.5).x < 0.0);
+        let (lon, _) = p.to_lon_lat(c);
+        assert!((lon - 180.00005).abs() < 1e-9, "{lon}");
     }
 }
