@@ -191,25 +191,7 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
     let frame = place::frame_for(bbox, min_ground);
     let enu_map = place::EnuMap::new(&frame);
     if let Some(b) = &bbox {
-        let far_m = place::farthest_from_origin_m(&enu_map, b);
-        if far_m > place::MAX_DISTANCE_FROM_ORIGIN_M {
-            let n = b.narrow();
-            return Err(IngestError::TooWide {
-                detail: format!(
-                    "the buildings span longitudes {:.4}..{:.4} and latitudes {:.4}..{:.4}, up to {:.0} km from \
-                     their centre ({:.4}, {:.4}); a tileset is placed in one local frame, good to {:.0} km from \
-                     its centre: tile each region separately",
-                    (n[0] + 180.0).rem_euclid(360.0) - 180.0,
-                    (n[2] + 180.0).rem_euclid(360.0) - 180.0,
-                    n[1],
-                    n[3],
-                    far_m / 1000.0,
-                    frame.origin_lon_deg,
-                    frame.origin_lat_deg,
-                    place::MAX_DISTANCE_FROM_ORIGIN_M / 1000.0
-                ),
-            });
-        }
+        place::check_extent(&frame, &enu_map, b)?;
     }
 
     let mut report = IngestReport {

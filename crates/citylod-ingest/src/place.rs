@@ -7,7 +7,8 @@
 use citylod_model::LocalFrame;
 use geo_types::{Coord, LineString, MultiPolygon, Polygon};
 
-use crate::repair::Plane;
+use crate::repair::{wrap_lon, Plane};
+use crate::IngestError;
 
 /// The frame rule in words, for the report.
 pub const FRAME_RULE: &str = "origin = centre of the lon/lat bounding box of all written buildings (longitudes \
@@ -59,11 +60,10 @@ impl LonLatBox {
         }
     }
 
-    /// The centre (lon in [−180°, 180°), lat) of the narrower box.
+    /// The centre (lon in [−180°, 180°], lat) of the narrower box.
     pub fn centre(&self) -> (f64, f64) {
         let b = self.narrow();
-        let lon = ((b[0] + b[2]) / 2.0 + 180.0).rem_euclid(360.0) - 180.0;
-        (lon, (b[1] + b[3]) / 2.0)
+        (wrap_lon((b[0] + b[2]) / 2.0), (b[1] + b[3]) / 2.0)
     }
 }
 
@@ -94,8 +94,36 @@ pub(crate) fn frame_for(bbox: Option<LonLatBox>, min_ground_m: Option<f64>) -> L
 /// 100 m footprint's ends are 1.6 m off the ground. A region wider than 200 km is tiled in parts.
 pub const MAX_DISTANCE_FROM_ORIGIN_M: f64 = 100_000.0;
 
+/// An error when some building of `b` lies over [`MAX_DISTANCE_FROM_ORIGIN_M`] from the frame's origin.
+pub(crate) fn check_extent(
+    frame: &LocalFrame,
+    map: &EnuMap,
+    b: &LonLatBox,
+) -> Result<(), IngestError> {
+    let far_m = farthest_from_origin_m(map, b);
+    if far_m <= MAX_DISTANCE_FROM_ORIGIN_M {
+        return Ok(());
+    }
+    let n = b.narrow();
+    Err(IngestError::TooWide {
+        detail: format!(
+            "the buildings span longitudes {:.4}..{:.4} and latitudes {:.4}..{:.4}, up to {:.0} km from their \
+             centre ({:.4}, {:.4}); a tileset is placed in one local frame, good to {:.0} km from its centre: \
+             tile each region separately",
+            wrap_lon(n[0]),
+            wrap_lon(n[2]),
+            n[1],
+            n[3],
+            far_m / 1000.0,
+            frame.origin_lon_deg,
+            frame.origin_lat_deg,
+            MAX_DISTANCE_FROM_ORIGIN_M / 1000.0
+        ),
+    })
+}
+
 /// The farthest (m, horizontally in the frame) that the box's corners and edge midpoints lie from the origin.
-pub(crate) fn farthest_from_origin_m(frame: &EnuMap, b: &LonLatBox) -> f64 {
+fn farthest_from_origin_m(frame: &EnuMap, b: &LonLatBox) -> f64 {
     let n = b.narrow();
     let (lons, lats) = (
         [n[0], (n[0] + n[2]) / 2.0, n[2]],

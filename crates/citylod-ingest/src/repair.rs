@@ -21,6 +21,16 @@ pub(crate) struct Plane {
     m_per_deg_lat: f64,
 }
 
+/// A longitude (or difference of longitudes) in degrees brought into [−180°, 180°] by whole turns; one already
+/// there is returned as it is, bit for bit.
+pub(crate) fn wrap_lon(lon: f64) -> f64 {
+    if (-180.0..=180.0).contains(&lon) {
+        lon
+    } else {
+        (lon + 180.0).rem_euclid(360.0) - 180.0
+    }
+}
+
 impl Plane {
     pub fn new(lon0: f64, lat0: f64) -> Self {
         use citylod_model::{WGS84_A_M, WGS84_F};
@@ -39,14 +49,8 @@ impl Plane {
 
     /// Longitudes are taken the short way round from `lon0`, so a ring across the antimeridian stays small.
     pub fn to_xy(self, lon: f64, lat: f64) -> Coord {
-        let mut d_lon = lon - self.lon0;
-        if d_lon > 180.0 {
-            d_lon -= 360.0;
-        } else if d_lon < -180.0 {
-            d_lon += 360.0;
-        }
         Coord {
-            x: d_lon * self.m_per_deg_lon,
+            x: wrap_lon(lon - self.lon0) * self.m_per_deg_lon,
             y: (lat - self.lat0) * self.m_per_deg_lat,
         }
     }

@@ -21,6 +21,9 @@ pub struct Streets {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct StreetsReport {
     pub file: String,
+    /// The CRS the coordinates were read in, and where that came from (`--streets-crs`, the file, `--crs`, the
+    /// RFC 7946 default), e.g. `EPSG:28992 (from --crs)`.
+    pub crs: String,
     pub features_read: usize,
     /// Features that gave at least one segment.
     pub features_used: usize,
@@ -68,16 +71,17 @@ pub fn read_streets(
         (Some(c), _, _) => (Some(c), "--streets-crs".to_string()),
         (None, Some(d), _) => (Some(d), path.display().to_string()),
         (None, None, Some(c)) => (Some(c), "--crs".to_string()),
-        (None, None, None) => (None, String::new()),
+        (None, None, None) => (None, "RFC 7946 default".to_string()),
     };
     let crs = match crs_name {
         Some(c) => Crs::parse(c).map_err(|e| IngestError::UnknownCrs {
-            origin,
+            origin: origin.clone(),
             crs: c.into(),
             detail: e.0,
         })?,
         None => Crs::wgs84(),
     };
+    let crs_used = format!("{} (from {origin})", crs.label);
     let unknown = |detail: &str| IngestError::UnknownFormat {
         path: path.into(),
         detail: detail.into(),
@@ -106,6 +110,7 @@ pub fn read_streets(
         segments: Vec::new(),
         report: StreetsReport {
             file: file.clone(),
+            crs: crs_used,
             features_read: features.len(),
             features_used: 0,
             segments: 0,
@@ -293,8 +298,10 @@ mod tests {
         );
         let [a, _] = s.segments[0];
         assert!(a[0].hypot(a[1]) < 2000.0, "{a:?}: not near Delft");
+        assert!(s.report.crs.contains("rd.geojson"), "{}", s.report.crs);
         // --streets-crs wins over the declaration: the same numbers read in EPSG:2263 (US feet) land elsewhere.
         let s = read_streets(&p, Some("EPSG:2263"), None, &frame).unwrap();
+        assert_eq!(s.report.crs, "EPSG:2263 (from --streets-crs)");
         let [a, _] = s.segments[0];
         assert!(a[0].hypot(a[1]) > 1e6, "{a:?}");
         // A declaration that names no usable CRS is an error, unless --streets-crs says which.

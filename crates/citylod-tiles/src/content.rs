@@ -2,9 +2,9 @@
 //! spatial chunks whose coordinates fit 16 bits on it), within a node every feature of a class merged into
 //! one TRIANGLES primitive (so each primitive has one feature-id set; one property table per class for the
 //! whole glb), positions (east, up, −north) quantized to UNSIGNED_SHORT (SHORT with Draco) with one uniform
-//! scale, the grid step, and a translation on the grid (KHR_mesh_quantization), BYTE-normalized normals, feature ids as a FLOAT
-//! `_FEATURE_ID_0` (EXT_mesh_features) — the three interleaved in one vertex buffer view unless Draco compresses
-//! them —, triangles in vertex-cache order and vertices in the order they are first used, property tables
+//! scale, the grid step, and a translation on the grid (KHR_mesh_quantization), BYTE-normalized normals,
+//! feature ids as a FLOAT `_FEATURE_ID_0` (EXT_mesh_features) — the three interleaved in one vertex buffer
+//! view unless Draco compresses them —, triangles in vertex-cache order and vertices in the order they are first used, property tables
 //! (EXT_structural_metadata), optionally EXT_meshopt_compression.
 
 use crate::draco::{self, DracoEncoded, DracoValues};
@@ -388,8 +388,8 @@ pub(crate) fn encode_content(
                     idx.iter().flat_map(|&i| (i as u16).to_le_bytes()).collect()
                 };
                 let idx_stride = if wide { 4 } else { 2 };
-                // One interleaved vertex view — position (UNSIGNED_SHORT ×3 + pad), normal (BYTE ×3 + pad), feature id
-                // (FLOAT) — instead of one per attribute: the same meshopt bytes (the codec works byte lane by
+                // One interleaved vertex view — position (UNSIGNED_SHORT ×3 + pad), normal (BYTE ×3 + pad),
+                // feature id (FLOAT) — instead of one per attribute: the same meshopt bytes (the codec works byte lane by
                 // byte lane), two views less of JSON per primitive (~420 bytes; on Boston 190 kB over the
                 // tileset's 450 primitives).
                 let stride = if normals { 16 } else { 12 };

@@ -386,17 +386,19 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
     for (name, v, max) in [
         ("--dh-px", args.dh_px, MAX_DH_PX),
         ("--da-px", args.da_px, MAX_DH_PX * MAX_DH_PX),
-        ("--lambda-area", args.lambda_area, f64::MAX),
     ] {
         if !(v.is_finite() && v > 0.0 && v <= max) {
-            if max < f64::MAX {
-                bail!(
-                    "{name} must be a positive number up to {max}, got {}",
-                    shown(v)
-                );
-            }
-            bail!("{name} must be a positive number, got {}", shown(v));
+            bail!(
+                "{name} must be a positive number up to {max}, got {}",
+                shown(v)
+            );
         }
+    }
+    if !(args.lambda_area.is_finite() && args.lambda_area > 0.0) {
+        bail!(
+            "--lambda-area must be a positive number, got {}",
+            shown(args.lambda_area)
+        );
     }
     if !(args.building_rate > 0.0 && args.building_rate < 1.0) {
         bail!(
@@ -521,15 +523,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
                 )
                 .context("reading the streets")?;
                 streets_near_buildings(&s.segments, &ingested.buildings).with_context(|| {
-                    format!(
-                        "--streets {}: read in {}",
-                        path.display(),
-                        match (&args.streets_crs, &args.crs) {
-                            (Some(c), _) => format!("--streets-crs {c}"),
-                            (None, Some(c)) => format!("the CRS the file declares, else --crs {c}"),
-                            (None, None) => "the CRS the file declares, else lon/lat".to_string(),
-                        }
-                    )
+                    format!("--streets {}: read in {}", path.display(), s.report.crs)
                 })?;
                 let segments = s.segments;
                 streets_report = Some(s.report);
