@@ -611,7 +611,7 @@ fn same_input_gives_byte_identical_output() {
 /// `--height-offset` raises the tileset's frame along its up axis and changes nothing else: every glb is
 /// byte-identical, the root transform's origin moves by the offset, the report says so.
 #[test]
-fn height_offset_raises_the_frame_and_nothing_else() {
+fn height_offset_and_geoid_raise_the_frame_and_nothing_else() {
     let input = repo_root().join("examples/nyc-les/les_buildings.geojson");
     let d = scratch_dir("height-offset");
     let (plain, raised) = (d.join("plain"), d.join("raised"));
@@ -657,6 +657,41 @@ fn height_offset_raises_the_frame_and_nothing_else() {
         "{g0:?} {g1:?}"
     );
     assert!((g1[2] - g0[2] - OFFSET_M).abs() < 1e-3, "{g0:?} {g1:?}");
+
+    // --geoid egm96 adds EGM96's geoid height at the origin (New York: about −32.7 m), on top of --height-offset,
+    // and nothing else changes.
+    let above_sea = d.join("geoid");
+    let r2 = build(
+        &[&input],
+        &above_sea,
+        &["--geoid", "egm96", &format!("--height-offset={OFFSET_M}")],
+    );
+    let errors = schema_errors("build-report.schema.json", &r2);
+    assert!(errors.is_empty(), "{errors:?}");
+    let g = &r2["geoid"];
+    let n = g["height_m"].as_f64().unwrap();
+    assert!((-33.2..=-32.2).contains(&n), "{g}");
+    assert!(
+        (h(&r2) - h(&r0) - n - OFFSET_M).abs() < 1e-9,
+        "{} vs {}",
+        h(&r2),
+        h(&r0)
+    );
+    let (lo, hi) = (g["min_m"].as_f64().unwrap(), g["max_m"].as_f64().unwrap());
+    assert!(lo <= n + 0.005 && n - 0.005 <= hi && hi - lo < 0.2, "{g}");
+    assert_eq!(r2["options"]["geoid"], "egm96");
+    assert!(r2["ingest"]["frame_rule"]
+        .as_str()
+        .unwrap()
+        .contains("--geoid egm96"));
+    for ((n0, b0), (n2, b2)) in t0.iter().zip(&tree_bytes(&above_sea)) {
+        assert_eq!(n0, n2);
+        assert!(
+            !n0.ends_with(".glb") || b0 == b2,
+            "{n0} changed with --geoid"
+        );
+    }
+    assert!(r0.get("geoid").is_none() && r1.get("geoid").is_none());
     let _ = std::fs::remove_dir_all(&d);
 }
 

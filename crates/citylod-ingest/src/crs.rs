@@ -1,7 +1,7 @@
 //! Coordinate reference systems: parse a CRS name (EPSG code, OGC URN/URL, CRS84, proj string) and
 //! convert source x/y to WGS84 lon/lat degrees with proj4rs and the offline crs-definitions table.
-//! Heights are not transformed: a vertical datum (NAP, …) is used as ellipsoidal height as it is —
-//! no geoid model is applied. Compound CRSs use their horizontal part (EPSG:7415 → EPSG:28992).
+//! Heights are not transformed here: a vertical datum (NAP, …) is used as ellipsoidal height as it is
+//! (the build's `--geoid egm96` and `--height-offset` raise the whole frame). Compound CRSs use their horizontal part (EPSG:7415 → EPSG:28992).
 //! A CRS a file declares (legacy GeoJSON `crs`, CityJSON `metadata.referenceSystem`) is read into a name
 //! first ([`DeclaredCrs`]); a declaration that cannot be read is kept as such, never dropped.
 

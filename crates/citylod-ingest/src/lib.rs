@@ -29,6 +29,7 @@ mod cityjson;
 mod crs;
 mod error;
 mod feature;
+mod geoid;
 mod geojson;
 mod height;
 mod lod;
@@ -42,6 +43,7 @@ mod valid;
 
 pub use crs::{CoordError, Crs, CrsError};
 pub use error::IngestError;
+pub use geoid::geoid_height_m;
 pub use height::{DEFAULT_STOREY_ATTRS, KNOWN_HEIGHT_ATTRS, MAX_HEIGHT_M};
 pub use lod::LodChoice;
 pub use place::FRAME_RULE;

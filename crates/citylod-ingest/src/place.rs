@@ -1,8 +1,8 @@
 //! Placement: choose the local ENU frame for the ingested buildings and map footprints into it.
 //! Rule: the origin is the centre of the lon/lat bounding box of all written buildings, at the
 //! lowest ground height among them. Data heights (NAP, …) are taken as ellipsoidal heights as they
-//! are: no geoid model is applied, so the whole city sits offset by the local geoid height (the build's
-//! `--height-offset` raises the frame by what the user gives).
+//! are here; the build raises the frame by EGM96's geoid height there with `--geoid egm96` ([`crate::geoid_height_m`])
+//! and by what the user gives with `--height-offset`.
 
 use citylod_model::LocalFrame;
 use geo_types::{Coord, LineString, MultiPolygon, Polygon};
@@ -13,8 +13,7 @@ use crate::IngestError;
 /// The frame rule in words, for the report.
 pub const FRAME_RULE: &str = "origin = centre of the lon/lat bounding box of all written buildings (longitudes \
      taken in -180..180 or 0..360 degrees, whichever box is narrower, so data across the antimeridian is centred \
-     there), at the lowest ground height among them; data heights are used as ellipsoidal heights (no geoid model \
-     applied)";
+     there), at the lowest ground height among them; data heights taken as heights above the WGS84 ellipsoid";
 
 /// A lon/lat bounding box in degrees, kept with longitudes in [−180°, 180°] and again in [0°, 360°): buildings
 /// on both sides of the antimeridian make a box around the world in the first and a narrow one in the second.

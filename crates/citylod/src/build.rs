@@ -45,8 +45,9 @@ pub struct BuildArgs {
     /// Metres added to every height on output (the tileset's frame is raised by it). 3D Tiles places content by
     /// ellipsoidal (WGS84) height, while data heights are usually above a geoid or local datum (NAP, NAVD88, …):
     /// give the geoid's height where the data lies (tens of metres, positive in most of Europe, negative in most of
-    /// North America) so the buildings stand on a globe's terrain, not above or below it. Footprints without
-    /// ground heights stand at 0 m; this lifts them too. Default 0: heights are used as ellipsoidal heights.
+    /// North America) so the buildings stand on a globe's terrain, not above or below it, or use --geoid egm96 and
+    /// give here only what your datum differs from it. Footprints without ground heights stand at 0 m; this lifts
+    /// them too. Default 0: heights are used as ellipsoidal heights.
     #[arg(
         long,
         value_name = "M",
@@ -55,6 +56,14 @@ pub struct BuildArgs {
         help_heading = "Input"
     )]
     pub height_offset: f64,
+
+    /// What the input heights are measured from. `none` (default): they are used as heights above the WGS84
+    /// ellipsoid. `egm96`: they are above mean sea level, as NAP, NAVD88 and most national datums are to within
+    /// about a metre; the tileset's frame is raised by EGM96's geoid height at its origin (+43 m at Delft, −29 m at
+    /// Boston; NGA's 15′ grid, built in), so the buildings stand on a globe's terrain. The build report records the
+    /// geoid height used and its range over the data. Adds to --height-offset.
+    #[arg(long, value_enum, default_value_t = GeoidArg::None, help_heading = "Input")]
+    pub geoid: GeoidArg,
 
     /// Read the 3D geometry of CityJSON buildings at this LoD (`2.2`, `2`, `1.3`, … or `highest`) and give every
     /// building a chain of detail below its footprint prism: the full model (error 0), a simplified model and the
@@ -254,6 +263,16 @@ pub enum CompressionArg {
     Draco,
 }
 
+/// `--geoid`.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum GeoidArg {
+    /// Heights are ellipsoidal heights (default)
+    None,
+    /// Heights are above the EGM96 geoid (mean sea level)
+    Egm96,
+}
+
 /// `--building-simplifier`.
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum, Serialize)]
 #[serde(rename_all = "kebab-case")]
@@ -286,6 +305,9 @@ struct BuildReport<'a> {
     inputs: Vec<String>,
     options: serde_json::Value,
     frame: &'a citylod_model::LocalFrame,
+    /// With `--geoid egm96`: the geoid height added to the frame and its range over the buildings.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    geoid: Option<GeoidUsed>,
     counts: Counts,
     ingest: &'a citylod_ingest::IngestReport,
     /// The street lines read with `--streets`: segments, length, every feature not used.
@@ -303,6 +325,65 @@ struct BuildReport<'a> {
     /// Only with --report-timings.
     #[serde(skip_serializing_if = "Option::is_none")]
     timings_ms: Option<Timings>,
+}
+
+/// The geoid height `--geoid` added to the frame's origin, and how far it varies under the buildings (the frame
+/// is raised by one value, so buildings far from the origin are off by the difference).
+#[derive(Serialize, Debug, Clone, Copy)]
+struct GeoidUsed {
+    model: &'static str,
+    /// At the frame's origin, added to its height.
+    height_m: f64,
+    /// Lowest and highest over the buildings' bounding box (its corners, edge midpoints and centre).
+    min_m: f64,
+    max_m: f64,
+}
+
+/// EGM96's geoid height at the frame's origin and its range over the buildings' extent. The geoid is smooth over
+/// a city (a few centimetres per kilometre), so nine points of the bounding box give its range.
+fn geoid_over(
+    frame: &citylod_model::LocalFrame,
+    buildings: &[citylod_model::Building],
+) -> GeoidUsed {
+    use geo::BoundingRect;
+    let mut b = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    for r in buildings
+        .iter()
+        .filter_map(|bd| bd.footprint.bounding_rect())
+    {
+        b = [
+            b[0].min(r.min().x),
+            b[1].min(r.min().y),
+            b[2].max(r.max().x),
+            b[3].max(r.max().y),
+        ];
+    }
+    let at = |x: f64, y: f64| {
+        let [lon, lat, _] = frame.enu_to_geodetic([x, y, 0.0]);
+        // The frame's origin and the buildings are finite (ingest refuses the rest), so the lookup answers.
+        citylod_ingest::geoid_height_m(lat, lon).unwrap_or(0.0)
+    };
+    let height_m = at(0.0, 0.0);
+    let (mut min_m, mut max_m) = (height_m, height_m);
+    for x in [b[0], 0.5 * (b[0] + b[2]), b[2]] {
+        for y in [b[1], 0.5 * (b[1] + b[3]), b[3]] {
+            let n = at(x, y);
+            min_m = min_m.min(n);
+            max_m = max_m.max(n);
+        }
+    }
+    let cm = |v: f64| (v * 100.0).round() / 100.0;
+    GeoidUsed {
+        model: "egm96",
+        height_m,
+        min_m: cm(min_m),
+        max_m: cm(max_m),
+    }
 }
 
 #[derive(Serialize)]
@@ -448,8 +529,20 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
             .map_err(|e| anyhow::anyhow!("--lod: {e}"))?,
     };
     let mut ingested = ingest(&args.inputs, &opts).context("reading the input")?;
+    // Positions are relative to the frame's origin, so raising the origin raises everything.
+    let geoid = match args.geoid {
+        GeoidArg::Egm96 if !ingested.buildings.is_empty() => {
+            let g = geoid_over(&ingested.frame, &ingested.buildings);
+            ingested.frame.origin_h_m += g.height_m;
+            ingested.report.frame_rule = format!(
+                "{}; then raised by EGM96's geoid height there, {:.2} m (--geoid egm96)",
+                ingested.report.frame_rule, g.height_m
+            );
+            Some(g)
+        }
+        _ => None,
+    };
     if args.height_offset != 0.0 && !ingested.buildings.is_empty() {
-        // Positions are relative to the frame's origin, so raising the origin raises everything.
         ingested.frame.origin_h_m += args.height_offset;
         ingested.report.frame_rule = format!(
             "{}; then raised by --height-offset {} m",
@@ -625,7 +718,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         options: serde_json::json!({
             "crs": args.crs, "height_attr": args.height_attr, "storey_attr": args.storey_attr,
             "storey_height_m": args.storey_height, "default_height_m": args.default_height,
-            "height_offset_m": args.height_offset,
+            "height_offset_m": args.height_offset, "geoid": args.geoid,
             "tile_max_features": args.tile_max_features, "tile_max_triangles": args.tile_max_triangles,
             "lod": args.lod, "building_simplifier": args.building_simplifier, "building_rate": args.building_rate,
             "topo_qem_a": args.topo_qem_a,
@@ -638,6 +731,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
             "max_tileset_json_bytes": args.max_tileset_json_bytes,
         }),
         frame: &ingested.frame,
+        geoid,
         counts: Counts {
             features_read: r.features_read,
             buildings_written: written,
