@@ -60,8 +60,9 @@ pub struct BuildArgs {
     /// What the input heights are measured from. `none` (default): they are used as heights above the WGS84
     /// ellipsoid. `egm96`: they are above mean sea level, as NAP, NAVD88 and most national datums are to within
     /// about a metre; the tileset's frame is raised by EGM96's geoid height at its origin (+43 m at Delft, −29 m at
-    /// Boston; NGA's 15′ grid, built in), so the buildings stand on a globe's terrain. The build report records the
-    /// geoid height used and its range over the data. Adds to --height-offset.
+    /// Boston; NGA's 15′ grid, built in), so the buildings stand on a globe's terrain (on a globe without terrain,
+    /// whose surface is the ellipsoid, leave it out). The build report records the geoid height used and its range
+    /// over the data. Adds to --height-offset.
     #[arg(long, value_enum, default_value_t = GeoidArg::None, help_heading = "Input")]
     pub geoid: GeoidArg,
 
