@@ -35,7 +35,11 @@ pub(crate) fn schema_json(schema: &MetadataSchema, used: &[&str], descriptions: 
                 .iter()
                 .map(|p| {
                     let (ty, ct, no_data) = match p.kind {
-                        PropertyKind::String => ("STRING", None, serde_json::json!("")),
+                        PropertyKind::String => (
+                            "STRING",
+                            None,
+                            serde_json::json!(p.string_no_data.as_deref().unwrap_or("")),
+                        ),
                         PropertyKind::Float64 => {
                             ("SCALAR", Some("FLOAT64"), serde_json::json!(NO_DATA_F64))
                         }
@@ -171,7 +175,8 @@ pub(crate) fn encode_column<'a>(
             PropertyKind::String => {
                 offsets.push(out.len());
                 match v {
-                    PropValue::Null => {}
+                    PropValue::Null => out
+                        .extend_from_slice(prop.string_no_data.as_deref().unwrap_or("").as_bytes()),
                     PropValue::Str(s) => out.extend_from_slice(s.as_bytes()),
                     PropValue::Bool(b) => out.extend_from_slice(b.to_string().as_bytes()),
                     PropValue::Int(k) => out.extend_from_slice(k.to_string().as_bytes()),
@@ -341,6 +346,7 @@ mod tests {
             kind,
             description: Some("what p means".into()),
             nullable,
+            string_no_data: None,
         }
     }
 
@@ -415,6 +421,33 @@ mod tests {
             .collect();
         let want: Vec<PropValue> = (0..11).map(|k| Bool(k != 5 && k % 3 == 0)).collect();
         assert_eq!(round_trip(PropertyKind::Boolean, &b), want);
+    }
+
+    /// With a noData other than "", an empty string and a missing value read back apart; with "" they cannot.
+    #[test]
+    fn an_empty_string_and_no_value_stay_apart_with_another_no_data() {
+        use PropValue::*;
+        let mut p = def(PropertyKind::String, true);
+        p.string_no_data = Some("(no value)".into());
+        let schema = MetadataSchema {
+            id: "s".into(),
+            classes: vec![ClassDef {
+                id: "c".into(),
+                properties: vec![p.clone()],
+            }],
+        };
+        let prop = schema_json(&schema, &["c"], false).classes["c"].properties["p"].clone();
+        assert_eq!(prop.no_data, Some(serde_json::json!("(no value)")));
+        let vals = [Str(String::new()), Null, Str("a".into()), Null];
+        let col = encode_column(&p, vals.iter()).unwrap();
+        let (o, ty) = col.string_offsets.as_ref().unwrap();
+        let back =
+            decode_column(&prop, vals.len(), &col.values, Some((o.as_slice(), *ty))).unwrap();
+        assert_eq!(back, vals);
+        assert_eq!(
+            round_trip(PropertyKind::String, &vals),
+            [Null, Null, Str("a".into()), Null]
+        );
     }
 
     #[test]

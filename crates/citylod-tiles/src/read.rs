@@ -1194,6 +1194,7 @@ mod tests {
                     kind: PropertyKind::String,
                     description: None,
                     nullable: true,
+                    string_no_data: None,
                 }],
             }],
         };
@@ -1281,6 +1282,7 @@ mod volume_and_contents_tests {
                     kind: PropertyKind::String,
                     description: None,
                     nullable: false,
+                    string_no_data: None,
                 }],
             }],
         };

@@ -43,6 +43,9 @@ pub struct PropertyDef {
     /// Whether features may have no value: only then does the schema declare a `noData` value (strings and
     /// numbers), and a null for a property that is not nullable is an error.
     pub nullable: bool,
+    /// The `noData` of a nullable STRING property; `None` is `""`. A column whose values include the empty string
+    /// needs another one, or those values would read back as missing.
+    pub string_no_data: Option<String>,
 }
 
 /// A class of features ("building", later "cluster").
@@ -184,18 +187,21 @@ mod tests {
                         kind: PropertyKind::Float64,
                         description: None,
                         nullable: true,
+                        string_no_data: None,
                     },
                     PropertyDef {
                         name: "a".into(),
                         kind: PropertyKind::String,
                         description: None,
                         nullable: true,
+                        string_no_data: None,
                     },
                     PropertyDef {
                         name: "a".into(),
                         kind: PropertyKind::String,
                         description: None,
                         nullable: true,
+                        string_no_data: None,
                     },
                 ],
             }],

@@ -347,6 +347,7 @@ mod tests {
             kind,
             description: Some(format!("the {name}")),
             nullable: true,
+            string_no_data: None,
         };
         MetadataSchema {
             id: "citylod".into(),

@@ -50,8 +50,13 @@ impl BuildingTable {
         let mut kinds: BTreeMap<&str, Option<PropertyKind>> = BTreeMap::new();
         // Buildings with a value (not null) per attribute.
         let mut present: BTreeMap<&str, usize> = BTreeMap::new();
+        // Attributes some building has as the empty string.
+        let mut empty: BTreeSet<&str> = BTreeSet::new();
         for b in buildings {
             for (k, v) in &b.attributes {
+                if matches!(v, AttrValue::String(s) if s.is_empty()) {
+                    empty.insert(k.as_str());
+                }
                 let seen = kinds.entry(k.as_str()).or_insert(None);
                 let this = match v {
                     AttrValue::Null => continue,
@@ -87,6 +92,7 @@ impl BuildingTable {
                 kind,
                 description: Some(desc.to_string()),
                 nullable: false,
+                string_no_data: None,
             })
             .collect();
         let mut attrs = Vec::new();
@@ -105,11 +111,18 @@ impl BuildingTable {
             } else {
                 kind
             };
+            // A string column's noData is "", unless some building has the empty string and another none: then
+            // a text no building has, so the two stay apart.
+            let string_no_data = (kind == PropertyKind::String
+                && empty.contains(name)
+                && present.get(name).copied().unwrap_or(0) < buildings.len())
+            .then(|| absent_text(buildings, name));
             properties.push(PropertyDef {
                 name: id,
                 kind,
                 description,
                 nullable: true,
+                string_no_data,
             });
             attrs.push((name.to_string(), kind));
         }
@@ -258,6 +271,22 @@ const CLUSTER: [(&str, PropertyKind, bool, &str); 15] = [
 /// Index of the cluster class in [`schema`].
 pub const CLUSTER_CLASS: usize = 1;
 
+/// `(no value)`, with `~` added until no building's `name` attribute is that text.
+fn absent_text(buildings: &[Building], name: &str) -> String {
+    let taken: BTreeSet<&str> = buildings
+        .iter()
+        .filter_map(|b| match b.attributes.get(name) {
+            Some(AttrValue::String(s)) => Some(s.as_str()),
+            _ => None,
+        })
+        .collect();
+    let mut text = String::from("(no value)");
+    while taken.contains(text.as_str()) {
+        text.push('~');
+    }
+    text
+}
+
 /// The metadata schema of a build: `building` (index 0) and `cluster` (index 1).
 pub fn schema(buildings: &BuildingTable) -> MetadataSchema {
     let cluster = ClassDef {
@@ -269,6 +298,7 @@ pub fn schema(buildings: &BuildingTable) -> MetadataSchema {
                 kind,
                 description: Some(d.into()),
                 nullable,
+                string_no_data: None,
             })
             .collect(),
     };
@@ -483,6 +513,60 @@ mod tests {
         assert_eq!(values(1)[col("big_mixed")], PropValue::Float(0.5));
         assert_eq!(values(1)[col("wide")], PropValue::Int(1 << 40));
         assert_eq!(values(0)[col("text")], PropValue::Str("1".into()));
+        // Columns without an empty string keep "" as their noData.
+        assert!(t
+            .class
+            .properties
+            .iter()
+            .all(|p| p.string_no_data.is_none()));
+    }
+
+    /// A text attribute that some buildings have as "" and others not at all gets a noData no building has, so
+    /// the two read back apart; where only one of the two happens, "" serves.
+    #[test]
+    fn empty_strings_and_missing_values_get_a_no_data_apart() {
+        use citylod_model::{BuildingId, HeightSource};
+        let b = |i: u32, attrs: &[(&str, &str)]| Building {
+            id: BuildingId(i),
+            source_id: format!("b{i}"),
+            footprint: geo::MultiPolygon(vec![]),
+            base_z_m: 0.0,
+            height_m: 10.0,
+            height_source: HeightSource::Default,
+            attributes: attrs
+                .iter()
+                .map(|(k, v)| (k.to_string(), AttrValue::String(v.to_string())))
+                .collect(),
+            mesh: None,
+        };
+        let buildings = [
+            b(
+                0,
+                &[
+                    ("both", ""),
+                    ("taken", ""),
+                    ("only_empty", ""),
+                    ("only_missing", "x"),
+                ],
+            ),
+            b(1, &[("taken", "(no value)"), ("only_empty", "")]),
+            b(2, &[("both", "y"), ("taken", "z"), ("only_empty", "w")]),
+            b(3, &[("only_empty", "v")]),
+        ];
+        let t = BuildingTable::new(&buildings);
+        let no_data = |name: &str| {
+            t.class
+                .properties
+                .iter()
+                .find(|p| p.name == name)
+                .unwrap()
+                .string_no_data
+                .clone()
+        };
+        assert_eq!(no_data("both").as_deref(), Some("(no value)"));
+        assert_eq!(no_data("taken").as_deref(), Some("(no value)~"));
+        assert_eq!(no_data("only_empty"), None);
+        assert_eq!(no_data("only_missing"), None);
     }
 
     /// `schemas/metadata.json` documents the metadata schema every glb carries inline: the `cluster` class and the
