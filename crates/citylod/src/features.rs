@@ -435,22 +435,23 @@ mod tests {
         assert_eq!(unique_id("", &mut used), "_");
     }
 
-    #[test]
-    fn attribute_types_are_inferred_over_all_buildings() {
-        use citylod_model::{BuildingId, HeightSource};
-        let b = |i: u32, attrs: &[(&str, AttrValue)]| Building {
-            id: BuildingId(i),
+    /// A building `i` with these attributes and nothing else of interest.
+    fn building<'a>(i: u32, attrs: impl IntoIterator<Item = (&'a str, AttrValue)>) -> Building {
+        Building {
+            id: citylod_model::BuildingId(i),
             source_id: format!("b{i}"),
             footprint: geo::MultiPolygon(vec![]),
             base_z_m: 0.0,
             height_m: 10.0,
-            height_source: HeightSource::Default,
-            attributes: attrs
-                .iter()
-                .map(|(k, v)| (k.to_string(), v.clone()))
-                .collect(),
+            height_source: citylod_model::HeightSource::Default,
+            attributes: attrs.into_iter().map(|(k, v)| (k.to_string(), v)).collect(),
             mesh: None,
-        };
+        }
+    }
+
+    #[test]
+    fn attribute_types_are_inferred_over_all_buildings() {
+        let b = |i: u32, attrs: &[(&str, AttrValue)]| building(i, attrs.iter().cloned());
         use AttrValue::*;
         let buildings = [
             b(
@@ -525,19 +526,11 @@ mod tests {
     /// the two read back apart; where only one of the two happens, "" serves.
     #[test]
     fn empty_strings_and_missing_values_get_a_no_data_apart() {
-        use citylod_model::{BuildingId, HeightSource};
-        let b = |i: u32, attrs: &[(&str, &str)]| Building {
-            id: BuildingId(i),
-            source_id: format!("b{i}"),
-            footprint: geo::MultiPolygon(vec![]),
-            base_z_m: 0.0,
-            height_m: 10.0,
-            height_source: HeightSource::Default,
-            attributes: attrs
-                .iter()
-                .map(|(k, v)| (k.to_string(), AttrValue::String(v.to_string())))
-                .collect(),
-            mesh: None,
+        let b = |i: u32, attrs: &[(&str, &str)]| {
+            building(
+                i,
+                attrs.iter().map(|&(k, v)| (k, AttrValue::String(v.into()))),
+            )
         };
         let buildings = [
             b(
