@@ -65,13 +65,16 @@ struct Collection<'a> {
 
 /// Fast path for a FeatureCollection text: one scan for the outline, then the features are parsed
 /// in parallel (in order). `Ok(None)` when the text is valid JSON but not a FeatureCollection with
-/// a features array; `Err` when it is not valid JSON.
+/// a features array; `Err` when it is not valid JSON or repeats one of the members read here.
 pub(crate) fn read_collection_text(
     text: &str,
     file_name: &str,
 ) -> Result<Option<GeoJsonDoc>, serde_json::Error> {
     let c: Collection = match serde_json::from_str(text) {
         Ok(c) => c,
+        // Two `features` (or `type`, `crs`) members: a generic JSON reader would keep the last and
+        // silently drop the other's features, so the file is rejected with serde's message.
+        Err(e) if e.to_string().starts_with("duplicate field") => return Err(e),
         Err(e) if e.classify() == serde_json::error::Category::Data => return Ok(None),
         Err(e) => return Err(e),
     };
@@ -571,6 +574,19 @@ mod tests {
         assert!(
             read_collection_text(r#"{"type": "FeatureCollection", "features": [{"#, "f").is_err()
         );
+    }
+
+    #[test]
+    fn a_repeated_features_member_is_an_error_not_a_silent_choice() {
+        let text = r#"{"type": "FeatureCollection",
+            "features": [{"type": "Feature", "properties": {}, "geometry": null}],
+            "features": []}"#;
+        let e = read_collection_text(text, "f").err().expect("rejected");
+        assert!(e.to_string().contains("duplicate field `features`"), "{e}");
+        assert_eq!(e.line(), 3);
+        // Other repeated members (not read here) do not matter.
+        let ok = r#"{"type": "FeatureCollection", "name": "a", "name": "b", "features": []}"#;
+        assert_eq!(read_collection_text(ok, "f").unwrap().unwrap().features.len(), 0);
     }
 
     #[test]
