@@ -34,6 +34,10 @@ pub struct GraphStats {
     pub n_delaunay_points: usize,
     /// Edges added only to join components the two searches left apart (0 on sound input).
     pub n_fallback_edges: usize,
+    /// Footprints identical to an earlier one (same vertices, bit for bit): each is joined to the first
+    /// of its kind at distance 0 and left out of the searches, so a pile of k copies costs k − 1 edges
+    /// instead of k(k − 1)/2.
+    pub n_duplicate_footprints: usize,
     /// The reach of the refinement pass (m); merges below (1 − λ)·reach_far_m equal brute force.
     pub reach_far_m: f64,
     /// Pairs added by the refinement pass ([`refine_pairs`]).
@@ -81,13 +85,20 @@ pub fn candidate_pairs(
     max_points_per_building: usize,
 ) -> (Vec<(u32, u32)>, GraphStats) {
     let n = footprints.len();
-    let boxes: Vec<Option<[f64; 4]>> = footprints.iter().map(|f| bbox(f)).collect();
+    let first = first_of_kind(footprints);
+    let boxes = searched_boxes(footprints, &first);
 
     let reach_pairs = reach_pairs(&boxes, reach_m);
-    let (delaunay_pairs, n_points) = delaunay_pairs(footprints, max_points_per_building);
-    let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(reach_pairs.len() + delaunay_pairs.len());
+    let (delaunay_pairs, n_points) = delaunay_pairs(footprints, &first, max_points_per_building);
+    let twins: Vec<(u32, u32)> = (0..n as u32)
+        .filter(|&i| first[i as usize] != i)
+        .map(|i| (first[i as usize], i))
+        .collect();
+    let mut pairs: Vec<(u32, u32)> =
+        Vec::with_capacity(reach_pairs.len() + delaunay_pairs.len() + twins.len());
     pairs.extend_from_slice(&reach_pairs);
     pairs.extend_from_slice(&delaunay_pairs);
+    pairs.extend_from_slice(&twins);
     pairs.sort_unstable();
     pairs.dedup();
 
@@ -115,6 +126,7 @@ pub fn candidate_pairs(
         n_delaunay_pairs: delaunay_pairs.len(),
         n_delaunay_points: n_points,
         n_fallback_edges,
+        n_duplicate_footprints: twins.len(),
         reach_far_m: 0.0,
         n_refine_pairs: 0,
         n_edges: pairs.len(),
@@ -158,7 +170,8 @@ pub fn refine_pairs(
 ) -> Vec<(u32, u32)> {
     const CHUNK: usize = 1 << 16;
     let n = footprints.len();
-    let boxes: Vec<Option<[f64; 4]>> = footprints.iter().map(|f| bbox(f)).collect();
+    // A copy is joined to its original at 0 and is as far from every other building: no pair of it counts.
+    let boxes = searched_boxes(footprints, &first_of_kind(footprints));
     let half = reach_far_m.max(0.0) / 2.0;
     let grown =
         |b: &[f64; 4]| AABB::from_corners([b[0] - half, b[1] - half], [b[2] + half, b[3] + half]);
@@ -238,6 +251,65 @@ pub fn refine_pairs(
     out
 }
 
+/// For every footprint, the index of the first footprint identical to it (itself if none is): the
+/// same polygons with the same vertices, compared bit for bit. Footprints without a finite vertex are
+/// their own kind (they only join through fallback edges).
+fn first_of_kind(footprints: &[&Footprint]) -> Vec<u32> {
+    use std::hash::{Hash, Hasher};
+    let key = |i: usize| {
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        footprint_bits(footprints[i]).for_each(|b| b.hash(&mut h));
+        h.finish()
+    };
+    let n = footprints.len();
+    let mut order: Vec<(u64, u32)> = (0..n)
+        .into_par_iter()
+        .filter(|&i| bbox(footprints[i]).is_some())
+        .map(|i| (key(i), i as u32))
+        .collect();
+    order.par_sort_unstable();
+    let mut first: Vec<u32> = (0..n as u32).collect();
+    for run in order.chunk_by(|x, y| x.0 == y.0) {
+        // Equal hashes: compare for real; each footprint joins the first earlier one it equals.
+        for (k, &(_, i)) in run.iter().enumerate() {
+            let same = run[..k].iter().map(|&(_, j)| j).find(|&j| {
+                first[j as usize] == j
+                    && footprint_bits(footprints[j as usize])
+                        .eq(footprint_bits(footprints[i as usize]))
+            });
+            if let Some(j) = same {
+                first[i as usize] = j;
+            }
+        }
+    }
+    first
+}
+
+/// A footprint as a sequence of words: its number of polygons, then per polygon its number of holes
+/// and per ring (the exterior first) its length and its coordinates' bits. Two footprints are
+/// identical when their sequences are.
+fn footprint_bits(fp: &Footprint) -> impl Iterator<Item = u64> + '_ {
+    fn ring(r: &geo::LineString) -> impl Iterator<Item = u64> + '_ {
+        std::iter::once(r.0.len() as u64)
+            .chain(r.0.iter().flat_map(|c| [c.x.to_bits(), c.y.to_bits()]))
+    }
+    std::iter::once(fp.0.len() as u64).chain(fp.0.iter().flat_map(move |p| {
+        std::iter::once(p.interiors().len() as u64)
+            .chain(ring(p.exterior()))
+            .chain(p.interiors().iter().flat_map(ring))
+    }))
+}
+
+/// The boxes the reach searches use: a copy of an earlier footprint has none (it is joined to that
+/// one directly).
+fn searched_boxes(footprints: &[&Footprint], first: &[u32]) -> Vec<Option<[f64; 4]>> {
+    footprints
+        .iter()
+        .enumerate()
+        .map(|(i, f)| if first[i] == i as u32 { bbox(f) } else { None })
+        .collect()
+}
+
 /// [min x, min y, max x, max y] over the finite vertices, `None` when there are none.
 pub(crate) fn bbox(fp: &Footprint) -> Option<[f64; 4]> {
     let mut b = [
@@ -306,10 +378,18 @@ impl HasPosition for Site {
 }
 
 /// Delaunay edges between different buildings, over up to `max_points` exterior vertices per footprint.
-fn delaunay_pairs(footprints: &[&Footprint], max_points: usize) -> (Vec<(u32, u32)>, usize) {
+/// Copies of an earlier footprint (`first[i] != i`) are left out.
+fn delaunay_pairs(
+    footprints: &[&Footprint],
+    first: &[u32],
+    max_points: usize,
+) -> (Vec<(u32, u32)>, usize) {
     let max_points = max_points.max(1);
     let mut sites: Vec<Site> = Vec::new();
     for (i, fp) in footprints.iter().enumerate() {
+        if first[i] != i as u32 {
+            continue;
+        }
         let pts: Vec<_> =
             fp.0.iter()
                 .flat_map(|p| {
@@ -399,6 +479,50 @@ mod tests {
             .find(|e| (e.a, e.b) == (0, 30))
             .expect("twins are candidates");
         assert_eq!(twin.d_m, 0.0);
+    }
+
+    #[test]
+    fn a_pile_of_copies_costs_one_edge_per_copy() {
+        // 400 copies of one footprint (stacked units, or a feature repeated), beside a row of others.
+        let mut fps: Vec<Footprint> = (0..10)
+            .map(|i| square(i as f64 * 12.0, 0.0, 10.0))
+            .collect();
+        fps.extend((0..400).map(|_| square(12.0, 0.0, 10.0)));
+        // Same box, different footprints: a square with a hole, and the square's ring started elsewhere.
+        let mut holed = square(12.0, 0.0, 10.0);
+        holed.0[0].interiors_push(vec![(14.0, 2.0), (16.0, 2.0), (16.0, 4.0), (14.0, 2.0)]);
+        fps.push(holed);
+        fps.push(MultiPolygon(vec![polygon![
+            (x: 22.0, y: 0.0), (x: 22.0, y: 10.0), (x: 12.0, y: 10.0), (x: 12.0, y: 0.0)
+        ]]));
+        let n = fps.len();
+        let refs: Vec<&Footprint> = fps.iter().collect();
+        let (edges, stats) = candidate_graph(&refs, 3.0, 0.6, 16);
+        assert_eq!(stats.n_duplicate_footprints, 400);
+        assert!(connected(n, &edges));
+        // Every copy is joined to building 1 at 0, and to nothing else.
+        for c in 10..410u32 {
+            let touching: Vec<_> = edges.iter().filter(|e| e.a == c || e.b == c).collect();
+            assert_eq!(touching.len(), 1, "copy {c}: {touching:?}");
+            assert_eq!((touching[0].a, touching[0].b, touching[0].d_m), (1, c, 0.0));
+        }
+        assert!(edges.len() < 400 + 60, "{} edges", edges.len());
+        // The two look-alikes are searched as footprints of their own.
+        for other in [410u32, 411] {
+            assert!(edges.iter().any(|e| e.b == other && e.a != 1));
+        }
+        // Single-link joins at the same distances as on the graph of every pair.
+        let all: Vec<(u32, u32)> = (0..n as u32)
+            .flat_map(|a| (a + 1..n as u32).map(move |b| (a, b)))
+            .collect();
+        let brute = weigh_pairs(&refs, &all, 0.6);
+        let d = |es: &[CandidateEdge]| -> Vec<f64> {
+            crate::single_link::single_link(n, es)
+                .iter()
+                .map(|m| m.d_m)
+                .collect()
+        };
+        assert_eq!(d(&edges), d(&brute));
     }
 
     #[test]

@@ -586,7 +586,14 @@ mod tests {
         assert_eq!(e.line(), 3);
         // Other repeated members (not read here) do not matter.
         let ok = r#"{"type": "FeatureCollection", "name": "a", "name": "b", "features": []}"#;
-        assert_eq!(read_collection_text(ok, "f").unwrap().unwrap().features.len(), 0);
+        assert_eq!(
+            read_collection_text(ok, "f")
+                .unwrap()
+                .unwrap()
+                .features
+                .len(),
+            0
+        );
     }
 
     #[test]
