@@ -359,6 +359,54 @@ struct Candidate {
     quad: [[f64; 2]; 4],
 }
 
+/// Above this many points a triangulation is bulk-loaded: inserted one by one in ring order, the points
+/// of a round outline cost O(n²) flips (a 100,000-point circle took minutes). Below, one-by-one
+/// insertion is faster.
+const BULK_LOAD_MIN_POINTS: usize = 256;
+
+/// A Delaunay triangulation of the points of `keys` (no constraints yet) and the vertex of each key
+/// (equal points share one). A key whose point spade rejects (not finite, out of its range) has no vertex.
+fn triangulate_points(
+    ctx: &Context,
+    keys: &[VKey],
+) -> (
+    ConstrainedDelaunayTriangulation<Point2<f64>>,
+    BTreeMap<VKey, spade::handles::FixedVertexHandle>,
+) {
+    let point = |k: VKey| {
+        let p = ctx.pos(k);
+        Point2::new(p[0], p[1])
+    };
+    let mut handle = BTreeMap::new();
+    if keys.len() < BULK_LOAD_MIN_POINTS {
+        let mut cdt = ConstrainedDelaunayTriangulation::new();
+        for &k in keys {
+            if let Ok(h) = cdt.insert(point(k)) {
+                handle.insert(k, h);
+            }
+        }
+        return (cdt, handle);
+    }
+    let valid = |p: &Point2<f64>| {
+        spade::validate_coordinate(p.x).is_ok() && spade::validate_coordinate(p.y).is_ok()
+    };
+    let points: Vec<Point2<f64>> = keys.iter().map(|&k| point(k)).filter(valid).collect();
+    let cdt =
+        ConstrainedDelaunayTriangulation::bulk_load_cdt(points, Vec::new()).unwrap_or_default();
+    // Equal points share one vertex; -0.0 and 0.0 are equal.
+    let bits = |p: Point2<f64>| ((p.x + 0.0).to_bits(), (p.y + 0.0).to_bits());
+    let by_point: std::collections::HashMap<_, _> = cdt
+        .vertices()
+        .map(|v| (bits(v.position()), v.fix()))
+        .collect();
+    for &k in keys {
+        if let Some(&h) = by_point.get(&bits(point(k))) {
+            handle.insert(k, h);
+        }
+    }
+    (cdt, handle)
+}
+
 fn bridge_pair(ctx: &Context, ia: usize, ib: usize, lambda_adjacent: f64) -> PairOutcome {
     let (pa, pb) = (&ctx.parts[ia], &ctx.parts[ib]);
     let (Some(_), Some(_)) = (pa.bbox, pb.bbox) else {
@@ -374,20 +422,14 @@ fn bridge_pair(ctx: &Context, ia: usize, ib: usize, lambda_adjacent: f64) -> Pai
     keys.sort_unstable();
     keys.dedup();
 
-    let mut cdt: ConstrainedDelaunayTriangulation<Point2<f64>> = Default::default();
-    let mut owner: Vec<Option<VKey>> = Vec::new();
-    let mut handle: BTreeMap<VKey, spade::handles::FixedVertexHandle> = BTreeMap::new();
+    let (cdt, handle) = triangulate_points(ctx, &keys);
+    let mut owner: Vec<Option<VKey>> = vec![None; cdt.num_vertices()];
     for &k in &keys {
-        let p = ctx.pos(k);
-        let Ok(h) = cdt.insert(Point2::new(p[0], p[1])) else {
-            continue;
-        };
-        if owner.len() <= h.index() {
-            owner.resize(h.index() + 1, None);
+        if let Some(h) = handle.get(&k) {
+            owner[h.index()].get_or_insert(k);
         }
-        owner[h.index()].get_or_insert(k);
-        handle.insert(k, h);
     }
+    let mut cdt = cdt;
     for &k in &keys {
         let n = ctx.ring_len(k) as u32;
         let next = VKey {
@@ -970,6 +1012,40 @@ pub(crate) mod tests {
         assert!(m.footprint.is_valid());
         // The merged outline is the 23 × 10 rectangle (collinear points may remain).
         assert!(uncovered_m2(&[&rect(0.0, 0.0, 23.0, 10.0)], &m.footprint) < 1e-6);
+    }
+
+    #[test]
+    fn densely_sampled_facing_sides_bridge_over_the_bulk_threshold() {
+        // Two 100 m walls 3 m apart, each sampled every 25 cm (collinear points: a degenerate case for
+        // one-by-one insertion), so the bridge search triangulates over BULK_LOAD_MIN_POINTS points.
+        let wall = |x: f64, facing_right: bool| {
+            let ys: Vec<f64> = (0..=400).map(|i| i as f64 * 0.25).collect();
+            let (x_far, x_near) = if facing_right {
+                (x - 10.0, x)
+            } else {
+                (x + 10.0, x)
+            };
+            let mut pts = vec![(x_far, 100.0), (x_far, 0.0)];
+            pts.extend(ys.iter().map(|&y| (x_near, y)));
+            if !facing_right {
+                pts.reverse();
+            }
+            let mut ring: Vec<geo_types::Coord<f64>> = pts
+                .iter()
+                .map(|&(x, y)| geo_types::Coord { x, y })
+                .collect();
+            ring.push(ring[0]);
+            MultiPolygon(vec![Polygon::new(geo_types::LineString(ring), vec![])])
+        };
+        let (a, b) = (wall(10.0, true), wall(13.0, false));
+        let (m, bridges) = merge_with_bridges(&[&a, &b], &[(0, 1)], ADJACENT_LAMBDA);
+        assert!(!m.disconnected);
+        assert_eq!(bridges.len(), 1);
+        assert_eq!(m.footprint.0.len(), 1);
+        assert!(m.footprint.is_valid());
+        assert!(uncovered_m2(&[&a, &b], &m.footprint) < 1e-6);
+        let added = m.footprint.unsigned_area() - 2000.0;
+        assert!(added > 0.0 && added <= 300.0 + 1e-6, "{added}");
     }
 
     #[test]

@@ -108,17 +108,18 @@ fn push_roof(mesh: &mut Mesh3d, roof: &Roof, top_z_m: f64) {
         .extend(roof.1.iter().map(|t| [t[0] + v0, t[1] + v0, t[2] + v0]));
 }
 
+/// Above this many points a roof is bulk-loaded: inserted one by one in ring order, the points of a
+/// round outline cost O(n²) flips (a 100,000-point circle took over 10 min). Below, one-by-one
+/// insertion is faster.
+const BULK_LOAD_MIN_POINTS: usize = 256;
+
 /// Constrained Delaunay triangulation of the rings' points with every ring edge as a constraint; a
 /// face is inside when reaching it from the outer face crosses an odd number of constraint edges.
 /// Crossing constraints are split at their intersection. `None` when a point cannot be inserted.
 fn roof_triangles(rings: &[Vec<[f64; 2]>]) -> Option<Roof> {
-    let mut cdt: ConstrainedDelaunayTriangulation<Point2<f64>> =
-        ConstrainedDelaunayTriangulation::new();
-    for ring in rings {
-        let handles: Vec<_> = ring
-            .iter()
-            .map(|p| cdt.insert(Point2::new(p[0], p[1])).ok())
-            .collect::<Option<_>>()?;
+    type Cdt = ConstrainedDelaunayTriangulation<Point2<f64>>;
+    let point = |p: &[f64; 2]| Point2::new(p[0], p[1]);
+    let constrain = |cdt: &mut Cdt, handles: &[spade::handles::FixedVertexHandle]| {
         for i in 0..handles.len() {
             let (a, b) = (handles[i], handles[(i + 1) % handles.len()]);
             if a == b {
@@ -129,6 +130,34 @@ fn roof_triangles(rings: &[Vec<[f64; 2]>]) -> Option<Roof> {
             } else {
                 cdt.add_constraint_and_split(a, b, |p| p);
             }
+        }
+    };
+    let n_points: usize = rings.iter().map(Vec::len).sum();
+    let mut cdt: Cdt;
+    if n_points < BULK_LOAD_MIN_POINTS {
+        // Each ring's points, then its edges.
+        cdt = Cdt::new();
+        for ring in rings {
+            let handles: Vec<_> = ring
+                .iter()
+                .map(|p| cdt.insert(point(p)).ok())
+                .collect::<Option<_>>()?;
+            constrain(&mut cdt, &handles);
+        }
+    } else {
+        cdt = Cdt::bulk_load_cdt(rings.iter().flatten().map(point).collect(), Vec::new()).ok()?;
+        // Equal points share one vertex; -0.0 and 0.0 are equal.
+        let bits = |p: &[f64; 2]| ((p[0] + 0.0).to_bits(), (p[1] + 0.0).to_bits());
+        let by_point: std::collections::HashMap<_, _> = cdt
+            .vertices()
+            .map(|v| (bits(&[v.position().x, v.position().y]), v.fix()))
+            .collect();
+        for ring in rings {
+            let handles: Vec<_> = ring
+                .iter()
+                .map(|p| by_point.get(&bits(p)).copied())
+                .collect::<Option<_>>()?;
+            constrain(&mut cdt, &handles);
         }
     }
     let n_faces = cdt.all_faces().len();
@@ -332,6 +361,22 @@ mod tests {
         let m = extrude(&fp, 1.0, 9.0).unwrap();
         check_prism(&fp, &m, 1.0, 9.0).unwrap();
         assert_eq!(m.triangles.len(), 8 * 2 + 8);
+    }
+
+    #[test]
+    fn round_outlines_over_the_bulk_threshold_meet_every_invariant() {
+        // A gasometer-like ring (every point on one circle, the worst case for one-by-one insertion)
+        // with a round courtyard, above BULK_LOAD_MIN_POINTS, and a small one below it.
+        for (n_outer, n_hole) in [(3_000, 700), (40, 12)] {
+            let outer = star((100.0, 50.0), &vec![40.0; n_outer], true);
+            let hole = star((100.0, 50.0), &vec![15.0; n_hole], false);
+            let fp = MultiPolygon(vec![Polygon::new(outer, vec![hole])]);
+            let m = extrude(&fp, 0.0, 30.0).unwrap();
+            check_prism(&fp, &m, 0.0, 30.0).unwrap();
+            // A polygon with one hole: n − 2 + 2 roof triangles, two per wall.
+            let n = n_outer + n_hole;
+            assert_eq!(m.triangles.len(), n + 2 * n, "{n_outer}+{n_hole}");
+        }
     }
 
     #[test]
