@@ -88,8 +88,11 @@ pub fn candidate_pairs(
     let first = first_of_kind(footprints);
     let boxes = searched_boxes(footprints, &first);
 
-    let reach_pairs = reach_pairs(&boxes, reach_m);
-    let (delaunay_pairs, n_points) = delaunay_pairs(footprints, &first, max_points_per_building);
+    // The triangulation is serial: the reach search runs beside it.
+    let ((delaunay_pairs, n_points), reach_pairs) = rayon::join(
+        || delaunay_pairs(footprints, &first, max_points_per_building),
+        || reach_pairs(&boxes, reach_m),
+    );
     let twins: Vec<(u32, u32)> = (0..n as u32)
         .filter(|&i| first[i as usize] != i)
         .map(|i| (first[i as usize], i))
