@@ -111,6 +111,8 @@ fn leaf_copy(t: &tj::Tile) -> tj::Tile {
         content: None,
         contents: Vec::new(),
         children: Vec::new(),
+        implicit_tiling: None,
+        extensions: None,
     }
 }
 

@@ -35,6 +35,7 @@ mod external;
 mod glb;
 mod gltf_json;
 pub mod hlod;
+mod implicit;
 mod metadata;
 pub mod read;
 mod shading;

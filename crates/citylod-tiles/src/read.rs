@@ -3,7 +3,8 @@
 //! any quantized or float positions, node transforms, feature ids, property tables).
 //! Output positions are in the root tile's frame (z up; for citylod: local ENU metres), and so is every tile's
 //! bounding volume, as a box (a `sphere` or `region` as the box enclosing it). 3D Tiles 1.1 `contents` (several
-//! glbs on one tile) are appended into one content. Input it cannot use is an error naming the file and the tile.
+//! glbs on one tile) are appended into one content; implicit tiling is expanded into the explicit tree its
+//! subtree files describe (`implicit.rs`). Input it cannot use is an error naming the file and the tile.
 
 pub use crate::bounding_volume::VolumeKind;
 use crate::bounding_volume::{region_box_ecef, sphere_box};
@@ -356,6 +357,22 @@ fn walk(
     parent_to_root: Option<&[f64; 16]>,
     w: &mut Walk,
 ) -> Result<usize, TilesError> {
+    let implicit = crate::implicit::declared(t).map_err(|msg| TilesError::Tile {
+        tile: format!("{} ({})", at.path, at.json.display()),
+        msg,
+    })?;
+    if let Some(it) = implicit {
+        let base = at.json.parent().unwrap_or(Path::new(""));
+        let open = |uri: &str| -> Result<Vec<u8>, String> {
+            let file = content_file(base, uri, w.folder)?;
+            read_file(&file).map_err(|e| e.to_string())
+        };
+        let explicit = crate::implicit::expand(t, &it, &open).map_err(|msg| TilesError::Tile {
+            tile: format!("{} ({})", at.path, at.json.display()),
+            msg,
+        })?;
+        return walk(&explicit, at, parent_to_root, w);
+    }
     let Place {
         json,
         path,
@@ -1420,6 +1437,119 @@ mod volume_and_contents_tests {
             c.feature_ids
         );
         assert!((c.positions_local[last[0] as usize][0] - 0.0).abs() < 0.02);
+    }
+
+    /// A binary `.subtree`: header, JSON padded to 8 bytes, binary chunk.
+    fn binary_subtree(json: serde_json::Value, bin: &[u8]) -> Vec<u8> {
+        let mut j = json.to_string().into_bytes();
+        j.resize(j.len().next_multiple_of(8), b' ');
+        let mut out = b"subt".to_vec();
+        out.extend(1u32.to_le_bytes());
+        out.extend((j.len() as u64).to_le_bytes());
+        out.extend((bin.len() as u64).to_le_bytes());
+        out.extend(j);
+        out.extend(bin);
+        out
+    }
+
+    #[test]
+    fn implicit_quadtrees_are_read_as_the_tree_their_subtrees_describe() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        for (k, name) in ["0/0/0", "1/0/0", "1/1/1", "2/2/2"].iter().enumerate() {
+            let f = d.join(format!("tiles/{name}.glb"));
+            std::fs::create_dir_all(f.parent().unwrap()).unwrap();
+            std::fs::write(f, glb_of(&[&format!("t{k}")])).unwrap();
+        }
+        // Root subtree (levels 0 and 1): the root and children 0 (x 0, y 0) and 3 (x 1, y 1) available,
+        // with content; below child 3, the subtree rooted at level 2, x 2, y 2 (Morton index 12).
+        let mut bin = vec![0u8; 24];
+        bin[0] = 0b1_0011; // tiles: index 0 (root), 1 + 0 and 1 + 3
+        bin[8] = 0b1_0011; // content: the same
+        bin[16 + 1] = 0b0001_0000; // child subtrees: bit 12
+        let root_subtree = json!({
+            "buffers": [{"byteLength": 24}],
+            "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 1},
+                {"buffer": 0, "byteOffset": 8, "byteLength": 1},
+                {"buffer": 0, "byteOffset": 16, "byteLength": 2}],
+            "tileAvailability": {"bitstream": 0, "availableCount": 3},
+            "contentAvailability": [{"bitstream": 1}],
+            "childSubtreeAvailability": {"bitstream": 2}});
+        std::fs::create_dir_all(d.join("subtrees/0/0")).unwrap();
+        std::fs::write(
+            d.join("subtrees/0/0/0.subtree"),
+            binary_subtree(root_subtree, &bin),
+        )
+        .unwrap();
+        // The child subtree is JSON with its bitstream in an external buffer: only its root available.
+        std::fs::create_dir_all(d.join("subtrees/2/2")).unwrap();
+        std::fs::write(d.join("subtrees/2/2/bits.bin"), [0b1u8]).unwrap();
+        let child_subtree = json!({
+            "buffers": [{"uri": "bits.bin", "byteLength": 1}],
+            "bufferViews": [{"buffer": 0, "byteLength": 1}],
+            "tileAvailability": {"bitstream": 0},
+            "contentAvailability": [{"constant": 1}],
+            "childSubtreeAvailability": {"constant": 0}});
+        std::fs::write(d.join("subtrees/2/2/2.subtree"), child_subtree.to_string()).unwrap();
+        let root = json!({"boundingVolume": {"box": [0, 0, 0, 100, 0, 0, 0, 100, 0, 0, 0, 10]},
+            "geometricError": 100, "refine": "REPLACE", "content": {"uri": "tiles/{level}/{x}/{y}.glb"},
+            "implicitTiling": {"subdivisionScheme": "QUADTREE", "subtreeLevels": 2, "availableLevels": 4,
+                "subtrees": {"uri": "subtrees/{level}/{x}/{y}.subtree"}}});
+        let back = read_tileset(&write_tileset(d, root)).unwrap();
+        let got: Vec<_> = back
+            .tiles
+            .iter()
+            .map(|t| {
+                let c = t.content.as_ref().unwrap();
+                (
+                    t.path_in_tree.as_str(),
+                    t.content_uri.as_deref().unwrap(),
+                    t.geometric_error_m,
+                    c.features[0].values["n"].clone(),
+                )
+            })
+            .collect();
+        let name = |s: &str| PropValue::Str(s.into());
+        assert_eq!(
+            got,
+            vec![
+                ("0", "tiles/0/0/0.glb", 100.0, name("t0")),
+                ("0/0", "tiles/1/0/0.glb", 50.0, name("t1")),
+                ("0/1", "tiles/1/1/1.glb", 50.0, name("t2")),
+                ("0/1/0", "tiles/2/2/2.glb", 25.0, name("t3")),
+            ]
+        );
+        let boxes: Vec<[f64; 12]> = back.tiles.iter().map(|t| t.bounding_box.unwrap()).collect();
+        assert_eq!(
+            boxes[1],
+            [-50.0, -50.0, 0.0, 50.0, 0.0, 0.0, 0.0, 50.0, 0.0, 0.0, 0.0, 10.0]
+        );
+        assert_eq!(
+            boxes[3],
+            [25.0, 25.0, 0.0, 25.0, 0.0, 0.0, 0.0, 25.0, 0.0, 0.0, 0.0, 10.0]
+        );
+        assert_eq!(back.tiles[0].children, vec![1, 2]);
+        assert_eq!(back.tiles[2].children, vec![3]);
+
+        // A subtree file that is missing is an error naming the tile and the file.
+        std::fs::remove_file(d.join("subtrees/2/2/2.subtree")).unwrap();
+        let e = read_tileset(&d.join("tileset.json"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("tile 0 (") && e.contains("subtrees/2/2/2.subtree"),
+            "{e}"
+        );
+        // And so is a content template whose tile has children of its own.
+        let root = json!({"boundingVolume": {"box": [0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1]},
+            "geometricError": 1, "children": [{"boundingVolume": {"box": [0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1]},
+                "geometricError": 0}],
+            "implicitTiling": {"subdivisionScheme": "QUADTREE", "subtreeLevels": 2, "availableLevels": 2,
+                "subtrees": {"uri": "subtrees/{level}/{x}/{y}.subtree"}}});
+        let e = read_tileset(&write_tileset(d, root))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("may not have children"), "{e}");
     }
 
     #[test]

@@ -39,6 +39,12 @@ pub struct Tile {
     pub contents: Vec<Content>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub children: Vec<Tile>,
+    /// 3D Tiles 1.1 implicit tiling (read only; see `implicit.rs`); citylod writes explicit trees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub implicit_tiling: Option<serde_json::Value>,
+    /// Extensions (read only: `3DTILES_implicit_tiling`, the 1.0 form of `implicitTiling`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub extensions: Option<serde_json::Value>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -295,6 +295,8 @@ fn build_tile<C>(
         content: me.uri.clone().map(|uri| tj::Content { uri }),
         contents: Vec::new(),
         children,
+        implicit_tiling: None,
+        extensions: None,
     };
     (tile, b)
 }
@@ -1333,6 +1335,8 @@ mod tests {
                 }),
                 contents: vec![],
                 children: vec![],
+                implicit_tiling: None,
+                extensions: None,
             },
         };
         std::fs::write(
