@@ -273,7 +273,7 @@ pub fn globe_enu_axes(p_ecef: Vec3, lon_deg: f64, lat_deg: f64) -> [Vec3; 3] {
 }
 
 /// `m · p` for a column-major affine 4×4 matrix (the last row is taken as 0 0 0 1).
-fn apply_point(m: &[f64; 16], p: Vec3) -> Vec3 {
+pub(crate) fn apply_point(m: &[f64; 16], p: Vec3) -> Vec3 {
     vec3::add(apply_vector(m, p), [m[12], m[13], m[14]])
 }
 

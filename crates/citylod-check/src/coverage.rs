@@ -378,6 +378,7 @@ mod tests {
             content_bytes: 0,
             content_uris: vec![],
             volume_kind: Default::default(),
+            exact_volume: None,
             mesh: None,
             features,
             triangle_features: Vec::new(),

@@ -225,6 +225,7 @@ mod tests {
             content_bytes: 0,
             content_uris: vec![],
             volume_kind: Default::default(),
+            exact_volume: None,
             mesh: Some(citylod_model::Mesh3d {
                 positions,
                 triangles,

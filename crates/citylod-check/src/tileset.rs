@@ -8,7 +8,7 @@ use std::collections::BTreeSet;
 use std::path::Path;
 
 use citylod_model::Mesh3d;
-use citylod_tiles::read::{GlbData, TileData, TilesetData, VolumeKind};
+use citylod_tiles::read::{ExactVolume, GlbData, TileData, TilesetData, VolumeKind};
 use citylod_tiles::PropValue;
 use citylod_tiles::TilesError;
 use serde::Serialize;
@@ -61,6 +61,8 @@ pub struct TileInfo {
     pub content_bytes: u64,
     /// The bounding volume the file gives; the tree's box is exact for a `box`, encloses the others.
     pub volume_kind: VolumeKind,
+    /// A `sphere` or `region` as written (see [`citylod_tiles::read::TileData::exact_volume`]).
+    pub exact_volume: Option<ExactVolume>,
     /// The content as one mesh in the root frame; `None` without content.
     pub mesh: Option<Mesh3d>,
     pub features: Vec<FeatureInfo>,
@@ -351,6 +353,7 @@ fn tile_info(
         content_uris: uris,
         content_bytes,
         volume_kind: t.volume_kind,
+        exact_volume: t.exact_volume.clone(),
         mesh,
         features,
         triangle_features,
@@ -502,6 +505,7 @@ mod tests {
             geometric_error_m: if children.is_empty() { 0.0 } else { 10.0 },
             bounding_box: None,
             volume_kind: VolumeKind::Box,
+            exact_volume: None,
             content_uri: None,
             content_uris: vec![],
             content_bytes: None,

@@ -27,6 +27,71 @@ impl VolumeKind {
     }
 }
 
+/// A `sphere` or `region` as written, for exact containment tests (the box the reader gives encloses it).
+#[derive(Debug, Clone, PartialEq)]
+pub enum ExactVolume {
+    /// Centre and radius in the root frame (only when the tile's transform into it is a similarity).
+    Sphere { centre: [f64; 3], radius_m: f64 },
+    /// `[west, south, east, north, min height, max height]` (radians, metres); `root_to_ecef` takes a point of
+    /// the root frame to ECEF (the root tile's transform).
+    Region {
+        region: [f64; 6],
+        root_to_ecef: [f64; 16],
+    },
+}
+
+/// Smallest radius of curvature of the WGS84 ellipsoid (the meridian's at the equator, b²/a): an angle
+/// outside a region, times it, under-estimates the distance along the surface.
+const MIN_CURVATURE_RADIUS_M: f64 = 6_335_439.0;
+
+impl ExactVolume {
+    /// How far (m) `p` (root frame) lies outside the volume, 0 inside. For a region, a lower bound along
+    /// longitude and latitude (angles times the smallest curvature radius), exact in height; `geodetic` is
+    /// `p` as (lon°, lat°, ellipsoidal height m), for callers that convert once for several regions.
+    pub fn distance_outside(&self, p: [f64; 3], geodetic: impl FnOnce() -> [f64; 3]) -> f64 {
+        match self {
+            ExactVolume::Sphere { centre, radius_m } => {
+                let d = [p[0] - centre[0], p[1] - centre[1], p[2] - centre[2]];
+                ((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() - radius_m).max(0.0)
+            }
+            ExactVolume::Region { region, .. } => {
+                let [west, south, east, north, h_min, h_max] = *region;
+                let [lon, lat, h] = geodetic();
+                let (lon, lat) = (lon.to_radians(), lat.to_radians());
+                // Longitude outside [west, east] (east < west wraps): the angle to the nearer edge.
+                let span = (east - west).rem_euclid(TAU);
+                let from_west = (lon - west).rem_euclid(TAU);
+                let d_lon = if from_west <= span || (west == -PI && east == PI) {
+                    0.0
+                } else {
+                    (from_west - span).min(TAU - from_west)
+                };
+                let d_lat = (south - lat).max(lat - north).max(0.0);
+                let d_h = (h_min - h).max(h - h_max).max(0.0);
+                let along = MIN_CURVATURE_RADIUS_M * (d_lon * lat.cos().max(0.0)).hypot(d_lat);
+                along.hypot(d_h)
+            }
+        }
+    }
+}
+
+/// The uniform scale of `m` when its linear part is a rotation times a scale (columns orthogonal, of equal
+/// length within 1e-9), else `None`.
+pub fn similarity_scale(m: &[f64; 16]) -> Option<f64> {
+    let col = |k: usize| [m[4 * k], m[4 * k + 1], m[4 * k + 2]];
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let (a, b, c) = (col(0), col(1), col(2));
+    let s2 = dot(a, a);
+    let tol = 1e-9 * s2;
+    let ok = s2 > 0.0
+        && (dot(b, b) - s2).abs() <= tol
+        && (dot(c, c) - s2).abs() <= tol
+        && dot(a, b).abs() <= tol
+        && dot(a, c).abs() <= tol
+        && dot(b, c).abs() <= tol;
+    ok.then(|| s2.sqrt())
+}
+
 /// Largest angle (rad) between neighbouring samples of a region's surfaces: 0.05 rad is ~320 km on the equator,
 /// so city-sized regions are bounded by their corners alone and a whole-globe region takes ~16,000 samples.
 const MAX_SAMPLE_STEP_RAD: f64 = 0.05;

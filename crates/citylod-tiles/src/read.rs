@@ -6,8 +6,8 @@
 //! glbs on one tile) are appended into one content; implicit tiling is expanded into the explicit tree its
 //! subtree files describe (`implicit.rs`). Input it cannot use is an error naming the file and the tile.
 
-pub use crate::bounding_volume::VolumeKind;
-use crate::bounding_volume::{region_box_ecef, sphere_box};
+use crate::bounding_volume::{region_box_ecef, similarity_scale, sphere_box};
+pub use crate::bounding_volume::{ExactVolume, VolumeKind};
 use crate::glb::parse_glb;
 use crate::gltf_json::{self as gj, Gltf};
 use crate::metadata::{decode_column, FeatureRow};
@@ -40,6 +40,9 @@ pub struct TileData {
     pub bounding_box: Option<[f64; 12]>,
     /// Which volume the file gives (`bounding_box` is exact only for a `box`).
     pub volume_kind: VolumeKind,
+    /// A `sphere` or `region` as written, for exact tests (`None` for a `box`, and for a sphere under a
+    /// transform that is not a similarity: then only `bounding_box` is known).
+    pub exact_volume: Option<ExactVolume>,
     /// The first of `content_uris` (the only one unless the tile has 3D Tiles 1.1 `contents`).
     pub content_uri: Option<String>,
     /// Every content URI: `content.uri`, or each `contents[].uri` in order.
@@ -116,6 +119,7 @@ pub fn read_tileset_with(
             visit,
             folder: &folder,
             ecef_to_root,
+            root_to_ecef: root_transform,
         },
     )?;
     Ok(TilesetData {
@@ -334,6 +338,8 @@ struct Walk<'a> {
     folder: &'a Path,
     /// The inverse of the root transform: where `region` volumes (ECEF) go.
     ecef_to_root: [f64; 16],
+    /// The root transform.
+    root_to_ecef: [f64; 16],
 }
 
 /// Deepest tile the reader follows, counted in tiles below the root across external tilesets (an external
@@ -430,12 +436,26 @@ fn walk(
         .map(|u| content_file(base, u, w.folder))
         .collect::<Result<Vec<_>, _>>()
         .map_err(fail)?;
+    let exact_volume = match (t.bounding_volume.sphere, t.bounding_volume.region) {
+        (Some(s), _) if volume_kind == VolumeKind::Sphere => {
+            similarity_scale(&to_root).map(|k| ExactVolume::Sphere {
+                centre: apply(&to_root, [s[0], s[1], s[2]]),
+                radius_m: s[3] * k,
+            })
+        }
+        (_, Some(region)) if volume_kind == VolumeKind::Region => Some(ExactVolume::Region {
+            region,
+            root_to_ecef: w.root_to_ecef,
+        }),
+        _ => None,
+    };
     let me = w.out.len();
     w.out.push(TileData {
         path_in_tree: path.clone(),
         geometric_error_m: t.geometric_error,
         bounding_box: Some(bounding_box),
         volume_kind,
+        exact_volume,
         content_uri: uris.first().cloned(),
         content_bytes: (!files.is_empty()).then(|| {
             files
