@@ -310,6 +310,8 @@ struct BuildReport<'a> {
     #[serde(skip_serializing_if = "Option::is_none")]
     geoid: Option<GeoidUsed>,
     counts: Counts,
+    /// Which input attributes have a column of their own, which are folded into one JSON text.
+    attributes: crate::features::AttributeSummary,
     ingest: &'a citylod_ingest::IngestReport,
     /// The street lines read with `--streets`: segments, length, every feature not used.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -739,6 +741,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
             repaired: r.repaired.len(),
             skipped: r.skipped.len() + mesh_skipped.len(),
         },
+        attributes: lod.building_table.summary(),
         ingest: r,
         streets: streets_report,
         mesh_skipped,
