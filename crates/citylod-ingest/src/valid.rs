@@ -5,10 +5,10 @@
 
 use geo::coordinate_position::CoordPos;
 use geo::dimensions::Dimensions;
-use geo::{Intersects, Relate, Validation};
+use geo::{BoundingRect, Intersects, Relate, Validation};
 use geo_types::{Line, LineString, MultiPolygon, Polygon};
 use rstar::primitives::{GeomWithData, Rectangle};
-use rstar::{RTree, AABB};
+use rstar::{RTree, RTreeObject, AABB};
 
 /// Rings of up to this many vertices are checked by geo directly (comparing every pair is then cheap).
 const DIRECT_VERTICES: usize = 256;
@@ -93,12 +93,32 @@ pub(crate) fn polygon_is_valid(p: &Polygon) -> bool {
     true
 }
 
-/// `mp.is_valid()`, faster for large rings: every part valid, parts neither overlapping nor sharing a line.
+/// `mp.is_valid()`, faster for large rings and many parts: every part valid, parts neither overlapping nor
+/// sharing a line. Only parts whose bounding boxes meet are related to each other (an R-tree): comparing every
+/// pair took 87 s for 50,000 parts.
 pub(crate) fn multipolygon_is_valid(mp: &MultiPolygon) -> bool {
-    mp.0.iter().enumerate().all(|(i, p)| {
-        polygon_is_valid(p)
-            && mp.0[i + 1..].iter().all(|q| {
-                let m = p.relate(q);
+    if !mp.0.iter().all(polygon_is_valid) {
+        return false;
+    }
+    let boxes: Vec<GeomWithData<Rectangle<[f64; 2]>, usize>> =
+        mp.0.iter()
+            .enumerate()
+            .filter_map(|(i, p)| {
+                p.bounding_rect().map(|r| {
+                    GeomWithData::new(
+                        Rectangle::from_corners([r.min().x, r.min().y], [r.max().x, r.max().y]),
+                        i,
+                    )
+                })
+            })
+            .collect();
+    let tree = RTree::bulk_load(boxes.clone());
+    boxes.iter().all(|b| {
+        let p = &mp.0[b.data];
+        tree.locate_in_envelope_intersecting(&b.geom().envelope())
+            .filter(|o| o.data > b.data)
+            .all(|o| {
+                let m = p.relate(&mp.0[o.data]);
                 m.get(CoordPos::Inside, CoordPos::Inside) != Dimensions::TwoDimensional
                     && m.get(CoordPos::OnBoundary, CoordPos::OnBoundary)
                         != Dimensions::OneDimensional
@@ -199,6 +219,33 @@ mod tests {
             (MultiPolygon(vec![cases[0].clone(), apart]), true),
             (MultiPolygon(vec![cases[0].clone(), overlapping]), false),
         ] {
+            assert_eq!(mp.is_valid(), want);
+            assert_eq!(multipolygon_is_valid(&mp), want);
+        }
+    }
+
+    #[test]
+    fn many_parts_agree_with_geo() {
+        // A 20 × 20 grid of unit squares 0.5 apart (valid), then with one pair touching at a corner (valid),
+        // sharing an edge (invalid) and overlapping (invalid).
+        let square = |x: f64, y: f64| {
+            Polygon::new(
+                ring(&[(x, y), (x + 1.0, y), (x + 1.0, y + 1.0), (x, y + 1.0)]),
+                vec![],
+            )
+        };
+        let grid: Vec<Polygon> = (0..400)
+            .map(|k| square((k % 20) as f64 * 1.5, (k / 20) as f64 * 1.5))
+            .collect();
+        for (extra, want) in [
+            (None, true),
+            (Some(square(-1.0, -1.0)), true),
+            (Some(square(-1.0, 0.0)), false),
+            (Some(square(28.7, 28.7)), false),
+        ] {
+            let mut parts = grid.clone();
+            parts.extend(extra);
+            let mp = MultiPolygon(parts);
             assert_eq!(mp.is_valid(), want);
             assert_eq!(multipolygon_is_valid(&mp), want);
         }
