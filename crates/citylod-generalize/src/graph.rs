@@ -380,6 +380,16 @@ impl HasPosition for Site {
     }
 }
 
+/// The grid the triangulation's points are put on: 2⁻⁶ m (1.6 cm). The pairs it yields are only candidates
+/// (their distances come from the footprints), and on a power-of-two grid the predicates' differences are exact:
+/// points that are almost but not quite collinear (rows of buildings in lon/lat, projected) otherwise send every
+/// in-circle test to its slow exact path (10,000 squares in a row took 43 s, 0.3 s snapped).
+const SITE_GRID_M: f64 = 1.0 / 64.0;
+
+fn snap(v: f64) -> f64 {
+    (v / SITE_GRID_M).round() * SITE_GRID_M
+}
+
 /// Delaunay edges between different buildings, over up to `max_points` exterior vertices per footprint.
 /// Copies of an earlier footprint (`first[i] != i`) are left out.
 fn delaunay_pairs(
@@ -405,7 +415,7 @@ fn delaunay_pairs(
         let step = pts.len().div_ceil(max_points).max(1);
         for c in pts.iter().step_by(step) {
             sites.push(Site {
-                pos: Point2::new(c.x, c.y),
+                pos: Point2::new(snap(c.x), snap(c.y)),
                 building: i as u32,
             });
         }
@@ -526,6 +536,30 @@ mod tests {
                 .collect()
         };
         assert_eq!(d(&edges), d(&brute));
+    }
+
+    #[test]
+    fn a_long_almost_straight_row_is_triangulated_on_the_grid() {
+        // 2,000 squares in a row whose corners wander by nanometres off the line, as projected lon/lat does:
+        // the triangulation works on the 1.6 cm grid, where they are collinear, and still joins neighbours.
+        let fps: Vec<Footprint> = (0..2_000)
+            .map(|i| {
+                let x = i as f64 * 12.0;
+                let e = 1e-9 * ((i * 7919) % 13) as f64;
+                MultiPolygon(vec![polygon![
+                    (x: x, y: e), (x: x + 10.0, y: -e), (x: x + 10.0, y: 10.0 + e), (x: x, y: 10.0 - e)
+                ]])
+            })
+            .collect();
+        let refs: Vec<&Footprint> = fps.iter().collect();
+        let (pairs, stats) = candidate_pairs(&refs, 1.0, 16);
+        assert_eq!(stats.n_reach_pairs, 0);
+        assert_eq!(stats.n_fallback_edges, 0);
+        for i in 0..1_999u32 {
+            assert!(pairs.binary_search(&(i, i + 1)).is_ok(), "{i}");
+        }
+        assert_eq!(snap(0.3), 19.0 / 64.0);
+        assert_eq!(snap(-1e-9), 0.0);
     }
 
     #[test]
