@@ -558,3 +558,37 @@ fn odd_but_readable_inputs_are_kept_and_unreadable_ones_named() {
         );
     }
 }
+
+#[test]
+fn a_building_the_mesher_refuses_is_listed_with_its_file() {
+    // A height of 1e-300 m passes as a height, but its roof is not above its base once placed.
+    let d = scratch_dir("mesh_skip_file");
+    let polygon = |lon: f64| json!({"type": "Polygon", "coordinates": square(lon, 52.0, 0.0001)});
+    let collection =
+        |features: Vec<Value>| json!({"type": "FeatureCollection", "features": features});
+    let a = write(
+        &d,
+        "a.geojson",
+        &collection(vec![
+            feature("a1", json!({"height": 10}), polygon(4.36)),
+            feature("a2", json!({"height": 10}), polygon(4.3603)),
+        ])
+        .to_string(),
+    );
+    let b = write(
+        &d,
+        "b.geojson",
+        &collection(vec![
+            feature("b1", json!({"height": 10}), polygon(4.3606)),
+            feature("b2", json!({"height": 1e-300}), polygon(4.3609)),
+        ])
+        .to_string(),
+    );
+    let report = build(&[&a, &b], &d.join("out"), &[]);
+    let skipped = report["mesh_skipped"].as_array().unwrap();
+    assert_eq!(skipped.len(), 1, "{skipped:?}");
+    assert_eq!(skipped[0]["feature_id"], "b2");
+    assert_eq!(skipped[0]["reason"], "mesh_failed");
+    assert_eq!(skipped[0]["file"], b.display().to_string());
+    assert_eq!(report["counts"]["buildings_written"], 3);
+}

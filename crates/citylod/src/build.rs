@@ -657,11 +657,27 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         &models,
     );
     timings.mesh = t.elapsed().as_millis() as u64;
+    // Buildings come file by file, in the order of the ingest report's files.
+    let file_ends: Vec<(usize, &str)> = ingested
+        .report
+        .files
+        .iter()
+        .scan(0, |end, f| {
+            *end += f.buildings_written;
+            Some((*end, f.path.as_str()))
+        })
+        .collect();
+    let file_of = |b: usize| {
+        file_ends
+            .iter()
+            .find(|(end, _)| b < *end)
+            .map_or(String::new(), |(_, path)| path.to_string())
+    };
     let mesh_skipped: Vec<FeatureIssue> = lod
         .failed_buildings
         .iter()
         .map(|(b, e)| FeatureIssue {
-            file: String::new(),
+            file: file_of(b.0 as usize),
             feature_id: ingested.buildings[b.0 as usize].source_id.clone(),
             reason: IssueReason::MeshFailed,
             detail: e.clone(),
