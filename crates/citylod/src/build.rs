@@ -915,6 +915,12 @@ fn streets_near_buildings(
             a[k].max(b[k]) >= lo[k] - STREETS_REACH_M && a[k].min(b[k]) <= hi[k] + STREETS_REACH_M
         })
     });
+    if segments.is_empty() && !buildings.is_empty() {
+        bail!(
+            "it holds no usable street line (LineString or MultiLineString of at least two distinct points); \
+             every feature of it was set aside"
+        );
+    }
     if !near && !buildings.is_empty() {
         bail!(
             "none of its {} street segments comes within {STREETS_REACH_M} m of the buildings; are they in another \
