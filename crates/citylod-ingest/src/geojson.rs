@@ -89,7 +89,13 @@ pub(crate) fn read_collection_text(
             Ok(v) => read_feature(&v, file_name, i),
             // The outline scan does not convert numbers: 1e999 (beyond f64) surfaces only here.
             Err(e) => {
-                let reason = if e.to_string().contains("number out of range") {
+                let out_of_range = e.to_string().contains("number out of range");
+                if out_of_range {
+                    if let Some(f) = read_with_numbers_as_text(r.get(), file_name, i) {
+                        return f;
+                    }
+                }
+                let reason = if out_of_range {
                     IssueReason::NonFiniteCoordinate
                 } else {
                     IssueReason::MalformedGeometry
@@ -107,6 +113,61 @@ pub(crate) fn read_collection_text(
         features,
         declared_crs,
     }))
+}
+
+/// A feature whose only numbers beyond the range of a double (`1e400`) are property values: read with each such
+/// value kept as its text, and the repair recorded. `None` when the feature is not an object or such a number
+/// lies elsewhere (in the geometry: the feature is then skipped as before).
+fn read_with_numbers_as_text(text: &str, file_name: &str, index: usize) -> Option<RawFeature> {
+    use std::collections::BTreeMap;
+    let members: BTreeMap<String, &RawValue> = serde_json::from_str(text).ok()?;
+    let mut object = serde_json::Map::new();
+    let mut kept = Vec::new();
+    for (k, raw) in members {
+        let v = match serde_json::from_str::<Value>(raw.get()) {
+            Ok(v) => v,
+            Err(_) if k == "properties" => {
+                let props: BTreeMap<String, &RawValue> = serde_json::from_str(raw.get()).ok()?;
+                let mut out = serde_json::Map::new();
+                for (name, value) in props {
+                    let v = match serde_json::from_str::<Value>(value.get()) {
+                        Ok(v) => v,
+                        // Only a bare number is kept as text; anything else is left to the usual skip.
+                        Err(_)
+                            if value
+                                .get()
+                                .trim_start()
+                                .starts_with(|c: char| c == '-' || c.is_ascii_digit()) =>
+                        {
+                            kept.push(name.clone());
+                            Value::String(value.get().trim().to_string())
+                        }
+                        Err(_) => return None,
+                    };
+                    out.insert(name, v);
+                }
+                Value::Object(out)
+            }
+            Err(_) => return None,
+        };
+        object.insert(k, v);
+    }
+    let mut f = read_feature(&Value::Object(object), file_name, index);
+    if !kept.is_empty() {
+        f.repairs.push((
+            IssueReason::NumberKeptAsText,
+            format!(
+                "{} beyond the range of a double, kept as text: {}",
+                if kept.len() == 1 {
+                    "a number"
+                } else {
+                    "numbers"
+                },
+                kept.join(", ")
+            ),
+        ));
+    }
+    Some(f)
 }
 
 fn read_feature(f: &Value, file_name: &str, index: usize) -> RawFeature {
@@ -573,6 +634,42 @@ mod tests {
             .is_none());
         assert!(
             read_collection_text(r#"{"type": "FeatureCollection", "features": [{"#, "f").is_err()
+        );
+    }
+
+    #[test]
+    fn numbers_beyond_a_double_in_properties_are_kept_as_text() {
+        let square = r#"{"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 0]]]}"#;
+        let text = format!(
+            r#"{{"type": "FeatureCollection", "features": [
+                {{"type": "Feature", "id": "a", "properties": {{"year": 1e400, "h": 5, "low": -2e999}},
+                  "geometry": {square}}},
+                {{"type": "Feature", "id": "b", "properties": {{"h": 5}},
+                  "geometry": {{"type": "Polygon", "coordinates": [[[0, 0], [1e400, 0], [1, 1], [0, 0]]]}}}}]}}"#
+        );
+        let d = read_collection_text(&text, "f").unwrap().unwrap();
+        let a = &d.features[0];
+        assert!(a.skip.is_none(), "{:?}", a.skip);
+        assert_eq!(a.source_id, "a");
+        assert_eq!(
+            a.attributes.get("year"),
+            Some(&AttrValue::String("1e400".into()))
+        );
+        assert_eq!(
+            a.attributes.get("low"),
+            Some(&AttrValue::String("-2e999".into()))
+        );
+        assert_eq!(a.attributes.get("h"), Some(&AttrValue::Int(5)));
+        assert_eq!(a.polygons.len(), 1);
+        assert!(a
+            .repairs
+            .iter()
+            .any(|(r, m)| *r == IssueReason::NumberKeptAsText && m.contains("low, year")));
+        // In the geometry such a number still skips the feature.
+        let b = &d.features[1];
+        assert_eq!(
+            b.skip.as_ref().map(|s| s.0),
+            Some(IssueReason::NonFiniteCoordinate)
         );
     }
 

@@ -60,6 +60,8 @@ pub enum IssueReason {
     /// GeoJSON `properties` that are not an object (an array, a string) were kept whole as one
     /// attribute, `properties`.
     PropertiesNotObject,
+    /// A property holding a number beyond the range of a double (`1e400`) was kept as its text.
+    NumberKeptAsText,
     // --- 3D models (building written, listed in `mesh_issues`) ---
     /// No Solid or surface geometry at the asked LoD or below: no mesh. When only one part lacks
     /// it, the mesh is built from the other parts.
@@ -99,6 +101,7 @@ impl IssueReason {
             OverlappingPartsMerged => "overlapping_parts_merged",
             NonPolygonMemberDropped => "non_polygon_member_dropped",
             PropertiesNotObject => "properties_not_object",
+            NumberKeptAsText => "number_kept_as_text",
             ModelMissing => "model_missing",
             ModelInvalid => "model_invalid",
             ModelSurfaceDropped => "model_surface_dropped",
