@@ -422,14 +422,13 @@ fn bridge_pair(ctx: &Context, ia: usize, ib: usize, lambda_adjacent: f64) -> Pai
     keys.sort_unstable();
     keys.dedup();
 
-    let (cdt, handle) = triangulate_points(ctx, &keys);
+    let (mut cdt, handle) = triangulate_points(ctx, &keys);
     let mut owner: Vec<Option<VKey>> = vec![None; cdt.num_vertices()];
     for &k in &keys {
         if let Some(h) = handle.get(&k) {
             owner[h.index()].get_or_insert(k);
         }
     }
-    let mut cdt = cdt;
     for &k in &keys {
         let n = ctx.ring_len(k) as u32;
         let next = VKey {

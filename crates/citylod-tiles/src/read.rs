@@ -330,6 +330,20 @@ fn content_file(base: &Path, uri: &str, folder: &Path) -> Result<std::path::Path
     Ok(file)
 }
 
+/// The explicit tree of `t` when it declares implicit tiling (`None` when it does not); subtree files are read
+/// relative to `json`, the tileset.json holding `t`, and must lie inside `folder`.
+fn expand_implicit(t: &tj::Tile, json: &Path, folder: &Path) -> Result<Option<tj::Tile>, String> {
+    let Some(it) = crate::implicit::declared(t)? else {
+        return Ok(None);
+    };
+    let base = json.parent().unwrap_or(Path::new(""));
+    let open = |uri: &str| -> Result<Vec<u8>, String> {
+        let file = content_file(base, uri, folder)?;
+        read_file(&file).map_err(|e| e.to_string())
+    };
+    crate::implicit::expand(t, &it, &open).map(Some)
+}
+
 /// Where [`walk`] puts the tiles, and who sees each one first.
 struct Walk<'a> {
     out: &'a mut Vec<TileData>,
@@ -363,20 +377,11 @@ fn walk(
     parent_to_root: Option<&[f64; 16]>,
     w: &mut Walk,
 ) -> Result<usize, TilesError> {
-    let implicit = crate::implicit::declared(t).map_err(|msg| TilesError::Tile {
+    let explicit = expand_implicit(t, at.json, w.folder).map_err(|msg| TilesError::Tile {
         tile: format!("{} ({})", at.path, at.json.display()),
         msg,
     })?;
-    if let Some(it) = implicit {
-        let base = at.json.parent().unwrap_or(Path::new(""));
-        let open = |uri: &str| -> Result<Vec<u8>, String> {
-            let file = content_file(base, uri, w.folder)?;
-            read_file(&file).map_err(|e| e.to_string())
-        };
-        let explicit = crate::implicit::expand(t, &it, &open).map_err(|msg| TilesError::Tile {
-            tile: format!("{} ({})", at.path, at.json.display()),
-            msg,
-        })?;
+    if let Some(explicit) = explicit {
         return walk(&explicit, at, parent_to_root, w);
     }
     let Place {
