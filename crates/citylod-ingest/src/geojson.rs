@@ -1,7 +1,8 @@
 //! GeoJSON reader (RFC 7946): a FeatureCollection, a single Feature or a bare geometry. Polygon,
 //! MultiPolygon and the polygons of a GeometryCollection (nested ones flattened; other members dropped
 //! and reported) become raw footprints in source coordinates; other geometries are marked as skipped.
-//! Properties become attributes. A legacy `crs` member (GeoJSON 2008) is read as [`DeclaredCrs`].
+//! Properties become attributes, each parsed on its own: a repeated key keeps its last value, a value
+//! nested too deep is dropped, both reported. A legacy `crs` member (GeoJSON 2008) is read as [`DeclaredCrs`].
 
 use crate::crs::DeclaredCrs;
 use crate::feature::{attr_value, attributes, RawFeature, RawPolygon};
@@ -9,6 +10,7 @@ use crate::report::IssueReason;
 use rayon::prelude::*;
 use serde_json::value::RawValue;
 use serde_json::Value;
+use std::borrow::Cow;
 
 /// The features of a GeoJSON document and the CRS it declares (legacy `crs` member), if any.
 pub(crate) struct GeoJsonDoc {
@@ -53,7 +55,7 @@ pub(crate) fn read(doc: &Value, file_name: &str) -> Result<GeoJsonDoc, String> {
     })
 }
 
-/// The outline of a FeatureCollection, with its features still as unparsed JSON text.
+/// The outline of a FeatureCollection (or of a single Feature), with its features still as unparsed JSON text.
 #[derive(serde::Deserialize)]
 struct Collection<'a> {
     #[serde(rename = "type")]
@@ -63,10 +65,11 @@ struct Collection<'a> {
     crs: Option<Value>,
 }
 
-/// Fast path for a FeatureCollection text: one scan for the outline, then the features are parsed
-/// in parallel (in order). `Ok(None)` when the text is valid JSON but not a FeatureCollection with
-/// a features array; `Err` when it is not valid JSON or repeats one of the members read here.
-pub(crate) fn read_collection_text(
+/// Fast path for the text of a FeatureCollection or a single Feature: one scan for the outline, then each
+/// feature is read from its own text (a collection's in parallel, in order) by [`read_feature_text`]. `Ok(None)`
+/// when the text is valid JSON but neither; `Err` when it is not valid JSON or repeats one of the members read
+/// here.
+pub(crate) fn read_features_text(
     text: &str,
     file_name: &str,
 ) -> Result<Option<GeoJsonDoc>, serde_json::Error> {
@@ -78,103 +81,326 @@ pub(crate) fn read_collection_text(
         Err(e) if e.classify() == serde_json::error::Category::Data => return Ok(None),
         Err(e) => return Err(e),
     };
-    let (Some("FeatureCollection"), Some(raw)) = (c.kind.as_deref(), c.features) else {
-        return Ok(None);
+    let features = match (c.kind.as_deref(), c.features) {
+        (Some("FeatureCollection"), Some(raw)) => raw
+            .par_iter()
+            .enumerate()
+            .map(|(i, r)| read_feature_text(r.get(), file_name, i))
+            .collect(),
+        (Some("Feature"), _) => vec![read_feature_text(text, file_name, 0)],
+        _ => return Ok(None),
     };
-    let declared_crs = c.crs.as_ref().and_then(DeclaredCrs::from_geojson);
-    let features = raw
-        .par_iter()
-        .enumerate()
-        .map(|(i, r)| match serde_json::from_str::<Value>(r.get()) {
-            Ok(v) => read_feature(&v, file_name, i),
-            // The outline scan does not convert numbers: 1e999 (beyond f64) surfaces only here.
-            Err(e) => {
-                let out_of_range = e.to_string().contains("number out of range");
-                if out_of_range {
-                    if let Some(f) = read_with_numbers_as_text(r.get(), file_name, i) {
-                        return f;
-                    }
-                }
-                let reason = if out_of_range {
-                    IssueReason::NonFiniteCoordinate
-                } else {
-                    IssueReason::MalformedGeometry
-                };
-                let skip = Some((reason, format!("feature JSON rejected: {e}")));
-                RawFeature {
-                    source_id: format!("{file_name}#{i}"),
-                    skip,
-                    ..Default::default()
-                }
-            }
-        })
-        .collect();
     Ok(Some(GeoJsonDoc {
         features,
-        declared_crs,
+        declared_crs: c.crs.as_ref().and_then(DeclaredCrs::from_geojson),
     }))
 }
 
-/// A feature whose only numbers beyond the range of a double (`1e400`) are property values: read with each such
-/// value kept as its text, and the repair recorded. `None` when the feature is not an object or such a number
-/// lies elsewhere (in the geometry: the feature is then skipped as before).
-fn read_with_numbers_as_text(text: &str, file_name: &str, index: usize) -> Option<RawFeature> {
-    use std::collections::BTreeMap;
-    let members: BTreeMap<String, &RawValue> = serde_json::from_str(text).ok()?;
-    let mut object = serde_json::Map::new();
-    let mut kept = Vec::new();
-    for (k, raw) in members {
-        let v = match serde_json::from_str::<Value>(raw.get()) {
-            Ok(v) => v,
-            Err(_) if k == "properties" => {
-                let props: BTreeMap<String, &RawValue> = serde_json::from_str(raw.get()).ok()?;
-                let mut out = serde_json::Map::new();
-                for (name, value) in props {
-                    let v = match serde_json::from_str::<Value>(value.get()) {
-                        Ok(v) => v,
-                        // Only a bare number is kept as text; anything else is left to the usual skip.
-                        Err(_)
-                            if value
-                                .get()
-                                .trim_start()
-                                .starts_with(|c: char| c == '-' || c.is_ascii_digit()) =>
-                        {
-                            kept.push(name.clone());
-                            Value::String(value.get().trim().to_string())
-                        }
-                        Err(_) => return None,
-                    };
-                    out.insert(name, v);
-                }
-                Value::Object(out)
-            }
-            Err(_) => return None,
-        };
-        object.insert(k, v);
+/// The members of a Feature the reader uses; repeats of other (foreign) members are not reported.
+const FEATURE_MEMBERS: [&str; 4] = ["type", "id", "geometry", "properties"];
+
+/// Deepest nesting of arrays and objects serde_json parses in one value (its recursion limit, 128, counts the
+/// level it refuses).
+const MAX_DEPTH: usize = 127;
+
+/// One feature from its JSON text, each member the reader uses and each property parsed on its own, so that a
+/// problem in one property costs only that property: a key given twice keeps its last value (`duplicate_key`), a
+/// property nested deeper than [`MAX_DEPTH`] is dropped (`property_too_deep_dropped`) and one holding a number
+/// beyond a double is kept as its JSON text (`number_kept_as_text`), each recorded as a repair. In the geometry
+/// such a value skips the feature, as any malformed geometry does.
+fn read_feature_text(text: &str, file_name: &str, index: usize) -> RawFeature {
+    let rejected = |detail: String| RawFeature {
+        source_id: format!("{file_name}#{index}"),
+        skip: Some((IssueReason::MalformedGeometry, detail)),
+        ..Default::default()
+    };
+    let members = match serde_json::from_str::<Members>(text) {
+        Ok(m) => m.0,
+        Err(_) if !text.trim_start().starts_with('{') => return rejected(NOT_A_FEATURE.into()),
+        Err(e) => return rejected(format!("feature JSON rejected: {e}")),
+    };
+    let mut given: [Vec<&RawValue>; 4] = Default::default();
+    for (key, raw) in &members {
+        if let Some(i) = FEATURE_MEMBERS.iter().position(|m| m == key) {
+            given[i].push(*raw);
+        }
     }
-    let mut f = read_feature(&Value::Object(object), file_name, index);
-    if !kept.is_empty() {
-        f.repairs.push((
+    let mut repairs = Vec::new();
+    let repeated: Vec<String> = FEATURE_MEMBERS
+        .iter()
+        .zip(&given)
+        .filter(|(_, values)| values.len() > 1)
+        .map(|(name, values)| repeat_note(name, values))
+        .collect();
+    if !repeated.is_empty() {
+        repairs.push((
+            IssueReason::DuplicateKey,
+            format!(
+                "repeated feature members, the last of each kept: {}",
+                repeated.join(", ")
+            ),
+        ));
+    }
+    let [kind, id, geometry, properties] = given.map(|values| values.last().copied());
+    // A `type` that does not parse is no "Feature": the feature is skipped as not one.
+    let kind = kind.and_then(|r| serde_json::from_str::<Value>(r.get()).ok());
+    let id = match id.map(|r| (r, parse(r))) {
+        None => None,
+        Some((_, Ok(v))) => Some(v),
+        // Kept as its text, as other numeric ids are; an array or object is no id (as when it parses).
+        Some((r, Err(Unparsed::BeyondDouble(_)))) if !r.get().starts_with(['[', '{']) => {
+            Some(Value::String(r.get().to_string()))
+        }
+        Some((_, Err(Unparsed::BeyondDouble(_) | Unparsed::TooDeep(_)))) => None,
+        Some((_, Err(Unparsed::Other(e)))) => {
+            return rejected(format!("feature JSON rejected: {e}"))
+        }
+    };
+    let properties = match properties.map(|r| read_properties(r, &mut repairs)) {
+        None => None,
+        Some(Ok(p)) => p,
+        Some(Err(e)) => return rejected(format!("feature JSON rejected: {e}")),
+    };
+    let geometry = geometry.map(parse).transpose().map_err(unparsed_geometry);
+    let parts = Parts {
+        kind: kind.as_ref(),
+        id: id.as_ref(),
+        properties: properties.as_ref(),
+        geometry: geometry.as_ref().map(Option::as_ref).map_err(Clone::clone),
+        repairs,
+    };
+    feature(parts, file_name, index)
+}
+
+/// The skip of a feature whose geometry serde_json does not parse.
+fn unparsed_geometry(u: Unparsed) -> Skip {
+    match u {
+        Unparsed::TooDeep(depth) => (
+            IssueReason::MalformedGeometry,
+            format!("geometry nested {depth} levels deep; at most {MAX_DEPTH} are read"),
+        ),
+        Unparsed::BeyondDouble(e) => (
+            IssueReason::NonFiniteCoordinate,
+            format!("geometry JSON rejected: {e}"),
+        ),
+        Unparsed::Other(e) => (
+            IssueReason::MalformedGeometry,
+            format!("geometry JSON rejected: {e}"),
+        ),
+    }
+}
+
+/// A feature's `properties` from their text: each member parsed on its own, the last of a repeated key kept, one
+/// nested too deep dropped and one with a number beyond a double kept as its JSON text, each recorded in
+/// `repairs`. `properties` that are not an object are one such value (`None` when dropped). `Err` when a value is
+/// unreadable otherwise (a lone UTF-16 surrogate in a `\u` escape).
+fn read_properties(
+    raw: &RawValue,
+    repairs: &mut Vec<(IssueReason, String)>,
+) -> Result<Option<Value>, serde_json::Error> {
+    let (mut too_deep, mut as_text) = (Vec::new(), Vec::new());
+    let mut read = |name: &str, raw: &RawValue| match parse(raw) {
+        Ok(v) => Ok(Some(v)),
+        Err(Unparsed::TooDeep(depth)) => {
+            too_deep.push(format!("{name} ({depth} levels)"));
+            Ok(None)
+        }
+        Err(Unparsed::BeyondDouble(_)) => {
+            as_text.push(name.to_string());
+            Ok(Some(Value::String(raw.get().to_string())))
+        }
+        Err(Unparsed::Other(e)) => Err(e),
+    };
+    let value = if raw.get().starts_with('{') {
+        let mut members = serde_json::from_str::<Members>(raw.get())?.0;
+        // Stable: the values of a repeated key stay in document order, the last one last.
+        members.sort_by(|a, b| a.0.cmp(&b.0));
+        let mut repeated = Vec::new();
+        let mut object = serde_json::Map::with_capacity(members.len());
+        for run in members.chunk_by(|a, b| a.0 == b.0) {
+            let (key, last) = &run[run.len() - 1];
+            if run.len() > 1 {
+                let values: Vec<&RawValue> = run.iter().map(|(_, r)| *r).collect();
+                repeated.push(repeat_note(key, &values));
+            }
+            if let Some(v) = read(key, last)? {
+                object.insert(key.to_string(), v);
+            }
+        }
+        if !repeated.is_empty() {
+            repairs.push((
+                IssueReason::DuplicateKey,
+                format!(
+                    "repeated property keys, the last value of each kept: {}",
+                    listing(&repeated)
+                ),
+            ));
+        }
+        Some(Value::Object(object))
+    } else {
+        read(NON_OBJECT_PROPERTIES, raw)?
+    };
+    if !too_deep.is_empty() {
+        repairs.push((
+            IssueReason::PropertyTooDeepDropped,
+            format!(
+                "nested deeper than {MAX_DEPTH} levels, dropped: {}",
+                listing(&too_deep)
+            ),
+        ));
+    }
+    if !as_text.is_empty() {
+        repairs.push((
             IssueReason::NumberKeptAsText,
             format!(
-                "{} beyond the range of a double, kept as text: {}",
-                if kept.len() == 1 {
+                "{} beyond the range of a double, kept as JSON text: {}",
+                if as_text.len() == 1 {
                     "a number"
                 } else {
                     "numbers"
                 },
-                kept.join(", ")
+                listing(&as_text)
             ),
         ));
     }
-    Some(f)
+    Ok(value)
 }
 
+/// `key (given N times, …)` for a repair detail: whether the values it was given are equal.
+fn repeat_note(key: &str, values: &[&RawValue]) -> String {
+    let first = values[0];
+    let equal = values.iter().all(|r| {
+        r.get() == first.get() || matches!((parse(r), parse(first)), (Ok(a), Ok(b)) if a == b)
+    });
+    let how = if equal { "equal" } else { "different" };
+    format!("{key} (given {} times, {how} values)", values.len())
+}
+
+/// A JSON object's members in document order, a repeated key as often as given (a map would keep one), the
+/// values unparsed.
+struct Members<'a>(Vec<(Cow<'a, str>, &'a RawValue)>);
+
+impl<'de> serde::Deserialize<'de> for Members<'de> {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Visit;
+        impl<'de> serde::de::Visitor<'de> for Visit {
+            type Value = Members<'de>;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a JSON object")
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                mut map: A,
+            ) -> Result<Members<'de>, A::Error> {
+                let mut out = Vec::new();
+                while let Some(Key(k)) = map.next_key()? {
+                    out.push((k, map.next_value()?));
+                }
+                Ok(Members(out))
+            }
+        }
+        d.deserialize_map(Visit)
+    }
+}
+
+/// An object key, borrowed from the text unless it has escapes.
+struct Key<'a>(Cow<'a, str>);
+
+impl<'de> serde::Deserialize<'de> for Key<'de> {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Visit;
+        impl<'de> serde::de::Visitor<'de> for Visit {
+            type Value = Key<'de>;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a string")
+            }
+            fn visit_borrowed_str<E>(self, s: &'de str) -> Result<Key<'de>, E> {
+                Ok(Key(Cow::Borrowed(s)))
+            }
+            fn visit_str<E>(self, s: &str) -> Result<Key<'de>, E> {
+                Ok(Key(Cow::Owned(s.to_string())))
+            }
+        }
+        d.deserialize_str(Visit)
+    }
+}
+
+/// Why serde_json did not parse a value whose syntax the outline scan accepted.
+enum Unparsed {
+    /// Arrays and objects nested this many levels deep, more than [`MAX_DEPTH`].
+    TooDeep(usize),
+    /// A number beyond the range of a double (`1e400`).
+    BeyondDouble(serde_json::Error),
+    /// Anything else (a lone UTF-16 surrogate in a `\u` escape).
+    Other(serde_json::Error),
+}
+
+/// One value parsed on its own; serde_json's recursion limit then applies to it alone.
+fn parse(raw: &RawValue) -> Result<Value, Unparsed> {
+    serde_json::from_str(raw.get()).map_err(|e| match nesting_depth(raw.get()) {
+        depth if depth > MAX_DEPTH => Unparsed::TooDeep(depth),
+        _ if e.to_string().starts_with("number out of range") => Unparsed::BeyondDouble(e),
+        _ => Unparsed::Other(e),
+    })
+}
+
+/// Deepest nesting of arrays and objects in JSON text, in one pass without recursion (any depth).
+fn nesting_depth(json: &str) -> usize {
+    let (mut depth, mut deepest, mut in_string, mut escaped) = (0usize, 0, false, false);
+    for b in json.bytes() {
+        if in_string {
+            match b {
+                _ if escaped => escaped = false,
+                b'\\' => escaped = true,
+                b'"' => in_string = false,
+                _ => {}
+            }
+            continue;
+        }
+        match b {
+            b'"' => in_string = true,
+            b'[' | b'{' => {
+                depth += 1;
+                deepest = deepest.max(depth);
+            }
+            b']' | b'}' => depth = depth.saturating_sub(1),
+            _ => {}
+        }
+    }
+    deepest
+}
+
+/// The members of a Feature the reader uses, parsed; `geometry` is `Err` when it could not be parsed.
+struct Parts<'v> {
+    kind: Option<&'v Value>,
+    id: Option<&'v Value>,
+    properties: Option<&'v Value>,
+    geometry: Result<Option<&'v Value>, Skip>,
+    /// Repairs already made while parsing.
+    repairs: Vec<(IssueReason, String)>,
+}
+
+/// A feature already parsed as one value (a document read whole).
 fn read_feature(f: &Value, file_name: &str, index: usize) -> RawFeature {
-    let props = f.get("properties");
+    let parts = Parts {
+        kind: f.get("type"),
+        id: f.get("id"),
+        properties: f.get("properties"),
+        geometry: Ok(f.get("geometry")),
+        repairs: Vec::new(),
+    };
+    feature(parts, file_name, index)
+}
+
+const NOT_A_FEATURE: &str = "member of \"features\" is not a Feature";
+
+/// The raw feature of parsed parts: source id, attributes, geometry, or the reason it is skipped.
+fn feature(parts: Parts, file_name: &str, index: usize) -> RawFeature {
+    let props = parts.properties;
     let mut out = RawFeature {
-        source_id: source_id(f, file_name, index),
+        source_id: source_id(parts.id, props, file_name, index),
         attributes: attributes(props),
+        repairs: parts.repairs,
         ..Default::default()
     };
     // RFC 7946 §3.2 allows an object or null; anything else is kept whole as one attribute.
@@ -193,14 +419,14 @@ fn read_feature(f: &Value, file_name: &str, index: usize) -> RawFeature {
     out.is_building_part = props
         .and_then(|p| p.get("building:part"))
         .is_some_and(|v| !v.is_null() && v != "no");
-    if f.get("type").and_then(Value::as_str) != Some("Feature") {
-        out.skip = Some((
-            IssueReason::MalformedGeometry,
-            "member of \"features\" is not a Feature".into(),
-        ));
+    if parts.kind.and_then(Value::as_str) != Some("Feature") {
+        out.skip = Some((IssueReason::MalformedGeometry, NOT_A_FEATURE.into()));
         return out;
     }
-    fill_geometry(&mut out, f.get("geometry"));
+    match parts.geometry {
+        Ok(g) => fill_geometry(&mut out, g),
+        Err(skip) => out.skip = Some(skip),
+    }
     out
 }
 
@@ -219,7 +445,7 @@ fn json_kind(v: &Value) -> &'static str {
 }
 
 /// GeoJSON `id`, else `properties.id` / `properties["@id"]`, else OSM `osm_type/osm_id`, else `FILE#INDEX`.
-fn source_id(f: &Value, file_name: &str, index: usize) -> String {
+fn source_id(id: Option<&Value>, props: Option<&Value>, file_name: &str, index: usize) -> String {
     fn text(v: Option<&Value>) -> Option<String> {
         match v? {
             Value::String(s) if !s.is_empty() => Some(s.clone()),
@@ -227,8 +453,7 @@ fn source_id(f: &Value, file_name: &str, index: usize) -> String {
             _ => None,
         }
     }
-    let props = f.get("properties");
-    text(f.get("id"))
+    text(id)
         .or_else(|| text(props.and_then(|p| p.get("id"))))
         .or_else(|| text(props.and_then(|p| p.get("@id"))))
         .or_else(|| {
@@ -380,8 +605,8 @@ fn polygonal(
     Ok(())
 }
 
-/// Dropped members for a message: the first ten, then how many more.
-fn listing(dropped: &[String]) -> String {
+/// Names for a message: the first ten, then how many more.
+pub(crate) fn listing(dropped: &[String]) -> String {
     const SHOWN: usize = 10;
     if dropped.is_empty() {
         return "none".into();
@@ -587,15 +812,13 @@ mod tests {
         ] {
             let doc = json!({"type": "FeatureCollection", "crs": crs, "features": []});
             assert_eq!(read(&doc, "f").unwrap().declared_crs, expected);
-            let fast = read_collection_text(&doc.to_string(), "f")
-                .unwrap()
-                .unwrap();
+            let fast = read_features_text(&doc.to_string(), "f").unwrap().unwrap();
             assert_eq!(fast.declared_crs, expected);
         }
         let link = json!({"type": "FeatureCollection", "features": [],
             "crs": {"type": "link", "properties": {"href": "http://x/2263.proj4", "type": "proj4"}}});
         let Some(DeclaredCrs::NotUnderstood { member, detail }) =
-            read_collection_text(&link.to_string(), "f")
+            read_features_text(&link.to_string(), "f")
                 .unwrap()
                 .unwrap()
                 .declared_crs
@@ -614,7 +837,7 @@ mod tests {
         let text = r#"{"type": "FeatureCollection", "crs": {"properties": {"name": "EPSG:2249"}}, "features": [
             {"type": "Feature", "id": "a", "properties": {"h": 3}, "geometry": {"type": "Polygon", "coordinates": [[[0,0],[1,0],[1,1],[0,0]]]}},
             {"type": "Feature", "properties": null, "geometry": {"type": "Point", "coordinates": [0, 0]}}]}"#;
-        let fast = read_collection_text(text, "f").unwrap().unwrap();
+        let fast = read_features_text(text, "f").unwrap().unwrap();
         let slow = read(&serde_json::from_str(text).unwrap(), "f").unwrap();
         assert_eq!(
             fast.declared_crs,
@@ -628,12 +851,12 @@ mod tests {
                 (&b.source_id, &b.polygons, &b.skip, &b.attributes)
             );
         }
-        assert!(read_collection_text("[1, 2]", "f").unwrap().is_none());
-        assert!(read_collection_text(r#"{"type": "CityJSON"}"#, "f")
+        assert!(read_features_text("[1, 2]", "f").unwrap().is_none());
+        assert!(read_features_text(r#"{"type": "CityJSON"}"#, "f")
             .unwrap()
             .is_none());
         assert!(
-            read_collection_text(r#"{"type": "FeatureCollection", "features": [{"#, "f").is_err()
+            read_features_text(r#"{"type": "FeatureCollection", "features": [{"#, "f").is_err()
         );
     }
 
@@ -647,7 +870,7 @@ mod tests {
                 {{"type": "Feature", "id": "b", "properties": {{"h": 5}},
                   "geometry": {{"type": "Polygon", "coordinates": [[[0, 0], [1e400, 0], [1, 1], [0, 0]]]}}}}]}}"#
         );
-        let d = read_collection_text(&text, "f").unwrap().unwrap();
+        let d = read_features_text(&text, "f").unwrap().unwrap();
         let a = &d.features[0];
         assert!(a.skip.is_none(), "{:?}", a.skip);
         assert_eq!(a.source_id, "a");
@@ -678,19 +901,192 @@ mod tests {
         let text = r#"{"type": "FeatureCollection",
             "features": [{"type": "Feature", "properties": {}, "geometry": null}],
             "features": []}"#;
-        let e = read_collection_text(text, "f").err().expect("rejected");
+        let e = read_features_text(text, "f").err().expect("rejected");
         assert!(e.to_string().contains("duplicate field `features`"), "{e}");
         assert_eq!(e.line(), 3);
         // Other repeated members (not read here) do not matter.
         let ok = r#"{"type": "FeatureCollection", "name": "a", "name": "b", "features": []}"#;
         assert_eq!(
-            read_collection_text(ok, "f")
-                .unwrap()
-                .unwrap()
-                .features
-                .len(),
+            read_features_text(ok, "f").unwrap().unwrap().features.len(),
             0
         );
+    }
+
+    /// `[[…]]` nested `depth` levels deep.
+    fn nested_arrays(depth: usize) -> String {
+        format!("{}{}", "[".repeat(depth), "]".repeat(depth))
+    }
+
+    const SQUARE: &str =
+        r#"{"type": "Polygon", "coordinates": [[[0, 0], [1, 0], [1, 1], [0, 0]]]}"#;
+
+    fn one_feature(text: &str) -> RawFeature {
+        let mut d = read_features_text(text, "f").unwrap().unwrap().features;
+        assert_eq!(d.len(), 1);
+        d.remove(0)
+    }
+
+    fn repair(f: &RawFeature, reason: IssueReason) -> Option<&str> {
+        f.repairs
+            .iter()
+            .find(|(r, _)| *r == reason)
+            .map(|(_, d)| d.as_str())
+    }
+
+    #[test]
+    fn a_property_nested_too_deep_is_dropped_and_the_building_kept() {
+        for depth in [MAX_DEPTH + 1, 3_000, 100_000] {
+            let deep_object = format!("{}1{}", r#"{"k":"#.repeat(depth), "}".repeat(depth));
+            let text = format!(
+                r#"{{"type": "FeatureCollection", "features": [{{"type": "Feature", "id": "deep",
+                    "properties": {{"height": 10, "a": {}, "name": "x", "o": {deep_object}}}, "geometry": {SQUARE}}}]}}"#,
+                nested_arrays(depth)
+            );
+            let f = one_feature(&text);
+            assert!(f.skip.is_none(), "{depth}: {:?}", f.skip);
+            assert_eq!(f.source_id, "deep");
+            assert_eq!(f.polygons.len(), 1);
+            let names: Vec<&String> = f.attributes.keys().collect();
+            assert_eq!(names, ["height", "name"], "{depth}");
+            let detail = repair(&f, IssueReason::PropertyTooDeepDropped).expect("reported");
+            assert!(
+                detail.contains(&format!("a ({depth} levels)"))
+                    && detail.contains(&format!("o ({depth} levels)")),
+                "{detail}"
+            );
+        }
+        // The deepest value the parser reads is kept, as JSON text like any nested value.
+        let text = format!(
+            r#"{{"type": "Feature", "properties": {{"a": {}}}, "geometry": {SQUARE}}}"#,
+            nested_arrays(MAX_DEPTH)
+        );
+        let f = one_feature(&text);
+        assert_eq!(
+            f.attributes.get("a"),
+            Some(&AttrValue::String(nested_arrays(MAX_DEPTH)))
+        );
+        assert!(f.repairs.is_empty(), "{:?}", f.repairs);
+    }
+
+    #[test]
+    fn too_deep_properties_or_geometry_are_named_as_such() {
+        let deep = nested_arrays(100_000);
+        // `properties` itself too deep: dropped, the building kept.
+        let f = one_feature(&format!(
+            r#"{{"type": "Feature", "id": 3, "properties": {deep}, "geometry": {SQUARE}}}"#
+        ));
+        assert!(f.skip.is_none() && f.attributes.is_empty(), "{:?}", f.skip);
+        assert!(repair(&f, IssueReason::PropertyTooDeepDropped)
+            .unwrap()
+            .contains("properties (100000 levels)"));
+        // A geometry that deep is malformed, and says why.
+        let f = one_feature(&format!(
+            r#"{{"type": "Feature", "id": 4, "properties": {{}}, "geometry": {{"type": "Polygon", "coordinates": {deep}}}}}"#
+        ));
+        let (reason, detail) = f.skip.unwrap();
+        assert_eq!(
+            (reason, f.source_id.as_str()),
+            (IssueReason::MalformedGeometry, "4")
+        );
+        assert!(detail.contains("100001 levels deep"), "{detail}");
+        // An id that deep is no id, as an array never is.
+        let f = one_feature(&format!(
+            r#"{{"type": "Feature", "id": {deep}, "properties": {{"id": "p"}}, "geometry": {SQUARE}}}"#
+        ));
+        assert_eq!((f.source_id.as_str(), f.skip), ("p", None));
+    }
+
+    #[test]
+    fn repeated_property_keys_keep_the_last_value_and_are_reported() {
+        let f = one_feature(&format!(
+            r#"{{"type": "Feature", "id": "r", "properties": {{"height": 10, "name": "a", "height": 20,
+                "name": "a", "only": 1, "h\u0065ight": 30}}, "geometry": {SQUARE}}}"#
+        ));
+        assert!(f.skip.is_none());
+        assert_eq!(f.attributes.get("height"), Some(&AttrValue::Int(30)));
+        assert_eq!(f.attributes.get("only"), Some(&AttrValue::Int(1)));
+        let detail = repair(&f, IssueReason::DuplicateKey).expect("reported");
+        assert_eq!(
+            detail,
+            "repeated property keys, the last value of each kept: height (given 3 times, different values), \
+             name (given 2 times, equal values)"
+        );
+        // The last value is the one read, even when it cannot be: no earlier one stands in for it.
+        let f = one_feature(&format!(
+            r#"{{"type": "Feature", "properties": {{"a": 1, "a": {}}}, "geometry": {SQUARE}}}"#,
+            nested_arrays(500)
+        ));
+        assert!(f.attributes.get("a").is_none());
+        assert!(repair(&f, IssueReason::DuplicateKey).is_some());
+        assert!(repair(&f, IssueReason::PropertyTooDeepDropped).is_some());
+        // An id repeated in the properties: the last is the feature's id.
+        let f = one_feature(&format!(
+            r#"{{"type": "Feature", "properties": {{"id": "x", "id": "y"}}, "geometry": {SQUARE}}}"#
+        ));
+        assert_eq!(f.source_id, "y");
+    }
+
+    #[test]
+    fn repeated_feature_members_keep_the_last_and_are_reported() {
+        let moved = SQUARE.replace("[1, 0], [1, 1]", "[5, 0], [5, 5]");
+        let member = format!(
+            r#"{{"type": "Feature", "type": "Feature", "id": "a", "id": "b", "properties": {{"h": 1}},
+                "properties": {{"h": 2}}, "geometry": {SQUARE}, "geometry": {moved}, "bbox": [0], "bbox": [1]}}"#
+        );
+        let f = one_feature(&format!(
+            r#"{{"type": "FeatureCollection", "features": [{member}]}}"#
+        ));
+        assert!(f.skip.is_none(), "{:?}", f.skip);
+        assert_eq!(f.source_id, "b");
+        assert_eq!(f.attributes.get("h"), Some(&AttrValue::Int(2)));
+        assert_eq!(f.polygons[0][0][1], [5.0, 0.0], "the last geometry");
+        let detail = repair(&f, IssueReason::DuplicateKey).expect("reported");
+        assert_eq!(
+            detail,
+            "repeated feature members, the last of each kept: type (given 2 times, equal values), \
+             id (given 2 times, different values), geometry (given 2 times, different values), \
+             properties (given 2 times, different values)"
+        );
+        assert_eq!(
+            f.repairs.len(),
+            1,
+            "a foreign member (bbox) is not read: {:?}",
+            f.repairs
+        );
+        // A document that is one Feature: its `type` is read for the outline, where a repeat is an error.
+        let e = read_features_text(&member, "f").err().expect("rejected");
+        assert!(e.to_string().contains("duplicate field `type`"), "{e}");
+        // The same geometry twice, but written differently: equal values.
+        let spaced = SQUARE.replace(", ", ",");
+        let f = one_feature(&format!(
+            r#"{{"type": "Feature", "properties": null, "geometry": {SQUARE}, "geometry": {spaced}}}"#
+        ));
+        assert!(repair(&f, IssueReason::DuplicateKey)
+            .unwrap()
+            .contains("geometry (given 2 times, equal values)"));
+        // A file without repeats reports none.
+        let f = one_feature(&format!(
+            r#"{{"type": "Feature", "properties": {{"a": 1, "b": 2}}, "geometry": {SQUARE}}}"#
+        ));
+        assert!(f.repairs.is_empty(), "{:?}", f.repairs);
+    }
+
+    #[test]
+    fn numeric_and_text_ids_read_the_same() {
+        let text = format!(
+            r#"{{"type": "FeatureCollection", "features": [
+                {{"type": "Feature", "id": 1, "properties": {{}}, "geometry": {SQUARE}}},
+                {{"type": "Feature", "id": "1", "properties": {{}}, "geometry": {SQUARE}}},
+                {{"type": "Feature", "id": 1e400, "properties": {{}}, "geometry": {SQUARE}}}]}}"#
+        );
+        let ids: Vec<String> = read_features_text(&text, "f")
+            .unwrap()
+            .unwrap()
+            .features
+            .into_iter()
+            .map(|f| f.source_id)
+            .collect();
+        assert_eq!(ids, ["1", "1", "1e400"]);
     }
 
     #[test]

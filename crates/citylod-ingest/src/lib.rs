@@ -250,9 +250,18 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
                     } else {
                         format!("from {}", files[f].path.display())
                     };
+                    let differ = attributes_differing(&o.attributes, &raw.attributes);
+                    let lost = if differ.is_empty() {
+                        String::new()
+                    } else {
+                        format!(
+                            "; its differing attributes are not written: {}",
+                            geojson::listing(&differ)
+                        )
+                    };
                     report.skipped.push(issue(
                         IssueReason::Duplicate,
-                        &format!("the same id, footprint and heights as a building read {from}: written once"),
+                        &format!("the same id, footprint and heights as a building read {from}: written once{lost}"),
                     ));
                     fr.skipped += 1;
                     continue;
@@ -345,6 +354,19 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
     })
 }
 
+/// Names of the attributes two buildings do not hold with equal values (one lacking it counts), sorted.
+fn attributes_differing(
+    a: &citylod_model::Attributes,
+    b: &citylod_model::Attributes,
+) -> Vec<String> {
+    let names: std::collections::BTreeSet<&String> = a.keys().chain(b.keys()).collect();
+    names
+        .into_iter()
+        .filter(|k| a.get(k) != b.get(k))
+        .cloned()
+        .collect()
+}
+
 fn winding(r: &geo_types::LineString) -> f64 {
     r.0.windows(2)
         .map(|w| w[0].x * w[1].y - w[1].x * w[0].y)
@@ -388,7 +410,7 @@ fn load(
     let whole: Option<serde_json::Value> = if is_jsonl {
         None
     } else {
-        let parsed = geojson::read_collection_text(&text, &file_name).and_then(|c| match c {
+        let parsed = geojson::read_features_text(&text, &file_name).and_then(|c| match c {
             Some(doc) => {
                 collection = Some(doc);
                 Ok(serde_json::Value::Null)

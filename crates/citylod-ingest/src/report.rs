@@ -37,7 +37,7 @@ pub enum IssueReason {
     /// The footprint could not be turned into a mesh (reported by the mesh stage, after ingest).
     MeshFailed,
     /// The same id, footprint and heights as a building read before (a file given twice, overlapping
-    /// extracts): written once.
+    /// extracts): written once. The detail names the attributes whose values differ (the first's are written).
     Duplicate,
     // --- repairs ---
     /// A GeoJSON ring whose last point did not repeat the first was closed.
@@ -60,8 +60,17 @@ pub enum IssueReason {
     /// GeoJSON `properties` that are not an object (an array, a string) were kept whole as one
     /// attribute, `properties`.
     PropertiesNotObject,
-    /// A property holding a number beyond the range of a double (`1e400`) was kept as its text.
+    /// A property holding a number beyond the range of a double (`1e400`, also inside an array or
+    /// object) was kept as its JSON text.
     NumberKeptAsText,
+    /// A GeoJSON property nested deeper than 127 levels of arrays and objects (more than the JSON
+    /// parser reads) was dropped; the building and its other properties are kept. The detail names
+    /// the key and its depth.
+    PropertyTooDeepDropped,
+    /// A key given more than once in a GeoJSON feature's `properties`, or a member the reader uses
+    /// (`type`, `id`, `geometry`, `properties`) given more than once in the feature: the last value
+    /// is kept, as most JSON readers do. The detail names the keys and whether their values differ.
+    DuplicateKey,
     // --- 3D models (building written, listed in `mesh_issues`) ---
     /// No Solid or surface geometry at the asked LoD or below: no mesh. When only one part lacks
     /// it, the mesh is built from the other parts.
@@ -102,6 +111,8 @@ impl IssueReason {
             NonPolygonMemberDropped => "non_polygon_member_dropped",
             PropertiesNotObject => "properties_not_object",
             NumberKeptAsText => "number_kept_as_text",
+            PropertyTooDeepDropped => "property_too_deep_dropped",
+            DuplicateKey => "duplicate_key",
             ModelMissing => "model_missing",
             ModelInvalid => "model_invalid",
             ModelSurfaceDropped => "model_surface_dropped",

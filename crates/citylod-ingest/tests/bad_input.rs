@@ -130,7 +130,8 @@ fn numbers_beyond_f64_skip_the_feature_not_the_file() {
         out.report.skipped[0].reason,
         IssueReason::NonFiniteCoordinate
     );
-    assert_eq!(out.report.skipped[0].feature_id, "inf.geojson#0");
+    // Named by its own id: the rest of the feature is read.
+    assert_eq!(out.report.skipped[0].feature_id, "inf");
 }
 
 #[test]
@@ -399,6 +400,85 @@ fn repeated_buildings_are_written_once_and_reused_ids_are_counted() {
     let twice = ingest(&[b.clone(), b], &IngestOptions::default()).unwrap();
     assert_eq!(twice.buildings.len(), 3);
     assert_eq!(twice.report.skipped_by_reason.get("duplicate"), Some(&3));
+}
+
+#[test]
+fn deep_or_repeated_properties_cost_only_themselves_and_are_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let deep = format!("{}{}", "[".repeat(100_000), "]".repeat(100_000));
+    let text = collection(&[
+        feature("deep", &format!(r#"{{"height":12,"a":{deep}}}"#), SQUARE),
+        feature(
+            "twice",
+            r#"{"height":10,"height":20}"#,
+            &square_further_east(),
+        ),
+    ]);
+    let out = ingest(
+        &[write(&dir, "props.geojson", &text)],
+        &IngestOptions::default(),
+    )
+    .unwrap();
+    let r = &out.report;
+    r.check_invariants().unwrap();
+    assert_eq!(out.buildings.len(), 2, "{:?}", r.skipped);
+    assert_eq!(out.buildings[0].height_m, 12.0);
+    assert_eq!(out.buildings[1].height_m, 20.0, "the last value");
+    assert_eq!(r.repaired_by_reason["property_too_deep_dropped"], 1);
+    assert_eq!(r.repaired_by_reason["duplicate_key"], 1);
+    let named: Vec<(&str, IssueReason)> = r
+        .repaired
+        .iter()
+        .map(|i| (i.feature_id.as_str(), i.reason))
+        .collect();
+    assert_eq!(
+        named,
+        [
+            ("deep", IssueReason::PropertyTooDeepDropped),
+            ("twice", IssueReason::DuplicateKey)
+        ]
+    );
+    assert!(r.repaired[1].detail.contains("height"), "{:?}", r.repaired);
+}
+
+#[test]
+fn a_numeric_and_a_text_id_are_one_id() {
+    let dir = tempfile::tempdir().unwrap();
+    let moved = square_further_east();
+    let feature_num = |id: u32, props: &str, coords: &str| {
+        feature(&id.to_string(), props, coords)
+            .replace(&format!(r#""id":"{id}""#), &format!(r#""id":{id}"#))
+    };
+    let text = collection(&[
+        feature_num(1, r#"{"height":10}"#, SQUARE),
+        feature("1", r#"{"height":10}"#, &moved),
+        feature_num(2, r#"{"height":10,"name":"a"}"#, SQUARE),
+        feature("2", r#"{"height":10,"name":"b","roof":"flat"}"#, SQUARE),
+    ]);
+    assert!(text.contains(r#""id":1,"#) && text.contains(r#""id":"1","#));
+    let out = ingest(
+        &[write(&dir, "ids.geojson", &text)],
+        &IngestOptions::default(),
+    )
+    .unwrap();
+    let r = &out.report;
+    // Other footprints: both written, the shared id counted.
+    let ids: Vec<&str> = out.buildings.iter().map(|b| b.source_id.as_str()).collect();
+    assert_eq!(ids, ["1", "1", "2"]);
+    assert_eq!(r.duplicate_ids, 1);
+    // The same footprint and height: written once, and the attributes not written are named.
+    assert_eq!(r.skipped.len(), 1);
+    assert_eq!(
+        (r.skipped[0].feature_id.as_str(), r.skipped[0].reason),
+        ("2", IssueReason::Duplicate)
+    );
+    assert!(
+        r.skipped[0]
+            .detail
+            .ends_with("written once; its differing attributes are not written: name, roof"),
+        "{}",
+        r.skipped[0].detail
+    );
 }
 
 #[test]
