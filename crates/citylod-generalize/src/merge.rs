@@ -3,16 +3,10 @@
 //! bridges are unioned once. Local ENU metres in and out. Invariant: the merged footprint covers every part
 //! and every vertex is an input vertex or a boolean-union intersection point (bridges add no vertex).
 
+use citylod_geom::union_nonzero;
 use citylod_model::Footprint;
 use geo::algorithm::kernels::{Kernel, Orientation, RobustKernel};
-use geo::orient::{Direction, Orient};
 use geo_types::{coord, Coord, LineString, MultiPolygon, Polygon};
-use i_overlay::core::fill_rule::FillRule as OverlayFillRule;
-use i_overlay::core::overlay::ShapeType;
-use i_overlay::core::overlay_rule::OverlayRule;
-use i_overlay::core::solver::Solver;
-use i_overlay::float::overlay::{FloatOverlay, OverlayOptions};
-use i_overlay::i_float::adapter::FloatPointAdapter;
 use rstar::primitives::{GeomWithData, Line};
 use rstar::{Envelope, RTree, AABB};
 use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
@@ -214,40 +208,6 @@ pub(crate) fn connect_islands(fp: &Footprint, max_gap_m: f64, lambda_adjacent: f
         cur = next;
     }
     cur
-}
-
-/// Union of `polys` (local ENU m, any orientation) under the non-zero winding rule: OGC-valid, exteriors
-/// CCW, holes CW; empty for no input. Runs i_overlay 9 itself rather than through geo's `BooleanOps`, which
-/// uses i_overlay 4.5: its segment splitter needs minutes for rings of long thin spikes (one union of a
-/// 20,000-vertex star: 114 s, here about 1 s). Same integer grid as geo's (the adapter spans the input's
-/// bounding box), same OGC options.
-pub(crate) fn union_nonzero(polys: &[Polygon<f64>]) -> MultiPolygon<f64> {
-    let paths: Vec<Vec<[f64; 2]>> = polys
-        .iter()
-        .flat_map(|p| std::iter::once(p.exterior()).chain(p.interiors()))
-        .filter_map(|ring| {
-            let n = ring.0.len().saturating_sub(usize::from(ring.is_closed()));
-            (n >= 3).then(|| ring.0[..n].iter().map(|c| [c.x, c.y]).collect())
-        })
-        .collect();
-    if paths.is_empty() {
-        return MultiPolygon(Vec::new());
-    }
-    let capacity = paths.iter().map(Vec::len).sum();
-    let adapter = FloatPointAdapter::<[f64; 2], i32>::with_iter(paths.iter().flatten());
-    let shapes =
-        FloatOverlay::new_custom(adapter, OverlayOptions::ogc(), Solver::default(), capacity)
-            .unsafe_add_source(&paths, ShapeType::Subject)
-            .overlay(OverlayRule::Subject, OverlayFillRule::NonZero);
-    let out = shapes
-        .into_iter()
-        .filter_map(|shape| {
-            let mut rings = shape.into_iter().map(|c| closed_ring(&c));
-            let exterior = rings.next()?;
-            Some(Polygon::new(exterior, rings.collect()))
-        })
-        .collect();
-    MultiPolygon(out).orient(Direction::Default)
 }
 
 /// Squared distance (m²) between two boxes, 0 when they overlap.
@@ -954,6 +914,7 @@ fn segment_dist(a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]) -> f64 {
 pub(crate) mod tests {
     use super::*;
     use geo::bool_ops::{BooleanOps, FillRule, OpType};
+    use geo::orient::{Direction, Orient};
     use geo::{Area, Validation};
     use geo_types::polygon;
     use proptest::prelude::*;
@@ -1218,48 +1179,6 @@ pub(crate) mod tests {
             "{}",
             m.footprint.unsigned_area()
         );
-    }
-
-    /// A star of 20,000 vertices, spikes from 20 to 100 m: every edge is long and nearly parallel to its
-    /// neighbours (the input that kept i_overlay 4.5's splitter busy for minutes). Its union alone is itself;
-    /// under a square that covers it, the square; beside a square touching one tip, both.
-    #[test]
-    fn union_of_a_spiky_star_is_exact() {
-        let n = 20_000;
-        let star: Vec<[f64; 2]> = (0..n)
-            .map(|i| {
-                let a = std::f64::consts::TAU * i as f64 / n as f64;
-                let r = if i % 2 == 0 { 100.0 } else { 20.0 };
-                [r * a.cos(), r * a.sin()]
-            })
-            .collect();
-        let star_area = signed_area2(&star) / 2.0;
-        let star_poly = Polygon::new(closed_ring(&star), vec![]);
-        let alone = union_nonzero(std::slice::from_ref(&star_poly));
-        assert_eq!(alone.0.len(), 1);
-        assert_eq!(
-            alone.0[0].exterior().0.len(),
-            n + 1,
-            "every vertex kept, none added"
-        );
-        assert!((alone.unsigned_area() - star_area).abs() < 1e-6 * star_area);
-
-        let cover = rect(-101.0, -101.0, 101.0, 101.0);
-        let covered = union_nonzero(&[star_poly.clone(), cover.0[0].clone()]);
-        assert_eq!(covered.0.len(), 1);
-        assert_eq!(
-            covered.0[0].exterior().0.len(),
-            5,
-            "the square's four corners"
-        );
-        assert!((covered.unsigned_area() - 202.0 * 202.0).abs() < 1e-6);
-
-        // A square whose left side touches the star's rightmost tip (100, 0): a point contact, so two
-        // polygons (OGC), of both areas.
-        let beside = rect(100.0, -5.0, 110.0, 5.0);
-        let both = union_nonzero(&[star_poly, beside.0[0].clone()]);
-        assert_eq!(both.0.len(), 2);
-        assert!((both.unsigned_area() - star_area - 100.0).abs() < 1e-6 * star_area);
     }
 
     #[test]

@@ -1,7 +1,8 @@
 //! Footprint repair, done per feature in a local metric plane (an affine image of lon/lat, so
 //! validity and winding are the same as on the globe): drop repeated points and degenerate rings,
 //! drop holes outside their shell, rebuild self-intersecting rings (geo's `MakeValid`), union
-//! overlapping or assembled pieces, drop parts under 0.01 m², and wind exteriors CCW, holes CW.
+//! overlapping or assembled pieces (`citylod_geom::union_nonzero`), drop parts under 0.01 m², and wind
+//! exteriors CCW, holes CW.
 
 use crate::report::IssueReason;
 use crate::valid;
@@ -194,7 +195,7 @@ pub(crate) fn repair(polygons: Vec<Vec<Vec<Coord>>>, assemble: bool) -> Result<R
     let mut footprint = MultiPolygon(parts);
     if footprint.0.len() > 1 && (assemble || !valid::multipolygon_is_valid(&footprint)) {
         let n = footprint.0.len();
-        let merged = geo::unary_union(footprint.0.iter());
+        let merged = citylod_geom::union_nonzero(&footprint.0);
         if !assemble {
             issues.push((
                 IssueReason::OverlappingPartsMerged,
@@ -210,7 +211,7 @@ pub(crate) fn repair(polygons: Vec<Vec<Vec<Coord>>>, assemble: bool) -> Result<R
 
     // make_valid snaps and union splits; re-check what they built and give up cleanly if needed.
     if rebuilt && !valid::multipolygon_is_valid(&footprint) {
-        footprint = geo::unary_union(footprint.0.iter());
+        footprint = citylod_geom::union_nonzero(&footprint.0);
         if let Err(e) = footprint.check_validation() {
             return Err((
                 IssueReason::RepairFailed,
