@@ -113,10 +113,159 @@ fn push_roof(mesh: &mut Mesh3d, roof: &Roof, top_z_m: f64) {
 /// insertion is faster.
 const BULK_LOAD_MIN_POINTS: usize = 256;
 
+/// Whether a counter-clockwise ring is strictly convex: every corner turns left by a clear margin (a
+/// corner within ~1e-9 rad of straight, or turning right, is not) and the turns add up to one full turn,
+/// not two or more (a pentagram turns left at every corner too).
+fn is_strictly_convex(ring: &[[f64; 2]]) -> bool {
+    let n = ring.len();
+    if n < 3 {
+        return false;
+    }
+    let mut turning = 0.0;
+    for i in 0..n {
+        let (a, b, c) = (ring[i], ring[(i + 1) % n], ring[(i + 2) % n]);
+        if !turns_left_clearly(a, b, c) {
+            return false;
+        }
+        let u = [b[0] - a[0], b[1] - a[1]];
+        let v = [c[0] - b[0], c[1] - b[1]];
+        turning += (u[0] * v[1] - u[1] * v[0]).atan2(u[0] * v[0] + u[1] * v[1]);
+    }
+    turning < 3.0 * std::f64::consts::PI
+}
+
+/// Whether the corner a → b → c turns left by more than ~1e-9 rad: |u × v| = |u||v| sin θ, and the margin
+/// is far above the rounding error of the cross product, so the triangle (a, b, c) has a clearly positive
+/// area in floating point too.
+fn turns_left_clearly(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> bool {
+    let u = [b[0] - a[0], b[1] - a[1]];
+    let v = [c[0] - b[0], c[1] - b[1]];
+    u[0] * v[1] - u[1] * v[0] > 1e-9 * (u[0].hypot(u[1]) * v[0].hypot(v[1]))
+}
+
+/// The fan of a strictly convex ring from its first point: n − 2 counter-clockwise triangles, each of
+/// positive area, covering the ring exactly — what the constrained triangulation gives in count, at a
+/// fraction of its cost (most footprints are convex, most of them quadrilaterals).
+fn fan(ring: &[[f64; 2]]) -> Roof {
+    let tris = (1..ring.len() as u32 - 1).map(|i| [0, i, i + 1]).collect();
+    (ring.to_vec(), tris)
+}
+
+/// Most points of a ring without holes that [`ear_clip`] takes: its simplicity test and ear search compare
+/// every pair (n² / 2), cheaper than the triangulation's setup below this size.
+const EAR_MAX_POINTS: usize = 64;
+
+/// Exact orientation of `c` against the line `a` → `b`: > 0 left (counter-clockwise), 0 on it.
+fn orient(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
+    let p = |q: [f64; 2]| robust::Coord { x: q[0], y: q[1] };
+    robust::orient2d(p(a), p(b), p(c))
+}
+
+/// Whether the closed segments `a`–`b` and `c`–`d` meet (touching counts), exactly.
+fn segments_meet(a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]) -> bool {
+    let (d1, d2) = (orient(a, b, c), orient(a, b, d));
+    let (d3, d4) = (orient(c, d, a), orient(c, d, b));
+    let within = |p: [f64; 2], q: [f64; 2], r: [f64; 2]| {
+        r[0] >= p[0].min(q[0])
+            && r[0] <= p[0].max(q[0])
+            && r[1] >= p[1].min(q[1])
+            && r[1] <= p[1].max(q[1])
+    };
+    ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0))
+        && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0))
+        || (d1 == 0.0 && within(a, b, c))
+        || (d2 == 0.0 && within(a, b, d))
+        || (d3 == 0.0 && within(c, d, a))
+        || (d4 == 0.0 && within(c, d, b))
+}
+
+/// Whether a ring is simple: no two edges meet except neighbours at their shared corner, and no corner
+/// folds back onto its incoming edge.
+fn is_simple(ring: &[[f64; 2]]) -> bool {
+    let n = ring.len();
+    for i in 0..n {
+        let (a, b) = (ring[i], ring[(i + 1) % n]);
+        let c = ring[(i + 2) % n];
+        // Neighbours: only a fold back (c on the line a–b, heading back) makes them overlap.
+        if orient(a, b, c) == 0.0
+            && (c[0] - b[0]) * (b[0] - a[0]) + (c[1] - b[1]) * (b[1] - a[1]) <= 0.0
+        {
+            return false;
+        }
+        // Non-neighbours: j from i + 2, and the last edge is the first one's neighbour.
+        let last = if i == 0 { n - 1 } else { n };
+        for j in i + 2..last {
+            if segments_meet(a, b, ring[j], ring[(j + 1) % n]) {
+                return false;
+            }
+        }
+    }
+    true
+}
+
+/// Triangles of a simple counter-clockwise ring of at most [`EAR_MAX_POINTS`] points by clipping ears: a
+/// corner turning clearly left whose triangle holds no other corner of what is left, not even on its border
+/// (exact predicates). n − 2 triangles, each counter-clockwise with positive area, covering the ring exactly. `None`
+/// for a larger or non-simple ring, or when no ear is left (collinear corners can leave none); the
+/// constrained triangulation takes those.
+fn ear_clip(ring: &[[f64; 2]]) -> Option<Roof> {
+    let n = ring.len();
+    if !(3..=EAR_MAX_POINTS).contains(&n) || !is_simple(ring) {
+        return None;
+    }
+    let mut left: Vec<u32> = (0..n as u32).collect();
+    let mut tris = Vec::with_capacity(n - 2);
+    let mut i = 0;
+    let mut tried = 0;
+    while left.len() > 3 {
+        let m = left.len();
+        let (a, b, c) = (left[(i + m - 1) % m], left[i], left[(i + 1) % m]);
+        let [pa, pb, pc] = [a, b, c].map(|k| ring[k as usize]);
+        let ear = turns_left_clearly(pa, pb, pc)
+            && left.iter().all(|&k| {
+                let p = ring[k as usize];
+                k == a
+                    || k == b
+                    || k == c
+                    || orient(pa, pb, p) < 0.0
+                    || orient(pb, pc, p) < 0.0
+                    || orient(pc, pa, p) < 0.0
+            });
+        if ear {
+            tris.push([a, b, c]);
+            left.remove(i);
+            if i == left.len() {
+                i = 0;
+            }
+            tried = 0;
+        } else {
+            i = (i + 1) % m;
+            tried += 1;
+            if tried > m {
+                return None;
+            }
+        }
+    }
+    let [pa, pb, pc] = [left[0], left[1], left[2]].map(|k| ring[k as usize]);
+    if !turns_left_clearly(pa, pb, pc) {
+        return None;
+    }
+    tris.push([left[0], left[1], left[2]]);
+    Some((ring.to_vec(), tris))
+}
+
 /// Constrained Delaunay triangulation of the rings' points with every ring edge as a constraint; a
 /// face is inside when reaching it from the outer face crosses an odd number of constraint edges.
 /// Crossing constraints are split at their intersection. `None` when a point cannot be inserted.
 fn roof_triangles(rings: &[Vec<[f64; 2]>]) -> Option<Roof> {
+    if let [ring] = rings {
+        if is_strictly_convex(ring) {
+            return Some(fan(ring));
+        }
+        if let Some(roof) = ear_clip(ring) {
+            return Some(roof);
+        }
+    }
     type Cdt = ConstrainedDelaunayTriangulation<Point2<f64>>;
     let point = |p: &[f64; 2]| Point2::new(p[0], p[1]);
     let constrain = |cdt: &mut Cdt, handles: &[spade::handles::FixedVertexHandle]| {
@@ -499,6 +648,113 @@ mod tests {
             if let Err(e) = check_prism(&fp, &m, base, base + height) {
                 return Err(TestCaseError::fail(e));
             }
+        }
+    }
+
+    /// Sum of the triangles' areas, and whether each is counter-clockwise with positive area.
+    fn roof_area(roof: &Roof) -> (f64, bool) {
+        let tri = |t: &[u32; 3]| signed_area2(&t.map(|k| roof.0[k as usize])) / 2.0;
+        (
+            roof.1.iter().map(tri).sum(),
+            roof.1.iter().all(|t| tri(t) > 0.0),
+        )
+    }
+
+    #[test]
+    fn convex_rings_are_fanned_and_others_are_not() {
+        let square = vec![[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0]];
+        assert!(is_strictly_convex(&square));
+        let (area, positive) = roof_area(&fan(&square));
+        assert!(positive && area == 16.0);
+        // A collinear corner, a reflex corner, a pentagram (left turns only, but twice around).
+        let collinear = vec![[0.0, 0.0], [2.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0]];
+        let reflex = vec![[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [2.0, 1.0], [0.0, 4.0]];
+        let pentagram: Vec<[f64; 2]> = (0..5)
+            .map(|k| {
+                let a = std::f64::consts::TAU * (2 * k) as f64 / 5.0;
+                [a.cos(), a.sin()]
+            })
+            .collect();
+        for ring in [&collinear, &reflex, &pentagram] {
+            assert!(!is_strictly_convex(ring), "{ring:?}");
+        }
+    }
+
+    #[test]
+    fn ear_clipping_covers_simple_rings_and_declines_the_rest() {
+        // A comb: five teeth, reflex corners between them, collinear points along its back.
+        let mut comb = vec![[0.0, 0.0], [5.0, 0.0], [10.0, 0.0]];
+        for k in (0..5).rev() {
+            let x = 2.0 * k as f64;
+            comb.extend([[x + 2.0, 6.0], [x + 1.0, 6.0], [x + 1.0, 2.0], [x, 2.0]]);
+        }
+        comb.pop();
+        comb.push([0.0, 6.0]);
+        let n = comb.len();
+        let expected = signed_area2(&comb) / 2.0;
+        let roof = ear_clip(&comb).expect("a simple ring");
+        assert_eq!(roof.1.len(), n - 2);
+        let (area, positive) = roof_area(&roof);
+        assert!(positive);
+        assert!((area - expected).abs() < 1e-9, "{area} vs {expected}");
+
+        let bow_tie = vec![[0.0, 0.0], [4.0, 4.0], [4.0, 0.0], [0.0, 4.0]];
+        let fold_back = vec![[0.0, 0.0], [4.0, 0.0], [2.0, 0.0], [2.0, 3.0]];
+        let touching = vec![
+            [0.0, 0.0],
+            [4.0, 0.0],
+            [2.0, 2.0],
+            [4.0, 4.0],
+            [0.0, 4.0],
+            [2.0, 2.0],
+        ];
+        for ring in [&bow_tie, &fold_back, &touching] {
+            assert!(!is_simple(ring), "{ring:?}");
+            assert!(ear_clip(ring).is_none());
+        }
+        let too_many: Vec<[f64; 2]> = (0..EAR_MAX_POINTS + 1)
+            .map(|k| {
+                let a = std::f64::consts::TAU * k as f64 / (EAR_MAX_POINTS + 1) as f64;
+                let r = if k % 2 == 0 { 10.0 } else { 6.0 };
+                [r * a.cos(), r * a.sin()]
+            })
+            .collect();
+        assert!(ear_clip(&too_many).is_none());
+    }
+
+    proptest! {
+        /// Star-shaped rings (simple by construction), with collinear midpoints or not: the ears cover
+        /// them exactly with n − 2 positive triangles.
+        #[test]
+        fn ear_clipping_covers_random_star_rings(
+            radii in radii(3..60, 1.0, 40.0),
+            offset in (-1e4..1e4f64, -1e4..1e4f64),
+            subdivide in any::<bool>(),
+        ) {
+            let n = radii.len();
+            let mut ring: Vec<[f64; 2]> = radii
+                .iter()
+                .enumerate()
+                .map(|(k, r)| {
+                    let a = std::f64::consts::TAU * k as f64 / n as f64;
+                    [offset.0 + r * a.cos(), offset.1 + r * a.sin()]
+                })
+                .collect();
+            if subdivide {
+                ring = (0..n)
+                    .flat_map(|k| {
+                        let (p, q) = (ring[k], ring[(k + 1) % n]);
+                        [p, [(p[0] + q[0]) / 2.0, (p[1] + q[1]) / 2.0]]
+                    })
+                    .collect();
+            }
+            prop_assume!(ring.len() <= EAR_MAX_POINTS && is_simple(&ring));
+            let roof = ear_clip(&ring).ok_or_else(|| TestCaseError::fail("no ear found"))?;
+            prop_assert_eq!(roof.1.len(), ring.len() - 2);
+            let (area, positive) = roof_area(&roof);
+            prop_assert!(positive);
+            let expected = signed_area2(&ring) / 2.0;
+            prop_assert!((area - expected).abs() <= 1e-9 * expected.abs().max(1.0), "{} vs {}", area, expected);
         }
     }
 
