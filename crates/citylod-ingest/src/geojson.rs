@@ -106,7 +106,8 @@ const MAX_DEPTH: usize = 127;
 /// One feature from its JSON text, each member the reader uses and each property parsed on its own, so that a
 /// problem in one property costs only that property: a key given twice keeps its last value (`duplicate_key`), a
 /// property nested deeper than [`MAX_DEPTH`] is dropped (`property_too_deep_dropped`) and one holding a number
-/// beyond a double is kept as its JSON text (`number_kept_as_text`), each recorded as a repair. In the geometry
+/// beyond a double, or a `\u` escape that is no character, is kept as its JSON text (`number_kept_as_text`,
+/// `undecodable_value_kept_as_text`), each recorded as a repair. In the geometry
 /// such a value skips the feature, as any malformed geometry does.
 fn read_feature_text(text: &str, file_name: &str, index: usize) -> RawFeature {
     let rejected = |detail: String| RawFeature {
@@ -191,25 +192,28 @@ fn unparsed_geometry(u: Unparsed) -> Skip {
 }
 
 /// A feature's `properties` from their text: each member parsed on its own, the last of a repeated key kept, one
-/// nested too deep dropped and one with a number beyond a double kept as its JSON text, each recorded in
-/// `repairs`. `properties` that are not an object are one such value (`None` when dropped). `Err` when a value is
-/// unreadable otherwise (a lone UTF-16 surrogate in a `\u` escape).
+/// nested too deep dropped, one with a number beyond a double or an undecodable `\u` escape (a lone UTF-16
+/// surrogate) kept as its JSON text, each recorded in `repairs`. `properties` that are not an object are one such
+/// value (`None` when dropped). `Err` when the keys cannot be read (a key with a lone surrogate).
 fn read_properties(
     raw: &RawValue,
     repairs: &mut Vec<(IssueReason, String)>,
 ) -> Result<Option<Value>, serde_json::Error> {
-    let (mut too_deep, mut as_text) = (Vec::new(), Vec::new());
+    let (mut too_deep, mut as_text, mut undecodable) = (Vec::new(), Vec::new(), Vec::new());
     let mut read = |name: &str, raw: &RawValue| match parse(raw) {
-        Ok(v) => Ok(Some(v)),
+        Ok(v) => Some(v),
         Err(Unparsed::TooDeep(depth)) => {
             too_deep.push(format!("{name} ({depth} levels)"));
-            Ok(None)
+            None
         }
         Err(Unparsed::BeyondDouble(_)) => {
             as_text.push(name.to_string());
-            Ok(Some(Value::String(raw.get().to_string())))
+            Some(Value::String(raw.get().to_string()))
         }
-        Err(Unparsed::Other(e)) => Err(e),
+        Err(Unparsed::Other(_)) => {
+            undecodable.push(name.to_string());
+            Some(Value::String(raw.get().to_string()))
+        }
     };
     let value = if raw.get().starts_with('{') {
         let mut members = serde_json::from_str::<Members>(raw.get())?.0;
@@ -223,7 +227,7 @@ fn read_properties(
                 let values: Vec<&RawValue> = run.iter().map(|(_, r)| *r).collect();
                 repeated.push(repeat_note(key, &values));
             }
-            if let Some(v) = read(key, last)? {
+            if let Some(v) = read(key, last) {
                 object.insert(key.to_string(), v);
             }
         }
@@ -238,7 +242,7 @@ fn read_properties(
         }
         Some(Value::Object(object))
     } else {
-        read(NON_OBJECT_PROPERTIES, raw)?
+        read(NON_OBJECT_PROPERTIES, raw)
     };
     if !too_deep.is_empty() {
         repairs.push((
@@ -260,6 +264,15 @@ fn read_properties(
                     "numbers"
                 },
                 listing(&as_text)
+            ),
+        ));
+    }
+    if !undecodable.is_empty() {
+        repairs.push((
+            IssueReason::UndecodableValueKeptAsText,
+            format!(
+                "a \\u escape that is no character (a lone UTF-16 surrogate), kept as JSON text: {}",
+                listing(&undecodable)
             ),
         ));
     }
@@ -931,6 +944,33 @@ mod tests {
             .iter()
             .find(|(r, _)| *r == reason)
             .map(|(_, d)| d.as_str())
+    }
+
+    #[test]
+    fn a_lone_surrogate_in_a_property_is_kept_as_text_not_a_skip() {
+        let text = format!(
+            r#"{{"type": "FeatureCollection", "features": [{{"type": "Feature", "id": "s",
+            "properties": {{"name": "caf\ud800", "nested": ["\udc00"], "height": 12}},
+            "geometry": {SQUARE}}}]}}"#
+        );
+        let f = one_feature(&text);
+        assert!(f.skip.is_none(), "{:?}", f.skip);
+        assert_eq!(f.source_id, "s");
+        let get = |k: &str| f.attributes.get(k);
+        assert_eq!(
+            get("name"),
+            Some(&AttrValue::String(r#""caf\ud800""#.into()))
+        );
+        assert_eq!(
+            get("nested"),
+            Some(&AttrValue::String(r#"["\udc00"]"#.into()))
+        );
+        assert_eq!(get("height"), Some(&AttrValue::Int(12)));
+        let detail = repair(&f, IssueReason::UndecodableValueKeptAsText).expect("reported");
+        assert!(
+            detail.contains("name") && detail.contains("nested"),
+            "{detail}"
+        );
     }
 
     #[test]

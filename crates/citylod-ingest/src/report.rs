@@ -71,6 +71,9 @@ pub enum IssueReason {
     /// (`type`, `id`, `geometry`, `properties`) given more than once in the feature: the last value
     /// is kept, as most JSON readers do. The detail names the keys and whether their values differ.
     DuplicateKey,
+    /// A GeoJSON property whose value JSON text holds but a JSON reader cannot decode (a `\u`
+    /// escape of a lone UTF-16 surrogate, which is no character) was kept as its JSON text.
+    UndecodableValueKeptAsText,
     // --- 3D models (building written, listed in `mesh_issues`) ---
     /// No Solid or surface geometry at the asked LoD or below: no mesh. When only one part lacks
     /// it, the mesh is built from the other parts.
@@ -113,6 +116,7 @@ impl IssueReason {
             NumberKeptAsText => "number_kept_as_text",
             PropertyTooDeepDropped => "property_too_deep_dropped",
             DuplicateKey => "duplicate_key",
+            UndecodableValueKeptAsText => "undecodable_value_kept_as_text",
             ModelMissing => "model_missing",
             ModelInvalid => "model_invalid",
             ModelSurfaceDropped => "model_surface_dropped",
