@@ -1,5 +1,6 @@
-//! LoD1 prism from a footprint: one wall quad per ring edge (exteriors and holes) and a flat roof cap
-//! triangulated with its holes (constrained Delaunay, spade; faces kept by crossing parity).
+//! LoD1 prism from a footprint: one wall quad per ring edge (exteriors and holes) and a flat roof cap: a
+//! fan for a convex ring, ear clipping for a small simple one, else triangulated with its holes (constrained
+//! Delaunay, spade; faces kept by crossing parity).
 //! Units: local ENU metres, z up. Invariants: triangles counter-clockwise seen from outside, none with
 //! zero area, walls and roof share no vertex (flat shading), roof area == footprint area.
 
