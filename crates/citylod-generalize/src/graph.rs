@@ -64,14 +64,38 @@ pub fn auto_reach_m(footprints: &[&Footprint], factor: f64) -> f64 {
 
 /// Builds the candidate graph over `footprints` (local ENU m; index = building index): the pairs of
 /// [`candidate_pairs`] weighted by [`weigh_pairs`].
+/// The reach pairs are weighed while the (serial) triangulation runs, on the core it leaves idle; the rest
+/// after it. The edges are those of [`weigh_pairs`] over [`candidate_pairs`], in the same order.
 pub fn candidate_graph(
     footprints: &[&Footprint],
     reach_m: f64,
     lambda_adjacent: f64,
     max_points_per_building: usize,
 ) -> (Vec<CandidateEdge>, GraphStats) {
-    let (pairs, stats) = candidate_pairs(footprints, reach_m, max_points_per_building);
-    (weigh_pairs(footprints, &pairs, lambda_adjacent), stats)
+    let (pairs, stats, reach_edges) =
+        candidate_pairs_with(footprints, reach_m, max_points_per_building, |reach| {
+            weigh_pairs(footprints, reach, lambda_adjacent)
+        });
+    // Both lists are sorted by pair: take a reach pair's weight, compute the others'.
+    let mut next = reach_edges.iter().peekable();
+    let todo: Vec<(u32, u32)> = pairs
+        .iter()
+        .copied()
+        .filter(|&(a, b)| {
+            while next.next_if(|e| (e.a, e.b) < (a, b)).is_some() {}
+            next.next_if(|e| (e.a, e.b) == (a, b)).is_none()
+        })
+        .collect();
+    let mut computed = weigh_pairs(footprints, &todo, lambda_adjacent).into_iter();
+    let mut known = reach_edges.into_iter().peekable();
+    let edges = pairs
+        .iter()
+        .map(|&(a, b)| match known.next_if(|e| (e.a, e.b) == (a, b)) {
+            Some(e) => e,
+            None => computed.next().expect("one computed edge per other pair"),
+        })
+        .collect();
+    (edges, stats)
 }
 
 /// The candidate pairs (a < b, sorted, unique) over `footprints`: R-tree reach pairs, Delaunay pairs
@@ -84,14 +108,30 @@ pub fn candidate_pairs(
     reach_m: f64,
     max_points_per_building: usize,
 ) -> (Vec<(u32, u32)>, GraphStats) {
+    let (pairs, stats, ()) =
+        candidate_pairs_with(footprints, reach_m, max_points_per_building, |_| ());
+    (pairs, stats)
+}
+
+/// [`candidate_pairs`], running `beside` on the reach pairs (sorted, unique) while the triangulation runs.
+fn candidate_pairs_with<R: Send>(
+    footprints: &[&Footprint],
+    reach_m: f64,
+    max_points_per_building: usize,
+    beside: impl FnOnce(&[(u32, u32)]) -> R + Send,
+) -> (Vec<(u32, u32)>, GraphStats, R) {
     let n = footprints.len();
     let first = first_of_kind(footprints);
     let boxes = searched_boxes(footprints, &first);
 
-    // The triangulation is serial: the reach search runs beside it.
-    let ((delaunay_pairs, n_points), reach_pairs) = rayon::join(
+    // The triangulation is serial: the reach search, and what the caller does with its pairs, run beside it.
+    let ((delaunay_pairs, n_points), (reach_pairs, beside_out)) = rayon::join(
         || delaunay_pairs(footprints, &first, max_points_per_building),
-        || reach_pairs(&boxes, reach_m),
+        || {
+            let pairs = reach_pairs(&boxes, reach_m);
+            let out = beside(&pairs);
+            (pairs, out)
+        },
     );
     let twins: Vec<(u32, u32)> = (0..n as u32)
         .filter(|&i| first[i as usize] != i)
@@ -134,7 +174,7 @@ pub fn candidate_pairs(
         n_refine_pairs: 0,
         n_edges: pairs.len(),
     };
-    (pairs, stats)
+    (pairs, stats, beside_out)
 }
 
 /// Adjacent distance of every pair (rayon; the output order is the input order).
@@ -476,6 +516,31 @@ mod tests {
             .windows(2)
             .all(|w| (w[0].a, w[0].b) < (w[1].a, w[1].b)));
         assert!(edges.iter().all(|e| e.a < e.b && e.d_m >= 0.0));
+    }
+
+    /// The reach pairs weighed beside the triangulation give the edges of weighing every candidate pair after
+    /// it: the same pairs, in the same order, with the same distances (a grid with gaps on both sides of the
+    /// reach, a duplicate and a far building, so reach, Delaunay-only and twin pairs all occur).
+    #[test]
+    fn candidate_graph_weighs_like_weigh_pairs() {
+        let mut fps: Vec<Footprint> = (0..60)
+            .map(|i| {
+                let gap = [0.0, 1.5, 4.0, 9.0][i % 4];
+                square((i % 10) as f64 * (10.0 + gap), (i / 10) as f64 * 13.0, 10.0)
+            })
+            .collect();
+        fps.push(square(0.0, 0.0, 10.0));
+        fps.push(square(90_000.0, 0.0, 10.0));
+        let refs: Vec<&Footprint> = fps.iter().collect();
+        let (edges, stats) = candidate_graph(&refs, 3.0, 0.6, 16);
+        let (pairs, _) = candidate_pairs(&refs, 3.0, 16);
+        let plain = weigh_pairs(&refs, &pairs, 0.6);
+        assert!(stats.n_reach_pairs > 0 && stats.n_delaunay_pairs > stats.n_reach_pairs);
+        assert_eq!(stats.n_duplicate_footprints, 1);
+        assert_eq!(edges.len(), plain.len());
+        for (e, p) in edges.iter().zip(&plain) {
+            assert_eq!((e.a, e.b, e.d_m.to_bits()), (p.a, p.b, p.d_m.to_bits()));
+        }
     }
 
     #[test]

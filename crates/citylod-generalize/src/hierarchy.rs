@@ -4,7 +4,7 @@
 //! building, last level = one node); the result is the same for the same input and options.
 
 use crate::graph::{
-    auto_reach_m, bbox, candidate_pairs, refine_pairs, weigh_pairs, CandidateEdge, GraphStats,
+    auto_reach_m, bbox, candidate_graph, refine_pairs, weigh_pairs, CandidateEdge, GraphStats,
 };
 use crate::levels::{condense, LevelKind, LevelOptions};
 use crate::merge::connect_islands;
@@ -376,12 +376,18 @@ fn cluster_with_streets(
     let reach_m = opts
         .reach_m
         .unwrap_or_else(|| auto_reach_m(footprints, opts.reach_factor));
-    let (pairs, mut stats) =
-        candidate_pairs(footprints, reach_m, opts.max_delaunay_points_per_building);
+    // The candidate pairs and their adjacent distances, the reach pairs' computed while the triangulation
+    // runs: both count as candidates_ms (distances_ms is the refinement's weighing and the street penalty).
+    let (mut edges, mut stats) = candidate_graph(
+        footprints,
+        reach_m,
+        opts.lambda_adjacent,
+        opts.max_delaunay_points_per_building,
+    );
+    let pairs: Vec<(u32, u32)> = edges.iter().map(|e| (e.a, e.b)).collect();
     timings.candidates_ms += ms(t);
 
     let t = Instant::now();
-    let mut edges = weigh_pairs(footprints, &pairs, opts.lambda_adjacent);
     raise(&mut edges);
     timings.distances_ms += ms(t);
 

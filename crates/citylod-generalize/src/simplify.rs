@@ -209,11 +209,16 @@ struct RingState {
 
 type VPoint = GeomWithData<[f64; 2], u32>;
 
-/// The rings as doubly linked vertex lists plus a point index of every live vertex.
+/// Nets of at most this many vertices find the vertices in a box by scanning them all, without a point
+/// index: cheaper than building and updating an R-tree for the small rings most blocks have.
+const SCAN_MAX_VERTICES: usize = 256;
+
+/// The rings as doubly linked vertex lists plus a point index of every live vertex (`None` for a small net,
+/// which scans its live vertices instead).
 struct Net {
     v: Vec<Vertex>,
     rings: Vec<RingState>,
-    index: RTree<VPoint>,
+    index: Option<RTree<VPoint>>,
 }
 
 #[derive(PartialEq)]
@@ -236,6 +241,11 @@ impl Ord for Entry {
 
 impl Net {
     fn new(rings: &[RingSpec]) -> Self {
+        Self::with_scan_max(rings, SCAN_MAX_VERTICES)
+    }
+
+    /// A net that scans its vertices when it has at most `scan_max` of them, else indexes them.
+    fn with_scan_max(rings: &[RingSpec], scan_max: usize) -> Self {
         let mut v = Vec::new();
         let mut states = Vec::new();
         for (r, spec) in rings.iter().enumerate() {
@@ -261,16 +271,46 @@ impl Net {
                 version: 0,
             });
         }
-        let index = RTree::bulk_load(
-            v.iter()
-                .enumerate()
-                .map(|(i, x)| VPoint::new(x.pos, i as u32))
-                .collect(),
-        );
+        let index = (v.len() > scan_max).then(|| {
+            RTree::bulk_load(
+                v.iter()
+                    .enumerate()
+                    .map(|(i, x)| VPoint::new(x.pos, i as u32))
+                    .collect(),
+            )
+        });
         Net {
             v,
             rings: states,
             index,
+        }
+    }
+
+    /// Whether a live vertex in the closed box `env` (id, position) passes `hit`.
+    fn any_in_box(&self, env: &AABB<[f64; 2]>, mut hit: impl FnMut(u32, [f64; 2]) -> bool) -> bool {
+        match &self.index {
+            Some(tree) => tree
+                .locate_in_envelope_intersecting(env)
+                .any(|q| hit(q.data, *q.geom())),
+            None => {
+                let (lo, hi) = (env.lower(), env.upper());
+                self.v.iter().enumerate().any(|(i, x)| {
+                    x.alive
+                        && x.pos[0] >= lo[0]
+                        && x.pos[0] <= hi[0]
+                        && x.pos[1] >= lo[1]
+                        && x.pos[1] <= hi[1]
+                        && hit(i as u32, x.pos)
+                })
+            }
+        }
+    }
+
+    /// Takes vertex `id` out of the point index (its `alive` flag is the caller's).
+    fn unindex(&mut self, id: u32) {
+        if let Some(tree) = &mut self.index {
+            let removed = tree.remove(&VPoint::new(self.v[id as usize].pos, id));
+            debug_assert!(removed.is_some(), "vertex {id} missing from the index");
         }
     }
 
@@ -318,15 +358,15 @@ impl Net {
             }
         }
         let env = AABB::from_points(t.iter());
-        !self.index.locate_in_envelope_intersecting(&env).any(|q| {
-            q.data != id && q.data != x.prev && q.data != x.next && in_closed_triangle(*q.geom(), t)
+        !self.any_in_box(&env, |q, p| {
+            q != id && q != x.prev && q != x.next && in_closed_triangle(p, t)
         })
     }
 
     fn remove(&mut self, id: u32) {
-        let (p, n, pos, r) = {
+        let (p, n, r) = {
             let x = &self.v[id as usize];
-            (x.prev, x.next, x.pos, x.ring)
+            (x.prev, x.next, x.ring)
         };
         self.v[id as usize].alive = false;
         self.v[p as usize].next = n;
@@ -339,8 +379,7 @@ impl Net {
         if ring.first == id {
             ring.first = n;
         }
-        let removed = self.index.remove(&VPoint::new(pos, id));
-        debug_assert!(removed.is_some(), "vertex {id} missing from the index");
+        self.unindex(id);
     }
 
     /// Pass 1: smallest concave triangle first, for triangles of area < `delta_a_m2` or slivers (thinner
@@ -378,10 +417,9 @@ impl Net {
     /// in a courtyard would then overlap the filled polygon).
     fn can_fill_hole(&self, r: usize, pts: &[[f64; 2]]) -> bool {
         let env = AABB::from_points(pts.iter());
-        !self
-            .index
-            .locate_in_envelope_intersecting(&env)
-            .any(|q| self.v[q.data as usize].ring as usize != r && point_in_ring(*q.geom(), pts))
+        !self.any_in_box(&env, |q, p| {
+            self.v[q as usize].ring as usize != r && point_in_ring(p, pts)
+        })
     }
 
     /// Fills hole `r` whole: its vertices leave the net and the ring is dropped from the output.
@@ -395,8 +433,7 @@ impl Net {
         }
         for id in ids {
             self.v[id as usize].alive = false;
-            let removed = self.index.remove(&VPoint::new(self.v[id as usize].pos, id));
-            debug_assert!(removed.is_some(), "vertex {id} missing from the index");
+            self.unindex(id);
         }
         let ring = &mut self.rings[r];
         ring.len = 0;
@@ -987,6 +1024,25 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(128))]
+        /// Scanning the vertices and searching the R-tree find the same vertices: the budgeted fills, cuts and
+        /// collinear removals give the same outline either way.
+        #[test]
+        fn scanning_and_indexed_nets_reoutline_alike(
+            rects in prop::collection::vec((0.0f64..60.0, 0.0f64..60.0, 2.0f64..20.0, 2.0f64..20.0), 2..12),
+            budget in 0.0f64..400.0,
+            angle in 150.0f64..180.0,
+        ) {
+            let (_, merged) = merge_rects(&rects);
+            let run = |scan_max: usize| {
+                let mut net = Net::with_scan_max(&ring_specs(&merged, 0.0), scan_max);
+                assert_eq!(net.index.is_none(), scan_max == usize::MAX || net.v.is_empty());
+                let (f1, c1) = net.fill_concave_and_holes(budget, true);
+                let (f2, c2) = net.remove_collinear(angle.to_radians(), budget - f1 - c1, true);
+                (net.into_footprint(merged.0.len(), 0.0), f1 + f2, c1 + c2)
+            };
+            prop_assert_eq!(run(usize::MAX), run(0));
+        }
+
         #[test]
         fn simplified_is_valid_subset_and_covers_input(
             radii in prop::collection::vec((0.0f64..std::f64::consts::TAU, 2.0f64..30.0), 4..60),

@@ -141,7 +141,8 @@ fn is_strictly_convex(ring: &[[f64; 2]]) -> bool {
 fn turns_left_clearly(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> bool {
     let u = [b[0] - a[0], b[1] - a[1]];
     let v = [c[0] - b[0], c[1] - b[1]];
-    u[0] * v[1] - u[1] * v[0] > 1e-9 * (u[0].hypot(u[1]) * v[0].hypot(v[1]))
+    u[0] * v[1] - u[1] * v[0]
+        > 1e-9 * ((u[0] * u[0] + u[1] * u[1]) * (v[0] * v[0] + v[1] * v[1])).sqrt()
 }
 
 /// The fan of a strictly convex ring from its first point: n − 2 counter-clockwise triangles, each of
@@ -165,6 +166,14 @@ fn orient(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {
 
 /// Whether the closed segments `a`–`b` and `c`–`d` meet (touching counts), exactly.
 fn segments_meet(a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]) -> bool {
+    // Segments whose boxes are apart cannot meet: most pairs of a ring end here, before any orientation.
+    if a[0].max(b[0]) < c[0].min(d[0])
+        || c[0].max(d[0]) < a[0].min(b[0])
+        || a[1].max(b[1]) < c[1].min(d[1])
+        || c[1].max(d[1]) < a[1].min(b[1])
+    {
+        return false;
+    }
     let (d1, d2) = (orient(a, b, c), orient(a, b, d));
     let (d3, d4) = (orient(c, d, a), orient(c, d, b));
     let within = |p: [f64; 2], q: [f64; 2], r: [f64; 2]| {
@@ -223,12 +232,21 @@ fn ear_clip(ring: &[[f64; 2]]) -> Option<Roof> {
         let m = left.len();
         let (a, b, c) = (left[(i + m - 1) % m], left[i], left[(i + 1) % m]);
         let [pa, pb, pc] = [a, b, c].map(|k| ring[k as usize]);
+        // A corner outside the triangle's box is outside the triangle: no orientation needed.
+        let (lo, hi) = (
+            [pa[0].min(pb[0]).min(pc[0]), pa[1].min(pb[1]).min(pc[1])],
+            [pa[0].max(pb[0]).max(pc[0]), pa[1].max(pb[1]).max(pc[1])],
+        );
         let ear = turns_left_clearly(pa, pb, pc)
             && left.iter().all(|&k| {
                 let p = ring[k as usize];
                 k == a
                     || k == b
                     || k == c
+                    || p[0] < lo[0]
+                    || p[0] > hi[0]
+                    || p[1] < lo[1]
+                    || p[1] > hi[1]
                     || orient(pa, pb, p) < 0.0
                     || orient(pb, pc, p) < 0.0
                     || orient(pc, pa, p) < 0.0

@@ -811,6 +811,11 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
             args.out.join("build-report.json").display()
         );
     }
+    // The command ends here and the process with it: freeing the buildings, the hierarchy and the meshes one
+    // allocation at a time would only delay the exit (~30 ms on Boston, seconds on a million buildings).
+    std::mem::forget(lod);
+    std::mem::forget(generalized);
+    std::mem::forget(ingested);
     Ok(ExitCode::SUCCESS)
 }
 
