@@ -154,9 +154,9 @@ fn compute(a: &Footprint, b: &Footprint, lambda: f64, hull_min_work: usize) -> A
     let mut configs: Vec<Config> = Vec::new();
     for (from_a, (rv, kv, re, ke)) in [(true, (&ra, &ka, &rb, &kb)), (false, (&rb, &kb, &ra, &ka))]
     {
-        for_each_vertex_edge(rv, kv, re, ke, |v, e, d2, closest| {
+        for_each_vertex_edge(rv, kv, re, ke, bound, |v, e, d2, closest| {
             if d2 > bound {
-                return;
+                return bound;
             }
             if d2 < d2_min {
                 d2_min = d2;
@@ -164,6 +164,7 @@ fn compute(a: &Footprint, b: &Footprint, lambda: f64, hull_min_work: usize) -> A
                 configs.retain(|c| c.3 <= bound);
             }
             configs.push((from_a, v, e, d2, closest));
+            bound
         });
     }
     let d_min = d2_min.sqrt();
@@ -366,29 +367,50 @@ fn dist_pt(p: Coord<f64>, q: Coord<f64>) -> f64 {
 
 /// Calls `f((ring, vertex), (ring, edge start), squared distance, closest point on the edge)` for
 /// every kept vertex of `rv` against every kept edge of `re`.
+/// Calls `f` for every kept (vertex, edge) pair with their squared distance and the closest point, except pairs
+/// whose edge's box is already farther from the vertex than the bound `f` last returned (`bound` at first):
+/// `f` has no use for those. The box distance is a lower bound of the true one; the margin covers rounding.
 fn for_each_vertex_edge(
     rv: &Rings,
     kv: &Keep,
     re: &Rings,
     ke: &Keep,
-    mut f: impl FnMut((usize, usize), (usize, usize), f64, Coord<f64>),
+    mut bound: f64,
+    mut f: impl FnMut((usize, usize), (usize, usize), f64, Coord<f64>) -> f64,
 ) {
+    // The kept edges once, with their ends and boxes: (ring, edge), start, end, [min x, min y, max x, max y].
+    type Edge = ((usize, usize), Coord<f64>, Coord<f64>, [f64; 4]);
+    let edges: Vec<Edge> =
+        re.0.iter()
+            .enumerate()
+            .flat_map(|(er, ring_e)| {
+                let n = ring_e.len();
+                (0..n).filter(move |&ei| ke.edge(er, ei)).map(move |ei| {
+                    let (q0, q1) = (ring_e[ei], ring_e[if ei + 1 == n { 0 } else { ei + 1 }]);
+                    let b = [
+                        q0.x.min(q1.x),
+                        q0.y.min(q1.y),
+                        q0.x.max(q1.x),
+                        q0.y.max(q1.y),
+                    ];
+                    ((er, ei), q0, q1, b)
+                })
+            })
+            .collect();
     for (vr, ring_v) in rv.0.iter().enumerate() {
         for (vi, &p) in ring_v.iter().enumerate() {
             if !kv.vertex(vr, vi) {
                 continue;
             }
-            for (er, ring_e) in re.0.iter().enumerate() {
-                let n = ring_e.len();
-                for ei in 0..n {
-                    if !ke.edge(er, ei) {
-                        continue;
-                    }
-                    let (q0, q1) = (ring_e[ei], ring_e[(ei + 1) % n]);
-                    let c = closest_on_segment(p, q0, q1);
-                    let (dx, dy) = (p.x - c.x, p.y - c.y);
-                    f((vr, vi), (er, ei), dx * dx + dy * dy, c);
+            for &(e, q0, q1, b) in &edges {
+                let gx = (b[0] - p.x).max(p.x - b[2]).max(0.0);
+                let gy = (b[1] - p.y).max(p.y - b[3]).max(0.0);
+                if gx * gx + gy * gy > bound * (1.0 + 1e-9) {
+                    continue;
                 }
+                let c = closest_on_segment(p, q0, q1);
+                let (dx, dy) = (p.x - c.x, p.y - c.y);
+                bound = f((vr, vi), e, dx * dx + dy * dy, c);
             }
         }
     }
