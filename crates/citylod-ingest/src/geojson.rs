@@ -194,7 +194,8 @@ fn unparsed_geometry(u: Unparsed) -> Skip {
 /// A feature's `properties` from their text: each member parsed on its own, the last of a repeated key kept, one
 /// nested too deep dropped, one with a number beyond a double or an undecodable `\u` escape (a lone UTF-16
 /// surrogate) kept as its JSON text, each recorded in `repairs`. `properties` that are not an object are one such
-/// value (`None` when dropped). `Err` when the keys cannot be read (a key with a lone surrogate).
+/// value (`None` when dropped). A key with a lone surrogate is kept with its escape written out
+/// (`undecodable_key_kept_as_text`). `Err` when the members cannot be read at all.
 fn read_properties(
     raw: &RawValue,
     repairs: &mut Vec<(IssueReason, String)>,
@@ -216,7 +217,19 @@ fn read_properties(
         }
     };
     let value = if raw.get().starts_with('{') {
-        let mut members = serde_json::from_str::<Members>(raw.get())?.0;
+        let (mut members, undecodable_keys) = {
+            let m = serde_json::from_str::<Members>(raw.get())?;
+            (m.0, m.1)
+        };
+        if !undecodable_keys.is_empty() {
+            repairs.push((
+                IssueReason::UndecodableKeyKeptAsText,
+                format!(
+                    "a key with a \\u escape that is no character (a lone UTF-16 surrogate), kept with that escape as text: {}",
+                    listing(&undecodable_keys)
+                ),
+            ));
+        }
         // Stable: the values of a repeated key stay in document order, the last one last.
         members.sort_by(|a, b| a.0.cmp(&b.0));
         let mut repeated = Vec::new();
@@ -290,8 +303,8 @@ fn repeat_note(key: &str, values: &[&RawValue]) -> String {
 }
 
 /// A JSON object's members in document order, a repeated key as often as given (a map would keep one), the
-/// values unparsed.
-struct Members<'a>(Vec<(Cow<'a, str>, &'a RawValue)>);
+/// values unparsed; and the keys that held a lone surrogate (see [`Key`]), in document order.
+struct Members<'a>(Vec<(Cow<'a, str>, &'a RawValue)>, Vec<String>);
 
 impl<'de> serde::Deserialize<'de> for Members<'de> {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
@@ -305,19 +318,23 @@ impl<'de> serde::Deserialize<'de> for Members<'de> {
                 self,
                 mut map: A,
             ) -> Result<Members<'de>, A::Error> {
-                let mut out = Vec::new();
-                while let Some(Key(k)) = map.next_key()? {
+                let (mut out, mut undecodable) = (Vec::new(), Vec::new());
+                while let Some(Key(k, lone_surrogate)) = map.next_key()? {
+                    if lone_surrogate {
+                        undecodable.push(k.to_string());
+                    }
                     out.push((k, map.next_value()?));
                 }
-                Ok(Members(out))
+                Ok(Members(out, undecodable))
             }
         }
         d.deserialize_map(Visit)
     }
 }
 
-/// An object key, borrowed from the text unless it has escapes.
-struct Key<'a>(Cow<'a, str>);
+/// An object key, borrowed from the text unless it has escapes. A `\u` escape of a lone UTF-16 surrogate, which
+/// is no character, stays that escape in the key's text (`caf\ud800`), and the flag is set.
+struct Key<'a>(Cow<'a, str>, bool);
 
 impl<'de> serde::Deserialize<'de> for Key<'de> {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
@@ -328,14 +345,55 @@ impl<'de> serde::Deserialize<'de> for Key<'de> {
                 f.write_str("a string")
             }
             fn visit_borrowed_str<E>(self, s: &'de str) -> Result<Key<'de>, E> {
-                Ok(Key(Cow::Borrowed(s)))
+                Ok(Key(Cow::Borrowed(s), false))
             }
             fn visit_str<E>(self, s: &str) -> Result<Key<'de>, E> {
-                Ok(Key(Cow::Owned(s.to_string())))
+                Ok(Key(Cow::Owned(s.to_string()), false))
+            }
+            fn visit_borrowed_bytes<E>(self, b: &'de [u8]) -> Result<Key<'de>, E> {
+                Ok(match std::str::from_utf8(b) {
+                    Ok(s) => Key(Cow::Borrowed(s), false),
+                    Err(_) => Key(Cow::Owned(wtf8_escaped(b)), true),
+                })
+            }
+            fn visit_bytes<E>(self, b: &[u8]) -> Result<Key<'de>, E> {
+                Ok(match std::str::from_utf8(b) {
+                    Ok(s) => Key(Cow::Owned(s.to_string()), false),
+                    Err(_) => Key(Cow::Owned(wtf8_escaped(b)), true),
+                })
             }
         }
-        d.deserialize_str(Visit)
+        // As bytes, serde_json decodes a lone surrogate (as WTF-8) where a string refuses it.
+        d.deserialize_bytes(Visit)
     }
+}
+
+/// Text of a WTF-8 string (UTF-8 plus encoded lone surrogates, which serde_json gives for `\u` escapes of lone
+/// surrogates read as bytes): each lone surrogate written back as its escape `\uXXXX`.
+fn wtf8_escaped(mut b: &[u8]) -> String {
+    let mut out = String::with_capacity(b.len() + 8);
+    while !b.is_empty() {
+        match std::str::from_utf8(b) {
+            Ok(s) => {
+                out.push_str(s);
+                break;
+            }
+            Err(e) => {
+                let (good, rest) = b.split_at(e.valid_up_to());
+                out.push_str(std::str::from_utf8(good).expect("valid up to here"));
+                // A surrogate U+D800..U+DFFF in three bytes: 1110_1101, 10_1xxxxx, 10_xxxxxx.
+                if let [0xED, b1 @ 0xA0..=0xBF, b2 @ 0x80..=0xBF, ..] = *rest {
+                    let unit = 0xD000 | (u32::from(b1 & 0x3F) << 6) | u32::from(b2 & 0x3F);
+                    out.push_str(&format!("\\u{unit:04x}"));
+                    b = &rest[3..];
+                } else {
+                    out.push(char::REPLACEMENT_CHARACTER);
+                    b = &rest[e.error_len().unwrap_or(rest.len()).max(1)..];
+                }
+            }
+        }
+    }
+    out
 }
 
 /// Why serde_json did not parse a value whose syntax the outline scan accepted.
@@ -971,6 +1029,26 @@ mod tests {
             detail.contains("name") && detail.contains("nested"),
             "{detail}"
         );
+    }
+
+    #[test]
+    fn a_lone_surrogate_in_a_property_key_keeps_the_key_escaped_not_a_skip() {
+        let text = format!(
+            r#"{{"type": "FeatureCollection", "features": [{{"type": "Feature", "id": "k",
+            "properties": {{"caf\ud800": 1, "\uDC00x\u00e9": "v", "height": 12}},
+            "geometry": {SQUARE}}}]}}"#
+        );
+        let f = one_feature(&text);
+        assert!(f.skip.is_none(), "{:?}", f.skip);
+        assert_eq!(f.source_id, "k");
+        let get = |k: &str| f.attributes.get(k);
+        assert_eq!(get(r"caf\ud800"), Some(&AttrValue::Int(1)));
+        assert_eq!(get("\\udc00x\u{e9}"), Some(&AttrValue::String("v".into())));
+        assert_eq!(get("height"), Some(&AttrValue::Int(12)));
+        let detail = repair(&f, IssueReason::UndecodableKeyKeptAsText).expect("reported");
+        assert!(detail.contains(r"caf\ud800"), "{detail}");
+        assert!(repair(&f, IssueReason::UndecodableValueKeptAsText).is_none());
+        assert_eq!(wtf8_escaped("plain é".as_bytes()), "plain é");
     }
 
     #[test]

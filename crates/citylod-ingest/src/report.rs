@@ -74,6 +74,9 @@ pub enum IssueReason {
     /// A GeoJSON property whose value JSON text holds but a JSON reader cannot decode (a `\u`
     /// escape of a lone UTF-16 surrogate, which is no character) was kept as its JSON text.
     UndecodableValueKeptAsText,
+    /// A GeoJSON property key with a `\u` escape of a lone UTF-16 surrogate: the property is kept under the key's
+    /// text with that escape written out (`caf\ud800`).
+    UndecodableKeyKeptAsText,
     // --- 3D models (building written, listed in `mesh_issues`) ---
     /// No Solid or surface geometry at the asked LoD or below: no mesh. When only one part lacks
     /// it, the mesh is built from the other parts.
@@ -117,6 +120,7 @@ impl IssueReason {
             PropertyTooDeepDropped => "property_too_deep_dropped",
             DuplicateKey => "duplicate_key",
             UndecodableValueKeptAsText => "undecodable_value_kept_as_text",
+            UndecodableKeyKeptAsText => "undecodable_key_kept_as_text",
             ModelMissing => "model_missing",
             ModelInvalid => "model_invalid",
             ModelSurfaceDropped => "model_surface_dropped",
