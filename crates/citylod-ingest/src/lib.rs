@@ -165,7 +165,7 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
             detail: e.0,
         })?;
     }
-    let files: Vec<LoadedFile> = paths
+    let mut files: Vec<LoadedFile> = paths
         .par_iter()
         .map(|p| load(p, opts, model_target))
         .collect::<Result<_, _>>()?;
@@ -203,8 +203,10 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
     };
     let mut buildings: Vec<Building> = Vec::new();
     // The first written building of each source id, and the file it came from.
-    let mut first_with_id: HashMap<&str, (usize, usize)> = HashMap::new();
-    for (file_index, (file, outs)) in files.iter().zip(&outcomes).enumerate() {
+    let mut first_with_id: HashMap<String, (usize, usize)> = HashMap::new();
+    let file_labels: Vec<String> = files.iter().map(|f| f.path.display().to_string()).collect();
+    // A written feature's id and attributes move into its building.
+    for (file_index, (file, outs)) in files.iter_mut().zip(&outcomes).enumerate() {
         let file_label = file.path.display().to_string();
         type Placed<'a> = (&'a Prepared, citylod_model::Footprint, f64, model3d::Meshed);
         let placed: Vec<Result<Placed, &Skip>> = outs
@@ -231,7 +233,7 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
             skipped: 0,
             non_building_objects: file.non_building_objects,
         };
-        for (raw, placed) in file.features.iter().zip(placed) {
+        for (raw, placed) in file.features.iter_mut().zip(placed) {
             let issue = |reason: IssueReason, detail: &str| FeatureIssue {
                 file: file_label.clone(),
                 feature_id: raw.source_id.clone(),
@@ -248,7 +250,7 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
                     let from = if f == file_index {
                         "earlier in this file".to_string()
                     } else {
-                        format!("from {}", files[f].path.display())
+                        format!("from {}", file_labels[f])
                     };
                     let differ = attributes_differing(&o.attributes, &raw.attributes);
                     let lost = if differ.is_empty() {
@@ -303,17 +305,17 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
                         *report.mesh_lods.entry(m.lod.clone()).or_default() += 1;
                         report.mesh_lod_fallbacks += usize::from(meshed.fell_back);
                     }
-                    first_with_id
-                        .entry(raw.source_id.as_str())
-                        .or_insert((buildings.len(), file_index));
+                    if !first_with_id.contains_key(&raw.source_id) {
+                        first_with_id.insert(raw.source_id.clone(), (buildings.len(), file_index));
+                    }
                     buildings.push(Building {
                         id: BuildingId(buildings.len() as u32),
-                        source_id: raw.source_id.clone(),
+                        source_id: std::mem::take(&mut raw.source_id),
                         footprint,
                         base_z_m,
                         height_m: p.heights.height_m,
                         height_source: p.heights.source,
-                        attributes: raw.attributes.clone(),
+                        attributes: std::mem::take(&mut raw.attributes),
                         mesh: meshed.model,
                     });
                     fr.buildings_written += 1;
