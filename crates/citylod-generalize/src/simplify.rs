@@ -210,7 +210,9 @@ struct RingState {
 type VPoint = GeomWithData<[f64; 2], u32>;
 
 /// Nets of at most this many vertices find the vertices in a box by scanning them all, without a point
-/// index: cheaper than building and updating an R-tree for the small rings most blocks have.
+/// index: cheaper than building and updating an R-tree for the small rings most blocks have (Boston's build
+/// spent about 10.7 / 9.9 / 8.3 % of its profile samples in the nets with the R-tree always / up to 64 vertices
+/// scanned / up to 256).
 const SCAN_MAX_VERTICES: usize = 256;
 
 /// The rings as doubly linked vertex lists plus a point index of every live vertex (`None` for a small net,
