@@ -1,6 +1,8 @@
 //! Planar polygon operations shared by the ingest and generalize stages (local ENU metres).
 //!
 //! - [`union_nonzero`]: the union of polygons under the non-zero winding rule, OGC-valid.
+//! - [`rebuild_even_odd`]: an invalid polygon rebuilt as the area its rings enclose an odd number of times,
+//!   OGC-valid.
 //!
 //! The union runs i_overlay 9 itself rather than through geo's `BooleanOps`: geo 0.33 pins i_overlay 4.5,
 //! whose segment splitter needs minutes for rings of long, nearly parallel edges (one union of a
@@ -25,11 +27,34 @@ use i_overlay::i_float::adapter::FloatPointAdapter;
 pub fn union_nonzero(polys: &[Polygon<f64>]) -> MultiPolygon<f64> {
     let mut paths: Vec<Vec<[f64; 2]>> = Vec::new();
     for p in polys {
-        if let Some(ext) = open_path(p.exterior(), true) {
+        if let Some(ext) = open_path(p.exterior(), Some(true)) {
             paths.push(ext);
-            paths.extend(p.interiors().iter().filter_map(|h| open_path(h, false)));
+            paths.extend(
+                p.interiors()
+                    .iter()
+                    .filter_map(|h| open_path(h, Some(false))),
+            );
         }
     }
+    overlay(&paths, FillRule::NonZero)
+}
+
+/// `p` rebuilt under the even-odd rule: the area inside an odd number of its rings (shell and holes alike), as
+/// OGC-valid polygons, like geo's `MakeValid` (which triangulates the rings and flood-fills the triangles
+/// odd-even) but through the overlay's sweep, so a ring of thousands of vertices with a few crossings takes
+/// milliseconds. A bow tie becomes two triangles, an edge drawn out and back adds nothing, a part of the shell
+/// that loops over itself twice is left out. Rings of fewer than three points are ignored; coordinates must be
+/// finite.
+pub fn rebuild_even_odd(p: &Polygon<f64>) -> MultiPolygon<f64> {
+    let paths: Vec<Vec<[f64; 2]>> = std::iter::once(p.exterior())
+        .chain(p.interiors())
+        .filter_map(|r| open_path(r, None))
+        .collect();
+    overlay(&paths, FillRule::EvenOdd)
+}
+
+/// The area `paths` cover under `fill`, as polygons: each shape's outer contour first (CCW), its holes after.
+fn overlay(paths: &[Vec<[f64; 2]>], fill: FillRule) -> MultiPolygon<f64> {
     if paths.is_empty() {
         return MultiPolygon(Vec::new());
     }
@@ -37,8 +62,8 @@ pub fn union_nonzero(polys: &[Polygon<f64>]) -> MultiPolygon<f64> {
     let adapter = FloatPointAdapter::<[f64; 2], i32>::with_iter(paths.iter().flatten());
     let shapes =
         FloatOverlay::new_custom(adapter, OverlayOptions::ogc(), Solver::default(), capacity)
-            .unsafe_add_source(&paths, ShapeType::Subject)
-            .overlay(OverlayRule::Subject, FillRule::NonZero);
+            .unsafe_add_source(paths, ShapeType::Subject)
+            .overlay(OverlayRule::Subject, fill);
     // i_overlay gives each shape's outer contour first (CCW) and its holes after (CW), open.
     MultiPolygon(
         shapes
@@ -52,9 +77,9 @@ pub fn union_nonzero(polys: &[Polygon<f64>]) -> MultiPolygon<f64> {
     )
 }
 
-/// The ring without its closing point, counter-clockwise when `ccw` and clockwise otherwise; `None` under
-/// three points.
-fn open_path(ring: &LineString<f64>, ccw: bool) -> Option<Vec<[f64; 2]>> {
+/// The ring without its closing point, counter-clockwise when `ccw` is `Some(true)`, clockwise when
+/// `Some(false)`, as it runs when `None`; `None` under three points.
+fn open_path(ring: &LineString<f64>, ccw: Option<bool>) -> Option<Vec<[f64; 2]>> {
     let pts = &ring.0;
     let n = if pts.len() > 1 && pts.first() == pts.last() {
         pts.len() - 1
@@ -65,7 +90,7 @@ fn open_path(ring: &LineString<f64>, ccw: bool) -> Option<Vec<[f64; 2]>> {
         return None;
     }
     let mut path: Vec<[f64; 2]> = pts[..n].iter().map(|c| [c.x, c.y]).collect();
-    if (twice_signed_area(&path) > 0.0) != ccw {
+    if ccw.is_some_and(|ccw| (twice_signed_area(&path) > 0.0) != ccw) {
         path.reverse();
     }
     Some(path)
@@ -185,5 +210,160 @@ mod tests {
         let both = union_nonzero(&[star, rect(100.0, -5.0, 110.0, 5.0)]);
         assert_eq!(both.0.len(), 2);
         assert!((both.unsigned_area() - star_area - 100.0).abs() < 1e-6 * star_area);
+    }
+
+    /// A ring through `pts`, closed.
+    fn ring_of(pts: &[(f64, f64)]) -> LineString<f64> {
+        let mut v: Vec<Coord<f64>> = pts.iter().map(|&(x, y)| Coord { x, y }).collect();
+        v.push(v[0]);
+        LineString(v)
+    }
+
+    #[test]
+    fn even_odd_rebuild_of_the_usual_faults() {
+        // Bow tie: two triangles of 25 m² meeting at (5, 5).
+        let bow = Polygon::new(
+            ring_of(&[(0.0, 0.0), (0.0, 10.0), (10.0, 0.0), (10.0, 10.0)]),
+            vec![],
+        );
+        let r = rebuild_even_odd(&bow);
+        assert!(r.is_valid(), "{:?}", r.validation_errors());
+        assert_eq!(r.0.len(), 2);
+        assert!((r.unsigned_area() - 50.0).abs() < 1e-9);
+        // An edge out to (15, 5) and back adds nothing.
+        let spike = Polygon::new(
+            ring_of(&[
+                (0.0, 0.0),
+                (10.0, 0.0),
+                (15.0, 5.0),
+                (10.0, 0.0),
+                (10.0, 10.0),
+                (0.0, 10.0),
+            ]),
+            vec![],
+        );
+        let r = rebuild_even_odd(&spike);
+        assert!(r.is_valid());
+        assert!((r.unsigned_area() - 100.0).abs() < 1e-9);
+        // A hole crossing its shell: what lies inside exactly one of them.
+        let shell = rect(0.0, 0.0, 10.0, 10.0).exterior().clone();
+        let hole = rect(8.0, 2.0, 12.0, 4.0).exterior().clone();
+        let r = rebuild_even_odd(&Polygon::new(shell, vec![hole]));
+        assert!(r.is_valid());
+        assert!((r.unsigned_area() - (100.0 - 4.0 + 4.0)).abs() < 1e-9);
+        // Fewer than three points: nothing.
+        let line = Polygon::new(LineString::from(vec![(0.0, 0.0), (1.0, 1.0)]), vec![]);
+        assert!(rebuild_even_odd(&line).0.is_empty());
+    }
+
+    /// The area inside an odd number of crossings of the closed ring `pts`, by slabs: between consecutive
+    /// y of vertices and crossings the covered width changes linearly, so its value at the slab's middle times
+    /// the slab's height is exact up to rounding.
+    fn even_odd_area_by_slabs(pts: &[(f64, f64)]) -> f64 {
+        let n = pts.len();
+        let edges: Vec<((f64, f64), (f64, f64))> =
+            (0..n).map(|i| (pts[i], pts[(i + 1) % n])).collect();
+        let mut ys: Vec<f64> = pts.iter().map(|p| p.1).collect();
+        for i in 0..n {
+            for j in i + 1..n {
+                let ((x1, y1), (x2, y2)) = edges[i];
+                let ((x3, y3), (x4, y4)) = edges[j];
+                let den = (x1 - x2) * (y3 - y4) - (y1 - y2) * (x3 - x4);
+                if den == 0.0 {
+                    continue;
+                }
+                let t = ((x1 - x3) * (y3 - y4) - (y1 - y3) * (x3 - x4)) / den;
+                let u = -((x1 - x2) * (y1 - y3) - (y1 - y2) * (x1 - x3)) / den;
+                if (0.0..=1.0).contains(&t) && (0.0..=1.0).contains(&u) {
+                    ys.push(y1 + t * (y2 - y1));
+                }
+            }
+        }
+        ys.sort_by(f64::total_cmp);
+        ys.dedup();
+        ys.windows(2)
+            .map(|w| {
+                let y = (w[0] + w[1]) / 2.0;
+                let mut xs: Vec<f64> = edges
+                    .iter()
+                    .filter(|((_, y1), (_, y2))| (*y1 > y) != (*y2 > y))
+                    .map(|&((x1, y1), (x2, y2))| x1 + (y - y1) * (x2 - x1) / (y2 - y1))
+                    .collect();
+                xs.sort_by(f64::total_cmp);
+                xs.chunks(2).map(|c| c[1] - c[0]).sum::<f64>() * (w[1] - w[0])
+            })
+            .sum()
+    }
+
+    /// Random self-crossing rings of 5–40 vertices: valid polygons of the even-odd area, computed here by
+    /// slabs. (geo's `MakeValid` applies the same rule by triangulating, but its snapping is off by up to 0.75 m²
+    /// on some of these rings of 100 m, where the slabs and the rebuild agree to the overlay's grid.)
+    #[test]
+    fn even_odd_rebuild_has_the_even_odd_area() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut crossing = 0;
+        for case in 0..200 {
+            let n = 5 + (next() * 36.0) as usize;
+            let pts: Vec<(f64, f64)> = (0..n)
+                .map(|_| ((next() * 100.0).round(), (next() * 100.0).round()))
+                .collect();
+            let p = Polygon::new(ring_of(&pts), vec![]);
+            if p.is_valid() {
+                continue;
+            }
+            crossing += 1;
+            let ours = rebuild_even_odd(&p);
+            assert!(
+                ours.is_valid(),
+                "case {case}: {:?}",
+                ours.validation_errors()
+            );
+            let (a, b) = (ours.unsigned_area(), even_odd_area_by_slabs(&pts));
+            // Crossings are rounded to the overlay's grid, 2²⁹ steps across the half-extent (≤ 50 m): each
+            // edge may move by a step, so the area by at most the perimeter times a step.
+            let perimeter: f64 = (0..n)
+                .map(|i| {
+                    let (p, q) = (pts[i], pts[(i + 1) % n]);
+                    (q.0 - p.0).hypot(q.1 - p.1)
+                })
+                .sum();
+            let tolerance = perimeter * 50.0 / f64::from(1u32 << 29);
+            assert!(
+                (a - b).abs() <= tolerance,
+                "case {case}: {a} against {b} by slabs"
+            );
+        }
+        assert!(
+            crossing > 150,
+            "only {crossing} of 200 rings crossed themselves"
+        );
+    }
+
+    /// A circle of 5,000 vertices with two neighbouring vertices swapped (a small bow tie in its outline): the
+    /// rebuild keeps the circle less the twist's sliver, with every other vertex.
+    #[test]
+    fn even_odd_rebuild_of_a_large_ring_with_one_twist() {
+        let n = 5_000;
+        let mut pts: Vec<(f64, f64)> = (0..n)
+            .map(|i| {
+                let a = std::f64::consts::TAU * i as f64 / n as f64;
+                (100.0 * a.cos(), 100.0 * a.sin())
+            })
+            .collect();
+        pts.swap(1000, 1001);
+        let p = Polygon::new(ring_of(&pts), vec![]);
+        assert!(!p.is_valid());
+        let r = rebuild_even_odd(&p);
+        assert!(r.is_valid(), "{:?}", r.validation_errors());
+        let circle = std::f64::consts::PI * 100.0 * 100.0;
+        assert!((r.unsigned_area() - circle).abs() < 0.01 * circle);
+        let vertices: usize = r.0.iter().map(|q| q.exterior().0.len() - 1).sum();
+        assert!(vertices >= n - 2 && vertices <= n + 2, "{vertices}");
     }
 }

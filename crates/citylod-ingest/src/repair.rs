@@ -1,12 +1,12 @@
 //! Footprint repair, done per feature in a local metric plane (an affine image of lon/lat, so
 //! validity and winding are the same as on the globe): drop repeated points and degenerate rings,
-//! drop holes outside their shell, rebuild self-intersecting rings (geo's `MakeValid`), union
+//! drop holes outside their shell, rebuild self-intersecting rings (even-odd, `citylod_geom::rebuild_even_odd`), union
 //! overlapping or assembled pieces (`citylod_geom::union_nonzero`), drop parts under 0.01 m², and wind
 //! exteriors CCW, holes CW.
 
 use crate::report::IssueReason;
 use crate::valid;
-use geo::{Area, BooleanOps, MakeValid, Validation};
+use geo::{Area, BooleanOps, Validation};
 use geo_types::{Coord, LineString, MultiPolygon, Polygon};
 
 /// Footprints (and parts, holes) smaller than this are degenerate (m²).
@@ -104,10 +104,15 @@ type Skip = (IssueReason, String);
 
 /// Repairs polygons given as open rings (`[exterior, holes…]`) in plane metres. `assemble`: the
 /// polygons are pieces of one outline (always unioned, not reported). `Err` = skip with reason.
-/// Most vertices of an invalid polygon that `repair` rebuilds: the rebuild and the validity checks of its pieces
-/// grow faster than quadratically (a self-intersecting star of 2,000 vertices takes ~4 s, of 4,000 ~30 s), while
-/// invalid building footprints have tens of vertices. Larger ones are skipped with the reason.
-pub(crate) const MAX_REPAIR_VERTICES: usize = 1_000;
+/// Most points where the rings of an invalid polygon may cross or touch for `repair` to rebuild it: each
+/// crossing becomes a vertex of the rebuilt parts, and a footprint drawn wrong has a few (Boston's eight
+/// self-crossing footprints have one or two each). A ring that crosses itself everywhere — a star whose every
+/// other point lies across the centre, n²/4 crossings — is skipped with the reason instead.
+pub(crate) const MAX_REPAIR_CROSSINGS: usize = 10_000;
+
+/// Up to this many vertices an invalid polygon's repair entry quotes geo's reason (`Validation`), which
+/// compares every pair of segments; above it, the entry counts the crossings instead.
+const DESCRIBE_MAX_VERTICES: usize = 1_000;
 
 pub(crate) fn repair(polygons: Vec<Vec<Vec<Coord>>>, assemble: bool) -> Result<Repaired, Skip> {
     let mut issues = Vec::new();
@@ -156,40 +161,35 @@ pub(crate) fn repair(polygons: Vec<Vec<Vec<Coord>>>, assemble: bool) -> Result<R
             parts.push(p);
             continue;
         }
-        let vertices =
-            p.exterior().0.len() + p.interiors().iter().map(|r| r.0.len()).sum::<usize>();
-        if vertices > MAX_REPAIR_VERTICES {
+        let vertices = vertex_count(&p);
+        let crossings = valid::crossings_up_to(&p, MAX_REPAIR_CROSSINGS + 1);
+        if crossings > MAX_REPAIR_CROSSINGS {
             return Err((
                 IssueReason::RepairFailed,
                 format!(
-                    "invalid (a ring crosses itself or another); not repaired: {vertices} vertices, over the \
-                     {MAX_REPAIR_VERTICES} that rebuilding an invalid polygon handles in reasonable time"
+                    "invalid: its rings cross or touch at more than {MAX_REPAIR_CROSSINGS} points ({vertices} \
+                     vertices); not rebuilt"
                 ),
             ));
         }
-        match p.check_validation() {
-            Ok(()) => parts.push(p),
-            Err(why) => {
-                let area_before = p.unsigned_area();
-                let fixed = p.make_valid().map_err(|e| {
-                    (
-                        IssueReason::RepairFailed,
-                        format!("{why}; repair failed: {e}"),
-                    )
-                })?;
-                issues.push((
-                    IssueReason::SelfIntersection,
-                    format!(
-                        "{why}; rebuilt as {} polygon(s), area {:.2} → {:.2} m²",
-                        fixed.0.len(),
-                        area_before,
-                        fixed.unsigned_area()
-                    ),
-                ));
-                rebuilt = true;
-                parts.extend(fixed.0);
-            }
-        }
+        let why = match (vertices <= DESCRIBE_MAX_VERTICES).then(|| p.check_validation()) {
+            Some(Err(why)) => why.to_string(),
+            _ if crossings > 0 => format!("its rings cross or touch at {crossings} point(s)"),
+            _ => "its holes overlap or lie inside one another".to_string(),
+        };
+        let area_before = p.unsigned_area();
+        let fixed = citylod_geom::rebuild_even_odd(&p);
+        issues.push((
+            IssueReason::SelfIntersection,
+            format!(
+                "{why}; rebuilt as {} polygon(s), area {:.2} → {:.2} m²",
+                fixed.0.len(),
+                area_before,
+                fixed.unsigned_area()
+            ),
+        ));
+        rebuilt = true;
+        parts.extend(fixed.0);
     }
 
     let mut footprint = MultiPolygon(parts);
@@ -209,13 +209,19 @@ pub(crate) fn repair(polygons: Vec<Vec<Vec<Coord>>>, assemble: bool) -> Result<R
         rebuilt = true;
     }
 
-    // make_valid snaps and union splits; re-check what they built and give up cleanly if needed.
+    // The rebuild and the union round to their grid; re-check what they built and give up cleanly if needed.
     if rebuilt && !valid::multipolygon_is_valid(&footprint) {
         footprint = citylod_geom::union_nonzero(&footprint.0);
-        if let Err(e) = footprint.check_validation() {
+        if !valid::multipolygon_is_valid(&footprint) {
+            let vertices: usize = footprint.0.iter().map(vertex_count).sum();
+            let why =
+                match (vertices <= DESCRIBE_MAX_VERTICES).then(|| footprint.check_validation()) {
+                    Some(Err(e)) => e.to_string(),
+                    _ => "its parts cross or overlap".to_string(),
+                };
             return Err((
                 IssueReason::RepairFailed,
-                format!("repaired footprint still invalid: {e}"),
+                format!("repaired footprint still invalid: {why}"),
             ));
         }
     }
@@ -270,7 +276,11 @@ pub(crate) fn repair(polygons: Vec<Vec<Vec<Coord>>>, assemble: bool) -> Result<R
     })
 }
 
-/// The boolean operations behind `make_valid` and `unary_union` do not promise where a ring starts nor in
+fn vertex_count(p: &Polygon) -> usize {
+    p.exterior().0.len() + p.interiors().iter().map(|r| r.0.len()).sum::<usize>()
+}
+
+/// The overlays behind the rebuild and the union do not promise where a ring starts nor in
 /// which order parts and holes come out, and in practice that varies from run to run. Rotate every ring to start
 /// at its smallest vertex (x, then y; winding kept) and sort holes and parts, so the same input always gives the
 /// same footprint.
@@ -427,9 +437,9 @@ mod tests {
     }
 
     #[test]
-    fn huge_invalid_rings_are_skipped_not_rebuilt() {
-        // A star whose every other point lies across the centre: self-intersecting everywhere.
-        let n = MAX_REPAIR_VERTICES + 1;
+    fn rings_crossing_everywhere_are_skipped_not_rebuilt() {
+        // A star whose every other point lies across the centre: its 1,001 edges cross ~250,000 times.
+        let n = 1_001;
         let pts: Vec<(f64, f64)> = (0..n)
             .map(|i| {
                 let a = i as f64 * std::f64::consts::TAU * 0.37;
@@ -439,7 +449,52 @@ mod tests {
             .collect();
         let e = repair(vec![vec![ring(&pts)]], false).err().unwrap();
         assert_eq!(e.0, IssueReason::RepairFailed);
-        assert!(e.1.contains("vertices"), "{}", e.1);
+        assert!(
+            e.1.contains(&format!("more than {MAX_REPAIR_CROSSINGS} points"))
+                && e.1.contains("1002 vertices"),
+            "{}",
+            e.1
+        );
+    }
+
+    /// A traced outline of 4,000 vertices (a wavy circle of ~100 m) with two neighbouring vertices swapped and a
+    /// hole that crosses it: rebuilt, not skipped — the circle less the twist's sliver and what the hole takes
+    /// from it, plus the part of the hole outside the shell (inside exactly one ring).
+    #[test]
+    fn large_rings_with_a_few_crossings_are_rebuilt() {
+        let n = 4_000;
+        let mut pts: Vec<(f64, f64)> = (0..n)
+            .map(|i| {
+                let a = std::f64::consts::TAU * i as f64 / n as f64;
+                let r = 100.0 * (1.0 + 0.02 * (40.0 * a).sin());
+                (r * a.cos(), r * a.sin())
+            })
+            .collect();
+        pts.swap(1_400, 1_401);
+        let hole = ring(&[(90.0, -5.0), (90.0, 5.0), (110.0, 5.0), (110.0, -5.0)]);
+        let shell = Polygon::new(LineString(ring(&pts)), vec![]);
+        let shell_area = shell.unsigned_area();
+        let r = repair(vec![vec![ring(&pts), hole]], false).unwrap();
+        assert_eq!(r.issues.len(), 1, "{:?}", r.issues);
+        assert_eq!(r.issues[0].0, IssueReason::SelfIntersection);
+        assert!(
+            r.issues[0]
+                .1
+                .starts_with("its rings cross or touch at 3 point(s); rebuilt as"),
+            "{}",
+            r.issues[0].1
+        );
+        check_footprint(&r.footprint).unwrap();
+        // The hole's 200 m² straddle the outline (x ≈ 100 at y ≈ 0): what lies inside the shell is cut out, what
+        // lies outside is added; both are about half the square.
+        let area = r.footprint.unsigned_area();
+        assert!(
+            (area - shell_area).abs() < 50.0,
+            "{area} against {shell_area}"
+        );
+        assert!(r.footprint.0.iter().any(|p| !p.interiors().is_empty()) || r.footprint.0.len() > 1);
+        let vertices: usize = r.footprint.0.iter().map(vertex_count).sum();
+        assert!(vertices > n - 10, "{vertices} vertices kept of {n}");
     }
 
     #[test]

@@ -43,6 +43,48 @@ pub(crate) fn ring_intersects_itself(ring: &LineString) -> bool {
     })
 }
 
+/// How many pairs of segments of `p`'s rings meet — within a ring where [`crossing`] says so, between two rings
+/// wherever they touch — counting up to `cap` and stopping there. Pairs are found through an R-tree of the
+/// segments' boxes, as in [`ring_intersects_itself`].
+pub(crate) fn crossings_up_to(p: &Polygon, cap: usize) -> usize {
+    let lines: Vec<(usize, Line)> = std::iter::once(p.exterior())
+        .chain(p.interiors())
+        .enumerate()
+        .flat_map(|(r, ring)| ring.lines().map(move |l| (r, l)))
+        .collect();
+    let boxes: Vec<GeomWithData<Rectangle<[f64; 2]>, usize>> = lines
+        .iter()
+        .enumerate()
+        .map(|(i, (_, l))| {
+            GeomWithData::new(
+                Rectangle::from_corners([l.start.x, l.start.y], [l.end.x, l.end.y]),
+                i,
+            )
+        })
+        .collect();
+    let tree = RTree::bulk_load(boxes);
+    let mut count = 0;
+    for (i, (ra, a)) in lines.iter().enumerate() {
+        let env = AABB::from_corners([a.start.x, a.start.y], [a.end.x, a.end.y]);
+        for g in tree.locate_in_envelope_intersecting(&env) {
+            let (rb, b) = &lines[g.data];
+            if g.data > i
+                && if ra == rb {
+                    crossing(a, b)
+                } else {
+                    a.intersects(b)
+                }
+            {
+                count += 1;
+                if count >= cap {
+                    return count;
+                }
+            }
+        }
+    }
+    count
+}
+
 /// A ring's own conditions: at least 3 distinct points (4 with the closing one), finite, no self-intersection.
 fn ring_is_valid(ring: &LineString) -> bool {
     let mut distinct = ring.0.clone();
