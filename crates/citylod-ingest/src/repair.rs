@@ -102,18 +102,20 @@ pub(crate) struct Repaired {
 
 type Skip = (IssueReason, String);
 
-/// Repairs polygons given as open rings (`[exterior, holes…]`) in plane metres. `assemble`: the
-/// polygons are pieces of one outline (always unioned, not reported). `Err` = skip with reason.
 /// Most points where the rings of an invalid polygon may cross or touch for `repair` to rebuild it: each
 /// crossing becomes a vertex of the rebuilt parts, and a footprint drawn wrong has a few (Boston's eight
-/// self-crossing footprints have one or two each). A ring that crosses itself everywhere — a star whose every
-/// other point lies across the centre, n²/4 crossings — is skipped with the reason instead.
+/// self-crossing footprints come out as one to three parts each). A ring that crosses itself everywhere — a star
+/// whose every other point lies across the centre, n²/4 crossings — is skipped with the reason instead. Below the
+/// cap the rebuild stays fast: stars of 161–181 points with 6,000–9,700 crossings took 40–215 ms (into up to 2,636
+/// parts), the count itself under 1 ms.
 pub(crate) const MAX_REPAIR_CROSSINGS: usize = 10_000;
 
 /// Up to this many vertices an invalid polygon's repair entry quotes geo's reason (`Validation`), which
 /// compares every pair of segments; above it, the entry counts the crossings instead.
 const DESCRIBE_MAX_VERTICES: usize = 1_000;
 
+/// Repairs polygons given as open rings (`[exterior, holes…]`) in plane metres. `assemble`: the
+/// polygons are pieces of one outline (always unioned, not reported). `Err` = skip with reason.
 pub(crate) fn repair(polygons: Vec<Vec<Vec<Coord>>>, assemble: bool) -> Result<Repaired, Skip> {
     let mut issues = Vec::new();
     let n_in = polygons.len();
