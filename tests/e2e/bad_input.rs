@@ -39,6 +39,36 @@ fn feature(id: &str, props: Value, geometry: Value) -> Value {
     json!({"type": "Feature", "id": id, "properties": props, "geometry": geometry})
 }
 
+/// A traced outline of 3,000 points (a wavy circle about 60 m across) around (lon, lat) with two neighbouring
+/// points swapped: one small bow tie in a large footprint.
+fn traced_twist(lon: f64, lat: f64) -> Value {
+    let n = 3_000;
+    let mut ring: Vec<Value> = (0..n)
+        .map(|i| {
+            let a = std::f64::consts::TAU * i as f64 / n as f64;
+            let r = 0.0003 * (1.0 + 0.03 * (25.0 * a).sin());
+            json!([lon + r * a.cos(), lat + r * a.sin()])
+        })
+        .collect();
+    ring.swap(1_000, 1_001);
+    ring.push(ring[0].clone());
+    Value::Array(ring)
+}
+
+/// A ring of 400 points whose every other point lies across the centre: it crosses itself ~40,000 times.
+fn scribble(lon: f64, lat: f64) -> Value {
+    let n = 400;
+    let mut ring: Vec<Value> = (0..n)
+        .map(|i| {
+            let a = i as f64 * std::f64::consts::TAU * 0.37;
+            let r = if i % 2 == 0 { 0.0003 } else { 0.0001 };
+            json!([lon + r * a.cos(), lat + r * a.sin()])
+        })
+        .collect();
+    ring.push(ring[0].clone());
+    Value::Array(ring)
+}
+
 #[test]
 fn broken_features_are_skipped_or_repaired_with_reasons() {
     let d = scratch_dir("broken-features");
@@ -55,14 +85,16 @@ fn broken_features_are_skipped_or_repaired_with_reasons() {
         feature("no-geometry", json!({}), Value::Null),
         feature("unclosed", json!({"building:height": "9"}), json!({"type": "Polygon", "coordinates": [[
             [lon + 0.003, lat], [lon + 0.0032, lat], [lon + 0.0032, lat + 0.0002], [lon + 0.003, lat + 0.0002]]]})),
+        feature("traced-twist", json!({"height": 30}), json!({"type": "Polygon", "coordinates": [traced_twist(lon + 0.005, lat)]})),
+        feature("scribble", json!({"height": 30}), json!({"type": "Polygon", "coordinates": [scribble(lon + 0.008, lat)]})),
     ]});
     let input = write(&d, "broken.geojson", &fc.to_string());
     let report = build(&[&input], &d.join("out"), &[]);
     let c = &report["counts"];
-    assert_eq!(c["features_read"], 9);
+    assert_eq!(c["features_read"], 11);
     assert_eq!(
-        c["buildings_written"], 4,
-        "good, no-height, bowtie and unclosed are written: {report:#}"
+        c["buildings_written"], 5,
+        "good, no-height, bowtie, unclosed and traced-twist are written: {report:#}"
     );
     let reason_of = |list: &str, id: &str| -> Vec<String> {
         report["ingest"][list]
@@ -89,14 +121,17 @@ fn broken_features_are_skipped_or_repaired_with_reasons() {
         !reason_of("repaired", "unclosed").is_empty(),
         "the unclosed ring is closed and reported"
     );
+    // A large outline with one crossing is rebuilt, not skipped; a ring crossing itself thousands of times is.
+    assert_eq!(reason_of("repaired", "traced-twist"), ["self_intersection"]);
+    assert_eq!(reason_of("skipped", "scribble"), ["repair_failed"]);
     let hs = &report["ingest"]["height_sources"];
     assert_eq!(
         hs["default"], 1,
         "the building without height falls back to the default: {hs}"
     );
     assert_eq!(
-        hs["known_attribute"], 3,
-        "'28 m', 12 and '9' are read from attributes: {hs}"
+        hs["known_attribute"], 4,
+        "'28 m', 12, '9' and 30 are read from attributes: {hs}"
     );
 }
 
