@@ -102,13 +102,18 @@ pub(crate) struct Repaired {
 
 type Skip = (IssueReason, String);
 
-/// Most points where the rings of an invalid polygon may cross or touch for `repair` to rebuild it: each
-/// crossing becomes a vertex of the rebuilt parts, and a footprint drawn wrong has a few (Boston's eight
-/// self-crossing footprints come out as one to three parts each). A ring that crosses itself everywhere — a star
-/// whose every other point lies across the centre, n²/4 crossings — is skipped with the reason instead. Below the
-/// cap the rebuild stays fast: stars of 161–181 points with 6,000–9,700 crossings took 40–215 ms (into up to 2,636
-/// parts), the count itself under 1 ms.
+/// Most pairs of segments of an invalid polygon that may cross or touch for `repair` to rebuild it: each crossing
+/// becomes a vertex of the rebuilt parts, and a footprint drawn wrong has a few (Boston's eight self-crossing
+/// footprints come out as one to three parts each). A ring that crosses itself everywhere — a star whose every
+/// other point lies across the centre, n²/4 crossings — is skipped with the reason instead. Below the cap the
+/// rebuild stays fast: stars of 161–181 points with 6,000–9,700 crossing pairs took 40–215 ms (into up to 2,636
+/// parts).
 pub(crate) const MAX_REPAIR_CROSSINGS: usize = 10_000;
+
+/// Most pairs of segments with overlapping boxes the crossing count tests before giving up (the polygon is then
+/// skipped): a comb of 8,000 parallel teeth 4 km long, with one twist, has hundreds of millions and one crossing
+/// (counting them all took 14 s; giving up at this budget 1.2–1.3 s, on a busy machine).
+const MAX_CROSSING_TESTS: usize = 20_000_000;
 
 /// Up to this many vertices an invalid polygon's repair entry quotes geo's reason (`Validation`), which
 /// compares every pair of segments; above it, the entry counts the crossings instead.
@@ -158,26 +163,46 @@ pub(crate) fn repair(polygons: Vec<Vec<Vec<Coord>>>, assemble: bool) -> Result<R
             parts.push(p);
             continue;
         }
+        let holes = p.interiors().len();
         let p = drop_holes_outside_shell(p, &mut issues);
-        if valid::polygon_is_valid(&p) {
+        if p.interiors().len() < holes && valid::polygon_is_valid(&p) {
             parts.push(p);
             continue;
         }
         let vertices = vertex_count(&p);
-        let crossings = valid::crossings_up_to(&p, MAX_REPAIR_CROSSINGS + 1);
-        if crossings > MAX_REPAIR_CROSSINGS {
-            return Err((
-                IssueReason::RepairFailed,
-                format!(
-                    "invalid: its rings cross or touch at more than {MAX_REPAIR_CROSSINGS} points ({vertices} \
-                     vertices); not rebuilt"
-                ),
-            ));
-        }
+        let crossings =
+            match valid::crossings_up_to(&p, MAX_REPAIR_CROSSINGS + 1, MAX_CROSSING_TESTS) {
+                Some(c) if c <= MAX_REPAIR_CROSSINGS => c,
+                Some(_) => {
+                    return Err((
+                        IssueReason::RepairFailed,
+                        format!(
+                            "invalid: over {MAX_REPAIR_CROSSINGS} pairs of its segments cross or touch \
+                             ({vertices} vertices); not rebuilt"
+                        ),
+                    ))
+                }
+                None => {
+                    return Err((
+                        IssueReason::RepairFailed,
+                        format!(
+                            "invalid, and too many of its {vertices} segments lie side by side to find where \
+                             they cross (over {MAX_CROSSING_TESTS} pairs to test); not rebuilt"
+                        ),
+                    ))
+                }
+            };
         let why = match (vertices <= DESCRIBE_MAX_VERTICES).then(|| p.check_validation()) {
+            // geo finds it valid where the segment tree did not: keep it as it is.
+            Some(Ok(())) => {
+                parts.push(p);
+                continue;
+            }
             Some(Err(why)) => why.to_string(),
-            _ if crossings > 0 => format!("its rings cross or touch at {crossings} point(s)"),
-            _ => "its holes overlap or lie inside one another".to_string(),
+            None if crossings > 0 => {
+                format!("{crossings} pair(s) of its segments cross or touch")
+            }
+            None => "its holes overlap or lie inside one another".to_string(),
         };
         let area_before = p.unsigned_area();
         let fixed = citylod_geom::rebuild_even_odd(&p);
@@ -195,7 +220,14 @@ pub(crate) fn repair(polygons: Vec<Vec<Vec<Coord>>>, assemble: bool) -> Result<R
     }
 
     let mut footprint = MultiPolygon(parts);
-    if footprint.0.len() > 1 && (assemble || !valid::multipolygon_is_valid(&footprint)) {
+    // Whether `footprint` is known valid: parts that were valid alone, checked together.
+    let mut known_valid = false;
+    if footprint.0.len() > 1
+        && (assemble || {
+            known_valid = valid::multipolygon_is_valid(&footprint);
+            !known_valid
+        })
+    {
         let n = footprint.0.len();
         let merged = citylod_geom::union_nonzero(&footprint.0);
         if !assemble {
@@ -212,7 +244,7 @@ pub(crate) fn repair(polygons: Vec<Vec<Vec<Coord>>>, assemble: bool) -> Result<R
     }
 
     // The rebuild and the union round to their grid; re-check what they built and give up cleanly if needed.
-    if rebuilt && !valid::multipolygon_is_valid(&footprint) {
+    if rebuilt && !known_valid && !valid::multipolygon_is_valid(&footprint) {
         footprint = citylod_geom::union_nonzero(&footprint.0);
         if !valid::multipolygon_is_valid(&footprint) {
             let vertices: usize = footprint.0.iter().map(vertex_count).sum();
@@ -452,7 +484,7 @@ mod tests {
         let e = repair(vec![vec![ring(&pts)]], false).err().unwrap();
         assert_eq!(e.0, IssueReason::RepairFailed);
         assert!(
-            e.1.contains(&format!("more than {MAX_REPAIR_CROSSINGS} points"))
+            e.1.contains(&format!("over {MAX_REPAIR_CROSSINGS} pairs"))
                 && e.1.contains("1002 vertices"),
             "{}",
             e.1
@@ -482,7 +514,7 @@ mod tests {
         assert!(
             r.issues[0]
                 .1
-                .starts_with("its rings cross or touch at 3 point(s); rebuilt as"),
+                .starts_with("3 pair(s) of its segments cross or touch; rebuilt as"),
             "{}",
             r.issues[0].1
         );

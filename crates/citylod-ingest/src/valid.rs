@@ -44,9 +44,11 @@ pub(crate) fn ring_intersects_itself(ring: &LineString) -> bool {
 }
 
 /// How many pairs of segments of `p`'s rings meet — within a ring where [`crossing`] says so, between two rings
-/// wherever they touch — counting up to `cap` and stopping there. Pairs are found through an R-tree of the
-/// segments' boxes, as in [`ring_intersects_itself`].
-pub(crate) fn crossings_up_to(p: &Polygon, cap: usize) -> usize {
+/// wherever they touch — counting up to `cap` and stopping there; `None` when more than `max_tested` pairs of
+/// segments with overlapping boxes had to be tested first (thousands of long parallel segments side by side: every
+/// box overlaps every other, while the rings may cross once). Pairs are found through an R-tree of the segments'
+/// boxes, as in [`ring_intersects_itself`].
+pub(crate) fn crossings_up_to(p: &Polygon, cap: usize, max_tested: usize) -> Option<usize> {
     let lines: Vec<(usize, Line)> = std::iter::once(p.exterior())
         .chain(p.interiors())
         .enumerate()
@@ -63,26 +65,31 @@ pub(crate) fn crossings_up_to(p: &Polygon, cap: usize) -> usize {
         })
         .collect();
     let tree = RTree::bulk_load(boxes);
-    let mut count = 0;
+    let (mut count, mut tested) = (0, 0usize);
     for (i, (ra, a)) in lines.iter().enumerate() {
         let env = AABB::from_corners([a.start.x, a.start.y], [a.end.x, a.end.y]);
         for g in tree.locate_in_envelope_intersecting(&env) {
+            if g.data <= i {
+                continue;
+            }
+            tested += 1;
+            if tested > max_tested {
+                return None;
+            }
             let (rb, b) = &lines[g.data];
-            if g.data > i
-                && if ra == rb {
-                    crossing(a, b)
-                } else {
-                    a.intersects(b)
-                }
-            {
+            if if ra == rb {
+                crossing(a, b)
+            } else {
+                a.intersects(b)
+            } {
                 count += 1;
                 if count >= cap {
-                    return count;
+                    return Some(count);
                 }
             }
         }
     }
-    count
+    Some(count)
 }
 
 /// A ring's own conditions: at least 3 distinct points (4 with the closing one), finite, no self-intersection.
@@ -591,5 +598,37 @@ mod tests {
         let mut pts = circle(100_000, 200.0, 0.0, 0.0);
         pts.swap(5, 60_000);
         assert!(!polygon_is_valid(&Polygon::new(ring(&pts), vec![])));
+    }
+
+    /// A comb of 200 long parallel teeth with one twist: one crossing pair among ~20,000 pairs of overlapping
+    /// boxes. Counted in full it is found; with a budget of 1,000 tests the count gives up.
+    #[test]
+    fn crossings_are_counted_within_a_budget_of_tests() {
+        let mut pts: Vec<(f64, f64)> = Vec::new();
+        for k in 0..200 {
+            let x = k as f64;
+            pts.extend([
+                (x, 0.0),
+                (x + 300.0, 300.0),
+                (x + 300.5, 300.0),
+                (x + 0.5, 0.0),
+            ]);
+        }
+        pts.extend([(210.0, -10.0), (-10.0, -10.0)]);
+        pts.swap(401, 402);
+        let p = Polygon::new(ring(&pts), vec![]);
+        assert!(!polygon_is_valid(&p));
+        assert_eq!(crossings_up_to(&p, 100, usize::MAX), Some(1));
+        assert_eq!(crossings_up_to(&p, 100, 1_000), None);
+        // The count stops at the cap.
+        let star: Vec<(f64, f64)> = (0..101)
+            .map(|i| {
+                let a = i as f64 * std::f64::consts::TAU * 0.37;
+                let r = if i % 2 == 0 { 50.0 } else { 20.0 };
+                (r * a.cos(), r * a.sin())
+            })
+            .collect();
+        let star = Polygon::new(ring(&star), vec![]);
+        assert_eq!(crossings_up_to(&star, 10, usize::MAX), Some(10));
     }
 }
