@@ -525,6 +525,22 @@ mod tests {
         ])
     }
 
+    /// Single-link on `edges` joins at the same distances as on the graph of every pair of `refs`.
+    fn assert_single_link_as_on_every_pair(refs: &[&Footprint], edges: &[CandidateEdge]) {
+        let n = refs.len();
+        let all: Vec<(u32, u32)> = (0..n as u32)
+            .flat_map(|a| (a + 1..n as u32).map(move |b| (a, b)))
+            .collect();
+        let brute = weigh_pairs(refs, &all, 0.6);
+        let d = |es: &[CandidateEdge]| -> Vec<f64> {
+            crate::single_link::single_link(n, es)
+                .iter()
+                .map(|m| m.d_m)
+                .collect()
+        };
+        assert_eq!(d(edges), d(&brute));
+    }
+
     fn connected(n: usize, edges: &[CandidateEdge]) -> bool {
         let mut uf = UnionFind::new(n);
         for e in edges {
@@ -626,17 +642,7 @@ mod tests {
             assert!(edges.iter().any(|e| e.b == other && e.a != 1));
         }
         // Single-link joins at the same distances as on the graph of every pair.
-        let all: Vec<(u32, u32)> = (0..n as u32)
-            .flat_map(|a| (a + 1..n as u32).map(move |b| (a, b)))
-            .collect();
-        let brute = weigh_pairs(&refs, &all, 0.6);
-        let d = |es: &[CandidateEdge]| -> Vec<f64> {
-            crate::single_link::single_link(n, es)
-                .iter()
-                .map(|m| m.d_m)
-                .collect()
-        };
-        assert_eq!(d(&edges), d(&brute));
+        assert_single_link_as_on_every_pair(&refs, &edges);
     }
 
     /// 600 copies of one square, each moved by up to a millimetre (the same building imported again and again
@@ -675,17 +681,7 @@ mod tests {
                 "near copy {c}: {degree} edges"
             );
         }
-        let all: Vec<(u32, u32)> = (0..n as u32)
-            .flat_map(|a| (a + 1..n as u32).map(move |b| (a, b)))
-            .collect();
-        let brute = weigh_pairs(&refs, &all, 0.6);
-        let d = |es: &[CandidateEdge]| -> Vec<f64> {
-            crate::single_link::single_link(n, es)
-                .iter()
-                .map(|m| m.d_m)
-                .collect()
-        };
-        assert_eq!(d(&edges), d(&brute));
+        assert_single_link_as_on_every_pair(&refs, &edges);
     }
 
     /// A large footprint ringed by 150 small ones within reach (more than [`REACH_MAX_NEIGHBOURS`]): every
@@ -696,10 +692,10 @@ mod tests {
         for k in 0..150 {
             let t = k as f64 * 8.0;
             let (x, y) = match k % 4 {
-                0 => (t / 4.0 * 4.0 % 300.0, -6.0),
-                1 => (t / 4.0 * 4.0 % 300.0, 301.0),
-                2 => (-6.0, t / 4.0 * 4.0 % 300.0),
-                _ => (301.0, t / 4.0 * 4.0 % 300.0),
+                0 => (t % 300.0, -6.0),
+                1 => (t % 300.0, 301.0),
+                2 => (-6.0, t % 300.0),
+                _ => (301.0, t % 300.0),
             };
             fps.push(square(x, y, 5.0));
         }
