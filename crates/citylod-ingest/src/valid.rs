@@ -24,33 +24,28 @@ fn crossing(a: &Line, b: &Line) -> bool {
 
 /// Whether `ring` crosses or touches itself (geo's `SelfIntersection`).
 pub(crate) fn ring_intersects_itself(ring: &LineString) -> bool {
-    let lines: Vec<Line> = ring.lines().collect();
-    let boxes: Vec<GeomWithData<Rectangle<[f64; 2]>, usize>> = lines
-        .iter()
-        .enumerate()
-        .map(|(i, l)| {
-            GeomWithData::new(
-                Rectangle::from_corners([l.start.x, l.start.y], [l.end.x, l.end.y]),
-                i,
-            )
-        })
-        .collect();
-    let tree = RTree::bulk_load(boxes);
-    lines.iter().enumerate().any(|(i, a)| {
-        let env = AABB::from_corners([a.start.x, a.start.y], [a.end.x, a.end.y]);
-        tree.locate_in_envelope_intersecting(&env)
-            .any(|g| g.data > i && crossing(a, &lines[g.data]))
-    })
+    meetings_up_to(std::iter::once(ring), 1, usize::MAX) != Some(0)
 }
 
 /// How many pairs of segments of `p`'s rings meet — within a ring where [`crossing`] says so, between two rings
 /// wherever they touch — counting up to `cap` and stopping there; `None` when more than `max_tested` pairs of
 /// segments with overlapping boxes had to be tested first (thousands of long parallel segments side by side: every
-/// box overlaps every other, while the rings may cross once). Pairs are found through an R-tree of the segments'
-/// boxes, as in [`ring_intersects_itself`].
+/// box overlaps every other, while the rings may cross once).
 pub(crate) fn crossings_up_to(p: &Polygon, cap: usize, max_tested: usize) -> Option<usize> {
-    let lines: Vec<(usize, Line)> = std::iter::once(p.exterior())
-        .chain(p.interiors())
+    meetings_up_to(
+        std::iter::once(p.exterior()).chain(p.interiors()),
+        cap,
+        max_tested,
+    )
+}
+
+/// [`crossings_up_to`] over any rings: the pairs are found through an R-tree of the segments' boxes.
+fn meetings_up_to<'a>(
+    rings: impl Iterator<Item = &'a LineString>,
+    cap: usize,
+    max_tested: usize,
+) -> Option<usize> {
+    let lines: Vec<(usize, Line)> = rings
         .enumerate()
         .flat_map(|(r, ring)| ring.lines().map(move |l| (r, l)))
         .collect();
@@ -77,11 +72,12 @@ pub(crate) fn crossings_up_to(p: &Polygon, cap: usize, max_tested: usize) -> Opt
                 return None;
             }
             let (rb, b) = &lines[g.data];
-            if if ra == rb {
+            let meet = if ra == rb {
                 crossing(a, b)
             } else {
                 a.intersects(b)
-            } {
+            };
+            if meet {
                 count += 1;
                 if count >= cap {
                     return Some(count);
