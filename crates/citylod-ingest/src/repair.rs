@@ -169,7 +169,7 @@ pub(crate) fn repair(polygons: Vec<Vec<Vec<Coord>>>, assemble: bool) -> Result<R
             parts.push(p);
             continue;
         }
-        let vertices = vertex_count(&p);
+        let vertices = valid::vertex_count(&p);
         let crossings =
             match valid::crossings_up_to(&p, MAX_REPAIR_CROSSINGS + 1, MAX_CROSSING_TESTS) {
                 Some(c) if c <= MAX_REPAIR_CROSSINGS => c,
@@ -247,7 +247,7 @@ pub(crate) fn repair(polygons: Vec<Vec<Vec<Coord>>>, assemble: bool) -> Result<R
     if rebuilt && !known_valid && !valid::multipolygon_is_valid(&footprint) {
         footprint = citylod_geom::union_nonzero(&footprint.0);
         if !valid::multipolygon_is_valid(&footprint) {
-            let vertices: usize = footprint.0.iter().map(vertex_count).sum();
+            let vertices: usize = footprint.0.iter().map(valid::vertex_count).sum();
             let why =
                 match (vertices <= DESCRIBE_MAX_VERTICES).then(|| footprint.check_validation()) {
                     Some(Err(e)) => e.to_string(),
@@ -308,10 +308,6 @@ pub(crate) fn repair(polygons: Vec<Vec<Vec<Coord>>>, assemble: bool) -> Result<R
         issues,
         rings_reoriented,
     })
-}
-
-fn vertex_count(p: &Polygon) -> usize {
-    p.exterior().0.len() + p.interiors().iter().map(|r| r.0.len()).sum::<usize>()
 }
 
 /// The overlays behind the rebuild and the union do not promise where a ring starts nor in
@@ -527,7 +523,7 @@ mod tests {
             "{area} against {shell_area}"
         );
         assert!(r.footprint.0.iter().any(|p| !p.interiors().is_empty()) || r.footprint.0.len() > 1);
-        let vertices: usize = r.footprint.0.iter().map(vertex_count).sum();
+        let vertices: usize = r.footprint.0.iter().map(valid::vertex_count).sum();
         assert!(vertices > n - 10, "{vertices} vertices kept of {n}");
     }
 

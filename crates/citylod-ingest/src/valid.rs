@@ -161,7 +161,8 @@ pub(crate) fn polygon_is_valid(p: &Polygon) -> bool {
 /// long, nearly parallel spikes that took minutes.
 const RELATE_MAX_WORK: usize = 1 << 16;
 
-fn vertex_count(p: &Polygon) -> usize {
+/// Points of all of `p`'s rings, closing points included.
+pub(crate) fn vertex_count(p: &Polygon) -> usize {
     std::iter::once(p.exterior())
         .chain(p.interiors())
         .map(|r| r.0.len())
