@@ -217,7 +217,7 @@ pub struct BuildArgs {
     /// 1 = every level. A level that removes little is barely coarser either, so a client would use it over a
     /// short range of distances while every closer view loads it on the way down; but a low value makes clients
     /// jump further between levels, so views load more: on Boston 0.25 stores 1.03× the bytes of --leaves-only,
-    /// and `citylod check`'s views load 4.3× the bytes of the default (measurements: docs/coarse-bytes.md).
+    /// and `citylod check`'s views load 4.6× the bytes of the default (measurements: docs/coarse-bytes.md).
     #[arg(long, value_name = "R", default_value_t = 0.8, help_heading = "Tiles")]
     pub level_ratio: f64,
 
@@ -256,7 +256,8 @@ pub struct BuildArgs {
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
 pub enum CompressionArg {
-    /// EXT_meshopt_compression with an uncompressed fallback (smallest files; default)
+    /// EXT_meshopt_compression, required (smallest files; default; clients need a meshopt decoder, as CesiumJS and
+    /// three.js have)
     Meshopt,
     /// Quantized geometry without compression
     None,
