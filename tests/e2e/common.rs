@@ -29,20 +29,31 @@ pub fn scratch_dir(name: &str) -> PathBuf {
 }
 
 pub fn citylod(args: &[&str]) -> Output {
+    citylod_with_env(args, &[])
+}
+
+/// [`citylod`] with extra environment variables.
+pub fn citylod_with_env(args: &[&str], env: &[(&str, &str)]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_citylod"))
         .args(args)
+        .envs(env.iter().copied())
         .output()
         .expect("run citylod")
 }
 
 /// Runs `citylod build` and panics with its stderr when it does not exit 0.
 pub fn build(inputs: &[&Path], out: &Path, extra: &[&str]) -> Value {
+    build_with_env(inputs, out, extra, &[])
+}
+
+/// [`build`] with extra environment variables (`RAYON_NUM_THREADS`: the output must not depend on it).
+pub fn build_with_env(inputs: &[&Path], out: &Path, extra: &[&str], env: &[(&str, &str)]) -> Value {
     let mut args: Vec<String> = vec!["build".into()];
     args.extend(inputs.iter().map(|p| p.display().to_string()));
     args.extend(extra.iter().map(|s| s.to_string()));
     args.extend(["--out".into(), out.display().to_string(), "--quiet".into()]);
     let a: Vec<&str> = args.iter().map(String::as_str).collect();
-    let o = citylod(&a);
+    let o = citylod_with_env(&a, env);
     assert!(
         o.status.success(),
         "citylod build failed ({:?}):\n{}",
@@ -106,4 +117,15 @@ pub fn tree_bytes(dir: &Path) -> Vec<(String, Vec<u8>)> {
     walk(dir, dir, &mut out);
     out.sort();
     out
+}
+
+/// Panics unless the folders `a` and `b` hold the same files with the same bytes; `why` says what differed between
+/// the two runs that wrote them.
+pub fn assert_same_files(a: &Path, b: &Path, why: &str) {
+    let (ta, tb) = (tree_bytes(a), tree_bytes(b));
+    let names = |t: &[(String, Vec<u8>)]| t.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
+    assert_eq!(names(&ta), names(&tb), "{why}: different files");
+    for ((name, ba), (_, bb)) in ta.iter().zip(&tb) {
+        assert!(ba == bb, "{name} differs between two builds ({why})");
+    }
 }

@@ -3,7 +3,8 @@
 //! chain, and passes `citylod check`.
 
 use crate::common::{
-    build, citylod, e2e_dir, gltf_validator, read_json, schema_errors, shared_data,
+    assert_same_files, build, build_with_env, citylod, e2e_dir, gltf_validator, read_json,
+    schema_errors, shared_data,
 };
 use citylod_tiles::read::read_tileset;
 use citylod_tiles::PropValue;
@@ -144,4 +145,14 @@ fn delft_lod22_tileset_has_the_model_chain_and_passes_check() {
         "citylod check failed on Delft LoD2.2: {:#}",
         check["summary"]
     );
+
+    // The models are simplified in parallel; on one thread every byte is the same.
+    let serial = e2e_dir("delft-lod22-one-thread");
+    build_with_env(
+        &[&input],
+        &serial,
+        &["--lod", "2.2", "--landmark-min-excess", "5"],
+        &[("RAYON_NUM_THREADS", "1")],
+    );
+    assert_same_files(&out, &serial, "RAYON_NUM_THREADS=1");
 }

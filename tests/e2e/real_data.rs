@@ -614,14 +614,12 @@ fn same_input_gives_byte_identical_output() {
     let (a, b, c) = (d.join("a"), d.join("b"), d.join("c"));
     build(&[&input], &a, &[]);
     build(&[&input], &b, &[]);
-    let (ta, tb) = (tree_bytes(&a), tree_bytes(&b));
-    assert_eq!(ta.len(), tb.len());
-    for ((na, ba), (nb, bb)) in ta.iter().zip(&tb) {
-        assert_eq!(na, nb);
-        assert!(
-            ba == bb,
-            "{na} differs between two builds of the same input"
-        );
+    assert_same_files(&a, &b, "the same input twice");
+    // Nor does the number of threads change a byte: a user with more cores gets the same tileset.
+    for threads in ["1", "3"] {
+        let t = d.join(format!("threads-{threads}"));
+        build_with_env(&[&input], &t, &[], &[("RAYON_NUM_THREADS", threads)]);
+        assert_same_files(&a, &t, &format!("RAYON_NUM_THREADS={threads}"));
     }
     // Timings only on request, and then the only difference.
     let timed = build(&[&input], &c, &["--report-timings"]);
