@@ -58,7 +58,8 @@ use geo_types::{Coord, MultiPolygon};
 use height::Heights;
 use rayon::prelude::*;
 use repair::Plane;
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
+use std::hash::{Hash, Hasher};
 use std::path::{Path, PathBuf};
 
 /// How to read the input.
@@ -202,8 +203,11 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
         ..Default::default()
     };
     let mut buildings: Vec<Building> = Vec::new();
-    // The first written building of each source id, and the file it came from.
-    let mut first_with_id: HashMap<String, (usize, usize)> = HashMap::new();
+    // The file each written building came from.
+    let mut file_of_building: Vec<u32> = Vec::new();
+    // Every source id written so far, and the written buildings by `same_building_key`.
+    let mut ids_written: HashSet<String> = HashSet::new();
+    let mut by_key: HashMap<u64, usize> = HashMap::new();
     let file_labels: Vec<String> = files.iter().map(|f| f.path.display().to_string()).collect();
     // A written feature's id and attributes move into its building.
     for (file_index, (file, outs)) in files.iter_mut().zip(&outcomes).enumerate() {
@@ -240,13 +244,30 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
                 reason,
                 detail: detail.to_string(),
             };
-            let earlier = first_with_id.get(raw.source_id.as_str()).copied();
-            if let (Ok((p, footprint, base_z_m, _)), Some((b, f))) = (&placed, earlier) {
-                let o = &buildings[b];
-                if o.footprint == *footprint
-                    && o.base_z_m == *base_z_m
-                    && o.height_m == p.heights.height_m
-                {
+            // A building is written once however often it is read: the same id, footprint and heights as any
+            // building written before (every one, not only the first with that id: the same file given twice).
+            let mut free_key = None;
+            if let Ok((p, footprint, base_z_m, _)) = &placed {
+                let same = |o: &Building| {
+                    o.source_id == raw.source_id
+                        && o.footprint == *footprint
+                        && o.base_z_m == *base_z_m
+                        && o.height_m == p.heights.height_m
+                };
+                // Open addressing over the 64-bit keys: a key taken by a different building moves on by one.
+                let mut key =
+                    same_building_key(&raw.source_id, footprint, *base_z_m, p.heights.height_m);
+                let mut earlier = None;
+                while let Some(&b) = by_key.get(&key) {
+                    if same(&buildings[b]) {
+                        earlier = Some(b);
+                        break;
+                    }
+                    key = key.wrapping_add(1);
+                }
+                if let Some(b) = earlier {
+                    let o = &buildings[b];
+                    let f = file_of_building[b] as usize;
                     let from = if f == file_index {
                         "earlier in this file".to_string()
                     } else {
@@ -268,7 +289,10 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
                     fr.skipped += 1;
                     continue;
                 }
-                report.duplicate_ids += 1;
+                if ids_written.contains(&raw.source_id) {
+                    report.duplicate_ids += 1;
+                }
+                free_key = Some(key);
             }
             match placed {
                 Ok((p, footprint, base_z_m, meshed)) => {
@@ -305,9 +329,13 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
                         *report.mesh_lods.entry(m.lod.clone()).or_default() += 1;
                         report.mesh_lod_fallbacks += usize::from(meshed.fell_back);
                     }
-                    if !first_with_id.contains_key(&raw.source_id) {
-                        first_with_id.insert(raw.source_id.clone(), (buildings.len(), file_index));
+                    if let Some(key) = free_key {
+                        by_key.insert(key, buildings.len());
                     }
+                    if !ids_written.contains(&raw.source_id) {
+                        ids_written.insert(raw.source_id.clone());
+                    }
+                    file_of_building.push(file_index as u32);
                     buildings.push(Building {
                         id: BuildingId(buildings.len() as u32),
                         source_id: std::mem::take(&mut raw.source_id),
@@ -352,7 +380,7 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
     // The parsed features (every attribute and coordinate read) are freed beside what comes next: on Boston
     // freeing them took ~25 ms with the other core idle.
     // Should no thread start, the closure, and what it holds, is dropped here instead.
-    drop(first_with_id);
+    drop((ids_written, by_key, file_of_building));
     let parsed = (files, outcomes);
     let _ = std::thread::Builder::new()
         .name("citylod-free".into())
@@ -676,4 +704,30 @@ mod tests {
         let a = geo::Area::unsigned_area(&p.footprint);
         assert!((a - 6.86 * 11.13).abs() < 0.5, "{a}");
     }
+}
+
+/// A hash of what makes two read buildings the same one: the id, every footprint coordinate, base and height
+/// (−0.0 hashed as 0.0, since the comparison takes them as equal). The key only places a building in the map:
+/// which earlier building a read one repeats is decided by comparing them, whatever the hash.
+fn same_building_key(
+    source_id: &str,
+    footprint: &MultiPolygon,
+    base_z_m: f64,
+    height_m: f64,
+) -> u64 {
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    source_id.hash(&mut h);
+    let mut bits = |v: f64| (v + 0.0).to_bits().hash(&mut h);
+    for poly in &footprint.0 {
+        for ring in std::iter::once(poly.exterior()).chain(poly.interiors()) {
+            for c in &ring.0 {
+                bits(c.x);
+                bits(c.y);
+            }
+            bits(f64::NAN);
+        }
+    }
+    bits(base_z_m);
+    bits(height_m);
+    h.finish()
 }

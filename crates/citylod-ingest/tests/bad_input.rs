@@ -400,6 +400,21 @@ fn repeated_buildings_are_written_once_and_reused_ids_are_counted() {
     let twice = ingest(&[b.clone(), b], &IngestOptions::default()).unwrap();
     assert_eq!(twice.buildings.len(), 3);
     assert_eq!(twice.report.skipped_by_reason.get("duplicate"), Some(&3));
+    // Two buildings that share an id, their file given twice: each second copy repeats the building with its own
+    // footprint, not only the first one of that id.
+    let c = write(
+        &dir,
+        "c.geojson",
+        &collection(&[
+            feature("x", r#"{"height":10}"#, SQUARE),
+            feature("x", r#"{"height":10}"#, &moved),
+        ]),
+    );
+    let twice = ingest(&[c.clone(), c], &IngestOptions::default()).unwrap();
+    assert_eq!(twice.buildings.len(), 2);
+    assert_eq!(twice.report.skipped_by_reason.get("duplicate"), Some(&2));
+    assert_eq!(twice.report.duplicate_ids, 1);
+    assert_eq!(twice.report.check_invariants(), Ok(()));
 }
 
 #[test]
