@@ -301,6 +301,15 @@ fn output_paths_that_are_not_tilesets_are_refused() {
     let again = citylod(&["build", i, "--out", o]);
     assert_eq!(again.status.code(), Some(0), "{}", stderr_of(&again));
     assert_eq!(std::fs::read_to_string(&notes).unwrap(), "keep me");
+    // Paths with `..` are taken as they lead: out of the output folder is not inside it, and back into it is.
+    let via_out = other.join("../user/in.geojson");
+    let ok = citylod(&["build", via_out.to_str().unwrap(), "--out", o]);
+    assert_eq!(ok.status.code(), Some(0), "{}", stderr_of(&ok));
+    let back_in = user.join("../user/in.geojson");
+    let refused = citylod(&["build", back_in.to_str().unwrap(), "--out", u]);
+    assert_eq!(refused.status.code(), Some(2), "{}", stderr_of(&refused));
+    assert!(stderr_of(&refused).contains("is inside the output folder"));
+    assert_eq!(std::fs::read_to_string(&notes).unwrap(), "keep me");
 }
 
 /// A ring of a hostile kind around (x, y) metres: ordinary rectangles (some a hair wide), stars, bowties, spikes,

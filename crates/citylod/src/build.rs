@@ -832,8 +832,8 @@ fn check_output_folder(args: &BuildArgs) -> Result<()> {
     let out_real = std::fs::canonicalize(out).ok();
     let inside = |p: &Path| {
         let lexical = matches!(
-            (std::path::absolute(p), std::path::absolute(out)),
-            (Ok(p), Ok(o)) if p.starts_with(&o)
+            (lexically_absolute(p), lexically_absolute(out)),
+            (Some(p), Some(o)) if p.starts_with(&o)
         );
         let resolved = out_real
             .as_ref()
@@ -887,6 +887,23 @@ fn check_output_folder(args: &BuildArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// `p` made absolute with its `..` steps taken as written (`std::path::absolute` keeps them, so `out/../x` would
+/// seem to lie inside `out`); symbolic links are the canonical check's part.
+fn lexically_absolute(p: &Path) -> Option<PathBuf> {
+    use std::path::Component;
+    let mut out = PathBuf::new();
+    for c in std::path::absolute(p).ok()?.components() {
+        match c {
+            Component::ParentDir => {
+                out.pop();
+            }
+            Component::CurDir => {}
+            c => out.push(c),
+        }
+    }
+    Some(out)
 }
 
 /// A number as a user reads it: plain, or in exponent form when huge or tiny (1e308, not 309 digits).
