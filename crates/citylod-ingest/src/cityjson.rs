@@ -24,8 +24,8 @@ pub(crate) struct CityDoc {
     pub non_building_objects: usize,
 }
 
-/// Integer-vertex decoding: real = v · scale + translate. Identity for a CityJSON 1.0 file without one (1.0 allowed
-/// real coordinates); later versions require it.
+/// Integer-vertex decoding: real = v · scale + translate. Identity for a file before CityJSON 1.1 without one
+/// (0.x and 1.0 allowed real coordinates); from 1.1 on it is mandatory.
 #[derive(Debug, Clone, Copy)]
 struct Transform {
     scale: [f64; 3],
@@ -36,10 +36,10 @@ impl Transform {
     fn of(doc: &Value) -> Result<Self, String> {
         let Some(t) = doc.get("transform") else {
             let version = doc.get("version").and_then(Value::as_str).unwrap_or("");
-            if !version.starts_with("1.0") {
+            if !transform_optional(version) {
                 return Err(format!(
                     "no \"transform\": CityJSON {} requires one (its vertices are integers scaled by it); only \
-                     version 1.0 files may list real coordinates without it",
+                     files before version 1.1 may list real coordinates without it",
                     if version.is_empty() { "without a version" } else { version }
                 ));
             }
@@ -71,6 +71,17 @@ impl Transform {
                 }))
             })
             .collect()
+    }
+}
+
+/// Whether a file of this CityJSON `version` may go without `transform`: before 1.1 ("0.8", "0.9", "1.0",
+/// "1.0.3"), where it was optional. A version that does not read as numbers is taken to require it.
+fn transform_optional(version: &str) -> bool {
+    let mut numbers = version.trim().split('.').map(str::parse::<u32>);
+    match (numbers.next(), numbers.next()) {
+        (Some(Ok(major)), None) => major <= 1,
+        (Some(Ok(major)), Some(Ok(minor))) => (major, minor) < (1, 1),
+        _ => false,
     }
 }
 
@@ -692,20 +703,32 @@ mod tests {
     }
 
     #[test]
-    fn a_missing_transform_is_an_error_after_cityjson_1_0() {
+    fn a_missing_transform_is_an_error_from_cityjson_1_1_on() {
         let mut d = doc(
             json!({"type": "Building", "geometry": [cube(true)]}),
             json!({}),
         );
         d.as_object_mut().unwrap().remove("transform");
-        let e = read_document(&d, None).err().unwrap();
-        assert!(e.contains("transform") && e.contains("2.0"), "{e}");
-        d["version"] = json!("1.0");
-        let f = &read_document(&d, None).unwrap().features[0];
-        assert!(
-            f.polygons[0][0].iter().any(|p| p[0] == 4000.0),
-            "1.0: vertices as given"
-        );
+        for version in ["1.1", "1.1.0", "2.0", "2.0.1", "3", "", "v1.0", "one"] {
+            d["version"] = json!(version);
+            let e = read_document(&d, None).expect_err(version);
+            assert!(
+                e.contains("transform") && e.contains("before version 1.1"),
+                "{version}: {e}"
+            );
+        }
+        d.as_object_mut().unwrap().remove("version");
+        let e = read_document(&d, None).expect_err("no version");
+        assert!(e.contains("without a version"), "{e}");
+        for version in ["0.8", "0.9", "1.0", "1.0.3", " 1.0 ", "1"] {
+            d["version"] = json!(version);
+            let f = &read_document(&d, None).expect(version).features[0];
+            assert!(f.skip.is_none(), "{version}: {:?}", f.skip);
+            assert!(
+                f.polygons[0][0].iter().any(|p| p[0] == 4000.0),
+                "{version}: vertices as given"
+            );
+        }
     }
 
     #[test]
