@@ -805,6 +805,13 @@ fn antimeridian_data_is_placed_upright_and_too_wide_data_is_refused() {
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{stderr}");
     assert!(stderr.contains("tile each region separately"), "{stderr}");
+    // The stray one is named, with its file, among NYC's 1,416.
+    assert!(
+        stderr.contains("1 building(s) lie over 100 km")
+            && stderr.contains("farthest: \"s\" in ")
+            && stderr.contains("sydney.geojson at (151.2"),
+        "{stderr}"
+    );
     assert!(!far_out.exists());
     let _ = std::fs::remove_dir_all(&d);
 }

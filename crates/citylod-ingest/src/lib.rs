@@ -194,7 +194,7 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
     let frame = place::frame_for(bbox, min_ground);
     let enu_map = place::EnuMap::new(&frame);
     if let Some(b) = &bbox {
-        place::check_extent(&frame, &enu_map, b)?;
+        place::check_extent(&frame, &enu_map, b).map_err(|e| name_outliers(e, &files, &outcomes))?;
     }
 
     let mut report = IngestReport {
@@ -730,4 +730,68 @@ fn same_building_key(
     bits(base_z_m);
     bits(height_m);
     h.finish()
+}
+
+/// How many of the buildings farthest from the others a too-wide error names.
+const OUTLIERS_NAMED: usize = 3;
+
+/// A too-wide error with the buildings that make it so named: those farthest from the median longitude and
+/// latitude of all (a stray feature at 0°, 0° among a city's), with their file, id and place.
+fn name_outliers(
+    e: IngestError,
+    files: &[LoadedFile],
+    outcomes: &[Vec<Result<Prepared, Skip>>],
+) -> IngestError {
+    let IngestError::TooWide { detail } = e else {
+        return e;
+    };
+    let kept: Vec<(&Path, &str, (f64, f64))> = files
+        .iter()
+        .zip(outcomes)
+        .flat_map(|(f, outs)| {
+            f.features.iter().zip(outs).filter_map(move |(raw, o)| {
+                let p = o.as_ref().ok()?;
+                Some((f.path.as_path(), raw.source_id.as_str(), p.bbox.centre()))
+            })
+        })
+        .collect();
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let (lon0, lat0) = (
+        median(kept.iter().map(|k| k.2 .0).collect()),
+        median(kept.iter().map(|k| k.2 .1).collect()),
+    );
+    let mut far: Vec<(f64, usize)> = kept
+        .iter()
+        .enumerate()
+        .map(|(i, k)| (place::great_circle_m((lon0, lat0), k.2), i))
+        .collect();
+    // Farthest first; the input order among equals.
+    far.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    let beyond = far
+        .iter()
+        .filter(|(d, _)| *d > place::MAX_DISTANCE_FROM_ORIGIN_M)
+        .count();
+    let named: Vec<String> = far
+        .iter()
+        .take(OUTLIERS_NAMED.min(beyond.max(1)))
+        .map(|&(d, i)| {
+            let (file, id, (lon, lat)) = kept[i];
+            format!(
+                "{id:?} in {} at ({lon:.4}, {lat:.4}), {:.0} km away",
+                file.display(),
+                d / 1000.0
+            )
+        })
+        .collect();
+    IngestError::TooWide {
+        detail: format!(
+            "{detail}. {beyond} building(s) lie over {:.0} km from the median position ({lon0:.4}, {lat0:.4}); \
+             farthest: {}",
+            place::MAX_DISTANCE_FROM_ORIGIN_M / 1000.0,
+            named.join("; ")
+        ),
+    }
 }

@@ -93,6 +93,15 @@ pub(crate) fn frame_for(bbox: Option<LonLatBox>, min_ground_m: Option<f64>) -> L
 /// 100 m footprint's ends are 1.6 m off the ground. A region wider than 200 km is tiled in parts.
 pub const MAX_DISTANCE_FROM_ORIGIN_M: f64 = 100_000.0;
 
+/// The distance (m) along a sphere of the Earth's mean radius between two (lon, lat) points in degrees.
+pub(crate) fn great_circle_m(a: (f64, f64), b: (f64, f64)) -> f64 {
+    const MEAN_RADIUS_M: f64 = 6_371_008.8;
+    let (la, lb) = (a.1.to_radians(), b.1.to_radians());
+    let h = ((lb - la) / 2.0).sin().powi(2)
+        + la.cos() * lb.cos() * ((b.0 - a.0).to_radians() / 2.0).sin().powi(2);
+    2.0 * MEAN_RADIUS_M * h.sqrt().min(1.0).asin()
+}
+
 /// An error when some building of `b` lies over [`MAX_DISTANCE_FROM_ORIGIN_M`] from the frame's origin.
 pub(crate) fn check_extent(
     frame: &LocalFrame,
