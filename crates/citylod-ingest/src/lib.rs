@@ -194,7 +194,8 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
     let frame = place::frame_for(bbox, min_ground);
     let enu_map = place::EnuMap::new(&frame);
     if let Some(b) = &bbox {
-        place::check_extent(&frame, &enu_map, b).map_err(|e| name_outliers(e, &files, &outcomes))?;
+        place::check_extent(&frame, &enu_map, b)
+            .map_err(|e| name_outliers(e, &files, &outcomes))?;
     }
 
     let mut report = IngestReport {
@@ -648,64 +649,6 @@ fn prepare(raw: &RawFeature, crs: &Crs, opts: &IngestOptions) -> Result<Prepared
     })
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn square(x0: f64, y0: f64, d: f64) -> Vec<[f64; 2]> {
-        vec![[x0, y0], [x0 + d, y0], [x0 + d, y0 + d], [x0, y0 + d]]
-    }
-
-    #[test]
-    fn non_finite_coordinates_are_skipped_not_panicking() {
-        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
-            let mut ring = square(4.0, 52.0, 0.001);
-            ring[2][1] = bad;
-            let raw = RawFeature {
-                source_id: "x".into(),
-                polygons: vec![vec![ring]],
-                ..Default::default()
-            };
-            let e = prepare(&raw, &Crs::wgs84(), &IngestOptions::default())
-                .err()
-                .unwrap();
-            assert_eq!(e.0, IssueReason::NonFiniteCoordinate);
-        }
-    }
-
-    #[test]
-    fn projected_coordinates_that_cannot_transform_are_skipped() {
-        let raw = RawFeature {
-            source_id: "x".into(),
-            polygons: vec![vec![square(1e300, 1e300, 1e299)]],
-            ..Default::default()
-        };
-        let e = prepare(
-            &raw,
-            &Crs::parse("EPSG:28992").unwrap(),
-            &IngestOptions::default(),
-        )
-        .err()
-        .unwrap();
-        assert_eq!(e.0, IssueReason::TransformFailed);
-    }
-
-    #[test]
-    fn a_prepared_square_has_metric_area() {
-        // 0.0001° × 0.0001° at 52°N ≈ 6.86 m × 11.13 m.
-        let raw = RawFeature {
-            source_id: "x".into(),
-            polygons: vec![vec![square(4.0, 52.0, 0.0001)]],
-            ..Default::default()
-        };
-        let p = prepare(&raw, &Crs::wgs84(), &IngestOptions::default())
-            .ok()
-            .unwrap();
-        let a = geo::Area::unsigned_area(&p.footprint);
-        assert!((a - 6.86 * 11.13).abs() < 0.5, "{a}");
-    }
-}
-
 /// A hash of what makes two read buildings the same one: the id, every footprint coordinate, base and height
 /// (−0.0 hashed as 0.0, since the comparison takes them as equal). The key only places a building in the map:
 /// which earlier building a read one repeats is decided by comparing them, whatever the hash.
@@ -793,5 +736,63 @@ fn name_outliers(
             place::MAX_DISTANCE_FROM_ORIGIN_M / 1000.0,
             named.join("; ")
         ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn square(x0: f64, y0: f64, d: f64) -> Vec<[f64; 2]> {
+        vec![[x0, y0], [x0 + d, y0], [x0 + d, y0 + d], [x0, y0 + d]]
+    }
+
+    #[test]
+    fn non_finite_coordinates_are_skipped_not_panicking() {
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            let mut ring = square(4.0, 52.0, 0.001);
+            ring[2][1] = bad;
+            let raw = RawFeature {
+                source_id: "x".into(),
+                polygons: vec![vec![ring]],
+                ..Default::default()
+            };
+            let e = prepare(&raw, &Crs::wgs84(), &IngestOptions::default())
+                .err()
+                .unwrap();
+            assert_eq!(e.0, IssueReason::NonFiniteCoordinate);
+        }
+    }
+
+    #[test]
+    fn projected_coordinates_that_cannot_transform_are_skipped() {
+        let raw = RawFeature {
+            source_id: "x".into(),
+            polygons: vec![vec![square(1e300, 1e300, 1e299)]],
+            ..Default::default()
+        };
+        let e = prepare(
+            &raw,
+            &Crs::parse("EPSG:28992").unwrap(),
+            &IngestOptions::default(),
+        )
+        .err()
+        .unwrap();
+        assert_eq!(e.0, IssueReason::TransformFailed);
+    }
+
+    #[test]
+    fn a_prepared_square_has_metric_area() {
+        // 0.0001° × 0.0001° at 52°N ≈ 6.86 m × 11.13 m.
+        let raw = RawFeature {
+            source_id: "x".into(),
+            polygons: vec![vec![square(4.0, 52.0, 0.0001)]],
+            ..Default::default()
+        };
+        let p = prepare(&raw, &Crs::wgs84(), &IngestOptions::default())
+            .ok()
+            .unwrap();
+        let a = geo::Area::unsigned_area(&p.footprint);
+        assert!((a - 6.86 * 11.13).abs() < 0.5, "{a}");
     }
 }
