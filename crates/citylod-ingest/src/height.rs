@@ -1,13 +1,17 @@
 //! Height resolution (DESIGN.md §2): the ground height under a building and its height above that
 //! base, each from the first rule that gives a plausible value, with the rule recorded.
 //! Metres; ground heights are in the data's vertical datum (NAP, …) and used as they are.
-//! Invariant: the resolved height is finite, > 0 and ≤ `MAX_HEIGHT_M`.
+//! Invariant: the resolved height is finite, ≥ `MIN_HEIGHT_M` and ≤ `MAX_HEIGHT_M`.
 
 use crate::IngestOptions;
 use citylod_model::{AttrValue, Attributes, HeightSource};
 
 /// Heights above this are treated as data errors and fall through to the next rule (m).
 pub const MAX_HEIGHT_M: f64 = 1000.0;
+
+/// Heights below this are treated as data errors and fall through to the next rule (m): a lower prism vanishes on
+/// the leaves' 2 cm grid, its walls dropped as degenerate.
+pub const MIN_HEIGHT_M: f64 = 0.1;
 
 /// Well-known building height attributes (total height above ground), tried in this order.
 pub const KNOWN_HEIGHT_ATTRS: &[&str] = &[
@@ -32,6 +36,9 @@ pub const DEFAULT_STOREY_ATTRS: &[&str] = &[
 /// 3DBAG ground height and roof height (70th percentile) attributes.
 const GROUND_ATTR: &str = "b3_h_maaiveld";
 const ROOF_ATTR: &str = "b3_h_dak_70p";
+/// A ground height further from the datum than this (m) is a data error: the Dead Sea shore is at −430 m, the
+/// highest towns near 5,100 m.
+const MAX_GROUND_M: f64 = 10_000.0;
 /// OSM base of a building part above the ground (m).
 const MIN_HEIGHT_ATTR: &str = "min_height";
 
@@ -69,7 +76,7 @@ pub(crate) struct Heights {
 }
 
 fn plausible(h: f64) -> bool {
-    h.is_finite() && h > 0.0 && h <= MAX_HEIGHT_M
+    h.is_finite() && (MIN_HEIGHT_M..=MAX_HEIGHT_M).contains(&h)
 }
 
 fn number(attrs: &Attributes, name: &str) -> Option<f64> {
@@ -80,7 +87,8 @@ fn number(attrs: &Attributes, name: &str) -> Option<f64> {
 /// (CityJSON), else 0; an OSM `min_height` raises the base above that ground. Height: the named
 /// attribute, known names, 3DBAG roof − ground, the 3D geometry's top − ground, storeys × storey
 /// height, else the default. Attribute heights count from the ground, so `min_height` is
-/// subtracted from them. A value ≤ 0 or > 1000 m falls through to the next rule.
+/// subtracted from them. A value under 0.1 m or over 1000 m falls through to the next rule; every attribute of a
+/// rule that was reached, present and not usable is named in `rejected` (a ground attribute too).
 pub(crate) fn resolve(
     attrs: &Attributes,
     footprint_min_z: Option<f64>,
@@ -88,8 +96,13 @@ pub(crate) fn resolve(
     opts: &IngestOptions,
 ) -> Heights {
     let mut rejected = Vec::new();
-    let (ground_m, ground_source) = match (number(attrs, GROUND_ATTR), footprint_min_z) {
-        (Some(g), _) if g.abs() < 10_000.0 => (g, GroundSource::Attribute),
+    let present = |name: &str| !matches!(attrs.get(name), None | Some(AttrValue::Null));
+    let ground_attr = number(attrs, GROUND_ATTR).filter(|g| g.abs() < MAX_GROUND_M);
+    if ground_attr.is_none() && present(GROUND_ATTR) {
+        rejected.push(GROUND_ATTR.to_string());
+    }
+    let (ground_m, ground_source) = match (ground_attr, footprint_min_z) {
+        (Some(g), _) => (g, GroundSource::Attribute),
         (_, Some(z)) if z.is_finite() => (z, GroundSource::Geometry),
         _ => (0.0, GroundSource::Zero),
     };
@@ -131,11 +144,14 @@ pub(crate) fn resolve(
             .find_map(|n| try_attr(n, 1.0, base_offset_m, &mut rejected))
             .map(|h| (h, HeightSource::KnownAttribute));
     }
-    if found.is_none() {
-        if let (Some(roof), Some(g)) = (number(attrs, ROOF_ATTR), number(attrs, GROUND_ATTR)) {
-            found = Some(roof - g)
-                .filter(|h| plausible(*h))
-                .map(|h| (h, HeightSource::RoofMinusGround));
+    if found.is_none() && present(ROOF_ATTR) {
+        found = number(attrs, ROOF_ATTR)
+            .zip(ground_attr)
+            .map(|(roof, g)| roof - g)
+            .filter(|h| plausible(*h))
+            .map(|h| (h, HeightSource::RoofMinusGround));
+        if found.is_none() {
+            rejected.push(ROOF_ATTR.to_string());
         }
     }
     if found.is_none() {
@@ -225,12 +241,52 @@ mod tests {
         let a = attrs(&[
             ("height", AttrValue::Int(5000)),
             ("building:height", AttrValue::Int(0)),
+            ("bldg_height", AttrValue::Float(1e-9)),
             ("Height", AttrValue::String("tall".into())),
             ("building:levels", AttrValue::String("3".into())),
         ]);
         let h = resolve(&a, None, None, &IngestOptions::default());
         assert_eq!((h.height_m, h.source), (9.0, HeightSource::Storeys));
-        assert_eq!(h.rejected, vec!["height", "building:height", "Height"]);
+        assert_eq!(
+            h.rejected,
+            vec!["height", "building:height", "Height", "bldg_height"]
+        );
+    }
+
+    #[test]
+    fn unusable_three_dbag_ground_and_roof_are_named() {
+        let d = IngestOptions::default();
+        // A ground far off any datum, or not a number: the footprint's ground instead, the attribute named; the
+        // roof then has no ground to count from.
+        for bad in [AttrValue::Float(1e5), AttrValue::String("abc".into())] {
+            let a = attrs(&[
+                ("b3_h_maaiveld", bad.clone()),
+                ("b3_h_dak_70p", AttrValue::Float(12.0)),
+            ]);
+            let h = resolve(&a, Some(0.5), None, &d);
+            assert_eq!(
+                (h.ground_m, h.ground_source),
+                (0.5, GroundSource::Geometry),
+                "{bad:?}"
+            );
+            assert_eq!(h.source, HeightSource::Default, "{bad:?}");
+            assert_eq!(h.rejected, ["b3_h_maaiveld", "b3_h_dak_70p"], "{bad:?}");
+        }
+        // A roof below its ground: the next rule, the roof named.
+        let a = attrs(&[
+            ("b3_h_maaiveld", AttrValue::Float(3.0)),
+            ("b3_h_dak_70p", AttrValue::Float(1.0)),
+            ("stories", AttrValue::Int(2)),
+        ]);
+        let h = resolve(&a, None, None, &d);
+        assert_eq!((h.height_m, h.source), (6.0, HeightSource::Storeys));
+        assert_eq!(h.rejected, ["b3_h_dak_70p"]);
+        // A null ground is no value, not a bad one.
+        let a = attrs(&[
+            ("b3_h_maaiveld", AttrValue::Null),
+            ("height", AttrValue::Int(9)),
+        ]);
+        assert!(resolve(&a, None, None, &d).rejected.is_empty());
     }
 
     #[test]

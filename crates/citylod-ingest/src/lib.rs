@@ -44,7 +44,7 @@ mod valid;
 pub use crs::{CoordError, Crs, CrsError};
 pub use error::IngestError;
 pub use geoid::geoid_height_m;
-pub use height::{DEFAULT_STOREY_ATTRS, KNOWN_HEIGHT_ATTRS, MAX_HEIGHT_M};
+pub use height::{DEFAULT_STOREY_ATTRS, KNOWN_HEIGHT_ATTRS, MAX_HEIGHT_M, MIN_HEIGHT_M};
 pub use lod::LodChoice;
 pub use place::FRAME_RULE;
 pub use repair::{check_footprint, MIN_AREA_M2};
@@ -143,10 +143,10 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
         ("storey_height_m", opts.storey_height_m),
         ("default_height_m", opts.default_height_m),
     ] {
-        if !(v.is_finite() && v > 0.0 && v <= MAX_HEIGHT_M) {
+        if !(v.is_finite() && (MIN_HEIGHT_M..=MAX_HEIGHT_M).contains(&v)) {
             return Err(IngestError::InvalidOption {
                 name,
-                detail: format!("{v} is not a height in (0, {MAX_HEIGHT_M}] m"),
+                detail: format!("{v} is not a height in [{MIN_HEIGHT_M}, {MAX_HEIGHT_M}] m"),
             });
         }
     }

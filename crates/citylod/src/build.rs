@@ -432,8 +432,9 @@ struct Timings {
     total: u64,
 }
 
-/// Lowest storey or default height accepted: lower prisms vanish on the leaves' 2 cm grid.
-const MIN_HEIGHT_M: f64 = 0.1;
+/// Lowest storey or default height accepted: lower prisms vanish on the leaves' 2 cm grid (the ingest's limit on
+/// any height).
+const MIN_HEIGHT_M: f64 = citylod_ingest::MIN_HEIGHT_M;
 
 /// Tallest storey or default height accepted (m): the ingest's limit on any height.
 const MAX_HEIGHT_M: f64 = citylod_ingest::MAX_HEIGHT_M;
