@@ -1,9 +1,10 @@
-//! CityJSON 0.8–2.0 and CityJSONSeq reader. One raw feature per top-level `Building` object: its
-//! LoD0 footprint, else the GroundSurface of its lowest-LoD 3D geometry, else that geometry's
-//! lowest horizontal surfaces; a building whose geometry lives only in `BuildingPart` children gets
-//! the pieces of all parts, to be unioned. Vertices are decoded with `transform` (scale, translate);
-//! a vertex that is not three numbers is an error, never read as another. Geometry instances are
-//! expanded from their templates first ([`crate::template`]).
+//! CityJSON 0.8–2.0 and CityJSONSeq reader. One raw feature per `Building` (and per BuildingPart that no
+//! Building reaches), read with its BuildingParts: its footprint is its LoD0 ground (GroundSurface or unlabelled
+//! LoD0, not a roof edge), else the union of its own and its parts' footprints, each the GroundSurface of the
+//! lowest-LoD 3D geometry or that geometry's lowest horizontal surfaces; its top is the highest over all. Every
+//! Building and BuildingPart is read once, so no building geometry is lost. Vertices are decoded with
+//! `transform` (scale, translate); a vertex that is not three numbers is an error, never read as another.
+//! Geometry instances are expanded from their templates first ([`crate::template`]).
 //! When a 3D model is asked for, the building and its BuildingParts also go to [`crate::model3d`].
 
 use crate::crs::DeclaredCrs;
@@ -191,8 +192,8 @@ fn parents(o: &Value) -> Vec<&str> {
     }
 }
 
-fn read_objects<'a>(
-    objects: &'a Map<String, Value>,
+fn read_objects(
+    objects: &Map<String, Value>,
     vertices: Result<&[[f64; 3]], &str>,
     model_target: Option<Target>,
     out: &mut CityDoc,
@@ -215,42 +216,30 @@ fn read_objects<'a>(
             }
         }
     }
-    // A Building is a feature unless it belongs to another Building (which CityJSON does not allow, but files
-    // do): a group it is a member of, a parent missing from the file or its own parent do not stop it. Then any
-    // Building or BuildingPart that no feature covers (cycles of parent links, a part whose building is
-    // missing) becomes a feature of its own, so no building geometry is lost.
+    // Every Building is a feature, whatever its parents (a group, a missing object, another Building: CityJSON
+    // does not allow that, files do) or children; a Building is never another's part. Its BuildingParts, nested
+    // at any depth, are read with it. A BuildingPart that no Building reaches (its building missing, parts naming
+    // only each other) is a feature of its own. So every Building and BuildingPart is read exactly once.
     let is = |o: &Value, t: &str| o.get("type").and_then(Value::as_str) == Some(t);
     let mut root: HashSet<&str> = objects
         .iter()
-        .filter(|(k, o)| {
-            is(o, "Building")
-                && !parents(o).iter().any(|p| {
-                    *p != k.as_str() && objects.get(*p).is_some_and(|po| is(po, "Building"))
-                })
-        })
+        .filter(|(_, o)| is(o, "Building"))
         .map(|(k, _)| k.as_str())
         .collect();
-    let mut covered: HashSet<&str> = HashSet::new();
-    let cover = |k: &'a str, covered: &mut HashSet<&'a str>| {
-        covered.insert(k);
-        covered.extend(
-            descendants(k, objects, &children)
-                .into_iter()
-                .map(|(c, _)| c),
-        );
-    };
+    let mut covered: HashSet<&str> = root.clone();
     for k in &root {
-        cover(k, &mut covered);
+        covered.extend(parts_of(k, objects, &children).into_iter().map(|(c, _)| c));
     }
     for (k, o) in objects {
-        if !covered.contains(k.as_str()) && (is(o, "Building") || is(o, "BuildingPart")) {
+        if !covered.contains(k.as_str()) && is(o, "BuildingPart") {
             root.insert(k.as_str());
-            cover(k, &mut covered);
+            covered.insert(k.as_str());
+            covered.extend(parts_of(k, objects, &children).into_iter().map(|(c, _)| c));
         }
     }
     for (key, o) in objects {
         if !root.contains(key.as_str()) {
-            if parents(o).is_empty() {
+            if !is(o, "BuildingPart") {
                 out.non_building_objects += 1;
             }
             continue;
@@ -272,13 +261,23 @@ fn read_objects<'a>(
 /// A footprint piece with z: rings of (x, y, z), open.
 type Polygon3 = Vec<Vec<[f64; 3]>>;
 
+/// What one city object's own geometry gives the footprint and the heights.
 #[derive(Default)]
 struct ObjectGeometry {
+    /// Its LoD0 ground (GroundSurface or unlabelled LoD0 surfaces), else the ground of its lowest 3D LoD.
     footprint: Vec<Polygon3>,
+    /// `footprint` is the object's LoD0.
+    from_lod0: bool,
+    /// Semantic types of LoD0 surfaces that are no footprint (a `RoofSurface` is the roof edge), once each.
+    lod0_not_ground: Vec<String>,
     top_z: Option<f64>,
     has_geometry: bool,
 }
 
+/// The footprint of a building and its BuildingParts, and its top over all of them. The building's own LoD0
+/// stands for the whole building (3DBAG draws it so, and its parts' reconstructed ground surfaces differ from
+/// it by slivers): parts then add only LoD0 surfaces of their own. Without it, the footprint is the union of
+/// the building's own footprint and every part's, whatever geometry each comes from.
 fn fill_building(
     f: &mut RawFeature,
     key: &str,
@@ -287,48 +286,58 @@ fn fill_building(
     vertices: &[[f64; 3]],
     model_target: Option<Target>,
 ) {
-    let mut own = match object_geometry(&objects[key], vertices) {
+    let mut whole = match object_geometry(&objects[key], vertices) {
         Ok(g) => g,
         Err(e) => {
             f.skip = Some((IssueReason::MalformedGeometry, e));
             return;
         }
     };
-    let family = descendants(key, objects, children);
-    let mut parts_footprint = Vec::new();
-    for (c, o) in &family {
-        match object_geometry(o, vertices) {
-            Ok(g) => {
-                own.has_geometry |= g.has_geometry;
-                own.top_z = max_opt(own.top_z, g.top_z);
-                parts_footprint.extend(g.footprint);
-            }
+    let parts = parts_of(key, objects, children);
+    for (c, o) in &parts {
+        let part = match object_geometry(o, vertices) {
+            Ok(g) => g,
             Err(e) => {
                 f.skip = Some((IssueReason::MalformedGeometry, format!("{c}: {e}")));
                 return;
             }
+        };
+        whole.has_geometry |= part.has_geometry;
+        whole.top_z = max_opt(whole.top_z, part.top_z);
+        if part.from_lod0 || !whole.from_lod0 {
+            whole.footprint.extend(part.footprint);
+        }
+        for t in part.lod0_not_ground {
+            if !whole.lod0_not_ground.contains(&t) {
+                whole.lod0_not_ground.push(t);
+            }
         }
     }
-    let footprint = if own.footprint.is_empty() {
-        parts_footprint
-    } else {
-        own.footprint
-    };
+    let footprint = whole.footprint;
     if footprint.is_empty() {
-        f.skip = Some(if own.has_geometry {
+        f.skip = Some(if !whole.has_geometry {
+            (
+                IssueReason::NoGeometry,
+                "the building and its parts have no geometry".into(),
+            )
+        } else if whole.lod0_not_ground.is_empty() {
             (
                 IssueReason::NoFootprint,
                 "no LoD0 surface, GroundSurface or horizontal base in any geometry".into(),
             )
         } else {
             (
-                IssueReason::NoGeometry,
-                "the building and its parts have no geometry".into(),
+                IssueReason::NoFootprint,
+                format!(
+                    "its LoD0 surfaces are {} (a roof edge is not the footprint), and no 3D geometry has a \
+                     GroundSurface or horizontal base",
+                    whole.lod0_not_ground.join(", ")
+                ),
             )
         });
         return;
     }
-    f.top_z = own.top_z;
+    f.top_z = whole.top_z;
     f.footprint_min_z = footprint
         .iter()
         .flatten()
@@ -344,20 +353,15 @@ fn fill_building(
         })
         .collect();
     if let Some(target) = model_target {
-        let members: Vec<(&str, &Value)> = std::iter::once((key, &objects[key]))
-            .chain(
-                family
-                    .into_iter()
-                    .filter(|(_, o)| o.get("type").and_then(Value::as_str) == Some("BuildingPart")),
-            )
-            .collect();
+        let members: Vec<(&str, &Value)> =
+            std::iter::once((key, &objects[key])).chain(parts).collect();
         f.model = Some(model3d::collect(&members, vertices, target));
     }
 }
 
-/// The descendants of `key` (BuildingParts, installations, nested), depth-first in file order,
-/// each once even when the parent links form a cycle.
-fn descendants<'a>(
+/// The BuildingParts of `key`, and theirs, depth-first in file order, each once even when the parent links
+/// form a cycle. Other children (installations, rooms, a Building) are not parts: a Building is read on its own.
+fn parts_of<'a>(
     key: &'a str,
     objects: &'a Map<String, Value>,
     children: &HashMap<&'a str, Vec<&'a str>>,
@@ -373,7 +377,12 @@ fn descendants<'a>(
             continue;
         }
         seen.push(c);
-        let Some(o) = objects.get(c) else { continue };
+        let Some(o) = objects
+            .get(c)
+            .filter(|o| o.get("type").and_then(Value::as_str) == Some("BuildingPart"))
+        else {
+            continue;
+        };
         out.push((c, o));
         if let Some(cc) = children.get(c) {
             stack.extend(cc.iter().rev().copied());
@@ -512,11 +521,19 @@ fn object_geometry(o: &Value, vertices: &[[f64; 3]]) -> Result<ObjectGeometry, S
         has_geometry: !geoms.is_empty(),
         ..Default::default()
     };
+    // LoD0 holds the footprint and may hold the roof edge (RoofSurface), which overhangs it at roof height.
     for lod0 in geoms.iter().filter(|x| lod_of(x) == 0.0) {
         for s in surfaces(lod0)? {
-            g.footprint.push(polygon3(&s, vertices)?);
+            match s.semantic {
+                None | Some("GroundSurface") => g.footprint.push(polygon3(&s, vertices)?),
+                Some(t) if !g.lod0_not_ground.iter().any(|k| k == t) => {
+                    g.lod0_not_ground.push(t.to_string())
+                }
+                Some(_) => {}
+            }
         }
     }
+    g.from_lod0 = !g.footprint.is_empty();
     // The lowest LoD above 0 with surfaces gives the top height and, without LoD0, the footprint.
     // Malformed geometries of higher LoDs are not the footprint's concern (3D models report them).
     let mut best: Option<(f64, Vec<Surface>)> = None;
@@ -588,9 +605,19 @@ mod tests {
     use serde_json::json;
 
     fn cube(ground_semantics: bool) -> Value {
-        // Unit cube with ground at z=0 (index 0..3) and roof at z=5 (4..7).
+        // Box (4 × 3 m) with ground at z=0 (index 0..3) and roof at z=5 (4..7).
+        box_solid(0, ground_semantics)
+    }
+
+    /// The annex beside [`cube`]: x from 4 to 6 m, 2 m high (vertices 8..15).
+    fn annex() -> Value {
+        box_solid(8, true)
+    }
+
+    fn box_solid(first: u64, ground_semantics: bool) -> Value {
+        let b = |i: [u64; 4]| json!([i.map(|i| i + first)]);
         let mut g = json!({"type": "Solid", "lod": "1.2", "boundaries": [[
-            [[0, 3, 2, 1]], [[4, 5, 6, 7]], [[0, 1, 5, 4]], [[1, 2, 6, 5]], [[2, 3, 7, 6]], [[3, 0, 4, 7]]
+            b([0, 3, 2, 1]), b([4, 5, 6, 7]), b([0, 1, 5, 4]), b([1, 2, 6, 5]), b([2, 3, 7, 6]), b([3, 0, 4, 7])
         ]]});
         if ground_semantics {
             g["semantics"] = json!({"surfaces": [{"type": "GroundSurface"}, {"type": "RoofSurface"},
@@ -608,7 +635,8 @@ mod tests {
             "transform": {"scale": [0.001, 0.001, 0.001], "translate": [1000.0, 2000.0, 0.0]},
             "metadata": {"referenceSystem": "https://www.opengis.net/def/crs/EPSG/0/7415"},
             "CityObjects": objects,
-            "vertices": [[0,0,0],[4000,0,0],[4000,3000,0],[0,3000,0],[0,0,5000],[4000,0,5000],[4000,3000,5000],[0,3000,5000]]})
+            "vertices": [[0,0,0],[4000,0,0],[4000,3000,0],[0,3000,0],[0,0,5000],[4000,0,5000],[4000,3000,5000],[0,3000,5000],
+                [4000,0,0],[6000,0,0],[6000,3000,0],[4000,3000,0],[4000,0,2000],[6000,0,2000],[6000,3000,2000],[4000,3000,2000]]})
     }
 
     #[test]
@@ -691,15 +719,150 @@ mod tests {
         // A building and its part naming each other as parents: one building.
         let part = json!({"P": {"type": "BuildingPart", "parents": ["B1"], "children": ["B1"], "geometry": [cube(false)]}});
         assert_eq!(feature_ids(b(json!(["P"])), part), ["B1"]);
-        // A part whose building is missing is a building of its own; a building under a building is part of it.
+        // A part whose building is missing is a building of its own.
         let orphan =
             json!({"P": {"type": "BuildingPart", "parents": ["gone"], "geometry": [cube(true)]}});
         assert_eq!(feature_ids(b(json!([])), orphan), ["B1", "P"]);
-        let nested = json!({"B2": b(json!(["B1"]))});
-        assert_eq!(feature_ids(b(json!([])), nested), ["B1"]);
-        // Two buildings naming each other: the first in the file is read, with the other as its member.
-        let pair = json!({"B2": b(json!(["B1"]))});
-        assert_eq!(feature_ids(b(json!(["B2"])), pair), ["B1"]);
+        // Parts naming only each other: one building, the first in the file.
+        let ring = json!({"P1": {"type": "BuildingPart", "parents": ["P2"], "geometry": [cube(true)]},
+            "P2": {"type": "BuildingPart", "parents": ["P1"], "geometry": [cube(true)]}});
+        assert_eq!(feature_ids(b(json!([])), ring), ["B1", "P1"]);
+    }
+
+    #[test]
+    fn a_building_under_a_building_is_read_on_its_own_even_in_a_cycle() {
+        let b1 = |links: Value| json!({"type": "Building", "children": links, "parents": links, "geometry": [cube(true)]});
+        let b2 = |links: Value| {
+            json!({"B2": {"type": "Building", "parents": links,
+            "children": [ "P2" ], "geometry": [annex()]},
+            "P2": {"type": "BuildingPart", "parents": ["B2"], "geometry": [annex()]}})
+        };
+        // B2 nested in B1, then B1 and B2 each the other's parent: each is one feature with its own footprint
+        // and top; B2's part is B2's alone.
+        for (links1, links2) in [(json!(["B2"]), json!(["B1"])), (json!(["B2"]), json!([]))] {
+            let target = Target::of(&crate::LodChoice::Highest).unwrap();
+            let d = read_document(&doc(b1(links1), b2(links2)), Some(target)).unwrap();
+            let ids: Vec<&str> = d.features.iter().map(|f| f.source_id.as_str()).collect();
+            assert_eq!(ids, ["B1", "B2"]);
+            let [f1, f2] = &d.features[..] else {
+                unreachable!()
+            };
+            assert_eq!((f1.polygons.len(), f1.top_z), (1, Some(5.0)));
+            assert!(
+                f1.polygons[0][0].iter().all(|p| p[0] <= 1004.0),
+                "B1 is its own box"
+            );
+            assert_eq!(
+                (f2.polygons.len(), f2.top_z),
+                (2, Some(2.0)),
+                "B2 and its part"
+            );
+            assert!(f2.polygons[0][0].iter().all(|p| p[0] >= 1004.0));
+            let model = |f: &RawFeature| f.model.clone().unwrap().unwrap().surfaces.len();
+            assert_eq!((model(f1), model(f2)), (6, 12));
+            assert_eq!(d.non_building_objects, 0);
+        }
+    }
+
+    #[test]
+    fn a_building_with_its_own_geometry_covers_its_parts_too() {
+        let b = json!({"type": "Building", "children": ["P1"], "geometry": [cube(true)]});
+        let annexed = |geometry: Value| json!({"P1": {"type": "BuildingPart", "parents": ["B1"], "geometry": geometry}});
+        let d = read_document(&doc(b.clone(), annexed(json!([annex()]))), None).unwrap();
+        let f = &d.features[0];
+        assert_eq!(d.features.len(), 1);
+        assert!(f.skip.is_none() && f.assemble, "{:?}", f.skip);
+        let xs: Vec<f64> = f
+            .polygons
+            .iter()
+            .flat_map(|p| &p[0])
+            .map(|p| p[0])
+            .collect();
+        assert_eq!(f.polygons.len(), 2, "the building's ground and the annex's");
+        assert!(xs.contains(&1006.0) && xs.contains(&1000.0), "{xs:?}");
+        assert_eq!((f.footprint_min_z, f.top_z), (Some(0.0), Some(5.0)));
+
+        // The building's LoD0 stands for all of it: a part's 3D ground is not added, its own LoD0 is.
+        let lod0 = json!({"type": "MultiSurface", "lod": "0", "boundaries": [[[0, 1, 2, 3]]]});
+        let annex_lod0 =
+            json!({"type": "MultiSurface", "lod": 0, "boundaries": [[[8, 9, 10, 11]]]});
+        let with_lod0 = json!({"type": "Building", "children": ["P1"], "geometry": [lod0]});
+        let f = &read_document(&doc(with_lod0.clone(), annexed(json!([annex()]))), None)
+            .unwrap()
+            .features[0];
+        assert_eq!(
+            (f.polygons.len(), f.top_z),
+            (1, Some(2.0)),
+            "the annex's top still counts"
+        );
+        let f = &read_document(&doc(with_lod0, annexed(json!([annex_lod0, annex()]))), None)
+            .unwrap()
+            .features[0];
+        assert_eq!(f.polygons.len(), 2);
+
+        // Installations and other children are not parts: neither footprint nor top; counted as not buildings.
+        let d = read_document(
+            &doc(b, json!({"I": {"type": "BuildingInstallation", "parents": ["B1"], "geometry": [annex()]}})),
+            None,
+        )
+        .unwrap();
+        assert_eq!(
+            (d.features[0].polygons.len(), d.non_building_objects),
+            (1, 1)
+        );
+    }
+
+    #[test]
+    fn lod0_roof_edges_are_not_the_footprint() {
+        let lod0 = |semantic: Option<&str>, first: u64| {
+            let mut g = json!({"type": "MultiSurface", "lod": "0",
+                "boundaries": [[[first, first + 1, first + 2, first + 3]]]});
+            if let Some(t) = semantic {
+                g["semantics"] = json!({"surfaces": [{"type": t}], "values": [0]});
+            }
+            g
+        };
+        // The roof edge overhangs the walls at roof height (vertices 16..19: 0.5 m out, z = 5 m).
+        let read = |geometry: Value| {
+            let mut d = doc(json!({"type": "Building", "geometry": geometry}), json!({}));
+            for v in [
+                [-500, -500, 5000],
+                [4500, -500, 5000],
+                [4500, 3500, 5000],
+                [-500, 3500, 5000],
+            ] {
+                d["vertices"].as_array_mut().unwrap().push(json!(v));
+            }
+            read_document(&d, None).unwrap().features.remove(0)
+        };
+        let in_walls = |f: &RawFeature| {
+            assert!(f.skip.is_none(), "{:?}", f.skip);
+            assert_eq!(f.polygons.len(), 1);
+            assert!(f.polygons[0][0]
+                .iter()
+                .all(|p| (1000.0..=1004.0).contains(&p[0])));
+            assert_eq!(f.footprint_min_z, Some(0.0));
+        };
+        // Beside a 3D geometry, the roof edge alone: the 3D geometry's ground.
+        in_walls(&read(json!([lod0(Some("RoofSurface"), 16), cube(true)])));
+        // Beside a LoD0 ground, labelled or not: that ground.
+        in_walls(&read(json!([
+            lod0(Some("GroundSurface"), 0),
+            lod0(Some("RoofSurface"), 16)
+        ])));
+        in_walls(&read(json!([
+            lod0(None, 0),
+            lod0(Some("RoofSurface"), 16),
+            cube(true)
+        ])));
+        // Alone: no footprint, and the reason says why.
+        let f = read(json!([lod0(Some("RoofSurface"), 16)]));
+        let (reason, detail) = f.skip.unwrap();
+        assert_eq!(reason, IssueReason::NoFootprint);
+        assert!(
+            detail.contains("RoofSurface") && detail.contains("roof edge"),
+            "{detail}"
+        );
     }
 
     #[test]
