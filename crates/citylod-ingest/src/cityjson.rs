@@ -103,28 +103,20 @@ fn header_crs(doc: &Value) -> Option<DeclaredCrs> {
 /// gets its 3D model at that LoD.
 pub(crate) fn read_document(doc: &Value, model_target: Option<Target>) -> Result<CityDoc, String> {
     let transform = Transform::of(doc)?;
-    let mut vertices = transform.vertices(doc.get("vertices"))?;
+    let vertices = transform.vertices(doc.get("vertices"))?;
     let templates = Templates::of(doc)?;
     let objects = doc
         .get("CityObjects")
         .and_then(Value::as_object)
         .ok_or("no \"CityObjects\" object")?;
-    let expanded = template::expand(objects, &mut vertices, &templates);
-    let objects = expanded.as_ref().unwrap_or(objects);
-    let mut out = CityDoc {
-        features: Vec::new(),
-        declared_crs: header_crs(doc),
-        version: doc
-            .get("version")
-            .and_then(Value::as_str)
-            .map(str::to_string),
-        non_building_objects: 0,
-    };
-    read_objects(objects, Ok(&vertices), model_target, &mut out);
+    let mut out = CityDoc::of_header(doc);
+    read_with_vertices(objects, Ok(vertices), &templates, model_target, &mut out);
     Ok(out)
 }
 
-/// Reads a CityJSONSeq text: a CityJSON header line, then one `CityJSONFeature` per line.
+/// Reads a CityJSONSeq text: a CityJSON header line, then one `CityJSONFeature` per line. City objects
+/// in the header (the spec leaves them empty; a CityJSON document saved as `.jsonl` has them) are read
+/// too, over the header's vertices, before the lines'.
 /// `Err((line, error))` for a line that is not JSON; `Ok(Err(detail))` for a broken structure.
 pub(crate) fn read_sequence(
     text: &str,
@@ -146,15 +138,22 @@ pub(crate) fn read_sequence(
             Ok(t) => t,
             Err(e) => return Ok(Err(e)),
         };
-    let mut out = CityDoc {
-        features: Vec::new(),
-        declared_crs: header_crs(&header),
-        version: header
-            .get("version")
-            .and_then(Value::as_str)
-            .map(str::to_string),
-        non_building_objects: 0,
-    };
+    let mut out = CityDoc::of_header(&header);
+    match header.get("CityObjects") {
+        None => {}
+        Some(Value::Object(objects)) => {
+            let vertices = transform
+                .vertices(header.get("vertices"))
+                .map_err(|e| format!("line {}: {e}", hl + 1));
+            read_with_vertices(objects, vertices, &templates, model_target, &mut out);
+        }
+        Some(_) => {
+            return Ok(Err(format!(
+                "line {}: the header's CityObjects is not an object",
+                hl + 1
+            )))
+        }
+    }
     for (i, line) in lines {
         let f: Value = serde_json::from_str(line).map_err(|e| (i + 1, e))?;
         if f.get("type").and_then(Value::as_str) != Some("CityJSONFeature") {
@@ -167,21 +166,48 @@ pub(crate) fn read_sequence(
             )));
         };
         // A line's vertices are its own: a bad one skips this line's buildings, with the line named.
-        let mut vertices = transform
+        let vertices = transform
             .vertices(f.get("vertices"))
             .map_err(|e| format!("line {}: {e}", i + 1));
-        let expanded = vertices
-            .as_mut()
-            .ok()
-            .and_then(|v| template::expand(objects, v, &templates));
-        read_objects(
-            expanded.as_ref().unwrap_or(objects),
-            vertices.as_deref().map_err(|e| e.as_str()),
-            model_target,
-            &mut out,
-        );
+        read_with_vertices(objects, vertices, &templates, model_target, &mut out);
     }
     Ok(Ok(out))
+}
+
+impl CityDoc {
+    /// No buildings yet, and what `doc`'s header declares.
+    fn of_header(doc: &Value) -> Self {
+        CityDoc {
+            features: Vec::new(),
+            declared_crs: header_crs(doc),
+            version: doc
+                .get("version")
+                .and_then(Value::as_str)
+                .map(str::to_string),
+            non_building_objects: 0,
+        }
+    }
+}
+
+/// Reads `objects` over their decoded `vertices` into `out`, geometry instances expanded first. When the
+/// vertices are broken (`Err`: why), each building is skipped with that reason.
+fn read_with_vertices(
+    objects: &Map<String, Value>,
+    mut vertices: Result<Vec<[f64; 3]>, String>,
+    templates: &Templates,
+    model_target: Option<Target>,
+    out: &mut CityDoc,
+) {
+    let expanded = vertices
+        .as_mut()
+        .ok()
+        .and_then(|v| template::expand(objects, v, templates));
+    read_objects(
+        expanded.as_ref().unwrap_or(objects),
+        vertices.as_deref().map_err(String::as_str),
+        model_target,
+        out,
+    );
 }
 
 fn parents(o: &Value) -> Vec<&str> {
@@ -940,6 +966,57 @@ mod tests {
             None,
         ).unwrap_err();
         assert_eq!(e.0, 2);
+    }
+
+    #[test]
+    fn sequence_header_objects_are_read_over_the_header_vertices() {
+        let header = |objects: &str, vertices: &str| {
+            format!(
+                r#"{{"type":"CityJSON","version":"2.0","transform":{{"scale":[1,1,1],"translate":[0,0,0]}},"CityObjects":{objects},"vertices":{vertices}}}"#
+            )
+        };
+        let lod0 = r#"{"type":"Building","geometry":[{"type":"MultiSurface","lod":"0","boundaries":[[[0,1,2]]]}]}"#;
+        let line = format!(
+            r#"{{"type":"CityJSONFeature","id":"A","CityObjects":{{"A":{lod0}}},"vertices":[[0,0,0],[8,0,0],[8,6,0]]}}"#
+        );
+        // A CityJSON document saved as .jsonl: its one line is the header, and its buildings are read.
+        let h = header(
+            &format!(r#"{{"H":{lod0},"T":{{"type":"TINRelief"}}}}"#),
+            "[[50,0,0],[58,0,0],[58,6,0]]",
+        );
+        let d = read_sequence(&h, None).unwrap().unwrap();
+        assert_eq!(d.features.len(), 1);
+        assert!(d.features[0].skip.is_none(), "{:?}", d.features[0].skip);
+        assert_eq!(
+            d.features[0].polygons[0][0][1],
+            [58.0, 0.0],
+            "the header's vertices"
+        );
+        assert_eq!(d.non_building_objects, 1);
+        // With feature lines: the header's first, each over its own vertices.
+        let d = read_sequence(&format!("{h}\n{line}\n"), None)
+            .unwrap()
+            .unwrap();
+        let ids: Vec<&str> = d.features.iter().map(|f| f.source_id.as_str()).collect();
+        assert_eq!(ids, ["H", "A"]);
+        assert_eq!(d.features[1].polygons[0][0][1], [8.0, 0.0]);
+        // Broken header vertices skip the header's buildings, naming line 1; the lines are still read.
+        let h = header(&format!(r#"{{"H":{lod0}}}"#), "[[50,0]]");
+        let d = read_sequence(&format!("{h}\n{line}\n"), None)
+            .unwrap()
+            .unwrap();
+        let (reason, detail) = d.features[0].skip.clone().unwrap();
+        assert_eq!(reason, IssueReason::MalformedGeometry);
+        assert!(
+            detail.contains("line 1") && detail.contains("vertex 0"),
+            "{detail}"
+        );
+        assert!(d.features[1].skip.is_none());
+        // Header objects that are no object: an error, not a silent nothing.
+        let e = read_sequence(&header("[]", "[]"), None)
+            .unwrap()
+            .unwrap_err();
+        assert!(e.contains("line 1") && e.contains("CityObjects"), "{e}");
     }
 
     #[test]
