@@ -115,9 +115,39 @@ fn build_and_check(name: &str, inputs: &[&Path], extra: &[&str]) -> (Value, Tile
         "{name}: buildings missing / present more than once in the leaves"
     );
     blocks_stay_within_their_tile_error(name, &report, &ts);
+    no_tile_is_stored_that_cannot_be_drawn(name, &ts);
     glb_schemas_match_schemas_metadata_json(name, &out);
     top_is_condensed(name, &report, &ts);
     (report, ts)
+}
+
+/// A tile that is its parent's only child, with the parent's error and children of its own, refines whenever the
+/// parent does, so it is written without content; and every tile without content below the root has its parent's
+/// box and error, so a client never draws it (nothing) in the parent's stead.
+fn no_tile_is_stored_that_cannot_be_drawn(name: &str, ts: &TilesetData) {
+    for t in &ts.tiles {
+        for &c in &t.children {
+            let child = &ts.tiles[c];
+            if t.children.len() == 1
+                && child.geometric_error_m == t.geometric_error_m
+                && !child.children.is_empty()
+            {
+                assert!(
+                    child.content.is_none(),
+                    "{name}: tile {} can never be drawn but has content",
+                    child.path_in_tree
+                );
+            }
+            if child.content.is_none() {
+                assert_eq!(
+                    (child.bounding_box, child.geometric_error_m),
+                    (t.bounding_box, t.geometric_error_m),
+                    "{name}: tile {} has no content, and would be drawn as nothing",
+                    child.path_in_tree
+                );
+            }
+        }
+    }
 }
 
 /// No chain of tiny tiles at the top of the tree: a root with a single child has a child too large to be worth

@@ -207,6 +207,7 @@ pub fn write_tileset_with<C: Sync>(
     let mut next = 0;
     let (mut root_json, root_bounds) = build_tile(root, &outs, &mut next);
     debug_assert_eq!(next, outs.len());
+    empty_tiles_take_parent_boxes(&mut root_json);
     root_json.transform = Some(frame.enu_to_ecef_column_major());
     root_json.refine = Some("REPLACE".into());
     let diagonal = root_bounds.map_or(0.0, |(lo, hi)| dist(lo, hi));
@@ -250,6 +251,18 @@ struct TileOut {
     bounds: Option<Bounds>,
     uri: Option<String>,
     stats: WriteStats,
+}
+
+/// Gives every tile below the root that has no content its parent's box (which holds the tile's subtree too), so
+/// that a client, whose screen-space error counts the distance to the box, refines it whenever it refines the
+/// parent at the same error: an empty tile is never chosen to draw in its parent's stead (see `hlod::assemble`).
+fn empty_tiles_take_parent_boxes(t: &mut tj::Tile) {
+    for c in &mut t.children {
+        if c.content.is_none() {
+            c.bounding_volume = t.bounding_volume.clone();
+        }
+        empty_tiles_take_parent_boxes(c);
+    }
 }
 
 fn flatten<'a, C>(t: &'a TileSpec<C>, path: String, out: &mut Vec<(String, &'a TileSpec<C>)>) {
@@ -1061,6 +1074,33 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_tile_without_content_has_its_parents_box() {
+        let leaf = |i| TileSpec {
+            features: vec![building(i)],
+            children: vec![],
+            geometric_error_m: 0.0,
+        };
+        let root = TileSpec {
+            features: vec![building(0), building(30)],
+            children: vec![TileSpec {
+                features: vec![],
+                children: vec![leaf(0)],
+                geometric_error_m: 2.0,
+            }],
+            geometric_error_m: 2.0,
+        };
+        let dir = tempfile::tempdir().unwrap();
+        write(&dir.path().join("out"), &root, Compression::Meshopt).unwrap();
+        let back = read_tileset(&dir.path().join("out/tileset.json")).unwrap();
+        let tile = |path: &str| back.tiles.iter().find(|t| t.path_in_tree == path).unwrap();
+        let (top, empty, below) = (tile("0"), tile("0/0"), tile("0/0/0"));
+        assert!(empty.content.is_none() && top.content.is_some() && below.content.is_some());
+        // The parent's box, which is larger than what lies below the empty tile.
+        assert_eq!(empty.bounding_box, top.bounding_box);
+        assert_ne!(empty.bounding_box, below.bounding_box);
     }
 
     #[test]
