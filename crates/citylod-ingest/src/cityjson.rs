@@ -4,7 +4,8 @@
 //! lowest-LoD 3D geometry or that geometry's lowest horizontal surfaces; its top is the highest over all. Every
 //! Building and BuildingPart is read once, so no building geometry is lost. Vertices are decoded with
 //! `transform` (scale, translate); a vertex that is not three numbers is an error, never read as another.
-//! Geometry instances are expanded from their templates first ([`crate::template`]).
+//! Geometry instances are expanded from their templates first ([`crate::template`]). A key the reader uses
+//! given twice is refused, never silently chosen ([`keys`]).
 //! When a 3D model is asked for, the building and its BuildingParts also go to [`crate::model3d`].
 
 use crate::crs::DeclaredCrs;
@@ -114,6 +115,23 @@ pub(crate) fn read_document(doc: &Value, model_target: Option<Target>) -> Result
     Ok(out)
 }
 
+/// [`read_document`] from the document's `text` too, to refuse what parsing into a [`Value`] hides: a member
+/// the reader uses, or a CityObjects id, given twice (see [`keys`]). A building's repeated attribute keys
+/// keep their last value, recorded as a repair.
+// Only `lib.rs`'s `load` holds a whole document's text: until it calls this in place of `read_document`,
+// only the tests do.
+#[cfg_attr(not(test), allow(dead_code))]
+pub(crate) fn read_document_text(
+    text: &str,
+    doc: &Value,
+    model_target: Option<Target>,
+) -> Result<CityDoc, String> {
+    let repeats = keys::check(text).map_err(|e| format!("{e}: {}", keys::REFUSED))?;
+    let mut out = read_document(doc, model_target)?;
+    keys::record(&repeats, &mut out.features);
+    Ok(out)
+}
+
 /// Reads a CityJSONSeq text: a CityJSON header line, then one `CityJSONFeature` per line. City objects
 /// in the header (the spec leaves them empty; a CityJSON document saved as `.jsonl` has them) are read
 /// too, over the header's vertices, before the lines'.
@@ -126,13 +144,27 @@ pub(crate) fn read_sequence(
         .lines()
         .enumerate()
         .filter(|(_, l)| !l.trim().is_empty());
-    let Some((hl, header)) = lines.next() else {
+    let Some((hl, header_text)) = lines.next() else {
         return Ok(Err("empty file".into()));
     };
-    let header: Value = serde_json::from_str(header).map_err(|e| (hl + 1, e))?;
+    let header: Value = serde_json::from_str(header_text).map_err(|e| (hl + 1, e))?;
     if header.get("type").and_then(Value::as_str) != Some("CityJSON") {
         return Ok(Err("first line is not a CityJSON header".into()));
     }
+    let repeats_in = |text: &str, line: usize| {
+        keys::check(text).map_err(|e| {
+            format!(
+                "line {line}, column {}: {}: {}",
+                e.column(),
+                keys::without_position(&e.to_string()),
+                keys::REFUSED
+            )
+        })
+    };
+    let header_repeats = match repeats_in(header_text, hl + 1) {
+        Ok(r) => r,
+        Err(e) => return Ok(Err(e)),
+    };
     let (transform, templates) =
         match Transform::of(&header).and_then(|t| Ok((t, Templates::of(&header)?))) {
             Ok(t) => t,
@@ -146,6 +178,7 @@ pub(crate) fn read_sequence(
                 .vertices(header.get("vertices"))
                 .map_err(|e| format!("line {}: {e}", hl + 1));
             read_with_vertices(objects, vertices, &templates, model_target, &mut out);
+            keys::record(&header_repeats, &mut out.features);
         }
         Some(_) => {
             return Ok(Err(format!(
@@ -159,6 +192,11 @@ pub(crate) fn read_sequence(
         if f.get("type").and_then(Value::as_str) != Some("CityJSONFeature") {
             return Ok(Err(format!("line {} is not a CityJSONFeature", i + 1)));
         }
+        let repeats = match repeats_in(line, i + 1) {
+            Ok(r) => r,
+            Err(e) => return Ok(Err(e)),
+        };
+        let first = out.features.len();
         let Some(objects) = f.get("CityObjects").and_then(Value::as_object) else {
             return Ok(Err(format!(
                 "line {}: CityJSONFeature without CityObjects",
@@ -170,6 +208,7 @@ pub(crate) fn read_sequence(
             .vertices(f.get("vertices"))
             .map_err(|e| format!("line {}: {e}", i + 1));
         read_with_vertices(objects, vertices, &templates, model_target, &mut out);
+        keys::record(&repeats, &mut out.features[first..]);
     }
     Ok(Ok(out))
 }
@@ -625,6 +664,303 @@ fn object_geometry(o: &Value, vertices: &[[f64; 3]]) -> Result<ObjectGeometry, S
     Ok(g)
 }
 
+/// Repeated keys in what the reader uses of a CityJSON document or CityJSONSeq line. Parsing into a [`Value`]
+/// keeps the last value of a repeated key and drops the others unseen, so the text is read once more into
+/// outlines of the members used: serde refuses a field given twice ("duplicate field"), as for GeoJSON's
+/// `features`, and a CityObjects id given twice is refused naming it. A building's `attributes` may repeat a
+/// key: the last value is kept and reported, as for GeoJSON properties. Members not used may repeat, and a
+/// member of the wrong JSON type is left for the reader to judge.
+mod keys {
+    use crate::feature::RawFeature;
+    use crate::report::IssueReason;
+    use serde::de::value::MapAccessDeserializer;
+    use serde::de::{Error as _, IgnoredAny, MapAccess, SeqAccess, Visitor};
+    use serde::{Deserialize, Deserializer};
+    use std::collections::{HashMap, HashSet};
+    use std::fmt;
+    use std::marker::PhantomData;
+
+    /// Why a repeat is refused, for the error detail.
+    pub(super) const REFUSED: &str =
+        "a key given twice, whose other value a JSON reader would silently drop";
+
+    /// The repeated `attributes` keys of each city object, by id: `name (given N times)`.
+    pub(super) type AttributeRepeats = HashMap<String, Vec<String>>;
+
+    /// Reads `text` (valid JSON) for repeats; `Err` names the repeated member or id, at serde_json's position.
+    pub(super) fn check(text: &str) -> Result<AttributeRepeats, serde_json::Error> {
+        let doc: Object<Document> = serde_json::from_str(text)?;
+        Ok(doc
+            .0
+            .and_then(|d| d.city_objects.0)
+            .map(|o| o.0)
+            .unwrap_or_default())
+    }
+
+    /// Adds a `duplicate_key` repair to each of `features` whose attributes repeat a key.
+    pub(super) fn record(repeats: &AttributeRepeats, features: &mut [RawFeature]) {
+        for f in features {
+            if let Some(keys) = repeats.get(&f.source_id) {
+                f.repairs.push((
+                    IssueReason::DuplicateKey,
+                    format!(
+                        "repeated attribute keys, the last value of each kept: {}",
+                        crate::geojson::listing(keys)
+                    ),
+                ));
+            }
+        }
+    }
+
+    /// A serde_json message without its trailing ` at line L column C`.
+    pub(super) fn without_position(message: &str) -> &str {
+        match message.rfind(" at line ") {
+            Some(i) if message[i..].contains(" column ") => &message[..i],
+            _ => message,
+        }
+    }
+
+    // The outlines: their fields are never read; serde's duplicate-field check is what they are for.
+    #[derive(Deserialize, Default)]
+    #[serde(default)]
+    #[allow(dead_code)]
+    struct Document {
+        r#type: IgnoredAny,
+        version: IgnoredAny,
+        transform: Object<Transform>,
+        metadata: Object<Metadata>,
+        #[serde(rename = "CityObjects")]
+        city_objects: Object<CityObjects>,
+        vertices: IgnoredAny,
+        #[serde(rename = "geometry-templates")]
+        templates: Object<Templates>,
+    }
+
+    #[derive(Deserialize, Default)]
+    #[serde(default)]
+    #[allow(dead_code)]
+    struct Transform {
+        scale: IgnoredAny,
+        translate: IgnoredAny,
+    }
+
+    #[derive(Deserialize, Default)]
+    #[serde(default, rename_all = "camelCase")]
+    #[allow(dead_code)]
+    struct Metadata {
+        reference_system: IgnoredAny,
+    }
+
+    #[derive(Deserialize, Default)]
+    #[serde(default, rename_all = "kebab-case")]
+    #[allow(dead_code)]
+    struct Templates {
+        templates: List<Object<Geometry>>,
+        vertices_templates: IgnoredAny,
+    }
+
+    #[derive(Deserialize, Default)]
+    #[serde(default)]
+    #[allow(dead_code)]
+    struct CityObject {
+        r#type: IgnoredAny,
+        geometry: List<Object<Geometry>>,
+        children: IgnoredAny,
+        parents: IgnoredAny,
+        parent: IgnoredAny,
+        attributes: Object<Attributes>,
+    }
+
+    #[derive(Deserialize, Default)]
+    #[serde(default, rename_all = "camelCase")]
+    #[allow(dead_code)]
+    struct Geometry {
+        r#type: IgnoredAny,
+        lod: IgnoredAny,
+        boundaries: IgnoredAny,
+        semantics: Object<Semantics>,
+        template: IgnoredAny,
+        transformation_matrix: IgnoredAny,
+    }
+
+    #[derive(Deserialize, Default)]
+    #[serde(default)]
+    #[allow(dead_code)]
+    struct Semantics {
+        surfaces: List<Object<Surface>>,
+        values: IgnoredAny,
+    }
+
+    #[derive(Deserialize, Default)]
+    #[serde(default)]
+    #[allow(dead_code)]
+    struct Surface {
+        r#type: IgnoredAny,
+    }
+
+    /// `T` read from a JSON object; another value is skipped.
+    struct Object<T>(Option<T>);
+
+    /// Each element read as `T` (for its repeats) from a JSON array; another value is skipped.
+    struct List<T>(PhantomData<T>);
+
+    impl<T> Default for Object<T> {
+        fn default() -> Self {
+            Object(None)
+        }
+    }
+
+    impl<T> Default for List<T> {
+        fn default() -> Self {
+            List(PhantomData)
+        }
+    }
+
+    /// Scalars are skipped, as the default value: only objects and arrays can hide a repeat.
+    macro_rules! scalars_skipped {
+        () => {
+            fn visit_unit<E: serde::de::Error>(self) -> Result<Self::Value, E> {
+                Ok(Default::default())
+            }
+            fn visit_bool<E: serde::de::Error>(self, _: bool) -> Result<Self::Value, E> {
+                Ok(Default::default())
+            }
+            fn visit_i64<E: serde::de::Error>(self, _: i64) -> Result<Self::Value, E> {
+                Ok(Default::default())
+            }
+            fn visit_u64<E: serde::de::Error>(self, _: u64) -> Result<Self::Value, E> {
+                Ok(Default::default())
+            }
+            fn visit_f64<E: serde::de::Error>(self, _: f64) -> Result<Self::Value, E> {
+                Ok(Default::default())
+            }
+            fn visit_str<E: serde::de::Error>(self, _: &str) -> Result<Self::Value, E> {
+                Ok(Default::default())
+            }
+        };
+    }
+
+    impl<'de, T: Deserialize<'de>> Deserialize<'de> for Object<T> {
+        fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+            struct V<T>(PhantomData<T>);
+            impl<'de, T: Deserialize<'de>> Visitor<'de> for V<T> {
+                type Value = Object<T>;
+                fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                    f.write_str("any JSON value")
+                }
+                fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Object<T>, A::Error> {
+                    T::deserialize(MapAccessDeserializer::new(map)).map(|t| Object(Some(t)))
+                }
+                fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Object<T>, A::Error> {
+                    while seq.next_element::<IgnoredAny>()?.is_some() {}
+                    Ok(Object(None))
+                }
+                scalars_skipped!();
+            }
+            d.deserialize_any(V(PhantomData))
+        }
+    }
+
+    impl<'de, T: Deserialize<'de>> Deserialize<'de> for List<T> {
+        fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+            struct V<T>(PhantomData<T>);
+            impl<'de, T: Deserialize<'de>> Visitor<'de> for V<T> {
+                type Value = List<T>;
+                fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                    f.write_str("any JSON value")
+                }
+                fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<List<T>, A::Error> {
+                    while seq.next_element::<T>()?.is_some() {}
+                    Ok(List(PhantomData))
+                }
+                fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<List<T>, A::Error> {
+                    while map.next_entry::<IgnoredAny, IgnoredAny>()?.is_some() {}
+                    Ok(List(PhantomData))
+                }
+                scalars_skipped!();
+            }
+            d.deserialize_any(V(PhantomData))
+        }
+    }
+
+    /// The attribute keys given more than once, as `name (given N times)`, in order of first appearance.
+    struct Attributes(Vec<String>);
+
+    impl<'de> Deserialize<'de> for Attributes {
+        fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+            struct V;
+            impl<'de> Visitor<'de> for V {
+                type Value = Attributes;
+                fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                    f.write_str("an attributes object")
+                }
+                fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Attributes, A::Error> {
+                    let mut count: Vec<(String, usize)> = Vec::new();
+                    let mut index: HashMap<String, usize> = HashMap::new();
+                    while let Some(key) = map.next_key::<String>()? {
+                        map.next_value::<IgnoredAny>()?;
+                        match index.get(&key) {
+                            Some(&i) => count[i].1 += 1,
+                            None => {
+                                index.insert(key.clone(), count.len());
+                                count.push((key, 1));
+                            }
+                        }
+                    }
+                    Ok(Attributes(
+                        count
+                            .into_iter()
+                            .filter(|(_, n)| *n > 1)
+                            .map(|(key, n)| format!("{key} (given {n} times)"))
+                            .collect(),
+                    ))
+                }
+            }
+            d.deserialize_map(V)
+        }
+    }
+
+    /// The city objects' repeated attribute keys, by id; an id given twice is an error naming it.
+    struct CityObjects(AttributeRepeats);
+
+    impl<'de> Deserialize<'de> for CityObjects {
+        fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+            struct V;
+            impl<'de> Visitor<'de> for V {
+                type Value = CityObjects;
+                fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                    f.write_str("a CityObjects object")
+                }
+                fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<CityObjects, A::Error> {
+                    let mut ids: HashSet<String> = HashSet::new();
+                    let mut repeats = AttributeRepeats::new();
+                    while let Some(id) = map.next_key::<String>()? {
+                        if ids.contains(&id) {
+                            return Err(A::Error::custom(format!(
+                                "CityObjects id {id:?} given more than once"
+                            )));
+                        }
+                        let o: Object<CityObject> = map.next_value().map_err(|e| {
+                            A::Error::custom(format!(
+                                "CityObjects {id:?}: {}",
+                                without_position(&e.to_string())
+                            ))
+                        })?;
+                        if let Some(Attributes(keys)) = o.0.and_then(|o| o.attributes.0) {
+                            if !keys.is_empty() {
+                                repeats.insert(id.clone(), keys);
+                            }
+                        }
+                        ids.insert(id);
+                    }
+                    Ok(CityObjects(repeats))
+                }
+            }
+            d.deserialize_map(V)
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1017,6 +1353,137 @@ mod tests {
             .unwrap()
             .unwrap_err();
         assert!(e.contains("line 1") && e.contains("CityObjects"), "{e}");
+    }
+
+    /// A document's text with `objects` (JSON text, keys may repeat) and `tail` (more top-level members).
+    fn document_text(objects: &str, tail: &str) -> String {
+        format!(
+            r#"{{"type": "CityJSON", "version": "2.0", "transform": {{"scale": [1, 1, 1], "translate": [0, 0, 0]}},
+            "metadata": {{"referenceSystem": "https://www.opengis.net/def/crs/EPSG/0/7415"}},
+            "CityObjects": {objects}, "vertices": [[0, 0, 0], [8, 0, 0], [8, 6, 0], [0, 6, 0]]{tail}}}"#
+        )
+    }
+
+    fn read_text(text: &str) -> Result<CityDoc, String> {
+        read_document_text(text, &serde_json::from_str(text).unwrap(), None)
+    }
+
+    const LOD0: &str = r#"{"type": "MultiSurface", "lod": "0", "boundaries": [[[0, 1, 2, 3]]]}"#;
+
+    #[test]
+    fn repeated_keys_the_reader_uses_are_refused_naming_them() {
+        let b = format!(r#"{{"type": "Building", "geometry": [{LOD0}]}}"#);
+        let refused = |text: &str, names: &[&str]| {
+            let e = read_text(text).expect_err(text);
+            assert!(e.contains("given twice"), "{e}");
+            for n in names {
+                assert!(e.contains(n), "{n} not in {e}");
+            }
+        };
+        refused(
+            &document_text(&format!(r#"{{"B1": {b}, "B2": {b}, "B1": {b}}}"#), ""),
+            &[r#"CityObjects id "B1" given more than once"#],
+        );
+        refused(
+            &document_text(
+                &format!(r#"{{"B0": {b}}}, "CityObjects": {{"B1": {b}}}"#),
+                "",
+            ),
+            &["duplicate field `CityObjects`"],
+        );
+        refused(
+            &document_text(&format!(r#"{{"B1": {b}}}"#), r#", "vertices": []"#),
+            &["duplicate field `vertices`"],
+        );
+        refused(
+            &document_text(
+                &format!(r#"{{"B1": {b}}}"#),
+                r#", "transform": {"scale": [2, 2, 2], "translate": [0, 0, 0]}"#,
+            ),
+            &["duplicate field `transform`"],
+        );
+        refused(
+            &document_text(
+                &format!(
+                    r#"{{"B1": {{"type": "Building", "geometry": [], "geometry": [{LOD0}]}}}}"#
+                ),
+                "",
+            ),
+            &[r#"CityObjects "B1": duplicate field `geometry`"#],
+        );
+        let roof_or_ground = r#"{"type": "MultiSurface", "lod": "0", "boundaries": [[[0, 1, 2, 3]]],
+            "semantics": {"surfaces": [{"type": "RoofSurface", "type": "GroundSurface"}], "values": [0]}}"#;
+        refused(
+            &document_text(
+                &format!(r#"{{"B1": {{"type": "Building", "geometry": [{roof_or_ground}]}}}}"#),
+                "",
+            ),
+            &[r#"CityObjects "B1": duplicate field `type`"#],
+        );
+    }
+
+    #[test]
+    fn repeated_keys_elsewhere_are_read_or_reported() {
+        // Members the reader does not use, and used members of another JSON type, are left alone.
+        let text = document_text(
+            &format!(
+                r#"{{"B1": {{"type": "Building", "address": 1, "address": 2, "geometry": [{LOD0}],
+                "attributes": {{"h": 3, "roof": 1, "h": 4, "h": 5, "roof": 2, "name": "x"}}}},
+                "B2": {{"type": "Building", "geometry": {{"lod": 1, "lod": 2}}}}}}"#
+            ),
+            r#", "appearance": {}, "appearance": [], "metadata2": {"a": 1, "a": 1}"#,
+        );
+        let d = read_text(&text).unwrap();
+        let [b1, b2] = &d.features[..] else {
+            panic!("two buildings")
+        };
+        assert!(b1.skip.is_none() && b1.polygons.len() == 1, "{:?}", b1.skip);
+        assert_eq!(b2.skip.as_ref().unwrap().0, IssueReason::NoGeometry);
+        // Repeated attribute keys: the last value kept, and reported on the building.
+        assert_eq!(b1.attributes["h"], citylod_model::AttrValue::Int(5));
+        assert_eq!(
+            b1.repairs,
+            [(
+                IssueReason::DuplicateKey,
+                "repeated attribute keys, the last value of each kept: h (given 3 times), roof (given 2 times)".into()
+            )]
+        );
+        assert!(b2.repairs.is_empty());
+        // The same in a sequence line, and a repeat there is refused naming the line and the id.
+        let header = r#"{"type":"CityJSON","version":"2.0","transform":{"scale":[1,1,1],"translate":[0,0,0]},"CityObjects":{},"vertices":[]}"#;
+        let line = |objects: &str| {
+            format!(
+                r#"{{"type":"CityJSONFeature","id":"A","CityObjects":{objects},"vertices":[[0,0,0],[8,0,0],[8,6,0],[0,6,0]]}}"#
+            )
+        };
+        let attrs = line(&format!(
+            r#"{{"A":{{"type":"Building","attributes":{{"h":1,"h":2}},"geometry":[{LOD0}]}}}}"#
+        ));
+        let d = read_sequence(&format!("{header}\n{attrs}\n"), None)
+            .unwrap()
+            .unwrap();
+        assert_eq!(d.features[0].repairs[0].0, IssueReason::DuplicateKey);
+        let b = format!(r#"{{"type":"Building","geometry":[{LOD0}]}}"#);
+        let twice = line(&format!(
+            r#"{{"A":{{"type":"Building","geometry":[]}},"A":{b}}}"#
+        ));
+        let e = read_sequence(&format!("{header}\n{attrs}\n{twice}\n"), None)
+            .unwrap()
+            .unwrap_err();
+        assert!(
+            e.starts_with("line 3, column ")
+                && e.contains(r#"CityObjects id "A" given more than once"#),
+            "{e}"
+        );
+        assert!(!e.contains(" at line "), "one position: {e}");
+        let header_twice = header.replace(r#""vertices":[]"#, r#""vertices":[],"transform":{}"#);
+        let e = read_sequence(&format!("{header_twice}\n{attrs}\n"), None)
+            .unwrap()
+            .unwrap_err();
+        assert!(
+            e.starts_with("line 1, ") && e.contains("duplicate field `transform`"),
+            "{e}"
+        );
     }
 
     #[test]

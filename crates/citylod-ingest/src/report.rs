@@ -70,6 +70,8 @@ pub enum IssueReason {
     /// A key given more than once in a GeoJSON feature's `properties`, or a member the reader uses
     /// (`type`, `id`, `geometry`, `properties`) given more than once in the feature: the last value
     /// is kept, as most JSON readers do. The detail names the keys and whether their values differ.
+    /// Also a key given more than once in a CityJSON building's `attributes` (the detail names the
+    /// keys and how often each was given); other repeated CityJSON keys the reader uses are refused.
     DuplicateKey,
     /// A GeoJSON property whose value JSON text holds but a JSON reader cannot decode (a `\u`
     /// escape of a lone UTF-16 surrogate, which is no character) was kept as its JSON text.
