@@ -118,9 +118,6 @@ pub(crate) fn read_document(doc: &Value, model_target: Option<Target>) -> Result
 /// [`read_document`] from the document's `text` too, to refuse what parsing into a [`Value`] hides: a member
 /// the reader uses, or a CityObjects id, given twice (see [`keys`]). A building's repeated attribute keys
 /// keep their last value, recorded as a repair.
-// Only `lib.rs`'s `load` holds a whole document's text: until it calls this in place of `read_document`,
-// only the tests do.
-#[cfg_attr(not(test), allow(dead_code))]
 pub(crate) fn read_document_text(
     text: &str,
     doc: &Value,

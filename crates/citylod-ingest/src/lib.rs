@@ -506,7 +506,7 @@ fn load(
             )
         }
         Some(v) if v.get("type").and_then(|t| t.as_str()) == Some("CityJSON") => {
-            let doc = cityjson::read_document(&v, model_target).map_err(invalid)?;
+            let doc = cityjson::read_document_text(&text, &v, model_target).map_err(invalid)?;
             (
                 InputFormat::CityJson,
                 doc.declared_crs,
