@@ -659,22 +659,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         &models,
     );
     timings.mesh = t.elapsed().as_millis() as u64;
-    // Buildings come file by file, in the order of the ingest report's files.
-    let file_ends: Vec<(usize, &str)> = ingested
-        .report
-        .files
-        .iter()
-        .scan(0, |end, f| {
-            *end += f.buildings_written;
-            Some((*end, f.path.as_str()))
-        })
-        .collect();
-    let file_of = |b: usize| {
-        file_ends
-            .iter()
-            .find(|(end, _)| b < *end)
-            .map_or(String::new(), |(_, path)| path.to_string())
-    };
+    let file_of = |b: usize| file_of_building(&ingested.report.files, b);
     let mesh_skipped: Vec<FeatureIssue> = lod
         .failed_buildings
         .iter()
@@ -819,6 +804,19 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
     std::mem::forget(generalized);
     std::mem::forget(ingested);
     Ok(ExitCode::SUCCESS)
+}
+
+/// The file building `b` (an index into the written buildings) was read from: buildings come file by file, in the
+/// order of the ingest report's files. Empty past the last.
+fn file_of_building(files: &[citylod_ingest::FileReport], b: usize) -> String {
+    let mut end = 0;
+    files
+        .iter()
+        .find(|f| {
+            end += f.buildings_written;
+            b < end
+        })
+        .map_or(String::new(), |f| f.path.clone())
 }
 
 /// Skipped features listed when none could be read (the report is not written then).
@@ -994,4 +992,27 @@ fn named_attribute_is_present(
         );
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_building_is_placed_in_its_file_by_the_counts_written_before_it() {
+        let file = |path: &str, buildings_written: usize| citylod_ingest::FileReport {
+            path: path.into(),
+            format: citylod_ingest::InputFormat::GeoJson,
+            crs: String::new(),
+            cityjson_version: None,
+            features_read: buildings_written,
+            buildings_written,
+            skipped: 0,
+            non_building_objects: 0,
+        };
+        // A file whose features were all skipped holds no building index.
+        let files = [file("a", 2), file("empty", 0), file("b", 3)];
+        let of: Vec<String> = (0..6).map(|b| file_of_building(&files, b)).collect();
+        assert_eq!(of, ["a", "a", "b", "b", "b", ""]);
+    }
 }
