@@ -53,6 +53,57 @@ struct ModelChain {
     prism_error_m: f64,
     rate_reached: f64,
     note: Option<String>,
+    /// Drawn as its simplified model wherever its prism would be (see [`rough_prisms`]).
+    simplified_for_prism: bool,
+}
+
+/// The buildings whose prisms stand in for their models so badly (a church's spire over a roof at its 70th
+/// percentile) that one of them would set the error of its prism tile and of every block tile above it: prism error
+/// over [`citylod_tiles::hlod::DEMOTE_ERROR_RATIO`] × the median of all, roughest first, while the triangles their
+/// simplified models add stay within [`citylod_tiles::hlod::DEMOTE_MAX_ADDED_SHARE`] of the prisms' — the rule
+/// that draws a rough block as its buildings, over the whole level of prisms at once. Such a building is drawn as
+/// its simplified model wherever its prism would be (its prism tile, a block's landmark, a block drawn as its
+/// buildings). On Delft (`--lod 2.2`) 78.9, 39.1 and 30.7 m prisms lifted their tiles and the blocks above.
+fn rough_prisms(models: &[Option<ModelChain>], prism_triangles: &[Option<u32>]) -> Vec<usize> {
+    use citylod_tiles::hlod::{DEMOTE_ERROR_RATIO, DEMOTE_MAX_ADDED_SHARE};
+    let chains: Vec<(usize, &ModelChain)> = models
+        .iter()
+        .enumerate()
+        .filter_map(|(i, m)| Some((i, m.as_ref()?)))
+        .collect();
+    if chains.is_empty() {
+        return Vec::new();
+    }
+    let mut errors: Vec<f64> = chains.iter().map(|(_, m)| m.prism_error_m).collect();
+    errors.sort_by(f64::total_cmp);
+    let median = errors[errors.len() / 2];
+    let prisms: usize = chains
+        .iter()
+        .map(|&(i, _)| prism_triangles[i].unwrap_or(0) as usize)
+        .sum();
+    let mut room = DEMOTE_MAX_ADDED_SHARE * prisms as f64;
+    let mut rough: Vec<(f64, usize)> = chains
+        .iter()
+        .filter(|(_, m)| {
+            m.prism_error_m > DEMOTE_ERROR_RATIO * median && m.simplified_error_m < m.prism_error_m
+        })
+        .map(|&(i, m)| (m.prism_error_m, i))
+        .collect();
+    // Roughest first; ties by building, so the choice is deterministic.
+    rough.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    let mut chosen = Vec::new();
+    for (_, i) in rough {
+        let m = models[i].as_ref().expect("a chain");
+        let added = m.simplified.triangles.len() as f64 - prism_triangles[i].unwrap_or(0) as f64;
+        // Each prism tile is lowered by its own roughest; one that does not fit leaves the others' worth it.
+        if added > room {
+            continue;
+        }
+        room -= added.max(0.0);
+        chosen.push(i);
+    }
+    chosen.sort_unstable();
+    chosen
 }
 
 /// What the 3D chain did, for the build report.
@@ -72,6 +123,8 @@ pub struct ModelSummary {
     pub prism_error_max_m: f64,
     /// The buildings whose prisms are furthest from their models (source id, m), largest first, at most 5.
     pub prism_error_largest: Vec<(String, f64)>,
+    /// The buildings drawn as their simplified models where their prisms would be ([`rough_prisms`]), source ids.
+    pub prisms_drawn_as_simplified: Vec<String>,
 }
 
 pub struct LodTree<'h> {
@@ -146,6 +199,38 @@ impl<'h> LodTree<'h> {
                     .ok()
             })
             .collect();
+        let mut models: Vec<Option<ModelChain>> = buildings
+            .par_iter()
+            .enumerate()
+            .map(|(i, b)| {
+                let model = b.mesh.as_ref()?;
+                if model.mesh.triangles.is_empty() {
+                    return None;
+                }
+                let prism = &meshed_prism(&prism_triangles, buildings, BuildingId(i as u32))?;
+                let full = model.mesh.clone();
+                let s = citylod_mesh::simplify::simplify(
+                    &full,
+                    &model_opts.simplifier,
+                    model_opts.rate,
+                );
+                Some(ModelChain {
+                    simplified_error_m: citylod_mesh::hausdorff::measured_error_m(&full, &s.mesh),
+                    prism_error_m: citylod_mesh::hausdorff::measured_error_m(&full, prism),
+                    simplified: s.mesh,
+                    rate_reached: s.rate_reached,
+                    note: s.note,
+                    full,
+                    simplified_for_prism: false,
+                })
+            })
+            .collect();
+        let mut prism_triangles = prism_triangles;
+        for i in rough_prisms(&models, &prism_triangles) {
+            let m = models[i].as_mut().expect("a chain");
+            m.simplified_for_prism = true;
+            prism_triangles[i] = Some(m.simplified.triangles.len() as u32);
+        }
         let nodes = hierarchy
             .map(|h| {
                 h.levels
@@ -176,31 +261,6 @@ impl<'h> LodTree<'h> {
                     .collect()
             })
             .unwrap_or_default();
-        let models: Vec<Option<ModelChain>> = buildings
-            .par_iter()
-            .enumerate()
-            .map(|(i, b)| {
-                let model = b.mesh.as_ref()?;
-                if model.mesh.triangles.is_empty() {
-                    return None;
-                }
-                let prism = &meshed_prism(&prism_triangles, buildings, BuildingId(i as u32))?;
-                let full = model.mesh.clone();
-                let s = citylod_mesh::simplify::simplify(
-                    &full,
-                    &model_opts.simplifier,
-                    model_opts.rate,
-                );
-                Some(ModelChain {
-                    simplified_error_m: citylod_mesh::hausdorff::measured_error_m(&full, &s.mesh),
-                    prism_error_m: citylod_mesh::hausdorff::measured_error_m(&full, prism),
-                    simplified: s.mesh,
-                    rate_reached: s.rate_reached,
-                    note: s.note,
-                    full,
-                })
-            })
-            .collect();
         let model_summary = summarize_models(buildings, &models, model_opts.rate);
         Self {
             building_table: BuildingTable::new(buildings),
@@ -249,11 +309,16 @@ impl<'h> LodTree<'h> {
         }]
     }
 
-    /// A building prism's error (m): its distance from the 3D model when there is one, else 0 (exact).
+    /// A building prism's error (m): its distance from the 3D model when there is one, else 0 (exact); the
+    /// simplified model's where that stands in for the prism.
     fn prism_error(&self, b: BuildingId) -> f64 {
-        self.models[b.0 as usize]
-            .as_ref()
-            .map_or(0.0, |m| m.prism_error_m)
+        self.models[b.0 as usize].as_ref().map_or(0.0, |m| {
+            if m.simplified_for_prism {
+                m.simplified_error_m
+            } else {
+                m.prism_error_m
+            }
+        })
     }
 
     /// The landmarks drawn on top of a block (none when the block fell back to its buildings' prisms,
@@ -302,9 +367,20 @@ impl<'h> LodTree<'h> {
         extruded(node).unwrap_or_default()
     }
 
-    /// Building `b`'s prism, extruded again (the same mesh every time); `None` when it could not be meshed.
+    /// Building `b`'s prism, extruded again (the same mesh every time) — or its simplified model where that stands
+    /// in for the prism ([`rough_prisms`]); `None` when it could not be meshed.
     fn prism(&self, b: BuildingId) -> Option<Mesh3d> {
-        meshed_prism(&self.prism_triangles, self.buildings, b)
+        match &self.models[b.0 as usize] {
+            Some(m) if m.simplified_for_prism => Some(m.simplified.clone()),
+            _ => meshed_prism(&self.prism_triangles, self.buildings, b),
+        }
+    }
+
+    /// Whether building `b` is drawn as its simplified model where its prism would be.
+    fn simplified_for_prism(&self, b: BuildingId) -> bool {
+        self.models[b.0 as usize]
+            .as_ref()
+            .is_some_and(|m| m.simplified_for_prism)
     }
 
     /// Triangles of building `b`'s prism (0 when it could not be meshed).
@@ -365,8 +441,12 @@ impl<'h> LodTree<'h> {
                 let node = self.drawn_node(h, level, n);
                 // A fallen-back block shows its buildings' prisms; a building whose prism could not be built is
                 // drawn nowhere (it is in the build report's skips), so not re-outlined into a block tile either.
+                // A building drawn as its simplified model has no footprint prism to re-outline.
                 let unchanged = match level {
-                    0 => self.prism_triangles[node.members[0].0 as usize].is_none(),
+                    0 => {
+                        let b = node.members[0];
+                        self.prism_triangles[b.0 as usize].is_none() || self.simplified_for_prism(b)
+                    }
                     _ => self.nodes[level - 1][n.0 as usize].fallback,
                 };
                 if unchanged {
@@ -892,5 +972,48 @@ fn summarize_models(
             v.truncate(5);
             v
         },
+        prisms_drawn_as_simplified: chains
+            .iter()
+            .filter(|(_, m)| m.simplified_for_prism)
+            .map(|(i, _)| buildings[*i].source_id.clone())
+            .collect(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A chain whose simplified model has `simplified` triangles, with the given errors.
+    fn chain(prism_error_m: f64, simplified_error_m: f64, simplified: usize) -> Option<ModelChain> {
+        let mesh = |n: usize| Mesh3d {
+            positions: vec![[0.0; 3]; 3],
+            triangles: vec![[0, 1, 2]; n],
+        };
+        Some(ModelChain {
+            full: mesh(2 * simplified),
+            simplified: mesh(simplified),
+            simplified_error_m,
+            prism_error_m,
+            rate_reached: 0.5,
+            note: None,
+            simplified_for_prism: false,
+        })
+    }
+
+    #[test]
+    fn only_prisms_far_rougher_than_the_median_give_way_within_the_triangle_share() {
+        // Twenty buildings of 20-triangle prisms (400 in all, so 40 triangles may be added), median prism error 2 m.
+        let mut models: Vec<Option<ModelChain>> = (0..20).map(|_| chain(2.0, 0.3, 30)).collect();
+        models[3] = chain(50.0, 0.5, 30); // +10 triangles: chosen
+        models[5] = chain(40.0, 0.5, 55); // +35: over what is left, passed over
+        models[6] = chain(30.0, 0.4, 25); // +5: chosen
+        models[7] = chain(6.5, 0.4, 21); // over 3 × 2 m, +1: chosen
+        models[8] = chain(5.9, 0.4, 21); // under 3 × 2 m: a prism like the others
+        models[9] = chain(20.0, 25.0, 21); // its simplified model is worse than its prism
+        let prisms = vec![Some(20u32); 20];
+        assert_eq!(rough_prisms(&models, &prisms), [3, 6, 7]);
+        // Buildings without a model (a prism is all they have) are never chosen; none at all, nothing to do.
+        assert!(rough_prisms(&[None, None], &[Some(20), Some(20)]).is_empty());
+    }
 }
