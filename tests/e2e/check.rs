@@ -184,6 +184,52 @@ fn boston_far_view_draws_ten_times_fewer_triangles() {
     assert_far_view_is_ten_times_lighter("boston");
 }
 
+/// The 8 built-in views (the default) of Boston stand outside every building: no roof of full detail lies over an
+/// eye and above it. The street view's eye stood at 37 m inside a 14-storey (49 m) building, and its cut and
+/// full-detail pictures were one wall.
+#[test]
+fn boston_views_do_not_stand_inside_buildings() {
+    let Some(dir) = boston() else { return };
+    let out = process_dir("check-boston-eyes");
+    let _ = std::fs::remove_dir_all(&out);
+    let (code, report) = check(dir, &out, &["--views", "8"]);
+    assert_eq!(code, 0, "{:#}", report["summary"]);
+    let (_, ts) = citylod_check::LoadedTileset::read(&dir.join("tileset.json")).unwrap();
+    let meshes: Vec<&citylod_model::Mesh3d> = ts
+        .leaf_tiles()
+        .into_iter()
+        .filter_map(|i| ts.tiles[i].mesh.as_ref())
+        .collect();
+    // Whether the point (x, y) is inside the triangle's ground projection (a wall's is a segment: never).
+    let covers = |[a, b, c]: [[f64; 3]; 3], x: f64, y: f64| {
+        let side =
+            |p: [f64; 3], q: [f64; 3]| (q[0] - p[0]) * (y - p[1]) - (q[1] - p[1]) * (x - p[0]);
+        let s = [side(a, b), side(b, c), side(c, a)];
+        s.iter().all(|v| *v > 0.0) || s.iter().all(|v| *v < 0.0)
+    };
+    let views = report["views"].as_array().unwrap();
+    assert_eq!(views.len(), 8);
+    for v in views {
+        let eye: Vec<f64> = v["camera"]["eye_enu_m"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| c.as_f64().unwrap())
+            .collect();
+        let above = meshes.iter().find_map(|m| {
+            m.triangles.iter().find_map(|t| {
+                let p = t.map(|i| m.positions[i as usize]);
+                (covers(p, eye[0], eye[1]) && p.iter().any(|q| q[2] > eye[2])).then_some(p)
+            })
+        });
+        assert!(
+            above.is_none(),
+            "view {}: the eye {eye:?} is under the roof {above:?}",
+            v["index"]
+        );
+    }
+}
+
 #[test]
 fn delft_every_view_passes() {
     assert_all_views_pass("delft");

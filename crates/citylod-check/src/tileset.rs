@@ -222,6 +222,32 @@ impl LoadedTileset {
             .map(|t| box_aabb(&t.bounds))
     }
 
+    /// The highest point (z, m) of full detail (the leaf tiles' meshes) within `radius_m` horizontally of `xy`,
+    /// counting each triangle by its top wherever its horizontal bounds come that near; `None` where nothing does.
+    pub fn highest_leaf_content_near(&self, xy: [f64; 2], radius_m: f64) -> Option<f64> {
+        let near = |lo: &[f64], hi: &[f64]| {
+            let gap = |i: usize| (lo[i] - xy[i]).max(xy[i] - hi[i]).max(0.0);
+            gap(0).hypot(gap(1)) <= radius_m
+        };
+        let mut top: Option<f64> = None;
+        for i in self.leaf_tiles() {
+            let (lo, hi) = box_aabb(&self.tree.tiles[i].bounds);
+            let Some(mesh) = self.tiles[i].mesh.as_ref().filter(|_| near(&lo, &hi)) else {
+                continue;
+            };
+            for t in &mesh.triangles {
+                let [a, b, c] = t.map(|v| mesh.positions[v as usize]);
+                let lo = [a[0].min(b[0]).min(c[0]), a[1].min(b[1]).min(c[1])];
+                let hi = [a[0].max(b[0]).max(c[0]), a[1].max(b[1]).max(c[1])];
+                if near(&lo, &hi) {
+                    let z = a[2].max(b[2]).max(c[2]);
+                    top = Some(top.map_or(z, |t| t.max(z)));
+                }
+            }
+        }
+        top
+    }
+
     /// Indices of the leaf tiles (no children) with content: full detail.
     pub fn leaf_tiles(&self) -> Vec<usize> {
         (0..self.tiles.len())

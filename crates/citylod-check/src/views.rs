@@ -1,6 +1,7 @@
 //! The built-in camera set of `citylod check`: from a far view that holds the whole data extent to
 //! street level inside it. Root ENU frame, metres, degrees. Deterministic: the same extent and count
-//! give the same cameras. Invariant: eye heights decrease geometrically; pitch goes −60° → −15°.
+//! give the same cameras. Invariant: eye heights decrease geometrically; pitch goes −60° → −15°; given the
+//! content, no eye stands inside it or against it ([`standard_views_clear_of`]).
 
 use crate::camera::Camera;
 use crate::vec3::{self, Vec3};
@@ -10,6 +11,11 @@ use crate::vec3::{self, Vec3};
 pub const STANDARD_FOVY_DEG: f64 = 45.0;
 /// Eye height above the ground (m) of the nearest built-in view.
 pub const STREET_HEIGHT_M: f64 = 40.0;
+/// A built-in view's eye stands at least [`EYE_CLEARANCE_M`] above everything within this horizontal
+/// distance (m) of it: an eye in a tower, or beside its wall, would see one wall and test nothing.
+pub const EYE_CLEARANCE_RADIUS_M: f64 = 25.0;
+/// How far (m) a built-in view's eye stays above the content around it (see [`EYE_CLEARANCE_RADIUS_M`]).
+pub const EYE_CLEARANCE_M: f64 = 5.0;
 const FAR_PITCH_DEG: f64 = -60.0;
 const NEAR_PITCH_DEG: f64 = -15.0;
 const GOLDEN_ANGLE_DEG: f64 = 137.507_764_050_037_85;
@@ -28,6 +34,30 @@ const GOLDEN_ANGLE_DEG: f64 = 137.507_764_050_037_85;
 /// assert!(views[0].eye_m[2] > views[5].eye_m[2]);
 /// ```
 pub fn standard_views(extent_min: Vec3, extent_max: Vec3, n: usize) -> Vec<Camera> {
+    standard_views_clear_of(extent_min, extent_max, n, |_, _| None)
+}
+
+/// [`standard_views`] kept clear of the content: `highest_near(xy, r)` is the highest point (root frame z, m)
+/// of the content within `r` m horizontally of `xy`, `None` where there is none. A camera whose eye is below
+/// that (within [`EYE_CLEARANCE_RADIUS_M`]) plus [`EYE_CLEARANCE_M`] is raised to it, keeping its position on
+/// the ground, heading and pitch: on Boston the street view's eye stood at 37 m inside a 49 m building, and its
+/// cut and full-detail pictures were one wall.
+///
+/// # Examples
+/// ```
+/// use citylod_check::{standard_views, standard_views_clear_of};
+/// let (lo, hi) = ([-500.0, -400.0, 0.0], [500.0, 400.0, 60.0]);
+/// // A 300 m tower everywhere: every eye lower than 305 m is raised to it.
+/// let views = standard_views_clear_of(lo, hi, 6, |_, _| Some(300.0));
+/// assert!(views.iter().all(|c| c.eye_m[2] >= 305.0));
+/// assert_eq!(views[0], standard_views(lo, hi, 6)[0]); // the far view is high above it
+/// ```
+pub fn standard_views_clear_of(
+    extent_min: Vec3,
+    extent_max: Vec3,
+    n: usize,
+    highest_near: impl Fn([f64; 2], f64) -> Option<f64>,
+) -> Vec<Camera> {
     if n == 0 || !vec3::is_finite(extent_min) || !vec3::is_finite(extent_max) {
         return Vec::new();
     }
@@ -66,11 +96,14 @@ pub fn standard_views(extent_min: Vec3, extent_max: Vec3, n: usize) -> Vec<Camer
             let p = pitch_deg.to_radians();
             let back_m = height_m / p.tan().abs();
             let h = heading_deg.to_radians();
-            let eye = [
+            let mut eye = [
                 target[0] - h.sin() * back_m,
                 target[1] - h.cos() * back_m,
                 ground_m + height_m,
             ];
+            if let Some(top) = highest_near([eye[0], eye[1]], EYE_CLEARANCE_RADIUS_M) {
+                eye[2] = eye[2].max(top + EYE_CLEARANCE_M);
+            }
             // Finite eye and a pitch within [−90, 90] always make a camera.
             Camera::from_enu(eye, heading_deg, pitch_deg, STANDARD_FOVY_DEG).ok()
         })
@@ -148,6 +181,28 @@ mod tests {
         headings.sort_unstable();
         headings.dedup();
         assert_eq!(headings.len(), 10);
+    }
+
+    #[test]
+    fn an_eye_among_content_rises_above_it_and_keeps_its_bearing() {
+        let plain = standard_views(LO, HI, 8);
+        let street = plain[7];
+        // A 100 m tower within the clearance radius of the street view's eye only.
+        let tower = |xy: [f64; 2], r: f64| {
+            let d = (xy[0] - street.eye_m[0]).hypot(xy[1] - street.eye_m[1]);
+            (d <= r && r >= EYE_CLEARANCE_RADIUS_M).then_some(LO[2] + 100.0)
+        };
+        let clear = standard_views_clear_of(LO, HI, 8, tower);
+        assert_eq!(clear[..7], plain[..7]);
+        let raised = clear[7];
+        assert!((raised.eye_m[2] - (LO[2] + 100.0 + EYE_CLEARANCE_M)).abs() < 1e-9);
+        assert_eq!(raised.eye_m[..2], street.eye_m[..2]);
+        assert_eq!(raised.forward, street.forward);
+        // Content below the clearance leaves the eye where it was.
+        let low = standard_views_clear_of(LO, HI, 8, |_, _| {
+            Some(LO[2] + STREET_HEIGHT_M - EYE_CLEARANCE_M)
+        });
+        assert_eq!(low, plain);
     }
 
     #[test]
