@@ -230,6 +230,27 @@ fn boston_views_do_not_stand_inside_buildings() {
     }
 }
 
+/// A buildings-only tileset (`--leaves-only`: inner tiles without content over the leaves) passes every built-in
+/// view: its inner tiles had been given the root's box, so a client could not cull them by their own, drew them (as
+/// nothing) where their children were out of view, and `citylod check` (and so `make bench`) failed on 3 of 8 views.
+#[test]
+fn boston_buildings_only_tileset_passes_every_view() {
+    let Some(input) = shared_data("boston/boston_buildings.geojson") else {
+        return;
+    };
+    let dir = process_dir("check-boston-leaves");
+    build(
+        &[&input],
+        &dir,
+        &["--storey-height", "3.5", "--leaves-only"],
+    );
+    let out = process_dir("check-boston-leaves-views");
+    let _ = std::fs::remove_dir_all(&out);
+    let (code, report) = check(&dir, &out, &["--views", "8"]);
+    assert_eq!(code, 0, "{:#}", report["summary"]);
+    assert_eq!(report["summary"]["views_passed"], 8);
+}
+
 #[test]
 fn delft_every_view_passes() {
     assert_all_views_pass("delft");

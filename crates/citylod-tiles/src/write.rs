@@ -253,12 +253,15 @@ struct TileOut {
     stats: WriteStats,
 }
 
-/// Gives every tile below the root that has no content its parent's box (which holds the tile's subtree too), so
-/// that a client, whose screen-space error counts the distance to the box, refines it whenever it refines the
-/// parent at the same error: an empty tile is never chosen to draw in its parent's stead (see `hlod::assemble`).
+/// Gives every tile below the root that has no content and its parent's error its parent's box (which holds the
+/// tile's subtree too), so that a client, whose screen-space error counts the distance to the box, refines it
+/// whenever it refines the parent: an empty tile is never chosen to draw in its parent's stead (see
+/// `hlod::assemble`). An empty tile of lower error keeps its own box: the parent's would not make it refine with the
+/// parent, and would keep a client from culling its subtree — the inner tiles of a buildings-only tree, given the
+/// root's box, were drawn (as nothing) wherever their children were out of view, and `citylod check` failed there.
 fn empty_tiles_take_parent_boxes(t: &mut tj::Tile) {
     for c in &mut t.children {
-        if c.content.is_none() {
+        if c.content.is_none() && c.geometric_error >= t.geometric_error {
             c.bounding_volume = t.bounding_volume.clone();
         }
         empty_tiles_take_parent_boxes(c);
@@ -1101,6 +1104,35 @@ mod tests {
         // The parent's box, which is larger than what lies below the empty tile.
         assert_eq!(empty.bounding_box, top.bounding_box);
         assert_ne!(empty.bounding_box, below.bounding_box);
+    }
+
+    #[test]
+    fn a_tile_without_content_below_its_parents_error_keeps_its_own_box() {
+        // The inner tiles of a buildings-only tree: no content, errors falling towards the leaves.
+        let leaf = |i| TileSpec {
+            features: vec![building(i)],
+            children: vec![],
+            geometric_error_m: 0.0,
+        };
+        let inner = |children| TileSpec {
+            features: vec![],
+            children,
+            geometric_error_m: 50.0,
+        };
+        let root = TileSpec {
+            features: vec![],
+            children: vec![inner(vec![leaf(0)]), inner(vec![leaf(30)])],
+            geometric_error_m: 100.0,
+        };
+        let dir = tempfile::tempdir().unwrap();
+        write(&dir.path().join("out"), &root, Compression::Meshopt).unwrap();
+        let back = read_tileset(&dir.path().join("out/tileset.json")).unwrap();
+        let tile = |path: &str| back.tiles.iter().find(|t| t.path_in_tree == path).unwrap();
+        for (inner, below) in [("0/0", "0/0/0"), ("0/1", "0/1/0")] {
+            assert!(tile(inner).content.is_none());
+            assert_eq!(tile(inner).bounding_box, tile(below).bounding_box);
+            assert_ne!(tile(inner).bounding_box, tile("0").bounding_box);
+        }
     }
 
     #[test]
