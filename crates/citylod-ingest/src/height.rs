@@ -87,7 +87,8 @@ fn number(attrs: &Attributes, name: &str) -> Option<f64> {
 /// (CityJSON), else 0; an OSM `min_height` raises the base above that ground. Height: the named
 /// attribute, known names, 3DBAG roof − ground, the 3D geometry's top − ground, storeys × storey
 /// height, else the default. Attribute heights count from the ground, so `min_height` is
-/// subtracted from them. A value under 0.1 m or over 1000 m falls through to the next rule; every attribute of a
+/// subtracted from them (a part reaching less than 0.1 m above its base is 0.1 m thick). A value under 0.1 m or
+/// over 1000 m falls through to the next rule; every attribute of a
 /// rule that was reached, present and not usable is named in `rejected` (a ground attribute too).
 pub(crate) fn resolve(
     attrs: &Attributes,
@@ -127,6 +128,9 @@ pub(crate) fn resolve(
             let h = v.as_number().map(|x| x * scale - offset);
             match h {
                 Some(h) if plausible(h) => Some(h),
+                // A part reaching only just above its `min_height` is a thin slab there (a canopy): MIN_HEIGHT_M
+                // thick, not the default height standing on its base.
+                Some(h) if offset > 0.0 && h > 0.0 && h < MIN_HEIGHT_M => Some(MIN_HEIGHT_M),
                 _ => {
                     rejected.push(name.to_string());
                     None
@@ -339,6 +343,27 @@ mod tests {
             let h = resolve(&a, None, None, &d);
             assert_eq!((h.base_offset_m, h.rejected.len()), (0.0, 0), "{ok:?}");
         }
+    }
+
+    #[test]
+    fn a_part_just_above_its_min_height_is_a_thin_slab_not_the_default() {
+        let a = attrs(&[
+            ("height", AttrValue::Int(10)),
+            ("min_height", AttrValue::Float(9.95)),
+        ]);
+        let h = resolve(&a, None, None, &IngestOptions::default());
+        assert_eq!(h.source, HeightSource::KnownAttribute);
+        assert!((h.base_offset_m - 9.95).abs() < 1e-12);
+        assert_eq!(h.height_m, MIN_HEIGHT_M);
+        assert!(h.rejected.is_empty(), "{:?}", h.rejected);
+        // At or under its base it is no height at all: the next rule (here the default), reported.
+        let a = attrs(&[
+            ("height", AttrValue::Int(10)),
+            ("min_height", AttrValue::Int(10)),
+        ]);
+        let h = resolve(&a, None, None, &IngestOptions::default());
+        assert_eq!(h.source, HeightSource::Default);
+        assert_eq!(h.rejected, vec!["height".to_string()]);
     }
 
     #[test]

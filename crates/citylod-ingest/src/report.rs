@@ -186,7 +186,8 @@ pub struct IngestReport {
     pub height_sources: BTreeMap<String, usize>,
     /// Written buildings per ground-height source: `b3_h_maaiveld`, `geometry`, `zero`.
     pub ground_sources: BTreeMap<String, usize>,
-    /// Height attribute values present but unusable (unparseable, ≤ 0 or > 1000 m), by attribute name.
+    /// Height attribute values present but unusable (unparseable, under 0.1 m or over 1000 m above the base; a 3DBAG
+    /// ground or roof that gives none), by attribute name.
     pub height_values_rejected: BTreeMap<String, usize>,
     /// Written GeoJSON features tagged `building:part` (OSM); kept as buildings of their own.
     pub building_parts: usize,
