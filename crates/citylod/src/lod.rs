@@ -59,13 +59,15 @@ struct ModelChain {
 
 /// The buildings whose prisms stand in for their models so badly (a church's spire over a roof at its 70th
 /// percentile) that one of them would set the error of its prism tile and of every block tile above it: prism error
-/// over [`citylod_tiles::hlod::DEMOTE_ERROR_RATIO`] × the median of all, roughest first, while the triangles their
+/// over [`citylod_tiles::hlod::DEMOTE_ERROR_RATIO`] × the median of all (and over
+/// [`citylod_tiles::hlod::MIN_PARENT_ERROR_M`], which a tile with children claims anyway: LoD1 models, whose prisms
+/// are nearly exact, have a median near 0), roughest first, while the triangles their
 /// simplified models add stay within [`citylod_tiles::hlod::DEMOTE_MAX_ADDED_SHARE`] of the prisms' — the rule
 /// that draws a rough block as its buildings, over the whole level of prisms at once. Such a building is drawn as
 /// its simplified model wherever its prism would be (its prism tile, a block's landmark, a block drawn as its
 /// buildings). On Delft (`--lod 2.2`) 78.9, 39.1 and 30.7 m prisms lifted their tiles and the blocks above.
 fn rough_prisms(models: &[Option<ModelChain>], prism_triangles: &[Option<u32>]) -> Vec<usize> {
-    use citylod_tiles::hlod::{DEMOTE_ERROR_RATIO, DEMOTE_MAX_ADDED_SHARE};
+    use citylod_tiles::hlod::{DEMOTE_ERROR_RATIO, DEMOTE_MAX_ADDED_SHARE, MIN_PARENT_ERROR_M};
     let chains: Vec<(usize, &ModelChain)> = models
         .iter()
         .enumerate()
@@ -76,7 +78,7 @@ fn rough_prisms(models: &[Option<ModelChain>], prism_triangles: &[Option<u32>]) 
     }
     let mut errors: Vec<f64> = chains.iter().map(|(_, m)| m.prism_error_m).collect();
     errors.sort_by(f64::total_cmp);
-    let median = errors[errors.len() / 2];
+    let rough_from_m = (DEMOTE_ERROR_RATIO * errors[errors.len() / 2]).max(MIN_PARENT_ERROR_M);
     let prisms: usize = chains
         .iter()
         .map(|&(i, _)| prism_triangles[i].unwrap_or(0) as usize)
@@ -84,9 +86,7 @@ fn rough_prisms(models: &[Option<ModelChain>], prism_triangles: &[Option<u32>]) 
     let mut room = DEMOTE_MAX_ADDED_SHARE * prisms as f64;
     let mut rough: Vec<(f64, usize)> = chains
         .iter()
-        .filter(|(_, m)| {
-            m.prism_error_m > DEMOTE_ERROR_RATIO * median && m.simplified_error_m < m.prism_error_m
-        })
+        .filter(|(_, m)| m.prism_error_m > rough_from_m && m.simplified_error_m < m.prism_error_m)
         .map(|&(i, m)| (m.prism_error_m, i))
         .collect();
     // Roughest first; ties by building, so the choice is deterministic.
@@ -226,7 +226,12 @@ impl<'h> LodTree<'h> {
             })
             .collect();
         let mut prism_triangles = prism_triangles;
-        for i in rough_prisms(&models, &prism_triangles) {
+        // Without levels (`--leaves-only`) no prism is drawn: the buildings are their full models.
+        let rough = match hierarchy {
+            Some(_) => rough_prisms(&models, &prism_triangles),
+            None => Vec::new(),
+        };
+        for i in rough {
             let m = models[i].as_mut().expect("a chain");
             m.simplified_for_prism = true;
             prism_triangles[i] = Some(m.simplified.triangles.len() as u32);
@@ -1015,5 +1020,10 @@ mod tests {
         assert_eq!(rough_prisms(&models, &prisms), [3, 6, 7]);
         // Buildings without a model (a prism is all they have) are never chosen; none at all, nothing to do.
         assert!(rough_prisms(&[None, None], &[Some(20), Some(20)]).is_empty());
+        // Prisms nearly as exact as their models (LoD1): over 3 × a median of 0 is not rough; over 1 m is.
+        let mut models: Vec<Option<ModelChain>> = (0..20).map(|_| chain(0.0, 0.0, 20)).collect();
+        models[2] = chain(0.6, 0.1, 20);
+        models[4] = chain(1.5, 0.1, 20);
+        assert_eq!(rough_prisms(&models, &prisms), [4]);
     }
 }
