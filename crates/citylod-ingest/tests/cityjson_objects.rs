@@ -52,6 +52,19 @@ fn a_building_nested_in_another_or_in_a_cycle_is_a_building_of_its_own() {
 }
 
 #[test]
+fn a_part_is_read_once_whatever_the_order_of_its_objects() {
+    // P2 is a part of P1, P1 a part of a Building that is missing; P2 comes first in the file. P1 is the building,
+    // P2 its part: before, P2 was also a building of its own, drawn twice.
+    let out = read("orphan-part-child-first.city.json").unwrap();
+    assert_eq!(out.report.features_read, 1);
+    assert_areas(&out, &[("P1", 200.0)]);
+    // A part listed by two buildings is read with the first of them only (else its footprint twice).
+    let out = read("part-of-two-buildings.city.json").unwrap();
+    assert_eq!(out.report.features_read, 2);
+    assert_areas(&out, &[("A", 200.0), ("B", 100.0)]);
+}
+
+#[test]
 fn a_part_beside_its_building_widens_the_footprint() {
     let out = read("annex-part.city.json").unwrap();
     assert_areas(&out, &[("B1", 200.0)]);
@@ -107,6 +120,21 @@ fn an_id_given_twice_in_a_sequence_line_is_an_error_naming_it() {
     );
     assert!(
         message.contains("line 2") && message.contains(r#"CityObjects id "A""#),
+        "{message}"
+    );
+}
+
+#[test]
+fn a_member_given_twice_in_a_document_is_an_error_naming_it() {
+    // B1's "type" is given twice ("Building", then "BuildingPart"): a JSON reader would keep the second unseen.
+    let e = read("repeated-key-in-document.city.json").unwrap_err();
+    let message = e.to_string();
+    assert!(
+        matches!(e, IngestError::InvalidCityJson { .. }),
+        "{message}"
+    );
+    assert!(
+        message.contains(r#"CityObjects "B1""#) && message.contains("duplicate field `type`"),
         "{message}"
     );
 }
