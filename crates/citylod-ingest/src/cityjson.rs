@@ -306,7 +306,8 @@ fn read_objects(
     // Tops first (no other orphan reaches them), then what cycles leave, each in file order.
     for top_only in [true, false] {
         for &k in &orphans {
-            if !covered.contains(k) && !(top_only && reached.contains(k)) {
+            let waits = top_only && reached.contains(k);
+            if !covered.contains(k) && !waits {
                 root.insert(k);
                 covered.insert(k);
                 covered.extend(parts_of(k, objects, &children).into_iter().map(|(c, _)| c));
