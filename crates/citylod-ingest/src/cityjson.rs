@@ -131,7 +131,8 @@ pub(crate) fn read_document_text(
 
 /// Reads a CityJSONSeq text: a CityJSON header line, then one `CityJSONFeature` per line. City objects
 /// in the header (the spec leaves them empty; a CityJSON document saved as `.jsonl` has them) are read
-/// too, over the header's vertices, before the lines'.
+/// too, over the header's vertices, before the lines'. A line whose vertices are broken, or which gives a key the
+/// reader uses twice, has its buildings skipped with the reason (a header giving one twice refuses the file).
 /// `Err((line, error))` for a line that is not JSON; `Ok(Err(detail))` for a broken structure.
 pub(crate) fn read_sequence(
     text: &str,
@@ -171,9 +172,12 @@ pub(crate) fn read_sequence(
     match header.get("CityObjects") {
         None => {}
         Some(Value::Object(objects)) => {
-            let vertices = transform
-                .vertices(header.get("vertices"))
-                .map_err(|e| format!("line {}: {e}", hl + 1));
+            let vertices = transform.vertices(header.get("vertices")).map_err(|e| {
+                (
+                    IssueReason::MalformedGeometry,
+                    format!("line {}: {e}", hl + 1),
+                )
+            });
             read_with_vertices(objects, vertices, &templates, model_target, &mut out);
             keys::record(&header_repeats, &mut out.features);
         }
@@ -189,10 +193,7 @@ pub(crate) fn read_sequence(
         if f.get("type").and_then(Value::as_str) != Some("CityJSONFeature") {
             return Ok(Err(format!("line {} is not a CityJSONFeature", i + 1)));
         }
-        let repeats = match repeats_in(line, i + 1) {
-            Ok(r) => r,
-            Err(e) => return Ok(Err(e)),
-        };
+        let repeats = repeats_in(line, i + 1);
         let first = out.features.len();
         let Some(objects) = f.get("CityObjects").and_then(Value::as_object) else {
             return Ok(Err(format!(
@@ -200,12 +201,21 @@ pub(crate) fn read_sequence(
                 i + 1
             )));
         };
-        // A line's vertices are its own: a bad one skips this line's buildings, with the line named.
-        let vertices = transform
-            .vertices(f.get("vertices"))
-            .map_err(|e| format!("line {}: {e}", i + 1));
+        // A line is read on its own: a bad vertex, or a key the reader uses given twice (which of the two values
+        // is meant?), skips this line's buildings, with the line named.
+        let vertices = match &repeats {
+            Err(e) => Err((IssueReason::DuplicateKey, e.clone())),
+            Ok(_) => transform.vertices(f.get("vertices")).map_err(|e| {
+                (
+                    IssueReason::MalformedGeometry,
+                    format!("line {}: {e}", i + 1),
+                )
+            }),
+        };
         read_with_vertices(objects, vertices, &templates, model_target, &mut out);
-        keys::record(&repeats, &mut out.features[first..]);
+        if let Ok(repeats) = &repeats {
+            keys::record(repeats, &mut out.features[first..]);
+        }
     }
     Ok(Ok(out))
 }
@@ -225,11 +235,11 @@ impl CityDoc {
     }
 }
 
-/// Reads `objects` over their decoded `vertices` into `out`, geometry instances expanded first. When the
-/// vertices are broken (`Err`: why), each building is skipped with that reason.
+/// Reads `objects` over their decoded `vertices` into `out`, geometry instances expanded first. When they cannot be
+/// read (`Err`: the reason and why — broken vertices, a key given twice), each building is skipped with it.
 fn read_with_vertices(
     objects: &Map<String, Value>,
-    mut vertices: Result<Vec<[f64; 3]>, String>,
+    mut vertices: Result<Vec<[f64; 3]>, (IssueReason, String)>,
     templates: &Templates,
     model_target: Option<Target>,
     out: &mut CityDoc,
@@ -240,7 +250,7 @@ fn read_with_vertices(
         .and_then(|v| template::expand(objects, v, templates));
     read_objects(
         expanded.as_ref().unwrap_or(objects),
-        vertices.as_deref().map_err(String::as_str),
+        vertices.as_deref().map_err(|(r, e)| (*r, e.as_str())),
         model_target,
         out,
     );
@@ -256,7 +266,7 @@ fn parents(o: &Value) -> Vec<&str> {
 
 fn read_objects(
     objects: &Map<String, Value>,
-    vertices: Result<&[[f64; 3]], &str>,
+    vertices: Result<&[[f64; 3]], (IssueReason, &str)>,
     model_target: Option<Target>,
     out: &mut CityDoc,
 ) {
@@ -333,7 +343,7 @@ fn read_objects(
             ..Default::default()
         };
         match vertices {
-            Err(e) => f.skip = Some((IssueReason::MalformedGeometry, e.to_string())),
+            Err((reason, e)) => f.skip = Some((reason, e.to_string())),
             Ok(v) => fill_building(&mut f, key, &objects[key], parts, v, model_target),
         }
         out.features.push(f);
@@ -682,7 +692,8 @@ fn object_geometry(o: &Value, vertices: &[[f64; 3]]) -> Result<ObjectGeometry, S
 /// Repeated keys in what the reader uses of a CityJSON document or CityJSONSeq line. Parsing into a [`Value`]
 /// keeps the last value of a repeated key and drops the others unseen, so the text is read once more into
 /// outlines of the members used: serde refuses a field given twice ("duplicate field"), as for GeoJSON's
-/// `features`, and a CityObjects id given twice is refused naming it. A building's `attributes` may repeat a
+/// `features`, and a CityObjects id given twice is refused naming it — the whole document, or one line of a
+/// sequence, whose buildings are then skipped. A building's `attributes` may repeat a
 /// key: the last value is kept and reported, as for GeoJSON properties. Members not used may repeat, and a
 /// member of the wrong JSON type is left for the reader to judge.
 mod keys {
@@ -1483,15 +1494,36 @@ mod tests {
         let twice = line(&format!(
             r#"{{"A":{{"type":"Building","geometry":[]}},"A":{b}}}"#
         ));
-        let e = read_sequence(&format!("{header}\n{attrs}\n{twice}\n"), None)
+        // A line giving an id twice has its buildings skipped, the line and the id named; the others are read.
+        let d = read_sequence(&format!("{header}\n{attrs}\n{twice}\n"), None)
             .unwrap()
-            .unwrap_err();
+            .unwrap();
+        let [read, skipped] = &d.features[..] else {
+            panic!("one building a line: {}", d.features.len())
+        };
+        assert!(read.skip.is_none());
+        let (reason, e) = skipped.skip.as_ref().expect("skipped");
+        assert_eq!(*reason, IssueReason::DuplicateKey);
         assert!(
             e.starts_with("line 3, column ")
                 && e.contains(r#"CityObjects id "A" given more than once"#),
             "{e}"
         );
         assert!(!e.contains(" at line "), "one position: {e}");
+        // A member repeated inside a city object of a line: the same.
+        let type_twice = line(&format!(
+            r#"{{"A":{{"type":"Building","type":"BuildingPart","geometry":[{LOD0}]}}}}"#
+        ));
+        let d = read_sequence(&format!("{header}\n{type_twice}\n{attrs}\n"), None)
+            .unwrap()
+            .unwrap();
+        let (reason, e) = d.features[0].skip.as_ref().expect("skipped");
+        assert_eq!(*reason, IssueReason::DuplicateKey);
+        assert!(
+            e.starts_with("line 2, ") && e.contains("duplicate field `type`"),
+            "{e}"
+        );
+        assert!(d.features[1].skip.is_none());
         let header_twice = header.replace(r#""vertices":[]"#, r#""vertices":[],"transform":{}"#);
         let e = read_sequence(&format!("{header_twice}\n{attrs}\n"), None)
             .unwrap()

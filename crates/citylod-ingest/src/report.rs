@@ -71,7 +71,8 @@ pub enum IssueReason {
     /// (`type`, `id`, `geometry`, `properties`) given more than once in the feature: the last value
     /// is kept, as most JSON readers do. The detail names the keys and whether their values differ.
     /// Also a key given more than once in a CityJSON building's `attributes` (the detail names the
-    /// keys and how often each was given); other repeated CityJSON keys the reader uses are refused.
+    /// keys and how often each was given). Other CityJSON keys the reader uses given twice refuse a document, or
+    /// skip the buildings of a CityJSONSeq line with this reason, the line and the key named.
     DuplicateKey,
     /// A GeoJSON property whose value JSON text holds but a JSON reader cannot decode (a `\u`
     /// escape of a lone UTF-16 surrogate, which is no character) was kept as its JSON text.
