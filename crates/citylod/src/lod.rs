@@ -68,11 +68,7 @@ struct ModelChain {
 /// buildings). On Delft (`--lod 2.2`) 78.9, 39.1 and 30.7 m prisms lifted their tiles and the blocks above.
 fn rough_prisms(models: &[Option<ModelChain>], prism_triangles: &[Option<u32>]) -> Vec<usize> {
     use citylod_tiles::hlod::{DEMOTE_ERROR_RATIO, DEMOTE_MAX_ADDED_SHARE, MIN_PARENT_ERROR_M};
-    let chains: Vec<(usize, &ModelChain)> = models
-        .iter()
-        .enumerate()
-        .filter_map(|(i, m)| Some((i, m.as_ref()?)))
-        .collect();
+    let chains = chains(models);
     if chains.is_empty() {
         return Vec::new();
     }
@@ -914,16 +910,21 @@ impl TilePlan<'_> {
     }
 }
 
+/// The buildings with a 3D model chain, by index.
+fn chains(models: &[Option<ModelChain>]) -> Vec<(usize, &ModelChain)> {
+    models
+        .iter()
+        .enumerate()
+        .filter_map(|(i, m)| Some((i, m.as_ref()?)))
+        .collect()
+}
+
 fn summarize_models(
     buildings: &[Building],
     models: &[Option<ModelChain>],
     rate: f64,
 ) -> Option<ModelSummary> {
-    let chains: Vec<(usize, &ModelChain)> = models
-        .iter()
-        .enumerate()
-        .filter_map(|(i, m)| Some((i, m.as_ref()?)))
-        .collect();
+    let chains = chains(models);
     if chains.is_empty() {
         return None;
     }
