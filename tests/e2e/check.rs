@@ -231,8 +231,10 @@ fn boston_views_do_not_stand_inside_buildings() {
 }
 
 /// A buildings-only tileset (`--leaves-only`: inner tiles without content over the leaves) passes every built-in
-/// view: its inner tiles had been given the root's box, so a client could not cull them by their own, drew them (as
-/// nothing) where their children were out of view, and `citylod check` (and so `make bench`) failed on 3 of 8 views.
+/// view. Its inner tiles had been given the root's box, so a client could not cull them by their own and chose them
+/// (drawing nothing) where their children were out of view, and `citylod check` (so `make bench`) failed 3 of 8
+/// views: the writer's `a_tile_without_content_below_its_parents_error_keeps_its_own_box` holds the boxes now, and
+/// select's `an_empty_tile_whose_children_are_out_of_view_is_told_apart` the check's side (no hole is lost there).
 #[test]
 fn boston_buildings_only_tileset_passes_every_view() {
     let Some(input) = shared_data("boston/boston_buildings.geojson") else {

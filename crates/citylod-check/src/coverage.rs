@@ -189,10 +189,14 @@ pub fn check_cut(ts: &LoadedTileset, sel: &Selection) -> Vec<Finding> {
             owner.insert(b, i);
         }
     }
-    for &i in &sel.culled {
+    // An empty tile chosen because none of its children is in view hides nothing: as culled.
+    for &i in sel.culled.iter().chain(&sel.selected_empty_out_of_view) {
         covered.extend(ts.tiles[i].under.iter().map(|&b| (b, i)));
     }
     for &i in &sel.selected_empty {
+        if sel.selected_empty_out_of_view.contains(&i) {
+            continue;
+        }
         out.push(Finding::at(
             FindingKind::EmptyTileSelected,
             ts,
@@ -500,5 +504,8 @@ mod tests {
             vec![FindingKind::EmptyTileSelected, FindingKind::BuildingMissing]
         );
         assert_eq!(f[1].buildings, vec![2, 3]);
+        // … unless it was chosen because none of its children is in view: nothing below it can be seen.
+        s.selected_empty_out_of_view = vec![2];
+        assert_eq!(kinds(&check_cut(&ts, &s)), vec![]);
     }
 }

@@ -162,6 +162,9 @@ pub struct Selection {
     pub selected: Vec<usize>,
     /// Tiles that would be drawn but have no content (a hole in the cut unless intended).
     pub selected_empty: Vec<usize>,
+    /// Of [`Selection::selected_empty`], those chosen only because none of their children is in the frustum (a
+    /// client refines them but finds nothing below to draw): nothing below them is in view, so they leave no hole.
+    pub selected_empty_out_of_view: Vec<usize>,
     /// Tiles replaced by their visible children.
     pub refined: Vec<usize>,
     /// Tiles outside the frustum, or culled because none of their children is in it and the children
@@ -282,6 +285,9 @@ pub fn select(
                 out.selected.push(i);
             } else {
                 out.selected_empty.push(i);
+                if descend {
+                    out.selected_empty_out_of_view.push(i);
+                }
             }
         } else {
             out.refined.push(i);
@@ -291,6 +297,7 @@ pub fn select(
     }
     out.selected.sort_unstable();
     out.selected_empty.sort_unstable();
+    out.selected_empty_out_of_view.sort_unstable();
     out.refined.sort_unstable();
     out.culled.sort_unstable();
     debug_assert!(out
@@ -640,6 +647,25 @@ mod tests {
         let s = select(&t, &down_at(2_000.0), VIEW, 16.0);
         assert_eq!(s.selected, vec![2]);
         assert_eq!(s.selected_empty, vec![1]);
+    }
+
+    #[test]
+    fn an_empty_tile_whose_children_are_out_of_view_is_told_apart() {
+        // At 300 m tile 2 refines (8 m: 21 px) but is empty, and its children lie east of the view. At 2 km the
+        // empty tiles 1 and 2 meet the threshold (2.7 px) themselves: holes, wherever their children are.
+        let mut t = tree();
+        t.tiles[2].has_content = false;
+        let east =
+            |y0: f64, y1: f64| OrientedBox::from_min_max([5_000.0, y0, 0.0], [5_500.0, y1, 50.0]);
+        t.tiles[5].bounds = east(-500.0, 0.0);
+        t.tiles[6].bounds = east(0.0, 500.0);
+        let s = select(&t, &down_at(300.0), VIEW, 16.0);
+        assert_eq!(s.selected_empty, vec![2]);
+        assert_eq!(s.selected_empty_out_of_view, vec![2]);
+        t.tiles[1].has_content = false;
+        let s = select(&t, &down_at(2_000.0), VIEW, 16.0);
+        assert_eq!(s.selected_empty, vec![1, 2]);
+        assert!(s.selected_empty_out_of_view.is_empty());
     }
 
     #[test]
