@@ -264,8 +264,8 @@ fn parents(o: &Value) -> Vec<&str> {
     }
 }
 
-fn read_objects(
-    objects: &Map<String, Value>,
+fn read_objects<'a>(
+    objects: &'a Map<String, Value>,
     vertices: Result<&[[f64; 3]], (IssueReason, &str)>,
     model_target: Option<Target>,
     out: &mut CityDoc,
@@ -295,46 +295,47 @@ fn read_objects(
     // order). A part reached from several features (two Buildings listing it) is read with the first in file
     // order. So every Building and BuildingPart is read exactly once.
     let is = |o: &Value, t: &str| o.get("type").and_then(Value::as_str) == Some(t);
-    let mut root: HashSet<&str> = objects
+    let part_ids = |p: &[(&'a str, &'a Value)]| p.iter().map(|&(c, _)| c).collect::<Vec<_>>();
+    // The features, each with every part it reaches (`parts_of`, once per candidate).
+    let mut parts: HashMap<&str, Vec<(&str, &Value)>> = objects
         .iter()
         .filter(|(_, o)| is(o, "Building"))
-        .map(|(k, _)| k.as_str())
+        .map(|(k, _)| (k.as_str(), parts_of(k, objects, &children)))
         .collect();
-    let mut covered: HashSet<&str> = root.clone();
-    for k in &root {
-        covered.extend(parts_of(k, objects, &children).into_iter().map(|(c, _)| c));
+    let mut covered: HashSet<&str> = HashSet::new();
+    for (k, p) in &parts {
+        covered.insert(k);
+        covered.extend(part_ids(p));
     }
-    let orphans: Vec<&str> = objects
+    let orphans: Vec<(&str, Vec<(&str, &Value)>)> = objects
         .iter()
         .filter(|(k, o)| !covered.contains(k.as_str()) && is(o, "BuildingPart"))
-        .map(|(k, _)| k.as_str())
+        .map(|(k, _)| (k.as_str(), parts_of(k, objects, &children)))
         .collect();
-    let mut reached: HashSet<&str> = HashSet::new();
-    for &k in &orphans {
-        reached.extend(parts_of(k, objects, &children).into_iter().map(|(c, _)| c));
-    }
+    let reached: HashSet<&str> = orphans.iter().flat_map(|(_, p)| part_ids(p)).collect();
     // Tops first (no other orphan reaches them), then what cycles leave, each in file order.
     for top_only in [true, false] {
-        for &k in &orphans {
+        for (k, p) in &orphans {
             let waits = top_only && reached.contains(k);
             if !covered.contains(k) && !waits {
-                root.insert(k);
                 covered.insert(k);
-                covered.extend(parts_of(k, objects, &children).into_iter().map(|(c, _)| c));
+                covered.extend(part_ids(p));
+                parts.insert(k, p.clone());
             }
         }
     }
     let mut owned: HashSet<&str> = HashSet::new();
     for (key, o) in objects {
-        if !root.contains(key.as_str()) {
+        let Some(reach) = parts.get(key.as_str()) else {
             if !is(o, "BuildingPart") {
                 out.non_building_objects += 1;
             }
             continue;
-        }
-        let parts: Vec<(&str, &Value)> = parts_of(key, objects, &children)
-            .into_iter()
-            .filter(|(c, _)| !root.contains(c) && owned.insert(c))
+        };
+        let own: Vec<(&str, &Value)> = reach
+            .iter()
+            .copied()
+            .filter(|(c, _)| !parts.contains_key(c) && owned.insert(c))
             .collect();
         let mut f = RawFeature {
             source_id: key.clone(),
@@ -344,7 +345,7 @@ fn read_objects(
         };
         match vertices {
             Err((reason, e)) => f.skip = Some((reason, e.to_string())),
-            Ok(v) => fill_building(&mut f, key, &objects[key], parts, v, model_target),
+            Ok(v) => fill_building(&mut f, key, o, own, v, model_target),
         }
         out.features.push(f);
     }
