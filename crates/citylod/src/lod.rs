@@ -80,16 +80,18 @@ fn rough_prisms(models: &[Option<ModelChain>], prism_triangles: &[Option<u32>]) 
         .map(|&(i, _)| prism_triangles[i].unwrap_or(0) as usize)
         .sum();
     let mut room = DEMOTE_MAX_ADDED_SHARE * prisms as f64;
-    let mut rough: Vec<(f64, usize)> = chains
-        .iter()
+    let mut rough: Vec<(usize, &ModelChain)> = chains
+        .into_iter()
         .filter(|(_, m)| m.prism_error_m > rough_from_m && m.simplified_error_m < m.prism_error_m)
-        .map(|&(i, m)| (m.prism_error_m, i))
         .collect();
     // Roughest first; ties by building, so the choice is deterministic.
-    rough.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    rough.sort_by(|a, b| {
+        b.1.prism_error_m
+            .total_cmp(&a.1.prism_error_m)
+            .then(a.0.cmp(&b.0))
+    });
     let mut chosen = Vec::new();
-    for (_, i) in rough {
-        let m = models[i].as_ref().expect("a chain");
+    for (i, m) in rough {
         let added = m.simplified.triangles.len() as f64 - prism_triangles[i].unwrap_or(0) as f64;
         // Each prism tile is lowered by its own roughest; one that does not fit leaves the others' worth it.
         if added > room {
