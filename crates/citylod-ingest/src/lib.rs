@@ -208,7 +208,7 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
     let mut file_of_building: Vec<u32> = Vec::new();
     // Every source id written so far, and the written buildings by `same_building_key`.
     let mut ids_written: HashSet<String> = HashSet::new();
-    let mut by_key: HashMap<u64, usize> = HashMap::new();
+    let mut by_key: HashMap<u64, Vec<usize>> = HashMap::new();
     let file_labels: Vec<String> = files.iter().map(|f| f.path.display().to_string()).collect();
     // A written feature's id and attributes move into its building.
     for (file_index, (file, outs)) in files.iter_mut().zip(&outcomes).enumerate() {
@@ -247,7 +247,7 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
             };
             // A building is written once however often it is read: the same id, footprint and heights as any
             // building written before (every one, not only the first with that id: the same file given twice).
-            let mut free_key = None;
+            let mut written_key = None;
             if let Ok((p, footprint, base_z_m, _)) = &placed {
                 let same = |o: &Building| {
                     o.source_id == raw.source_id
@@ -255,17 +255,11 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
                         && o.base_z_m == *base_z_m
                         && o.height_m == p.heights.height_m
                 };
-                // Open addressing over the 64-bit keys: a key taken by a different building moves on by one.
-                let mut key =
+                let key =
                     same_building_key(&raw.source_id, footprint, *base_z_m, p.heights.height_m);
-                let mut earlier = None;
-                while let Some(&b) = by_key.get(&key) {
-                    if same(&buildings[b]) {
-                        earlier = Some(b);
-                        break;
-                    }
-                    key = key.wrapping_add(1);
-                }
+                let earlier = by_key
+                    .get(&key)
+                    .and_then(|bs| bs.iter().copied().find(|&b| same(&buildings[b])));
                 if let Some(b) = earlier {
                     let o = &buildings[b];
                     let f = file_of_building[b] as usize;
@@ -293,7 +287,7 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
                 if ids_written.contains(&raw.source_id) {
                     report.duplicate_ids += 1;
                 }
-                free_key = Some(key);
+                written_key = Some(key);
             }
             match placed {
                 Ok((p, footprint, base_z_m, meshed)) => {
@@ -330,8 +324,8 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
                         *report.mesh_lods.entry(m.lod.clone()).or_default() += 1;
                         report.mesh_lod_fallbacks += usize::from(meshed.fell_back);
                     }
-                    if let Some(key) = free_key {
-                        by_key.insert(key, buildings.len());
+                    if let Some(key) = written_key {
+                        by_key.entry(key).or_default().push(buildings.len());
                     }
                     if !ids_written.contains(&raw.source_id) {
                         ids_written.insert(raw.source_id.clone());
