@@ -186,15 +186,15 @@ fn boston_far_view_draws_ten_times_fewer_triangles() {
 
 /// The 8 built-in views (the default) of Boston stand outside every building: no roof of full detail lies over an
 /// eye and above it. The street view's eye stood at 37 m inside a 14-storey (49 m) building, and its cut and
-/// full-detail pictures were one wall.
+/// full-detail pictures were one wall. And every view but the far one looks at a building.
 #[test]
-fn boston_views_do_not_stand_inside_buildings() {
+fn boston_views_look_at_buildings_and_do_not_stand_inside_them() {
     let Some(dir) = boston() else { return };
     let out = process_dir("check-boston-eyes");
     let _ = std::fs::remove_dir_all(&out);
     let (code, report) = check(dir, &out, &["--views", "8"]);
     assert_eq!(code, 0, "{:#}", report["summary"]);
-    let (_, ts) = citylod_check::LoadedTileset::read(&dir.join("tileset.json")).unwrap();
+    let (data, ts) = citylod_check::LoadedTileset::read(&dir.join("tileset.json")).unwrap();
     let meshes: Vec<&citylod_model::Mesh3d> = ts
         .leaf_tiles()
         .into_iter()
@@ -225,6 +225,35 @@ fn boston_views_do_not_stand_inside_buildings() {
         assert!(
             above.is_none(),
             "view {}: the eye {eye:?} is under the roof {above:?}",
+            v["index"]
+        );
+        // Every view but the far one (which looks at the centre) looks at a building: its heading passes over a
+        // vertex of full detail, in front of the eye. Without the rule one of Boston's looked at the Charles River.
+        if v["index"] == 0 {
+            continue;
+        }
+        // The report's heading is the globe's at the eye; the direction in the root frame comes from ECEF.
+        let dir: Vec<f64> = v["camera"]["direction_ecef"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|c| c.as_f64().unwrap())
+            .collect();
+        let axis = |k: usize| {
+            (0..3)
+                .map(|r| dir[r] * data.root_transform[4 * k + r])
+                .sum::<f64>()
+        };
+        let (dx, dy) = (axis(0), axis(1));
+        let len = dx.hypot(dy);
+        let (dx, dy) = (dx / len, dy / len);
+        let on_heading = meshes.iter().flat_map(|m| &m.positions).any(|p| {
+            let (vx, vy) = (p[0] - eye[0], p[1] - eye[1]);
+            (vx * dy - vy * dx).abs() < 1e-6 && vx * dx + vy * dy > 0.0
+        });
+        assert!(
+            on_heading,
+            "view {}: the eye {eye:?} looks at no building along ({dx}, {dy})",
             v["index"]
         );
     }

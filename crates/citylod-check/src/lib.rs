@@ -59,7 +59,7 @@ pub use view_check::{
     check_view, skyline, CheckSettings, Skyline, ViewOutcome, SKYLINE_TOLERANCE_PX,
 };
 pub use views::{
-    standard_views, standard_views_clear_of, EYE_CLEARANCE_M, EYE_CLEARANCE_RADIUS_M,
-    STANDARD_FOVY_DEG, STREET_HEIGHT_M,
+    standard_views, standard_views_over, NoContent, ViewContent, EYE_CLEARANCE_M,
+    EYE_CLEARANCE_RADIUS_M, STANDARD_FOVY_DEG, STREET_HEIGHT_M,
 };
 pub use volumes::check_volumes;

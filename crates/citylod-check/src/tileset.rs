@@ -248,6 +248,41 @@ impl LoadedTileset {
         top
     }
 
+    /// The vertex (x, y) of full detail (the leaf tiles' meshes) horizontally nearest to `xy`, the first one in
+    /// tile order among equals; `None` without full detail. Tiles are visited by the horizontal distance of their
+    /// boxes, and the search stops at the first box farther than the nearest vertex found.
+    pub fn nearest_leaf_content(&self, xy: [f64; 2]) -> Option<[f64; 2]> {
+        let gap = |lo: &[f64], hi: &[f64]| {
+            let g = |i: usize| (lo[i] - xy[i]).max(xy[i] - hi[i]).max(0.0);
+            g(0).hypot(g(1))
+        };
+        let mut tiles: Vec<(f64, usize)> = self
+            .leaf_tiles()
+            .into_iter()
+            .map(|i| {
+                let (lo, hi) = box_aabb(&self.tree.tiles[i].bounds);
+                (gap(&lo, &hi), i)
+            })
+            .collect();
+        tiles.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let mut best: Option<(f64, [f64; 2])> = None;
+        for (box_gap, i) in tiles {
+            if best.is_some_and(|(d, _)| box_gap > d) {
+                break;
+            }
+            let Some(mesh) = self.tiles[i].mesh.as_ref() else {
+                continue;
+            };
+            for p in &mesh.positions {
+                let d = (p[0] - xy[0]).hypot(p[1] - xy[1]);
+                if d.is_finite() && best.is_none_or(|(b, _)| d < b) {
+                    best = Some((d, [p[0], p[1]]));
+                }
+            }
+        }
+        best.map(|(_, p)| p)
+    }
+
     /// Indices of the leaf tiles (no children) with content: full detail.
     pub fn leaf_tiles(&self) -> Vec<usize> {
         (0..self.tiles.len())
@@ -494,6 +529,16 @@ fn join(a: Option<(Vec3, Vec3)>, b: Option<(Vec3, Vec3)>) -> Option<(Vec3, Vec3)
             std::array::from_fn(|i| h1[i].max(h2[i])),
         )),
         (x, None) | (None, x) => x,
+    }
+}
+
+/// The built-in views of `citylod check` look at, and keep clear of, full detail.
+impl crate::views::ViewContent for LoadedTileset {
+    fn highest_near(&self, xy: [f64; 2], radius_m: f64) -> Option<f64> {
+        self.highest_leaf_content_near(xy, radius_m)
+    }
+    fn nearest(&self, xy: [f64; 2]) -> Option<[f64; 2]> {
+        self.nearest_leaf_content(xy)
     }
 }
 

@@ -1,7 +1,7 @@
 //! The built-in camera set of `citylod check`: from a far view that holds the whole data extent to
 //! street level inside it. Root ENU frame, metres, degrees. Deterministic: the same extent and count
 //! give the same cameras. Invariant: eye heights decrease geometrically; pitch goes −60° → −15°; given the
-//! content, no eye stands inside it or against it ([`standard_views_clear_of`]).
+//! content, views look at it and no eye stands inside it or against it ([`standard_views_over`]).
 
 use crate::camera::Camera;
 use crate::vec3::{self, Vec3};
@@ -34,29 +34,56 @@ const GOLDEN_ANGLE_DEG: f64 = 137.507_764_050_037_85;
 /// assert!(views[0].eye_m[2] > views[5].eye_m[2]);
 /// ```
 pub fn standard_views(extent_min: Vec3, extent_max: Vec3, n: usize) -> Vec<Camera> {
-    standard_views_clear_of(extent_min, extent_max, n, |_, _| None)
+    standard_views_over(extent_min, extent_max, n, &NoContent)
 }
 
-/// [`standard_views`] kept clear of the content: `highest_near(xy, r)` is the highest point (root frame z, m)
-/// of the content within `r` m horizontally of `xy`, `None` where there is none. A camera whose eye is below
-/// that (within [`EYE_CLEARANCE_RADIUS_M`]) plus [`EYE_CLEARANCE_M`] is raised to it, keeping its position on
-/// the ground, heading and pitch: on Boston the street view's eye stood at 37 m inside a 49 m building, and its
-/// cut and full-detail pictures were one wall.
+/// What the built-in views need to know of the content (full detail, root frame, m).
+pub trait ViewContent {
+    /// The highest point (z) of the content within `radius_m` horizontally of `xy`; `None` where there is none.
+    fn highest_near(&self, xy: [f64; 2], radius_m: f64) -> Option<f64>;
+    /// The point (x, y) of the content horizontally nearest to `xy`; `None` without content.
+    fn nearest(&self, xy: [f64; 2]) -> Option<[f64; 2]>;
+}
+
+/// No content known: the views of [`standard_views`].
+pub struct NoContent;
+
+impl ViewContent for NoContent {
+    fn highest_near(&self, _: [f64; 2], _: f64) -> Option<f64> {
+        None
+    }
+    fn nearest(&self, _: [f64; 2]) -> Option<[f64; 2]> {
+        None
+    }
+}
+
+/// [`standard_views`] placed on and clear of the content:
+/// - every view but the far one looks at the content point nearest to its point of the sequence (on Boston one
+///   looked at the middle of the Charles River, and its pictures held a strip of skyline);
+/// - a camera whose eye is below the highest content within [`EYE_CLEARANCE_RADIUS_M`] plus [`EYE_CLEARANCE_M`]
+///   is raised to it, keeping its position on the ground, heading and pitch: on Boston the street view's eye stood
+///   at 37 m inside a 49 m building, and its cut and full-detail pictures were one wall.
 ///
 /// # Examples
 /// ```
-/// use citylod_check::{standard_views, standard_views_clear_of};
+/// use citylod_check::{standard_views, standard_views_over, ViewContent};
+/// /// A 300 m tower everywhere, and content at one point.
+/// struct Towers;
+/// impl ViewContent for Towers {
+///     fn highest_near(&self, _: [f64; 2], _: f64) -> Option<f64> { Some(300.0) }
+///     fn nearest(&self, _: [f64; 2]) -> Option<[f64; 2]> { Some([100.0, 50.0]) }
+/// }
 /// let (lo, hi) = ([-500.0, -400.0, 0.0], [500.0, 400.0, 60.0]);
-/// // A 300 m tower everywhere: every eye lower than 305 m is raised to it.
-/// let views = standard_views_clear_of(lo, hi, 6, |_, _| Some(300.0));
+/// let views = standard_views_over(lo, hi, 6, &Towers);
+/// // Every eye lower than 305 m is raised to it; the far view is high above it and looks at the centre.
 /// assert!(views.iter().all(|c| c.eye_m[2] >= 305.0));
-/// assert_eq!(views[0], standard_views(lo, hi, 6)[0]); // the far view is high above it
+/// assert_eq!(views[0], standard_views(lo, hi, 6)[0]);
 /// ```
-pub fn standard_views_clear_of(
+pub fn standard_views_over(
     extent_min: Vec3,
     extent_max: Vec3,
     n: usize,
-    highest_near: impl Fn([f64; 2], f64) -> Option<f64>,
+    content: &impl ViewContent,
 ) -> Vec<Camera> {
     if n == 0 || !vec3::is_finite(extent_min) || !vec3::is_finite(extent_max) {
         return Vec::new();
@@ -86,13 +113,19 @@ pub fn standard_views_clear_of(
             let heading_deg = (i as f64 * GOLDEN_ANGLE_DEG) % 360.0;
             // Look-at point: the centre for the far view, then points of the R2 sequence over the
             // middle 60 % of the extent, pulled towards the centre while the camera is high.
+            // The far view keeps the centre, so the whole extent stays in view; the others move to the nearest content.
             let (u, v) = r2(i);
             let spread = 0.6 * t;
-            let target = [
+            let mut target = [
                 centre[0] + (u - 0.5) * spread * (hi[0] - lo[0]),
                 centre[1] + (v - 0.5) * spread * (hi[1] - lo[1]),
                 ground_m,
             ];
+            if i > 0 {
+                if let Some([x, y]) = content.nearest([target[0], target[1]]) {
+                    target = [x, y, ground_m];
+                }
+            }
             let p = pitch_deg.to_radians();
             let back_m = height_m / p.tan().abs();
             let h = heading_deg.to_radians();
@@ -101,7 +134,7 @@ pub fn standard_views_clear_of(
                 target[1] - h.cos() * back_m,
                 ground_m + height_m,
             ];
-            if let Some(top) = highest_near([eye[0], eye[1]], EYE_CLEARANCE_RADIUS_M) {
+            if let Some(top) = content.highest_near([eye[0], eye[1]], EYE_CLEARANCE_RADIUS_M) {
                 eye[2] = eye[2].max(top + EYE_CLEARANCE_M);
             }
             // Finite eye and a pitch within [−90, 90] always make a camera.
@@ -165,8 +198,7 @@ mod tests {
         let street = cams[7];
         let city = OrientedBox::from_min_max(LO, HI);
         // The look-at ray hits the ground inside the extent.
-        let s = -(street.eye_m[2] - LO[2]) / street.forward[2];
-        let hit = vec3::add(street.eye_m, vec3::scale(street.forward, s));
+        let hit = ground_hit(&street);
         assert!(city.distance_to(hit) < 1e-9, "{hit:?}");
     }
 
@@ -183,6 +215,28 @@ mod tests {
         assert_eq!(headings.len(), 10);
     }
 
+    /// Content given by two closures: the highest point near a place, the nearest point.
+    struct Probe<H, N>(H, N);
+
+    impl<H, N> ViewContent for Probe<H, N>
+    where
+        H: Fn([f64; 2], f64) -> Option<f64>,
+        N: Fn([f64; 2]) -> Option<[f64; 2]>,
+    {
+        fn highest_near(&self, xy: [f64; 2], radius_m: f64) -> Option<f64> {
+            (self.0)(xy, radius_m)
+        }
+        fn nearest(&self, xy: [f64; 2]) -> Option<[f64; 2]> {
+            (self.1)(xy)
+        }
+    }
+
+    /// Where a camera's look-at ray meets the ground plane z = LO[2].
+    fn ground_hit(c: &Camera) -> Vec3 {
+        let s = -(c.eye_m[2] - LO[2]) / c.forward[2];
+        vec3::add(c.eye_m, vec3::scale(c.forward, s))
+    }
+
     #[test]
     fn an_eye_among_content_rises_above_it_and_keeps_its_bearing() {
         let plain = standard_views(LO, HI, 8);
@@ -192,17 +246,41 @@ mod tests {
             let d = (xy[0] - street.eye_m[0]).hypot(xy[1] - street.eye_m[1]);
             (d <= r && r >= EYE_CLEARANCE_RADIUS_M).then_some(LO[2] + 100.0)
         };
-        let clear = standard_views_clear_of(LO, HI, 8, tower);
+        let clear = standard_views_over(LO, HI, 8, &Probe(tower, Some));
         assert_eq!(clear[..7], plain[..7]);
         let raised = clear[7];
         assert!((raised.eye_m[2] - (LO[2] + 100.0 + EYE_CLEARANCE_M)).abs() < 1e-9);
         assert_eq!(raised.eye_m[..2], street.eye_m[..2]);
         assert_eq!(raised.forward, street.forward);
         // Content below the clearance leaves the eye where it was.
-        let low = standard_views_clear_of(LO, HI, 8, |_, _| {
-            Some(LO[2] + STREET_HEIGHT_M - EYE_CLEARANCE_M)
-        });
+        let low = standard_views_over(
+            LO,
+            HI,
+            8,
+            &Probe(|_, _| Some(LO[2] + STREET_HEIGHT_M - EYE_CLEARANCE_M), Some),
+        );
         assert_eq!(low, plain);
+    }
+
+    #[test]
+    fn views_look_at_the_nearest_content_but_the_far_view_at_the_centre() {
+        let plain = standard_views(LO, HI, 8);
+        // All the content east of x = 900 m (a river or a park fills the rest).
+        let east = |xy: [f64; 2]| Some([xy[0].max(900.0), xy[1]]);
+        let moved = standard_views_over(LO, HI, 8, &Probe(|_, _| None, east));
+        assert_eq!(moved[0], plain[0]);
+        for (i, (m, p)) in moved.iter().zip(&plain).enumerate().skip(1) {
+            let (hm, hp) = (ground_hit(m), ground_hit(p));
+            let want = east([hp[0], hp[1]]).unwrap();
+            assert!(
+                (hm[0] - want[0]).abs() < 1e-6 && (hm[1] - want[1]).abs() < 1e-6,
+                "view {i}: looks at {hm:?}, not {want:?}"
+            );
+            // Same height, pitch and heading.
+            assert!((m.eye_m[2] - p.eye_m[2]).abs() < 1e-9);
+            assert!(vec3::norm(vec3::sub(m.forward, p.forward)) < 1e-12);
+        }
+        assert!(moved[1..].iter().zip(&plain[1..]).any(|(m, p)| m != p));
     }
 
     #[test]

@@ -5,8 +5,8 @@
 
 use anyhow::{bail, Context, Result};
 use citylod_check::{
-    check_tree, check_view, compute_sse, contact_sheet, standard_views_clear_of, Camera,
-    CheckSettings, Finding, LoadedTileset, Renderer, Selection, Tolerances, Viewport, NEAR_M,
+    check_tree, check_view, compute_sse, contact_sheet, standard_views_over, Camera, CheckSettings,
+    Finding, LoadedTileset, Renderer, Selection, Tolerances, Viewport, NEAR_M,
     SKYLINE_TOLERANCE_PX, STANDARD_FOVY_DEG,
 };
 use citylod_model::ecef_to_geodetic;
@@ -43,7 +43,8 @@ pub struct CheckArgs {
     pub da_px: Option<f64>,
 
     /// Number of built-in views, from the whole city in view (view 0) down to street level (40 m above the
-    /// ground, or 5 m above every roof within 25 m of the eye where one is higher).
+    /// ground, or 5 m above every roof within 25 m of the eye where one is higher); each after view 0 looks
+    /// at a building.
     #[arg(long, value_name = "N", default_value_t = 8, help_heading = "Views")]
     pub views: usize,
 
@@ -298,22 +299,20 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
     let georeferenced = origin.iter().map(|v| v * v).sum::<f64>().sqrt() > 1e6;
     let cameras: Vec<(Camera, &str)> = if args.camera.is_empty() {
         let (lo, hi) = ts.root_extent().context("the root tile has no bounds")?;
-        // The built-in views are placed for STANDARD_FOVY_DEG; --fovy only widens or narrows them. No eye stands in
-        // or against a building.
-        standard_views_clear_of(lo, hi, args.views, |xy, r| {
-            ts.highest_leaf_content_near(xy, r)
-        })
-        .into_iter()
-        .map(|c| {
-            (
-                Camera {
-                    fovy_deg: args.fovy,
-                    ..c
-                },
-                "standard",
-            )
-        })
-        .collect()
+        // The built-in views are placed for STANDARD_FOVY_DEG; --fovy only widens or narrows them. They look at
+        // buildings, and no eye stands in or against one.
+        standard_views_over(lo, hi, args.views, &ts)
+            .into_iter()
+            .map(|c| {
+                (
+                    Camera {
+                        fovy_deg: args.fovy,
+                        ..c
+                    },
+                    "standard",
+                )
+            })
+            .collect()
     } else {
         if !georeferenced {
             bail!(
