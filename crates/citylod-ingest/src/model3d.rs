@@ -5,10 +5,12 @@
 //! Triangles wind like their source rings (CCW from outside); bad geometry is reported, never a panic.
 
 use crate::crs::Crs;
+use crate::height::MAX_HEIGHT_M;
 use crate::lod::{lod_of_geometry, LodKey, Target};
 use crate::place::EnuMap;
 use crate::report::IssueReason;
 use citylod_mesh::simplify::triangulate_polygon_3d;
+use citylod_mesh::topology::{mesh_report, signed_volume_m3};
 use citylod_model::{BuildingModel, Mesh3d, SurfaceKind};
 use serde_json::Value;
 use std::collections::HashMap;
@@ -293,11 +295,50 @@ pub(crate) fn triangulate(
             *i = new_id[*i as usize];
         }
     }
+    // A model taller than any building, or with a vertex off the globe, is a data error (one bad vertex, a wrong
+    // scale): the building keeps its prism rather than a mesh reaching into space, which a simplifier sectioning it
+    // metre by metre would never finish.
+    let (z_lo, z_hi) = positions
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p[2]), hi.max(p[2]))
+        });
+    if let Some(p) = positions.iter().find(|p| !p.iter().all(|c| c.is_finite())) {
+        return Err((
+            IssueReason::ModelInvalid,
+            format!("a vertex lies at {p:?} in the local frame, not a finite point"),
+        ));
+    }
+    if z_hi - z_lo > MAX_HEIGHT_M {
+        return Err((
+            IssueReason::ModelInvalid,
+            format!(
+                "the model spans {:.0} m from its lowest vertex to its highest, more than the {MAX_HEIGHT_M} m a \
+                 building may be",
+                z_hi - z_lo
+            ),
+        ));
+    }
+    let mut mesh = Mesh3d {
+        positions,
+        triangles,
+    };
+    let shape = mesh_report(&mesh);
+    if shape.watertight && shape.orientation_consistent && signed_volume_m3(&mesh) < 0.0 {
+        for t in &mut mesh.triangles {
+            t.swap(1, 2);
+        }
+        notes.push((
+            IssueReason::ModelTurnedOutward,
+            format!(
+                "the closed model of {} triangles enclosed a negative volume (faces pointing inwards): every \
+                 triangle was turned",
+                mesh.triangles.len()
+            ),
+        ));
+    }
     let built = BuildingModel {
-        mesh: Mesh3d {
-            positions,
-            triangles,
-        },
+        mesh,
         surfaces,
         lod: model.lod.clone(),
     };
@@ -363,7 +404,6 @@ mod tests {
     use super::*;
     use crate::{ingest, IngestOptions, Ingested, LodChoice};
     use citylod_mesh::simplify::components::components;
-    use citylod_mesh::topology::{mesh_report, signed_volume_m3};
     use serde_json::json;
 
     /// Corners of a box [x0, x1] × [0, 3] × [0, 5] m, as integer vertices (scale 0.001).
@@ -673,6 +713,78 @@ mod tests {
             i.detail
         );
         assert_eq!(r.mesh_issues_by_reason.get("model_invalid"), Some(&1));
+    }
+
+    /// One roof corner 7.6 million km up (found by fuzzing: the profile simplifier, sectioning the model metre by
+    /// metre, never finished): the model is refused, the building keeps its prism, the reason names the span.
+    #[test]
+    fn a_model_taller_than_any_building_keeps_the_prism() {
+        let mut v = box_vertices(0, 4);
+        v[6][2] = 7_589_093_562_108;
+        let d = doc(
+            "2.0",
+            json!({
+                "A": {"type": "Building", "geometry": [box_solid(0, json!("2.2"))]},
+                "B": {"type": "Building", "geometry": [box_solid(8, json!("2.2"))]}
+            }),
+            &[v, box_vertices(10, 14)].concat(),
+        );
+        let out = run(&d, Some("2.2"));
+        assert_eq!(out.buildings.len(), 2);
+        let a = out.buildings.iter().find(|b| b.source_id == "A").unwrap();
+        assert!(a.mesh.is_none() && a.height_m > 0.0 && a.height_m <= MAX_HEIGHT_M);
+        let b = out.buildings.iter().find(|b| b.source_id == "B").unwrap();
+        assert!(b.mesh.is_some());
+        let i = &out.report.mesh_issues;
+        assert_eq!(i.len(), 1, "{i:?}");
+        assert_eq!(
+            (i[0].feature_id.as_str(), i[0].reason),
+            ("A", IssueReason::ModelInvalid)
+        );
+        assert!(
+            i[0].detail.contains("more than the 1000 m"),
+            "{}",
+            i[0].detail
+        );
+        // 999 m is still a building.
+        let mut v = box_vertices(0, 4);
+        v[6][2] = 999_000;
+        let d = doc(
+            "2.0",
+            json!({"A": {"type": "Building", "geometry": [box_solid(0, json!("2.2"))]}}),
+            &v,
+        );
+        assert!(run(&d, Some("2.2")).buildings[0].mesh.is_some());
+    }
+
+    /// A box Solid whose faces all point inwards (found by fuzzing: back-face culling clients would not draw it,
+    /// and the profile simplifier found no section of it) is turned outward and the turn reported.
+    #[test]
+    fn a_solid_wound_inside_out_is_turned_outward() {
+        let mut g = box_solid(0, json!("2.2"));
+        for face in g["boundaries"][0].as_array_mut().unwrap() {
+            face[0].as_array_mut().unwrap().reverse();
+        }
+        let d = doc(
+            "2.0",
+            json!({"A": {"type": "Building", "geometry": [g]}}),
+            &box_vertices(0, 4),
+        );
+        let out = run(&d, Some("2.2"));
+        let m = &out.buildings[0].mesh.as_ref().expect("a mesh").mesh;
+        assert!(signed_volume_m3(m) > 59.9, "{}", signed_volume_m3(m));
+        let i = &out.report.mesh_issues;
+        assert_eq!(i.len(), 1, "{i:?}");
+        assert_eq!(i[0].reason, IssueReason::ModelTurnedOutward);
+        // Wound outward, nothing is turned or reported.
+        let d = doc(
+            "2.0",
+            json!({"A": {"type": "Building", "geometry": [box_solid(0, json!("2.2"))]}}),
+            &box_vertices(0, 4),
+        );
+        let out = run(&d, Some("2.2"));
+        assert!(out.report.mesh_issues.is_empty());
+        assert!(signed_volume_m3(&out.buildings[0].mesh.as_ref().unwrap().mesh) > 59.9);
     }
 
     #[test]

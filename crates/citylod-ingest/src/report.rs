@@ -90,6 +90,9 @@ pub enum IssueReason {
     /// Surfaces with fewer than 3 distinct points or no area, or such holes, were left out of the
     /// mesh; the rest is kept.
     ModelSurfaceDropped,
+    /// A closed model wound inside out (its faces pointing inwards, a negative volume; also what a mirroring
+    /// transform makes) had every triangle turned, so clients that cull back faces draw it.
+    ModelTurnedOutward,
 }
 
 impl IssueReason {
@@ -127,6 +130,7 @@ impl IssueReason {
             ModelMissing => "model_missing",
             ModelInvalid => "model_invalid",
             ModelSurfaceDropped => "model_surface_dropped",
+            ModelTurnedOutward => "model_turned_outward",
         }
     }
 }

@@ -14,6 +14,9 @@ use super::{rate, unchanged, SimplifyResult};
 
 type Loop = Vec<[f64; 2]>;
 
+/// Most profiles taken of one model; a taller model's step is widened to keep this many (4 km at 1 m).
+const MAX_BANDS: usize = 4096;
+
 pub(crate) fn simplify_profile(
     mesh: &Mesh3d,
     step_m: f64,
@@ -42,7 +45,10 @@ pub(crate) fn simplify_profile(
             "flat mesh has no height to profile: returned unchanged",
         );
     }
-    let bands = ((zmax - zmin) / step_m).ceil().max(1.0) as usize;
+    // Each band sections the whole mesh: a model kilometres tall (a bad vertex) would take forever at 1 m.
+    let asked_step_m = step_m;
+    let step_m = step_m.max((zmax - zmin) / MAX_BANDS as f64);
+    let bands = ((zmax - zmin) / step_m).ceil().clamp(1.0, MAX_BANDS as f64) as usize;
     // (band bottom z, profile) for each kept profile.
     let mut kept: Vec<(f64, Vec<Loop>)> = Vec::new();
     for k in 0..bands {
@@ -85,12 +91,20 @@ pub(crate) fn simplify_profile(
         triangles,
     };
     let reached = rate(mesh.triangles.len(), out.triangles.len());
-    let note = ((reached - target_rate).abs() > 0.01).then(|| {
+    let widened = (step_m > asked_step_m).then(|| {
         format!(
-            "profile method reached {:.1} % (target {:.1} %): it is driven by step {step_m} m and threshold {threshold_m} m, not by a rate; {} of {bands} profiles kept",
+            "; the step was widened from {asked_step_m} m to {step_m:.3} m to keep {MAX_BANDS} profiles over the \
+             model's {:.0} m",
+            zmax - zmin
+        )
+    });
+    let note = ((reached - target_rate).abs() > 0.01 || widened.is_some()).then(|| {
+        format!(
+            "profile method reached {:.1} % (target {:.1} %): it is driven by step {step_m} m and threshold {threshold_m} m, not by a rate; {} of {bands} profiles kept{}",
             reached * 100.0,
             target_rate * 100.0,
-            kept.len()
+            kept.len(),
+            widened.unwrap_or_default()
         )
     });
     SimplifyResult {
@@ -422,5 +436,24 @@ mod tests {
         );
         let h = crate::hausdorff::hausdorff_m(&m, &out.mesh, 4.0);
         assert!(h < 1.01, "{h}");
+    }
+
+    /// A box 7.6 million km tall (one bad vertex, found by fuzzing) took forever at one profile a metre; the step
+    /// widens to keep MAX_BANDS profiles, and the note says so.
+    #[test]
+    fn a_model_reaching_into_space_is_profiled_within_the_band_limit() {
+        let mut m = subdivided_box([10.0, 6.0, 9.0], 1);
+        for p in &mut m.positions {
+            if p[2] > 1.0 {
+                p[2] = 7.6e9;
+            }
+        }
+        let out = simplify_profile(&m, 1.0, 0.2, 0.9);
+        assert_eq!(out.mesh.triangles.len(), 12);
+        let note = out.note.expect("a note");
+        assert!(
+            note.contains("widened from 1 m") && note.contains("4096 profiles"),
+            "{note}"
+        );
     }
 }
