@@ -38,7 +38,7 @@ const GROUND_ATTR: &str = "b3_h_maaiveld";
 const ROOF_ATTR: &str = "b3_h_dak_70p";
 /// A ground height further from the datum than this (m) is a data error: the Dead Sea shore is at −430 m, the
 /// highest towns near 5,100 m.
-const MAX_GROUND_M: f64 = 10_000.0;
+pub(crate) const MAX_GROUND_M: f64 = 10_000.0;
 /// OSM base of a building part above the ground (m).
 const MIN_HEIGHT_ATTR: &str = "min_height";
 

@@ -624,6 +624,26 @@ fn prepare(raw: &RawFeature, crs: &Crs, opts: &IngestOptions) -> Result<Prepared
                 .collect()
         })
         .collect();
+    // The geometry's own ground (CityJSON vertices): one off the globe (a wrong transform, a bad vertex) would place
+    // the whole tileset's frame there. (A top that high only fails the height rule: the building keeps another.)
+    if let Some(z) = raw
+        .footprint_min_z
+        .filter(|z| !(z.is_finite() && z.abs() < height::MAX_GROUND_M))
+    {
+        let shown = if z.abs() < 1e9 {
+            format!("{z:.1}")
+        } else {
+            format!("{z:.3e}")
+        };
+        return Err((
+            IssueReason::CoordinateOutOfRange,
+            format!(
+                "the geometry's ground lies at {shown} m, beyond the {} km above or below the datum any building \
+                 stands on",
+                height::MAX_GROUND_M / 1000.0
+            ),
+        ));
+    }
     let fixed = repair::repair(plane_polys, raw.assemble)?;
     repairs.extend(fixed.issues);
     let heights = height::resolve(&raw.attributes, raw.footprint_min_z, raw.top_z, opts);

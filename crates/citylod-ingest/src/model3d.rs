@@ -787,6 +787,34 @@ mod tests {
         assert!(signed_volume_m3(&out.buildings[0].mesh.as_ref().unwrap().mesh) > 59.9);
     }
 
+    /// A building standing 10⁹ m up (a bad vertex or translate, found by fuzzing) put the whole tileset's frame
+    /// there, and the error blamed the others' extent ("up to inf km", "0 km away"). It is skipped, named.
+    #[test]
+    fn a_building_whose_ground_is_off_the_globe_is_skipped_by_name() {
+        let mut far = box_vertices(10, 14);
+        for v in &mut far {
+            v[2] += 1_000_000_000_000;
+        }
+        let d = doc(
+            "2.0",
+            json!({
+                "A": {"type": "Building", "geometry": [box_solid(0, json!("2.2"))]},
+                "B": {"type": "Building", "geometry": [box_solid(8, json!("2.2"))]}
+            }),
+            &[box_vertices(0, 4), far].concat(),
+        );
+        let out = run(&d, None);
+        assert_eq!(out.buildings.len(), 1);
+        assert_eq!(out.buildings[0].source_id, "A");
+        let s = &out.report.skipped;
+        assert_eq!(s.len(), 1, "{s:?}");
+        assert_eq!(
+            (s[0].feature_id.as_str(), s[0].reason),
+            ("B", IssueReason::CoordinateOutOfRange)
+        );
+        assert!(s[0].detail.contains("at 999999999.0 m"), "{}", s[0].detail);
+    }
+
     #[test]
     fn degenerate_surfaces_are_left_out_and_reported() {
         let mut g = box_solid(0, json!("2.2"));
