@@ -278,6 +278,171 @@ fn ear_clip(ring: &[[f64; 2]]) -> Option<Roof> {
 /// face is inside when reaching it from the outer face crosses an odd number of constraint edges.
 /// Crossing constraints are split at their intersection. `None` when a point cannot be inserted.
 fn roof_triangles(rings: &[Vec<[f64; 2]>]) -> Option<Roof> {
+    let n_points: usize = rings.iter().map(Vec::len).sum();
+    if n_points >= BULK_LOAD_MIN_POINTS {
+        if let Some(roof) = roof_without_points_in_line(rings) {
+            return Some(roof);
+        }
+    }
+    exact_roof(rings)
+}
+
+/// Within this distance (m) of the chord between the points kept on either side of it, a roof point is left out of
+/// the triangulation and fanned back in afterwards ([`roof_without_points_in_line`]); a twentieth of the leaves' 2 cm
+/// grid.
+const IN_LINE_M: f64 = 1e-3;
+
+/// The roof of rings of many points, most of them nearly in line (a footprint densified along its sides): such
+/// points make the Delaunay triangulation degenerate, and spade took minutes on a ring of 20,000. The points within
+/// [`IN_LINE_M`] of the chord between the points kept around them (Douglas–Peucker) are left out, the kept ones
+/// triangulated, and each run of left-out points fanned into the triangle on its chord from that triangle's third
+/// corner. Every point stays a roof point, so the roof covers the rings exactly and meets the walls edge to edge, with
+/// as many triangles as before. `None` when nothing is left out, a ring keeps fewer than 3 points, or a chord is not a
+/// triangle's edge or a fan triangle would not turn counter-clockwise (rings that cross or come that close): the
+/// caller triangulates every point then.
+fn roof_without_points_in_line(rings: &[Vec<[f64; 2]>]) -> Option<Roof> {
+    let keep: Vec<Vec<bool>> = rings
+        .iter()
+        .map(|r| points_off_line(r, IN_LINE_M))
+        .collect();
+    if keep.iter().flatten().all(|&k| k) {
+        return None;
+    }
+    let reduced: Vec<Vec<[f64; 2]>> = rings
+        .iter()
+        .zip(&keep)
+        .map(|(r, k)| {
+            r.iter()
+                .zip(k)
+                .filter(|(_, &k)| k)
+                .map(|(p, _)| *p)
+                .collect()
+        })
+        .collect();
+    if reduced.iter().any(|r| r.len() < 3) {
+        return None;
+    }
+    let (mut points, mut tris) = exact_roof(&reduced)?;
+    let bits = |p: [f64; 2]| ((p[0] + 0.0).to_bits(), (p[1] + 0.0).to_bits());
+    let index: std::collections::HashMap<(u64, u64), u32> = points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (bits(*p), i as u32))
+        .collect();
+    // Directed edge → the triangle holding it (counter-clockwise).
+    let mut by_edge: std::collections::HashMap<(u32, u32), usize> =
+        std::collections::HashMap::new();
+    for (t, tri) in tris.iter().enumerate() {
+        for k in 0..3 {
+            by_edge.insert((tri[k], tri[(k + 1) % 3]), t);
+        }
+    }
+    for (ring, k) in rings.iter().zip(&keep) {
+        let n = ring.len();
+        let first = k.iter().position(|&k| k)?;
+        // From each kept point, the run of left-out points up to the next kept one (the material is on the
+        // left of every ring, so the chord's triangle holds it in that direction).
+        let mut i = first;
+        loop {
+            let mut j = (i + 1) % n;
+            let mut run = Vec::new();
+            while !k[j] {
+                run.push(ring[j]);
+                j = (j + 1) % n;
+            }
+            if !run.is_empty() {
+                let (a, c) = (*index.get(&bits(ring[i]))?, *index.get(&bits(ring[j]))?);
+                let t = by_edge.remove(&(a, c))?;
+                let tri = tris[t];
+                let at = tri.iter().position(|&v| v == a)?;
+                let x = tri[(at + 2) % 3];
+                by_edge.remove(&(c, x));
+                by_edge.remove(&(x, a));
+                let mut chain = vec![a];
+                for p in run {
+                    chain.push(points.len() as u32);
+                    points.push(p);
+                }
+                chain.push(c);
+                for (w, pair) in chain.windows(2).enumerate() {
+                    let fan_tri = [pair[0], pair[1], x];
+                    let [p, q, r] = fan_tri.map(|v| points[v as usize]);
+                    if orient(p, q, r) <= 0.0 {
+                        return None;
+                    }
+                    let slot = if w == 0 {
+                        tris[t] = fan_tri;
+                        t
+                    } else {
+                        tris.push(fan_tri);
+                        tris.len() - 1
+                    };
+                    for e in 0..3 {
+                        by_edge.insert((fan_tri[e], fan_tri[(e + 1) % 3]), slot);
+                    }
+                }
+            }
+            if j == first {
+                break;
+            }
+            i = j;
+        }
+    }
+    Some((points, tris))
+}
+
+/// Which points of a closed ring Douglas–Peucker keeps at tolerance `tol_m`: every point left out lies within
+/// `tol_m` of the segment between the kept points around it. The first point and the one farthest from it are kept.
+fn points_off_line(ring: &[[f64; 2]], tol_m: f64) -> Vec<bool> {
+    let n = ring.len();
+    let mut keep = vec![n < 4; n];
+    if n < 4 {
+        return keep;
+    }
+    let dist = |p: [f64; 2], q: [f64; 2]| (p[0] - q[0]).hypot(p[1] - q[1]);
+    let far = (1..n)
+        .max_by(|&a, &b| dist(ring[a], ring[0]).total_cmp(&dist(ring[b], ring[0])))
+        .unwrap_or(0);
+    keep[0] = true;
+    keep[far] = true;
+    // Spans (start, end) in ring order, end possibly wrapping past n.
+    let mut spans = vec![(0, far), (far, n)];
+    while let Some((s, e)) = spans.pop() {
+        if e - s < 2 {
+            continue;
+        }
+        let (a, b) = (ring[s % n], ring[e % n]);
+        let mut worst = (0.0, s);
+        for i in s + 1..e {
+            let d = segment_distance(ring[i % n], a, b);
+            if d > worst.0 {
+                worst = (d, i);
+            }
+        }
+        if worst.0 > tol_m {
+            keep[worst.1 % n] = true;
+            spans.push((s, worst.1));
+            spans.push((worst.1, e));
+        }
+    }
+    keep
+}
+
+/// Distance (m) from `p` to the segment `a`–`b`.
+fn segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let d = [b[0] - a[0], b[1] - a[1]];
+    let len2 = d[0] * d[0] + d[1] * d[1];
+    let t = if len2 > 0.0 {
+        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p[0] - a[0] - t * d[0]).hypot(p[1] - a[1] - t * d[1])
+}
+
+/// The roof of every point of the rings: a fan or ear clipping for one simple ring, else the constrained Delaunay
+/// triangulation.
+fn exact_roof(rings: &[Vec<[f64; 2]>]) -> Option<Roof> {
     if let [ring] = rings {
         if is_strictly_convex(ring) {
             return Some(fan(ring));
@@ -546,6 +711,62 @@ mod tests {
             let n = n_outer + n_hole;
             assert_eq!(m.triangles.len(), n + 2 * n, "{n_outer}+{n_hole}");
         }
+    }
+
+    /// A 20 m square densified to 5,000 points a side, each nudged up to 0.1 mm off its side (as a GIS densify
+    /// and a reprojection leave them): spade's triangulation of all 20,000 took minutes (found by fuzzing). The
+    /// roof is triangulated on the four corners and the points fanned back in; it still has every point, covers
+    /// the square exactly, meets the walls edge to edge and has n − 2 triangles. A square courtyard keeps its own.
+    #[test]
+    fn a_densified_outline_is_roofed_from_its_corners() {
+        let side = 5_000;
+        let corners = [(0.0, 0.0), (20.0, 0.0), (20.0, 20.0), (0.0, 20.0)];
+        let mut pts = Vec::new();
+        for k in 0..4 {
+            let (a, b) = (corners[k], corners[(k + 1) % 4]);
+            for i in 0..side {
+                let t = i as f64 / side as f64;
+                let nudge = if i == 0 {
+                    0.0
+                } else {
+                    1e-4 * ((i * 7919) % 13) as f64 / 13.0
+                };
+                let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+                // Off the side, inwards or outwards by turns.
+                let off = if i % 2 == 0 { nudge } else { -nudge } / 20.0;
+                pts.push((a.0 + t * dx - off * dy, a.1 + t * dy + off * dx));
+            }
+        }
+        let hole = ring(&[(5.0, 5.0), (5.0, 15.0), (15.0, 15.0), (15.0, 5.0)]);
+        let fp = MultiPolygon(vec![Polygon::new(ring(&pts), vec![hole])]);
+        let rings: Vec<Vec<[f64; 2]>> = vec![
+            pts.iter().map(|p| [p.0, p.1]).collect(),
+            vec![[5.0, 5.0], [5.0, 15.0], [15.0, 15.0], [15.0, 5.0]],
+        ];
+        let keep = points_off_line(&rings[0], IN_LINE_M);
+        assert_eq!(keep.iter().filter(|&&k| k).count(), 4);
+        assert!(roof_without_points_in_line(&rings).is_some());
+        let m = extrude(&fp, 0.0, 10.0).unwrap();
+        check_prism(&fp, &m, 0.0, 10.0).unwrap();
+        let n = 4 * side + 4;
+        assert_eq!(m.triangles.len(), n + 2 * n);
+    }
+
+    /// Points more than [`IN_LINE_M`] off the chord are kept; those within it are not.
+    #[test]
+    fn points_off_line_keeps_what_lies_off_the_chord() {
+        let ring = [
+            [0.0, 0.0],
+            [5.0, 0.0011],
+            [10.0, 0.0],
+            [10.0, 10.0],
+            [5.0, 10.0009],
+            [0.0, 10.0],
+        ];
+        assert_eq!(
+            points_off_line(&ring, IN_LINE_M),
+            [true, true, true, true, false, true]
+        );
     }
 
     #[test]
