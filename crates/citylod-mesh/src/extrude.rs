@@ -414,7 +414,7 @@ fn points_off_line(ring: &[[f64; 2]], tol_m: f64) -> Vec<bool> {
         let (a, b) = (ring[s % n], ring[e % n]);
         let mut worst = (0.0, s);
         for i in s + 1..e {
-            let d = segment_distance(ring[i % n], a, b);
+            let d = crate::simplify::profile::seg_dist(ring[i % n], a, b);
             if d > worst.0 {
                 worst = (d, i);
             }
@@ -426,18 +426,6 @@ fn points_off_line(ring: &[[f64; 2]], tol_m: f64) -> Vec<bool> {
         }
     }
     keep
-}
-
-/// Distance (m) from `p` to the segment `a`–`b`.
-fn segment_distance(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
-    let d = [b[0] - a[0], b[1] - a[1]];
-    let len2 = d[0] * d[0] + d[1] * d[1];
-    let t = if len2 > 0.0 {
-        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / len2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (p[0] - a[0] - t * d[0]).hypot(p[1] - a[1] - t * d[1])
 }
 
 /// The roof of every point of the rings: a fan or ear clipping for one simple ring, else the constrained Delaunay
