@@ -153,9 +153,21 @@ fn read_feature_text(text: &str, file_name: &str, index: usize) -> RawFeature {
             Some(Value::String(r.get().to_string()))
         }
         Some((_, Err(Unparsed::BeyondDouble(_) | Unparsed::TooDeep(_)))) => None,
-        Some((_, Err(Unparsed::Other(e)))) => {
-            return rejected(format!("feature JSON rejected: {e}"))
-        }
+        Some((r, Err(Unparsed::Other(e)))) => match serde_json::from_str::<Key>(r.get()) {
+            // A string id with a `\u` escape that is no character (a lone UTF-16 surrogate): kept with that
+            // escape as text, as such property values and keys are; the geometry is not at fault.
+            Ok(Key(text, true)) => {
+                repairs.push((
+                    IssueReason::UndecodableValueKeptAsText,
+                    format!(
+                        "the feature id has a \\u escape that is no character (a lone UTF-16 surrogate), kept \
+                         with that escape as text: {text}"
+                    ),
+                ));
+                Some(Value::String(text.into_owned()))
+            }
+            _ => return rejected(format!("feature JSON rejected: {e}")),
+        },
     };
     let properties = match properties.map(|r| read_properties(r, &mut repairs)) {
         None => None,
@@ -1029,6 +1041,21 @@ mod tests {
             detail.contains("name") && detail.contains("nested"),
             "{detail}"
         );
+    }
+
+    /// A lone surrogate in the feature's id skipped the feature as `malformed_geometry` (found by fuzzing); the id
+    /// keeps the escape as text, the repair says so, and the building is read.
+    #[test]
+    fn a_lone_surrogate_in_the_id_keeps_it_escaped_not_a_skip() {
+        let text = format!(
+            r#"{{"type": "FeatureCollection", "features": [{{"type": "Feature", "id": "a\ud800b",
+            "properties": {{"height": 12}}, "geometry": {SQUARE}}}]}}"#
+        );
+        let f = one_feature(&text);
+        assert!(f.skip.is_none(), "{:?}", f.skip);
+        assert_eq!(f.source_id, r"a\ud800b");
+        let detail = repair(&f, IssueReason::UndecodableValueKeptAsText).expect("reported");
+        assert!(detail.contains("feature id"), "{detail}");
     }
 
     #[test]
