@@ -248,9 +248,9 @@ impl LoadedTileset {
         top
     }
 
-    /// The vertex (x, y) of full detail (the leaf tiles' meshes) horizontally nearest to `xy`, the first one in
-    /// tile order among equals; `None` without full detail. Tiles are visited by the horizontal distance of their
-    /// boxes, and the search stops at the first box farther than the nearest vertex found.
+    /// The vertex (x, y) of full detail (the leaf tiles' meshes) horizontally nearest to `xy`, the first one found
+    /// among equals; `None` without full detail. Tiles are visited by the horizontal distance of their boxes (then
+    /// index), and the search stops at the first box farther than the nearest vertex found.
     pub fn nearest_leaf_content(&self, xy: [f64; 2]) -> Option<[f64; 2]> {
         let gap = |lo: &[f64], hi: &[f64]| {
             let g = |i: usize| (lo[i] - xy[i]).max(xy[i] - hi[i]).max(0.0);

@@ -9,8 +9,9 @@ use crate::height::MAX_HEIGHT_M;
 use crate::lod::{lod_of_geometry, LodKey, Target};
 use crate::place::EnuMap;
 use crate::report::IssueReason;
+use citylod_mesh::simplify::components::components;
 use citylod_mesh::simplify::triangulate_polygon_3d;
-use citylod_mesh::topology::{mesh_report, signed_volume_m3};
+use citylod_mesh::topology::mesh_report;
 use citylod_model::{BuildingModel, Mesh3d, SurfaceKind};
 use serde_json::Value;
 use std::collections::HashMap;
@@ -324,7 +325,7 @@ pub(crate) fn triangulate(
         triangles,
     };
     let shape = mesh_report(&mesh);
-    if shape.watertight && shape.orientation_consistent && signed_volume_m3(&mesh) < 0.0 {
+    if shape.watertight && shape.orientation_consistent && every_part_inside_out(&mesh) {
         for t in &mut mesh.triangles {
             t.swap(1, 2);
         }
@@ -344,6 +345,29 @@ pub(crate) fn triangulate(
     };
     debug_assert_eq!(built.check_invariants(), Ok(()));
     Ok((built, notes))
+}
+
+/// Whether every connected part of a closed mesh encloses a negative volume (its faces point inwards). Each part's
+/// volume is summed from its own first vertex, well conditioned however far the frame's origin is. A mesh whose parts
+/// differ in sign (a solid with a cavity, whose inner shell is meant to be negative, or one part wound wrong) is
+/// left as it is: telling the two apart needs to know which part encloses which.
+fn every_part_inside_out(mesh: &Mesh3d) -> bool {
+    let parts = components(mesh.positions.len(), &mesh.triangles);
+    let mut volume = vec![0.0f64; parts.count];
+    let mut origin: Vec<Option<[f64; 3]>> = vec![None; parts.count];
+    for (t, &c) in mesh.triangles.iter().zip(&parts.of_triangle) {
+        let o = *origin[c as usize].get_or_insert(mesh.positions[t[0] as usize]);
+        let [a, b, d] = t.map(|i| {
+            let p = mesh.positions[i as usize];
+            [p[0] - o[0], p[1] - o[1], p[2] - o[2]]
+        });
+        volume[c as usize] += (a[0] * (b[1] * d[2] - b[2] * d[1])
+            - a[1] * (b[0] * d[2] - b[2] * d[0])
+            + a[2] * (b[0] * d[1] - b[1] * d[0]))
+            / 6.0;
+    }
+    // Below a cubic millimetre the sign says nothing.
+    parts.count > 0 && volume.iter().all(|&v| v < -1e-9)
 }
 
 /// The whole 3D path of one building once its frame is known: the reader's result, CRS conversion
@@ -403,7 +427,7 @@ fn distinct(r: &[u32]) -> usize {
 mod tests {
     use super::*;
     use crate::{ingest, IngestOptions, Ingested, LodChoice};
-    use citylod_mesh::simplify::components::components;
+    use citylod_mesh::topology::{mesh_report, signed_volume_m3};
     use serde_json::json;
 
     /// Corners of a box [x0, x1] × [0, 3] × [0, 5] m, as integer vertices (scale 0.001).
@@ -776,6 +800,33 @@ mod tests {
         let i = &out.report.mesh_issues;
         assert_eq!(i.len(), 1, "{i:?}");
         assert_eq!(i[0].reason, IssueReason::ModelTurnedOutward);
+        // Two parts, one wound inwards and twice the other's size: the signs differ (as a cavity's shell does), so
+        // nothing is turned; a rule on the whole mesh's volume turned the right part inside out.
+        let right = box_solid(8, json!("2.2"));
+        let mut wrong = box_solid(0, json!("2.2"));
+        for face in wrong["boundaries"][0].as_array_mut().unwrap() {
+            face[0].as_array_mut().unwrap().reverse();
+        }
+        let two = json!({"type": "MultiSolid", "lod": "2.2",
+            "boundaries": [wrong["boundaries"].clone(), right["boundaries"].clone()]});
+        let d = doc(
+            "2.0",
+            json!({"A": {"type": "Building", "geometry": [two]}}),
+            &[box_vertices(0, 8), box_vertices(10, 14)].concat(),
+        );
+        let out = run(&d, Some("2.2"));
+        assert!(
+            out.report.mesh_issues.is_empty(),
+            "{:?}",
+            out.report.mesh_issues
+        );
+        let m = &out.buildings[0].mesh.as_ref().expect("a mesh").mesh;
+        // 60 m³ outward less 120 m³ inward, as given (to the projection's scale, RD to the local frame).
+        assert!(
+            (signed_volume_m3(m) + 60.0).abs() < 0.1,
+            "{}",
+            signed_volume_m3(m)
+        );
         // Wound outward, nothing is turned or reported.
         let d = doc(
             "2.0",

@@ -1,6 +1,7 @@
 //! LoD1 prism from a footprint: one wall quad per ring edge (exteriors and holes) and a flat roof cap: a
 //! fan for a convex ring, ear clipping for a small simple one, else triangulated with its holes (constrained
-//! Delaunay, spade; faces kept by crossing parity).
+//! Delaunay, spade; faces kept by crossing parity) — for rings of many points nearly in line, on the points
+//! Douglas–Peucker keeps, the others fanned back in.
 //! Units: local ENU metres, z up. Invariants: triangles counter-clockwise seen from outside, none with
 //! zero area, walls and roof share no vertex (flat shading), roof area == footprint area.
 
@@ -274,17 +275,33 @@ fn ear_clip(ring: &[[f64; 2]]) -> Option<Roof> {
     Some((ring.to_vec(), tris))
 }
 
-/// Constrained Delaunay triangulation of the rings' points with every ring edge as a constraint; a
-/// face is inside when reaching it from the outer face crosses an odd number of constraint edges.
-/// Crossing constraints are split at their intersection. `None` when a point cannot be inserted.
+/// The roof of the rings ([`exact_roof`]); for many points, most of them nearly in line with their neighbours,
+/// [`roof_without_points_in_line`] first. `None` when a point cannot be inserted.
 fn roof_triangles(rings: &[Vec<[f64; 2]>]) -> Option<Roof> {
     let n_points: usize = rings.iter().map(Vec::len).sum();
-    if n_points >= BULK_LOAD_MIN_POINTS {
+    let convex = matches!(rings, [ring] if is_strictly_convex(ring));
+    if n_points >= BULK_LOAD_MIN_POINTS && !convex && mostly_in_line(rings) {
         if let Some(roof) = roof_without_points_in_line(rings) {
             return Some(roof);
         }
     }
     exact_roof(rings)
+}
+
+/// Whether more than half the points lie within [`IN_LINE_M`] of the segment between their neighbours: one pass,
+/// so rings of many points that are not a densified outline (a star, a traced curve) skip the Douglas–Peucker
+/// pass, which keeps most of their points at a quadratic cost.
+fn mostly_in_line(rings: &[Vec<[f64; 2]>]) -> bool {
+    let (mut in_line, mut all) = (0usize, 0usize);
+    for r in rings {
+        let n = r.len();
+        for i in 0..n {
+            let d = crate::simplify::profile::seg_dist(r[i], r[(i + n - 1) % n], r[(i + 1) % n]);
+            in_line += usize::from(d <= IN_LINE_M);
+        }
+        all += n;
+    }
+    2 * in_line > all
 }
 
 /// Within this distance (m) of the chord between the points kept on either side of it, a roof point is left out of
@@ -293,11 +310,13 @@ fn roof_triangles(rings: &[Vec<[f64; 2]>]) -> Option<Roof> {
 const IN_LINE_M: f64 = 1e-3;
 
 /// The roof of rings of many points, most of them nearly in line (a footprint densified along its sides): such
-/// points make the Delaunay triangulation degenerate, and spade took minutes on a ring of 20,000. The points within
+/// points make the Delaunay triangulation degenerate, and spade took 16 s on a ring of 10,000 points interpolated
+/// along the sides of a real footprint and over a minute on 20,000 (found by fuzzing). The points within
 /// [`IN_LINE_M`] of the chord between the points kept around them (Douglas–Peucker) are left out, the kept ones
 /// triangulated, and each run of left-out points fanned into the triangle on its chord from that triangle's third
-/// corner. Every point stays a roof point, so the roof covers the rings exactly and meets the walls edge to edge, with
-/// as many triangles as before. `None` when nothing is left out, a ring keeps fewer than 3 points, or a chord is not a
+/// corner (a triangle on two chords fans the second from a point of the first run, so noise across corners makes it
+/// give up). Every point stays a roof point, so the roof covers the rings exactly and meets the walls edge to edge,
+/// with as many triangles as the full triangulation. `None` when nothing is left out, a ring keeps fewer than 3 points, or a chord is not a
 /// triangle's edge or a fan triangle would not turn counter-clockwise (rings that cross or come that close): the
 /// caller triangulates every point then.
 fn roof_without_points_in_line(rings: &[Vec<[f64; 2]>]) -> Option<Roof> {
@@ -701,42 +720,51 @@ mod tests {
         }
     }
 
-    /// A 20 m square densified to 5,000 points a side, each nudged up to 0.1 mm off its side (as a GIS densify
-    /// and a reprojection leave them): spade's triangulation of all 20,000 took minutes (found by fuzzing). The
-    /// roof is triangulated on the four corners and the points fanned back in; it still has every point, covers
-    /// the square exactly, meets the walls edge to edge and has n − 2 triangles. A square courtyard keeps its own.
+    /// A 20 m square densified to 5,000 points a side by interpolation (as the fuzzing case was, on a real
+    /// footprint): spade's triangulation of all 20,000 took over a minute. The roof is triangulated on the four
+    /// corners and the points fanned back in; it still has every point, covers the square exactly, meets the walls
+    /// edge to edge and has n − 2 triangles. Nudged up to 0.1 mm off the sides and with a courtyard, whatever path
+    /// it takes, the roof is as sound.
     #[test]
     fn a_densified_outline_is_roofed_from_its_corners() {
         let side = 5_000;
         let corners = [(0.0, 0.0), (20.0, 0.0), (20.0, 20.0), (0.0, 20.0)];
-        let mut pts = Vec::new();
-        for k in 0..4 {
-            let (a, b) = (corners[k], corners[(k + 1) % 4]);
-            for i in 0..side {
-                let t = i as f64 / side as f64;
-                let nudge = if i == 0 {
-                    0.0
-                } else {
-                    1e-4 * ((i * 7919) % 13) as f64 / 13.0
-                };
+        let densified = |nudge_m: f64| {
+            let mut pts = Vec::new();
+            for k in 0..4 {
+                let (a, b) = (corners[k], corners[(k + 1) % 4]);
                 let (dx, dy) = (b.0 - a.0, b.1 - a.1);
-                // Off the side, inwards or outwards by turns.
-                let off = if i % 2 == 0 { nudge } else { -nudge } / 20.0;
-                pts.push((a.0 + t * dx - off * dy, a.1 + t * dy + off * dx));
+                for i in 0..side {
+                    let t = i as f64 / side as f64;
+                    // Off the side, inwards or outwards by turns.
+                    let off = if i == 0 {
+                        0.0
+                    } else {
+                        nudge_m * ((i * 7919) % 13) as f64 / 13.0
+                            * if i % 2 == 0 { 1.0 } else { -1.0 }
+                    } / 20.0;
+                    pts.push((a.0 + t * dx - off * dy, a.1 + t * dy + off * dx));
+                }
             }
-        }
-        let hole = ring(&[(5.0, 5.0), (5.0, 15.0), (15.0, 15.0), (15.0, 5.0)]);
-        let fp = MultiPolygon(vec![Polygon::new(ring(&pts), vec![hole])]);
-        let rings: Vec<Vec<[f64; 2]>> = vec![
-            pts.iter().map(|p| [p.0, p.1]).collect(),
-            vec![[5.0, 5.0], [5.0, 15.0], [15.0, 15.0], [15.0, 5.0]],
-        ];
+            pts
+        };
+        let n = 4 * side;
+        let pts = densified(0.0);
+        let rings: Vec<Vec<[f64; 2]>> = vec![pts.iter().map(|p| [p.0, p.1]).collect()];
+        assert!(mostly_in_line(&rings));
         let keep = points_off_line(&rings[0], IN_LINE_M);
         assert_eq!(keep.iter().filter(|&&k| k).count(), 4);
         assert!(roof_without_points_in_line(&rings).is_some());
+        let fp = MultiPolygon(vec![Polygon::new(ring(&pts), vec![])]);
         let m = extrude(&fp, 0.0, 10.0).unwrap();
         check_prism(&fp, &m, 0.0, 10.0).unwrap();
-        let n = 4 * side + 4;
+        assert_eq!(m.triangles.len(), n - 2 + 2 * n);
+
+        let hole = ring(&[(5.0, 5.0), (5.0, 15.0), (15.0, 15.0), (15.0, 5.0)]);
+        let fp = MultiPolygon(vec![Polygon::new(ring(&densified(1e-4)), vec![hole])]);
+        let m = extrude(&fp, 0.0, 10.0).unwrap();
+        check_prism(&fp, &m, 0.0, 10.0).unwrap();
+        let n = n + 4;
         assert_eq!(m.triangles.len(), n + 2 * n);
     }
 
