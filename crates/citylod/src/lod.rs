@@ -1044,4 +1044,72 @@ mod tests {
         models[4] = chain(1.5, 0.1, 20);
         assert_eq!(rough_prisms(&models, &prisms), [4]);
     }
+
+    /// A model the simplifier leaves nothing of (the profile method finds no outward section in a box wound inside
+    /// out, which ingest would have turned; infinite error) is drawn whole as its own simplified model, with a note,
+    /// instead of an infinite error failing the whole build.
+    #[test]
+    fn a_simplifier_that_leaves_nothing_gives_way_to_the_full_model() {
+        use citylod_model::{Attributes, BuildingModel, HeightSource, SurfaceKind};
+        use geo::{LineString, MultiPolygon, Polygon};
+        let square = LineString::from(vec![
+            (0.0, 0.0),
+            (10.0, 0.0),
+            (10.0, 10.0),
+            (0.0, 10.0),
+            (0.0, 0.0),
+        ]);
+        let corners: Vec<[f64; 3]> = (0..8)
+            .map(|i| {
+                let c = |bit: usize| if i & bit == 0 { 0.0 } else { 10.0 };
+                [c(1), c(2), c(4)]
+            })
+            .collect();
+        // The 12 triangles of the box (these quads face outwards), each then wound the other way.
+        let quads = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
+        let triangles: Vec<[u32; 3]> = quads
+            .iter()
+            .flat_map(|q| [[q[0], q[2], q[1]], [q[0], q[3], q[2]]])
+            .collect();
+        let mesh = Mesh3d {
+            positions: corners,
+            triangles,
+        };
+        assert!(citylod_mesh::topology::signed_volume_m3(&mesh) < 0.0);
+        let building = Building {
+            id: BuildingId(0),
+            source_id: "inside-out".into(),
+            footprint: MultiPolygon(vec![Polygon::new(square, vec![])]),
+            base_z_m: 0.0,
+            height_m: 10.0,
+            height_source: HeightSource::Storeys,
+            attributes: Attributes::new(),
+            mesh: Some(BuildingModel {
+                surfaces: vec![SurfaceKind::Wall; mesh.triangles.len()],
+                mesh,
+                lod: "2.2".into(),
+            }),
+        };
+        let opts = ModelOptions {
+            simplifier: citylod_mesh::simplify::Simplifier::Profile {
+                step_m: 1.0,
+                threshold_m: 0.5,
+            },
+            rate: 0.6,
+        };
+        let buildings = [building];
+        let tree = LodTree::build(&buildings, None, 1.41, 175.0, &opts);
+        let chain = tree.models[0].as_ref().expect("a chain");
+        assert_eq!(chain.simplified, chain.full);
+        assert_eq!(chain.simplified_error_m, 0.0);
+        let note = chain.note.as_deref().unwrap_or_default();
+        assert!(note.contains("the full model is drawn instead"), "{note}");
+    }
 }
