@@ -104,9 +104,25 @@ impl<'a> MeshBvh<'a> {
         (best.1 != u32::MAX).then(|| (best.0.sqrt(), best.1))
     }
 
+    /// Whether the hierarchy holds no triangle.
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+
+    /// Closest point on the mesh to `p`: (squared distance in m², triangle index), or `None` for an empty mesh.
+    pub fn closest_squared(&self, p: V3) -> Option<(f64, u32)> {
+        let mut best = (f64::INFINITY, u32::MAX);
+        self.closest_within(p, &mut best);
+        (best.1 != u32::MAX).then_some(best)
+    }
+
     /// Whether some triangle comes within `r_m` of `p` (stops at the first one found).
     pub fn is_within(&self, p: V3, r_m: f64) -> bool {
-        let r2 = r_m * r_m;
+        self.is_within_squared(p, r_m * r_m)
+    }
+
+    /// Whether some triangle's squared distance from `p` is at most `r2` (m²; stops at the first one found).
+    pub fn is_within_squared(&self, p: V3, r2: f64) -> bool {
         // Median splits keep the depth near log2(n / LEAF_SIZE): a fixed stack saves an allocation per call.
         let mut stack = [0u32; 128];
         let mut len = usize::from(!self.nodes.is_empty());
@@ -130,7 +146,7 @@ impl<'a> MeshBvh<'a> {
                 len += 2;
             } else {
                 // Deeper than any median-split tree gets: fall back to the full closest-point search.
-                return self.closest(p).is_some_and(|(d, _)| d <= r_m);
+                return self.closest_squared(p).is_some_and(|(d2, _)| d2 <= r2);
             }
         }
         false
