@@ -87,8 +87,10 @@ pub fn directed_hausdorff_m(from: &Mesh3d, to: &Mesh3d, samples_per_m2: f64) -> 
         if bvh.is_within_squared(p, worst2) {
             continue;
         }
-        if let Some((d2, _)) = bvh.closest_squared(p) {
-            worst2 = worst2.max(d2);
+        match bvh.closest_squared(p) {
+            Some((d2, _)) => worst2 = worst2.max(d2),
+            // No distance at all (a sample that is not a point): as before, no bound.
+            None => return f64::INFINITY,
         }
     }
     worst2.sqrt()
