@@ -225,10 +225,7 @@ impl LoadedTileset {
     /// The highest point (z, m) of full detail (the leaf tiles' meshes) within `radius_m` horizontally of `xy`,
     /// counting each triangle by its top wherever its horizontal bounds come that near; `None` where nothing does.
     pub fn highest_leaf_content_near(&self, xy: [f64; 2], radius_m: f64) -> Option<f64> {
-        let near = |lo: &[f64], hi: &[f64]| {
-            let gap = |i: usize| (lo[i] - xy[i]).max(xy[i] - hi[i]).max(0.0);
-            gap(0).hypot(gap(1)) <= radius_m
-        };
+        let near = |lo: &[f64], hi: &[f64]| horizontal_gap_m(xy, lo, hi) <= radius_m;
         let mut top: Option<f64> = None;
         for i in self.leaf_tiles() {
             let (lo, hi) = box_aabb(&self.tree.tiles[i].bounds);
@@ -252,16 +249,12 @@ impl LoadedTileset {
     /// among equals; `None` without full detail. Tiles are visited by the horizontal distance of their boxes (then
     /// index), and the search stops at the first box farther than the nearest vertex found.
     pub fn nearest_leaf_content(&self, xy: [f64; 2]) -> Option<[f64; 2]> {
-        let gap = |lo: &[f64], hi: &[f64]| {
-            let g = |i: usize| (lo[i] - xy[i]).max(xy[i] - hi[i]).max(0.0);
-            g(0).hypot(g(1))
-        };
         let mut tiles: Vec<(f64, usize)> = self
             .leaf_tiles()
             .into_iter()
             .map(|i| {
                 let (lo, hi) = box_aabb(&self.tree.tiles[i].bounds);
-                (gap(&lo, &hi), i)
+                (horizontal_gap_m(xy, &lo, &hi), i)
             })
             .collect();
         tiles.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
@@ -289,6 +282,12 @@ impl LoadedTileset {
             .filter(|&i| self.tree.tiles[i].children.is_empty() && self.tiles[i].mesh.is_some())
             .collect()
     }
+}
+
+/// Horizontal distance (m) from `xy` to the box `lo..hi` (x and y of each; 0 inside it).
+fn horizontal_gap_m(xy: [f64; 2], lo: &[f64], hi: &[f64]) -> f64 {
+    let gap = |i: usize| (lo[i] - xy[i]).max(xy[i] - hi[i]).max(0.0);
+    gap(0).hypot(gap(1))
 }
 
 /// The buildings a leaf tile holds: building features, or the `members` of its blocks.

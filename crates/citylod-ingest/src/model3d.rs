@@ -9,9 +9,8 @@ use crate::height::MAX_HEIGHT_M;
 use crate::lod::{lod_of_geometry, LodKey, Target};
 use crate::place::EnuMap;
 use crate::report::IssueReason;
-use citylod_mesh::simplify::components::components;
 use citylod_mesh::simplify::triangulate_polygon_3d;
-use citylod_mesh::topology::mesh_report;
+use citylod_mesh::topology::{mesh_report, part_volumes_m3};
 use citylod_model::{BuildingModel, Mesh3d, SurfaceKind};
 use serde_json::Value;
 use std::collections::HashMap;
@@ -347,27 +346,13 @@ pub(crate) fn triangulate(
     Ok((built, notes))
 }
 
-/// Whether every connected part of a closed mesh encloses a negative volume (its faces point inwards). Each part's
-/// volume is summed from its own first vertex, well conditioned however far the frame's origin is. A mesh whose parts
-/// differ in sign (a solid with a cavity, whose inner shell is meant to be negative, or one part wound wrong) is
+/// Whether every connected part of a closed mesh encloses a negative volume (its faces point inwards). A mesh whose
+/// parts differ in sign (a solid with a cavity, whose inner shell is meant to be negative, or one part wound wrong) is
 /// left as it is: telling the two apart needs to know which part encloses which.
 fn every_part_inside_out(mesh: &Mesh3d) -> bool {
-    let parts = components(mesh.positions.len(), &mesh.triangles);
-    let mut volume = vec![0.0f64; parts.count];
-    let mut origin: Vec<Option<[f64; 3]>> = vec![None; parts.count];
-    for (t, &c) in mesh.triangles.iter().zip(&parts.of_triangle) {
-        let o = *origin[c as usize].get_or_insert(mesh.positions[t[0] as usize]);
-        let [a, b, d] = t.map(|i| {
-            let p = mesh.positions[i as usize];
-            [p[0] - o[0], p[1] - o[1], p[2] - o[2]]
-        });
-        volume[c as usize] += (a[0] * (b[1] * d[2] - b[2] * d[1])
-            - a[1] * (b[0] * d[2] - b[2] * d[0])
-            + a[2] * (b[0] * d[1] - b[1] * d[0]))
-            / 6.0;
-    }
+    let volumes = part_volumes_m3(mesh);
     // Below a cubic millimetre the sign says nothing.
-    parts.count > 0 && volume.iter().all(|&v| v < -1e-9)
+    !volumes.is_empty() && volumes.iter().all(|&v| v < -1e-9)
 }
 
 /// The whole 3D path of one building once its frame is known: the reader's result, CRS conversion
@@ -427,7 +412,8 @@ fn distinct(r: &[u32]) -> usize {
 mod tests {
     use super::*;
     use crate::{ingest, IngestOptions, Ingested, LodChoice};
-    use citylod_mesh::topology::{mesh_report, signed_volume_m3};
+    use citylod_mesh::simplify::components::components;
+    use citylod_mesh::topology::signed_volume_m3;
     use serde_json::json;
 
     /// Corners of a box [x0, x1] × [0, 3] × [0, 5] m, as integer vertices (scale 0.001).

@@ -36,14 +36,31 @@ pub fn signed_volume_m3(mesh: &Mesh3d) -> f64 {
         .iter()
         .filter_map(|t| {
             let p = t.map(|i| mesh.positions.get(i as usize).copied());
-            let [a, b, c] = [p[0]?, p[1]?, p[2]?];
-            Some(
-                (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
-                    + a[2] * (b[0] * c[1] - b[1] * c[0]))
-                    / 6.0,
-            )
+            Some(cone_volume_m3([p[0]?, p[1]?, p[2]?], [0.0; 3]))
         })
         .sum()
+}
+
+/// Signed volume (m³) of each connected part of a mesh (parts as [`crate::simplify::components::components`]
+/// numbers them), each summed from the part's own first vertex: well conditioned however far the coordinates' origin
+/// is (the frame's origin can be 100 km away). Meaningless for an open part; the indices must be in range.
+pub fn part_volumes_m3(mesh: &Mesh3d) -> Vec<f64> {
+    let parts = crate::simplify::components::components(mesh.positions.len(), &mesh.triangles);
+    let mut volume = vec![0.0f64; parts.count];
+    let mut apex: Vec<Option<V3>> = vec![None; parts.count];
+    for (t, &c) in mesh.triangles.iter().zip(&parts.of_triangle) {
+        let o = *apex[c as usize].get_or_insert(mesh.positions[t[0] as usize]);
+        volume[c as usize] += cone_volume_m3(t.map(|i| mesh.positions[i as usize]), o);
+    }
+    volume
+}
+
+/// Signed volume (m³) of the tetrahedron from `o` to the triangle: positive when the triangle faces away from `o`.
+fn cone_volume_m3(t: [V3; 3], o: V3) -> f64 {
+    let [a, b, c] = t.map(|p| [p[0] - o[0], p[1] - o[1], p[2] - o[2]]);
+    (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+        + a[2] * (b[0] * c[1] - b[1] * c[0]))
+        / 6.0
 }
 
 /// Whether triangle abc is degenerate: repeated corners or a height below [`DEGENERATE_HEIGHT_M`].

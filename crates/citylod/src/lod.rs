@@ -207,28 +207,13 @@ impl<'h> LodTree<'h> {
                 }
                 let prism = &meshed_prism(&prism_triangles, buildings, BuildingId(i as u32))?;
                 let full = model.mesh.clone();
-                let mut s = citylod_mesh::simplify::simplify(
+                let s = citylod_mesh::simplify::simplify(
                     &full,
                     &model_opts.simplifier,
                     model_opts.rate,
                 );
-                let mut simplified_error_m =
-                    citylod_mesh::hausdorff::measured_error_m(&full, &s.mesh);
-                // A simplifier that leaves nothing (the profile method finds no outward section in a model
-                // wound inside out) gives no finite error: the full model stands in, and the note says why.
-                if s.mesh.triangles.is_empty() || !simplified_error_m.is_finite() {
-                    s.note = Some(format!(
-                        "the simplifier gave {} triangle(s) at an error of {simplified_error_m} m{}: the full model \
-                         is drawn instead",
-                        s.mesh.triangles.len(),
-                        s.note.map(|n| format!(" ({n})")).unwrap_or_default()
-                    ));
-                    s.mesh = full.clone();
-                    s.rate_reached = 0.0;
-                    simplified_error_m = 0.0;
-                }
                 Some(ModelChain {
-                    simplified_error_m,
+                    simplified_error_m: citylod_mesh::hausdorff::measured_error_m(&full, &s.mesh),
                     prism_error_m: citylod_mesh::hausdorff::measured_error_m(&full, prism),
                     simplified: s.mesh,
                     rate_reached: s.rate_reached,
@@ -1046,8 +1031,8 @@ mod tests {
     }
 
     /// A model the simplifier leaves nothing of (the profile method finds no outward section in a box wound inside
-    /// out, which ingest would have turned; infinite error) is drawn whole as its own simplified model, with a note,
-    /// instead of an infinite error failing the whole build.
+    /// out, which ingest would have turned; infinite error) is drawn whole as its own simplified model, with a note
+    /// (`simplify` returns it unchanged), instead of an infinite error failing the whole build.
     #[test]
     fn a_simplifier_that_leaves_nothing_gives_way_to_the_full_model() {
         use citylod_model::{Attributes, BuildingModel, HeightSource, SurfaceKind};

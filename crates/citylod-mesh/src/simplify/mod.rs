@@ -185,6 +185,17 @@ fn checked(
         return unchanged(mesh, "non-finite vertex coordinate: returned unchanged");
     }
     let result = method(mesh, target_rate);
+    if result.mesh.triangles.is_empty() {
+        // The profile method finds no outward section in a model wound inside out: nothing to stand in for it, and
+        // an error measured against nothing is infinite.
+        return unchanged(
+            mesh,
+            &format!(
+                "the method left no triangle{}: returned unchanged, so the full model is drawn instead",
+                result.note.map(|n| format!(" ({n})")).unwrap_or_default()
+            ),
+        );
+    }
     if result.mesh.triangles.len() > mesh.triangles.len() {
         return unchanged(
             mesh,
