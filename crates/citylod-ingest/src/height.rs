@@ -34,7 +34,7 @@ pub const DEFAULT_STOREY_ATTRS: &[&str] = &[
 ];
 
 /// 3DBAG ground height and roof height (70th percentile) attributes.
-const GROUND_ATTR: &str = "b3_h_maaiveld";
+pub(crate) const GROUND_ATTR: &str = "b3_h_maaiveld";
 const ROOF_ATTR: &str = "b3_h_dak_70p";
 /// A ground height further from the datum than this (m) is a data error: the Dead Sea shore is at −430 m, the
 /// highest towns near 5,100 m.
@@ -83,6 +83,11 @@ fn number(attrs: &Attributes, name: &str) -> Option<f64> {
     attrs.get(name).and_then(AttrValue::as_number)
 }
 
+/// The 3DBAG ground attribute, when it is a number within [`MAX_GROUND_M`] of the datum.
+pub(crate) fn ground_attribute(attrs: &Attributes) -> Option<f64> {
+    number(attrs, GROUND_ATTR).filter(|g| g.abs() < MAX_GROUND_M)
+}
+
 /// Resolves ground and height. Ground: `b3_h_maaiveld`, else the lowest footprint vertex z
 /// (CityJSON), else 0; an OSM `min_height` raises the base above that ground. Height: the named
 /// attribute, known names, 3DBAG roof − ground, the 3D geometry's top − ground, storeys × storey
@@ -98,7 +103,7 @@ pub(crate) fn resolve(
 ) -> Heights {
     let mut rejected = Vec::new();
     let present = |name: &str| !matches!(attrs.get(name), None | Some(AttrValue::Null));
-    let ground_attr = number(attrs, GROUND_ATTR).filter(|g| g.abs() < MAX_GROUND_M);
+    let ground_attr = ground_attribute(attrs);
     if ground_attr.is_none() && present(GROUND_ATTR) {
         rejected.push(GROUND_ATTR.to_string());
     }

@@ -626,6 +626,11 @@ fn prepare(raw: &RawFeature, crs: &Crs, opts: &IngestOptions) -> Result<Prepared
         .collect();
     // The geometry's own ground (CityJSON vertices): one off the globe (a wrong transform, a bad vertex) would place
     // the whole tileset's frame there. (A top that high only fails the height rule: the building keeps another.)
+    // With a usable ground attribute the building stands on that instead, and none of the geometry's heights is
+    // used: not its ground, not its top, not its 3D model.
+    let mut footprint_min_z = raw.footprint_min_z;
+    let mut top_z = raw.top_z;
+    let mut model_lost = None;
     if let Some(z) = raw
         .footprint_min_z
         .filter(|z| !(z.is_finite() && z.abs() < height::MAX_GROUND_M))
@@ -635,21 +640,33 @@ fn prepare(raw: &RawFeature, crs: &Crs, opts: &IngestOptions) -> Result<Prepared
         } else {
             format!("{z:.3e}")
         };
-        return Err((
-            IssueReason::CoordinateOutOfRange,
-            format!(
-                "the geometry's ground lies at {shown} m, beyond the {} km above or below the datum any building \
-                 stands on",
-                height::MAX_GROUND_M / 1000.0
-            ),
-        ));
+        let beyond = format!(
+            "the geometry's ground lies at {shown} m, beyond the {} km above or below the datum any building \
+             stands on",
+            height::MAX_GROUND_M / 1000.0
+        );
+        let Some(ground) = height::ground_attribute(&raw.attributes) else {
+            return Err((IssueReason::CoordinateOutOfRange, beyond));
+        };
+        let detail = format!(
+            "{beyond}: the building stands on {} = {ground} m, its geometry's heights (ground, top{}) not used",
+            height::GROUND_ATTR,
+            if raw.model.is_some() { ", 3D model" } else { "" }
+        );
+        if matches!(raw.model, Some(Ok(_))) {
+            model_lost = Some((IssueReason::ModelInvalid, detail.clone()));
+        }
+        repairs.push((IssueReason::GeometryHeightsIgnored, detail));
+        footprint_min_z = None;
+        top_z = None;
     }
     let fixed = repair::repair(plane_polys, raw.assemble)?;
     repairs.extend(fixed.issues);
-    let heights = height::resolve(&raw.attributes, raw.footprint_min_z, raw.top_z, opts);
+    let heights = height::resolve(&raw.attributes, footprint_min_z, top_z, opts);
     let bbox = place::lon_lat_box(&plane, &fixed.footprint);
-    let model_lon_lat_h = match &raw.model {
-        Some(Ok(m)) => Some(model3d::geolocate(m, crs)),
+    let model_lon_lat_h = match (&raw.model, model_lost) {
+        (Some(Ok(_)), Some(lost)) => Some(Err(lost)),
+        (Some(Ok(m)), None) => Some(model3d::geolocate(m, crs)),
         _ => None,
     };
     Ok(Prepared {

@@ -852,6 +852,65 @@ mod tests {
         assert!(s[0].detail.contains("at 999999999.0 m"), "{}", s[0].detail);
     }
 
+    /// The same building off the globe, but with a usable 3DBAG ground attribute: it stands on that as a prism, and
+    /// its geometry's heights (ground, top, model) are not used, each loss reported under its name.
+    #[test]
+    fn a_building_off_the_globe_with_a_ground_attribute_stands_on_it() {
+        let mut far = box_vertices(10, 14);
+        for v in &mut far {
+            v[2] += 1_000_000_000_000;
+        }
+        let d = doc(
+            "2.0",
+            json!({
+                "A": {"type": "Building", "geometry": [box_solid(0, json!("2.2"))]},
+                "B": {"type": "Building", "geometry": [box_solid(8, json!("2.2"))],
+                      "attributes": {"b3_h_maaiveld": -0.5, "b3_bouwlagen": 2}}
+            }),
+            &[box_vertices(0, 4), far].concat(),
+        );
+        for lod in [None, Some("2.2")] {
+            let out = run(&d, lod);
+            assert!(out.report.skipped.is_empty(), "{:?}", out.report.skipped);
+            assert_eq!(out.buildings.len(), 2);
+            let (a, b) = (&out.buildings[0], &out.buildings[1]);
+            assert_eq!(b.source_id, "B");
+            // A stands on its geometry (z −1 m), B on its attribute (−0.5 m); B's height from its storeys, not
+            // from its geometry's top.
+            assert!(
+                (b.base_z_m - a.base_z_m - 0.5).abs() < 0.01,
+                "{} {}",
+                a.base_z_m,
+                b.base_z_m
+            );
+            assert!((b.height_m - 6.0).abs() < 1e-9, "{}", b.height_m);
+            assert_eq!(a.mesh.is_some(), lod.is_some());
+            assert!(b.mesh.is_none());
+            let r = &out.report.repaired;
+            assert_eq!(r.len(), 1, "{r:?}");
+            assert_eq!(
+                (r[0].feature_id.as_str(), r[0].reason),
+                ("B", IssueReason::GeometryHeightsIgnored)
+            );
+            assert!(
+                r[0].detail.contains("b3_h_maaiveld = -0.5 m"),
+                "{}",
+                r[0].detail
+            );
+            let m = &out.report.mesh_issues;
+            if lod.is_some() {
+                assert_eq!(m.len(), 1, "{m:?}");
+                assert_eq!(
+                    (m[0].feature_id.as_str(), m[0].reason),
+                    ("B", IssueReason::ModelInvalid)
+                );
+                assert!(m[0].detail.contains("3D model"), "{}", m[0].detail);
+            } else {
+                assert!(m.is_empty(), "{m:?}");
+            }
+        }
+    }
+
     #[test]
     fn degenerate_surfaces_are_left_out_and_reported() {
         let mut g = box_solid(0, json!("2.2"));

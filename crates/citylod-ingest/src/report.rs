@@ -80,6 +80,11 @@ pub enum IssueReason {
     /// A GeoJSON property key with a `\u` escape of a lone UTF-16 surrogate: the property is kept under the key's
     /// text with that escape written out (`caf\ud800`).
     UndecodableKeyKeptAsText,
+    /// The geometry's vertices stand beyond 10 km above or below the datum (a wrong transform, a bad vertex) but the
+    /// building has a usable ground attribute (`b3_h_maaiveld`): it stands on that, and none of the geometry's
+    /// heights is used (its ground, its top for the height rule, its 3D model, which is listed as `model_invalid`).
+    /// Without such an attribute the building is skipped (`coordinate_out_of_range`).
+    GeometryHeightsIgnored,
     // --- 3D models (building written, listed in `mesh_issues`) ---
     /// No Solid or surface geometry at the asked LoD or below: no mesh. When only one part lacks
     /// it, the mesh is built from the other parts.
@@ -127,6 +132,7 @@ impl IssueReason {
             DuplicateKey => "duplicate_key",
             UndecodableValueKeptAsText => "undecodable_value_kept_as_text",
             UndecodableKeyKeptAsText => "undecodable_key_kept_as_text",
+            GeometryHeightsIgnored => "geometry_heights_ignored",
             ModelMissing => "model_missing",
             ModelInvalid => "model_invalid",
             ModelSurfaceDropped => "model_surface_dropped",
