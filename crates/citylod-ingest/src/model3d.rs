@@ -324,18 +324,22 @@ pub(crate) fn triangulate(
         triangles,
     };
     let shape = mesh_report(&mesh);
-    if shape.watertight && shape.orientation_consistent && every_part_inside_out(&mesh) {
-        for t in &mut mesh.triangles {
-            t.swap(1, 2);
+    if shape.watertight && shape.orientation_consistent {
+        let (turned, parts) = turn_parts_inside_out(&mut mesh);
+        if turned > 0 {
+            let which = if turned == parts {
+                "every triangle was turned".to_string()
+            } else {
+                format!("{turned} of its {parts} parts were turned")
+            };
+            notes.push((
+                IssueReason::ModelTurnedOutward,
+                format!(
+                    "the closed model of {} triangles enclosed a negative volume (faces pointing inwards): {which}",
+                    mesh.triangles.len()
+                ),
+            ));
         }
-        notes.push((
-            IssueReason::ModelTurnedOutward,
-            format!(
-                "the closed model of {} triangles enclosed a negative volume (faces pointing inwards): every \
-                 triangle was turned",
-                mesh.triangles.len()
-            ),
-        ));
     }
     let built = BuildingModel {
         mesh,
@@ -346,13 +350,38 @@ pub(crate) fn triangulate(
     Ok((built, notes))
 }
 
-/// Whether every connected part of a closed mesh encloses a negative volume (its faces point inwards). A mesh whose
-/// parts differ in sign (a solid with a cavity, whose inner shell is meant to be negative, or one part wound wrong) is
-/// left as it is: telling the two apart needs to know which part encloses which.
-fn every_part_inside_out(mesh: &Mesh3d) -> bool {
+/// Turns outward every connected part of a closed mesh that encloses a negative volume (its faces point inwards),
+/// unless it lies within the box of a part that encloses a positive one: that may be the shell of a cavity, which is
+/// meant to point into the cavity. Returns the parts turned and the parts in all.
+fn turn_parts_inside_out(mesh: &mut Mesh3d) -> (usize, usize) {
+    let parts =
+        citylod_mesh::simplify::components::components(mesh.positions.len(), &mesh.triangles);
     let volumes = part_volumes_m3(mesh);
+    let mut boxes = vec![[[f64::INFINITY; 3], [f64::NEG_INFINITY; 3]]; parts.count];
+    for (p, &c) in mesh.positions.iter().zip(&parts.of_vertex) {
+        if let Some(b) = boxes.get_mut(c as usize) {
+            for k in 0..3 {
+                b[0][k] = b[0][k].min(p[k]);
+                b[1][k] = b[1][k].max(p[k]);
+            }
+        }
+    }
+    let within = |a: &[[f64; 3]; 2], b: &[[f64; 3]; 2]| {
+        (0..3).all(|k| b[0][k] <= a[0][k] && a[1][k] <= b[1][k])
+    };
     // Below a cubic millimetre the sign says nothing.
-    !volumes.is_empty() && volumes.iter().all(|&v| v < -1e-9)
+    let turn: Vec<bool> = (0..parts.count)
+        .map(|i| {
+            volumes[i] < -1e-9
+                && !(0..parts.count).any(|j| volumes[j] > 1e-9 && within(&boxes[i], &boxes[j]))
+        })
+        .collect();
+    for (t, &c) in mesh.triangles.iter_mut().zip(&parts.of_triangle) {
+        if turn[c as usize] {
+            t.swap(1, 2);
+        }
+    }
+    (turn.iter().filter(|&&t| t).count(), parts.count)
 }
 
 /// The whole 3D path of one building once its frame is known: the reader's result, CRS conversion
@@ -786,8 +815,8 @@ mod tests {
         let i = &out.report.mesh_issues;
         assert_eq!(i.len(), 1, "{i:?}");
         assert_eq!(i[0].reason, IssueReason::ModelTurnedOutward);
-        // Two parts, one wound inwards and twice the other's size: the signs differ (as a cavity's shell does), so
-        // nothing is turned; a rule on the whole mesh's volume turned the right part inside out.
+        // Two parts side by side, one wound inwards and twice the other's size: that one is turned (a rule on the
+        // whole mesh's volume would turn the right part inside out instead), and the turn reported.
         let right = box_solid(8, json!("2.2"));
         let mut wrong = box_solid(0, json!("2.2"));
         for face in wrong["boundaries"][0].as_array_mut().unwrap() {
@@ -801,15 +830,46 @@ mod tests {
             &[box_vertices(0, 8), box_vertices(10, 14)].concat(),
         );
         let out = run(&d, Some("2.2"));
+        let i = &out.report.mesh_issues;
+        assert_eq!(i.len(), 1, "{i:?}");
+        assert_eq!(i[0].reason, IssueReason::ModelTurnedOutward);
+        assert!(i[0].detail.contains("1 of its 2 parts"), "{}", i[0].detail);
+        let m = &out.buildings[0].mesh.as_ref().expect("a mesh").mesh;
+        // 120 m³ and 60 m³, both outward (to the projection's scale, RD to the local frame).
+        assert!(
+            (signed_volume_m3(m) - 180.0).abs() < 0.2,
+            "{}",
+            signed_volume_m3(m)
+        );
+        // A solid with a cavity: its inner shell points into the cavity (a negative volume) and lies within the outer
+        // shell's box, so it stays as it is.
+        let mut inner_vertices = box_vertices(1, 3);
+        for v in &mut inner_vertices {
+            v[1] = if v[1] == 0 { 1000 } else { 2000 };
+            v[2] = if v[2] == 0 { 1000 } else { 4000 };
+        }
+        let outer = box_solid(0, json!("2.2"));
+        let mut inner = box_solid(8, json!("2.2"));
+        for face in inner["boundaries"][0].as_array_mut().unwrap() {
+            face[0].as_array_mut().unwrap().reverse();
+        }
+        let cavity = json!({"type": "Solid", "lod": "2.2",
+            "boundaries": [outer["boundaries"][0].clone(), inner["boundaries"][0].clone()]});
+        let d = doc(
+            "2.0",
+            json!({"A": {"type": "Building", "geometry": [cavity]}}),
+            &[box_vertices(0, 4), inner_vertices].concat(),
+        );
+        let out = run(&d, Some("2.2"));
         assert!(
             out.report.mesh_issues.is_empty(),
             "{:?}",
             out.report.mesh_issues
         );
         let m = &out.buildings[0].mesh.as_ref().expect("a mesh").mesh;
-        // 60 m³ outward less 120 m³ inward, as given (to the projection's scale, RD to the local frame).
+        // 60 m³ less the 2 × 1 × 3 m cavity.
         assert!(
-            (signed_volume_m3(m) + 60.0).abs() < 0.1,
+            (signed_volume_m3(m) - 54.0).abs() < 0.1,
             "{}",
             signed_volume_m3(m)
         );
