@@ -61,7 +61,8 @@ pub fn view_error(
 ) -> ViewError {
     let (lo, hi) = bounds_m;
     let eye = camera.eye_m;
-    let nearest: Vec3 = std::array::from_fn(|i| eye[i].clamp(lo[i].min(hi[i]), hi[i].max(lo[i])));
+    // max and min, not clamp: bounds that are not numbers (hand-made content) must not panic.
+    let nearest: Vec3 = std::array::from_fn(|i| eye[i].max(lo[i].min(hi[i])).min(hi[i].max(lo[i])));
     let to = vec3::sub(nearest, eye);
     let d = vec3::norm(to);
     let k = f64::from(viewport.height_px) / (2.0 * camera.tan_half_fovy());
@@ -283,5 +284,14 @@ mod tests {
         let e = view_error(1.0, 0.0, BLOCK, &cam([0.0, 5.0, 5.0]), VIEW);
         assert_eq!(e.dh_view_px, f64::INFINITY);
         assert_eq!(e.da_view_px, 0.0);
+    }
+
+    /// Bounds that are not numbers (a panic in `f64::clamp`, found by fuzzing) count as holding the eye: the error is
+    /// infinite, so the criterion fails rather than the checker.
+    #[test]
+    fn bounds_that_are_not_numbers_fail_the_criterion_without_panicking() {
+        let nan = [f64::NAN; 3];
+        let e = view_error(1.0, 1.0, (nan, nan), &cam([0.0, 5.0, 5.0]), VIEW);
+        assert_eq!((e.dh_view_px, e.da_view_px), (f64::INFINITY, f64::INFINITY));
     }
 }

@@ -11,14 +11,21 @@
 use crate::camera::apply_point;
 use crate::finding::{Finding, FindingKind};
 use crate::tileset::{mesh_bounds, LoadedTileset, NodeRef, TileInfo};
-use crate::vec3::{self, Vec3};
+use crate::vec3::Vec3;
 use citylod_model::ecef_to_geodetic;
 use citylod_tiles::read::{ExactVolume, VolumeKind};
 
 /// How far (m) a vertex may lie outside a box before it counts: rounding, not geometry — a millimetre, plus the
 /// single-precision step of glTF positions at the vertex's distance from the root frame's origin.
 fn slack_m(p: Vec3) -> f64 {
-    1e-3 + 2.0 * f64::from(f32::EPSILON) * vec3::norm(p)
+    // The distance from the origin, scaled by the largest coordinate so that it cannot overflow.
+    let far = p.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+    let norm = if far > 0.0 && far.is_finite() {
+        far * p.iter().map(|c| (c / far) * (c / far)).sum::<f64>().sqrt()
+    } else {
+        far
+    };
+    1e-3 + 2.0 * f64::from(f32::EPSILON) * norm
 }
 
 /// One finding per (tile, box) pair where some vertex the tile draws lies outside the tile's own box or an
@@ -156,6 +163,25 @@ mod tests {
     use crate::select::{OrientedBox, TileNode, TileTree};
     use crate::tileset::FeatureInfo;
     use citylod_model::Mesh3d;
+
+    /// The slack grows with the distance from the origin but stays finite however far a vertex is: a norm that
+    /// overflowed to infinity let content thrown to 10³⁰⁸ m pass as inside every box (found by fuzzing).
+    #[test]
+    fn slack_is_finite_and_far_below_the_distance_of_a_far_vertex() {
+        assert!((slack_m([0.0; 3]) - 1e-3).abs() < 1e-15);
+        let far = [1e308, 1e308, 0.0];
+        assert!(
+            slack_m(far).is_finite() && slack_m(far) < 1e303,
+            "{}",
+            slack_m(far)
+        );
+        let near = [6.4e6, 0.0, 0.0];
+        assert!(
+            slack_m(near) > 1.5 && slack_m(near) < 3.0,
+            "{}",
+            slack_m(near)
+        );
+    }
 
     fn tile(path: &str, positions: Vec<Vec3>) -> TileInfo {
         let triangles = (0..positions.len() as u32 / 3)

@@ -98,10 +98,10 @@ pub fn read_tileset_with(
     let mut tiles = Vec::new();
     // The root frame: positions and boxes are expressed relative to the root's own transform, which must
     // therefore be invertible (regions, in ECEF, come in through its inverse).
-    let Some(ecef_to_root) = affine_inverse(&root_transform) else {
+    let Some(ecef_to_root) = check_tile_transform(&root_transform) else {
         return Err(TilesError::Tile {
             tile: format!("0 ({})", path.display()),
-            msg: "root transform is not invertible".into(),
+            msg: "root transform is not an invertible affine transform".into(),
         });
     };
     let place = Place {
@@ -120,6 +120,7 @@ pub fn read_tileset_with(
             folder: &folder,
             ecef_to_root,
             root_to_ecef: root_transform,
+            external: Default::default(),
         },
     )?;
     Ok(TilesetData {
@@ -354,6 +355,8 @@ struct Walk<'a> {
     ecef_to_root: [f64; 16],
     /// The root transform.
     root_to_ecef: [f64; 16],
+    /// Every external tileset followed so far (canonical path) and the tile that named it.
+    external: std::collections::HashMap<PathBuf, String>,
 }
 
 /// Deepest tile the reader follows, counted in tiles below the root across external tilesets (an external
@@ -409,7 +412,16 @@ fn walk(
     let to_root = match (parent_to_root, t.transform) {
         (None, _) => IDENTITY,
         (Some(p), None) => *p,
-        (Some(p), Some(own)) => mul(p, &own),
+        (Some(p), Some(own)) => {
+            if check_tile_transform(&own).is_none() {
+                return Err(fail(
+                    "transform is not an invertible affine transform: its content and children would not keep \
+                     their shape"
+                        .into(),
+                ));
+            }
+            mul(p, &own)
+        }
     };
     let bounding_box = match volume_kind {
         VolumeKind::Region => box_to_root(&w.ecef_to_root, volume),
@@ -476,6 +488,16 @@ fn walk(
     let mut children = Vec::new();
     if let [ext] = &files[..] {
         if uris[0].ends_with(".json") {
+            // A tree, not a graph: an external tileset named from two tiles would be drawn twice (and one named
+            // from two places at each of many levels would be read exponentially often).
+            let canonical = std::fs::canonicalize(ext).unwrap_or_else(|_| ext.clone());
+            if let Some(first) = w.external.insert(canonical, path.clone()) {
+                return Err(fail(format!(
+                    "its content {:?} is an external tileset tile {first} already names: each external tileset \
+                     may hang under one tile",
+                    uris[0]
+                )));
+            }
             let ext_path = format!("{path}/ext");
             let ts = load_json(ext, &ext_path)?;
             let place = Place {
@@ -494,6 +516,13 @@ fn walk(
         }
         for p in &mut glb.positions_local {
             *p = apply(&to_root, *p);
+            if !p.iter().all(|c| c.is_finite()) {
+                return Err(fail(
+                    "a vertex of its content is not a finite point in the root frame (the tile transforms \
+                     overflow)"
+                        .into(),
+                ));
+            }
         }
         let nm = normal_matrix(&to_root);
         for n in &mut glb.normals_local {
@@ -654,7 +683,19 @@ impl Decoder<'_> {
         if depth > 64 {
             return Err("node hierarchy deeper than 64".into());
         }
+        check_node_transform(node).map_err(|e| format!("node {n}: {e}"))?;
         let m = mul(parent, &node_matrix(node));
+        if node.mesh.is_some() && (!m.iter().all(|v| v.is_finite()) || affine_inverse(&m).is_none())
+        {
+            return Err(format!(
+                "node {n}: its transform with its parents' is {}: its mesh would not keep its shape",
+                if m.iter().all(|v| v.is_finite()) {
+                    "singular or too large to invert"
+                } else {
+                    "not finite"
+                }
+            ));
+        }
         if let Some(mi) = node.mesh {
             let mesh = self.doc.meshes.get(mi).ok_or("mesh index out of range")?;
             for prim in &mesh.primitives {
@@ -673,6 +714,13 @@ impl Decoder<'_> {
                     .attributes
                     .get("POSITION")
                     .ok_or("primitive without POSITION")?;
+                self.expect_kind(pos_acc, "POSITION", "VEC3", POSITION_TYPES)?;
+                if let Some(&a) = prim.attributes.get("NORMAL") {
+                    self.expect_kind(a, "NORMAL", "VEC3", NORMAL_TYPES)?;
+                }
+                if let Some(a) = prim.indices {
+                    self.expect_kind(a, "indices", "SCALAR", INDEX_TYPES)?;
+                }
                 let pos = get(pos_acc)?;
                 let v0 = out.positions_local.len() as u32;
                 let nm = normal_matrix(&m);
@@ -688,6 +736,11 @@ impl Decoder<'_> {
                 }
                 for p in pos.chunks_exact(3) {
                     let g = apply(&m, [p[0], p[1], p[2]]);
+                    if !g.iter().all(|c| c.is_finite()) {
+                        return Err(format!(
+                            "mesh {mi}: a vertex at {p:?} lies at {g:?} after its node's transform, not a finite point"
+                        ));
+                    }
                     out.positions_local.push([g[0], -g[2], g[1]]);
                 }
                 let n_vertices = pos.len() / 3;
@@ -757,7 +810,18 @@ impl Decoder<'_> {
     fn buffer(&self, i: usize) -> Result<Cow<'_, [u8]>, String> {
         let b = self.doc.buffers.get(i).ok_or("buffer index out of range")?;
         match &b.uri {
-            None if i == 0 => Ok(Cow::Borrowed(self.bin)),
+            // The BIN chunk may be padded past the buffer's length, never short of it.
+            None if i == 0 => self
+                .bin
+                .get(..b.byte_length)
+                .map(Cow::Borrowed)
+                .ok_or_else(|| {
+                    format!(
+                        "buffer 0 claims {} bytes, the BIN chunk holds {}",
+                        b.byte_length,
+                        self.bin.len()
+                    )
+                }),
             None => Err(format!("buffer {i} has no data")),
             Some(uri)
                 if uri.contains("://")
@@ -853,6 +917,36 @@ impl Decoder<'_> {
     }
 
     /// Accessor elements as f64, components flattened, normalization applied.
+    /// Fails unless accessor `i`, read as `what`, has this type and one of these component types (unnormalized
+    /// integers or floats as listed; `true` for normalized).
+    fn expect_kind(
+        &self,
+        i: usize,
+        what: &str,
+        r#type: &str,
+        components: &[(u32, bool)],
+    ) -> Result<(), String> {
+        let a = self
+            .doc
+            .accessors
+            .get(i)
+            .ok_or("accessor index out of range")?;
+        if a.r#type != r#type || !components.contains(&(a.component_type, a.normalized)) {
+            return Err(format!(
+                "accessor {i} ({what}) is {}{} of component type {}: {what} must be {type}{}",
+                a.r#type,
+                if a.normalized { ", normalized," } else { "" },
+                a.component_type,
+                if r#type == "SCALAR" {
+                    " of unsigned integers"
+                } else {
+                    ""
+                },
+            ));
+        }
+        Ok(())
+    }
+
     fn accessor(&self, i: usize) -> Result<Vec<f64>, String> {
         let a = self
             .doc
@@ -1006,6 +1100,14 @@ fn box_to_root(m: &[f64; 16], b: [f64; 12]) -> [f64; 12] {
     ]
 }
 
+/// The inverse of a tile's `transform` when it is what 3D Tiles asks: finite, affine (last row 0 0 0 1) and
+/// invertible.
+fn check_tile_transform(m: &[f64; 16]) -> Option<[f64; 16]> {
+    (m.iter().all(|v| v.is_finite()) && [m[3], m[7], m[11], m[15]] == [0.0, 0.0, 0.0, 1.0])
+        .then(|| affine_inverse(m))
+        .flatten()
+}
+
 /// Inverse of an affine column-major matrix (last row 0 0 0 1), `None` when singular.
 fn affine_inverse(m: &[f64; 16]) -> Option<[f64; 16]> {
     let a = |r: usize, c: usize| m[c * 4 + r];
@@ -1055,6 +1157,51 @@ fn transform_normal(nm: &[f64; 16], n: [f64; 3]) -> [f64; 3] {
     } else {
         v
     }
+}
+
+/// Component types (with `normalized`) glTF and KHR_mesh_quantization allow for positions, normals and indices.
+const POSITION_TYPES: &[(u32, bool)] = &[
+    (gj::FLOAT, false),
+    (gj::BYTE, false),
+    (gj::BYTE, true),
+    (gj::UNSIGNED_BYTE, false),
+    (gj::UNSIGNED_BYTE, true),
+    (gj::SHORT, false),
+    (gj::SHORT, true),
+    (gj::UNSIGNED_SHORT, false),
+    (gj::UNSIGNED_SHORT, true),
+];
+const NORMAL_TYPES: &[(u32, bool)] = &[(gj::FLOAT, false), (gj::BYTE, true), (gj::SHORT, true)];
+const INDEX_TYPES: &[(u32, bool)] = &[
+    (gj::UNSIGNED_BYTE, false),
+    (gj::UNSIGNED_SHORT, false),
+    (gj::UNSIGNED_INT, false),
+];
+
+/// What glTF asks of a node's own transform: finite numbers, a `matrix` that is affine (last row 0 0 0 1) or a
+/// translation, unit quaternion and scale, not both.
+fn check_node_transform(n: &gj::Node) -> Result<(), String> {
+    let trs = n.translation.is_some() || n.rotation.is_some() || n.scale.is_some();
+    if let Some(m) = n.matrix {
+        if trs {
+            return Err("both a matrix and a translation, rotation or scale".into());
+        }
+        if !m.iter().all(|v| v.is_finite()) || [m[3], m[7], m[11], m[15]] != [0.0, 0.0, 0.0, 1.0] {
+            return Err(format!("matrix {m:?} is not a finite affine transform"));
+        }
+    }
+    let finite = |v: &[f64]| v.iter().all(|c| c.is_finite());
+    if !n.translation.is_none_or(|t| finite(&t)) || !n.scale.is_none_or(|s| finite(&s)) {
+        return Err("a translation or scale that is not finite".into());
+    }
+    if let Some(q) = n.rotation {
+        let len = q.iter().map(|c| c * c).sum::<f64>().sqrt();
+        // Unit to within rounding: a quaternion of another length also scales.
+        if !((len - 1.0).abs() <= 1e-4) {
+            return Err(format!("rotation {q:?} is not a unit quaternion"));
+        }
+    }
+    Ok(())
 }
 
 /// A node's local matrix: `matrix`, or translation · rotation · scale.
@@ -1195,6 +1342,63 @@ mod tests {
         );
     }
 
+    /// Tile transforms that are not invertible affine maps (found by fuzzing: a child's zero transform collapsed its
+    /// content unnoticed, where the root's was refused), and an external tileset hung under two tiles (a chain of
+    /// files naming the next twice is read 2ⁿ times: 25 files hung `inspect` and ate memory), are errors.
+    #[test]
+    fn bad_tile_transforms_and_external_tilesets_named_twice_are_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        let bx = serde_json::json!({"box": [0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1]});
+        let write = |name: &str, root: serde_json::Value| {
+            let ts =
+                serde_json::json!({"asset": {"version": "1.1"}, "geometricError": 1, "root": root});
+            std::fs::write(dir.path().join(name), ts.to_string()).unwrap();
+            dir.path().join(name)
+        };
+        let leaf = |transform: serde_json::Value| serde_json::json!({"boundingVolume": bx, "geometricError": 0, "transform": transform});
+        let mut projective: Vec<f64> = IDENTITY.to_vec();
+        projective[15] = 0.0;
+        let zero = vec![0.0; 16];
+        let error = |p: &Path| read_tileset(p).unwrap_err().to_string();
+        for (name, t) in [("zero", &zero), ("projective", &projective)] {
+            let child = write(
+                &format!("child-{name}.json"),
+                serde_json::json!({"boundingVolume": bx, "geometricError": 1, "children": [leaf(serde_json::json!(t))]}),
+            );
+            let e = error(&child);
+            assert!(
+                e.contains("tile 0/0") && e.contains("not an invertible affine transform"),
+                "{e}"
+            );
+            let root = write(&format!("root-{name}.json"), leaf(serde_json::json!(t)));
+            assert!(error(&root).contains("root transform is not an invertible affine transform"));
+        }
+        // The same external tileset under two tiles; each under one tile reads.
+        write(
+            "ext.json",
+            serde_json::json!({"boundingVolume": bx, "geometricError": 0}),
+        );
+        write(
+            "ext2.json",
+            serde_json::json!({"boundingVolume": bx, "geometricError": 0}),
+        );
+        let under = |uri: &str| serde_json::json!({"boundingVolume": bx, "geometricError": 0.5, "content": {"uri": uri}});
+        let twice = write(
+            "twice.json",
+            serde_json::json!({"boundingVolume": bx, "geometricError": 1, "children": [under("ext.json"), under("./ext.json")]}),
+        );
+        let e = error(&twice);
+        assert!(
+            e.contains("tile 0/1") && e.contains("tile 0/0 already names"),
+            "{e}"
+        );
+        let once = write(
+            "once.json",
+            serde_json::json!({"boundingVolume": bx, "geometricError": 1, "children": [under("ext.json"), under("ext2.json")]}),
+        );
+        assert_eq!(read_tileset(&once).unwrap().tiles.len(), 5);
+    }
+
     #[test]
     fn boxes_come_in_the_root_frame_through_inner_transforms() {
         let dir = tempfile::tempdir().unwrap();
@@ -1224,8 +1428,8 @@ mod tests {
         assert!(close(b[2], turned(10.0)), "{:?}", b[2]);
     }
 
-    #[test]
-    fn corrupt_glbs_give_errors_not_panics() {
+    /// A glb of two triangles, one feature, in this compression.
+    fn two_triangles(c: crate::Compression) -> Vec<u8> {
         use crate::spec::*;
         let schema = MetadataSchema {
             id: "s".into(),
@@ -1255,25 +1459,140 @@ mod tests {
             values: vec![PropValue::Str("x".into())],
             max_rounding_m: 0.0,
         };
+        crate::content::encode_content(
+            "0",
+            std::slice::from_ref(&f),
+            &schema,
+            &crate::content::ContentOptions {
+                compression: c,
+                normals: true,
+                quantization_step_m: 0.02,
+            },
+            "t",
+        )
+        .unwrap()
+        .unwrap()
+        .glb
+    }
+
+    /// glTF that parses but breaks the format's rules, each found by fuzzing `citylod check` (a panic on a NaN, or
+    /// content silently collapsed, garbled or thrown to infinity): an error naming what is wrong.
+    #[test]
+    fn glbs_with_broken_transforms_or_accessors_are_errors() {
+        let glb = two_triangles(crate::Compression::None);
+        let path = Path::new("t.glb");
+        let (json, bin) = crate::glb::parse_glb(&glb).unwrap();
+        let doc: serde_json::Value = serde_json::from_slice(json).unwrap();
+        let with = |edit: &dyn Fn(&mut serde_json::Value)| {
+            let mut d = doc.clone();
+            edit(&mut d);
+            read_glb(&crate::glb::write_glb(d.to_string().as_bytes(), bin), path)
+        };
+        let identity: Vec<f64> = IDENTITY.to_vec();
+        let turn = [0.0, 0.0, 0.5f64.sqrt(), 0.5f64.sqrt()];
+        // As written, and under a proper rotation and matrix, the content reads.
+        assert_eq!(with(&|_| {}).unwrap().triangles.len(), 2);
+        assert!(with(&|d| d["nodes"][0]["rotation"] = serde_json::json!(turn)).is_ok());
+        // The node's translation and scale as one matrix.
+        let as_matrix = |d: &mut serde_json::Value| {
+            let node = d["nodes"][0].as_object_mut().unwrap();
+            let t = node
+                .remove("translation")
+                .map_or(vec![0.0; 3], |v| serde_json::from_value(v).unwrap());
+            let s = node
+                .remove("scale")
+                .map_or(vec![1.0; 3], |v| serde_json::from_value(v).unwrap());
+            let mut m = identity.clone();
+            (0..3).for_each(|k| (m[5 * k], m[12 + k]) = (s[k], t[k]));
+            node.insert("matrix".into(), serde_json::json!(m));
+        };
+        let by_matrix = with(&as_matrix).unwrap();
+        assert_eq!(
+            by_matrix.positions_local,
+            with(&|_| {}).unwrap().positions_local
+        );
+        let msg = |edit: &dyn Fn(&mut serde_json::Value)| with(edit).unwrap_err().to_string();
+        for (edit, says) in [
+            (
+                Box::new(|d: &mut serde_json::Value| {
+                    d["nodes"][0]["rotation"] = serde_json::json!([1e300, 0, 0, 1e300])
+                }) as Box<dyn Fn(&mut serde_json::Value)>,
+                "not a unit quaternion",
+            ),
+            (
+                Box::new(|d: &mut serde_json::Value| {
+                    d["nodes"][0]["scale"] = serde_json::json!([1, 0, 1])
+                }),
+                "singular",
+            ),
+            (
+                Box::new(|d: &mut serde_json::Value| {
+                    d["nodes"][0]["scale"] = serde_json::json!([1e300, 1e300, 1e300])
+                }),
+                "too large to invert",
+            ),
+            (
+                Box::new(move |d: &mut serde_json::Value| {
+                    as_matrix(d);
+                    d["nodes"][0]["matrix"] = serde_json::json!([1e308f64; 16].to_vec())
+                }),
+                "not a finite affine transform",
+            ),
+            (
+                Box::new(move |d: &mut serde_json::Value| {
+                    as_matrix(d);
+                    let mut m = IDENTITY;
+                    m[3] = 1.0; // projective
+                    d["nodes"][0]["matrix"] = serde_json::json!(m);
+                }),
+                "not a finite affine transform",
+            ),
+            (
+                Box::new(move |d: &mut serde_json::Value| {
+                    as_matrix(d);
+                    d["nodes"][0]["translation"] = serde_json::json!([1, 2, 3]);
+                }),
+                "both a matrix and",
+            ),
+            (
+                Box::new(|d: &mut serde_json::Value| {
+                    d["nodes"][0]["scale"] = serde_json::json!([1e308, 1, 1])
+                }),
+                "not a finite point",
+            ),
+            (
+                Box::new(|d: &mut serde_json::Value| {
+                    let prim = &mut d["meshes"][0]["primitives"][0];
+                    prim["indices"] = prim["attributes"]["POSITION"].clone();
+                }),
+                "indices must be SCALAR of unsigned integers",
+            ),
+            (
+                Box::new(|d: &mut serde_json::Value| {
+                    d["buffers"][0]["byteLength"] = serde_json::json!(1_000_000_000)
+                }),
+                "the BIN chunk holds",
+            ),
+            (
+                Box::new(|d: &mut serde_json::Value| {
+                    d["buffers"][0]["byteLength"] = serde_json::json!(0)
+                }),
+                "out of range",
+            ),
+        ] {
+            let m = msg(&*edit);
+            assert!(m.contains(says), "{m}");
+        }
+    }
+
+    #[test]
+    fn corrupt_glbs_give_errors_not_panics() {
         for c in [
             crate::Compression::Meshopt,
             crate::Compression::None,
             crate::Compression::Draco,
         ] {
-            let glb = crate::content::encode_content(
-                "0",
-                std::slice::from_ref(&f),
-                &schema,
-                &crate::content::ContentOptions {
-                    compression: c,
-                    normals: true,
-                    quantization_step_m: 0.02,
-                },
-                "t",
-            )
-            .unwrap()
-            .unwrap()
-            .glb;
+            let glb = two_triangles(c);
             let path = Path::new("t.glb");
             assert_eq!(read_glb(&glb, path).unwrap().triangles.len(), 2);
             for cut in (0..glb.len()).step_by(7) {
