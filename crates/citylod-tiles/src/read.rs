@@ -1197,7 +1197,7 @@ fn check_node_transform(n: &gj::Node) -> Result<(), String> {
     if let Some(q) = n.rotation {
         let len = q.iter().map(|c| c * c).sum::<f64>().sqrt();
         // Unit to within rounding: a quaternion of another length also scales.
-        if !((len - 1.0).abs() <= 1e-4) {
+        if (len - 1.0).abs().is_nan() || (len - 1.0).abs() > 1e-4 {
             return Err(format!("rotation {q:?} is not a unit quaternion"));
         }
     }
