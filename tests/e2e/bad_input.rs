@@ -272,6 +272,38 @@ fn output_paths_that_are_not_tilesets_are_refused() {
             ],
             "--dump-levels",
         ),
+        (
+            vec![
+                i,
+                "--out",
+                new_out.to_str().unwrap(),
+                "--leaves-only",
+                "--dump-levels",
+                new_levels.to_str().unwrap(),
+            ],
+            "--dump-levels draws the generalization, which --leaves-only leaves out",
+        ),
+        // Out of range, named by the flag, the number as a user reads it, before any input is read.
+        (
+            vec![
+                i,
+                "--out",
+                new_out.to_str().unwrap(),
+                "--lambda-adjacent",
+                "1e300",
+            ],
+            "--lambda-adjacent must be in [0, 1], got 1e300",
+        ),
+        (
+            vec![
+                i,
+                "--out",
+                new_out.to_str().unwrap(),
+                "--landmark-max-share",
+                "1",
+            ],
+            "--landmark-max-share must be in [0, 1), got 1",
+        ),
     ];
     for (args, expect) in cases {
         let mut all = vec!["build"];

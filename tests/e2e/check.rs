@@ -337,6 +337,26 @@ fn explicit_camera_is_used_and_unreadable_tileset_is_exit_2() {
         out.to_str().unwrap(),
     ]);
     assert_eq!(missing.status.code(), Some(2));
+    // A tileset that is not there is named as such, also when --out lies in the folder it would be in.
+    let beside = citylod(&[
+        "check",
+        out.join("nonexistent").to_str().unwrap(),
+        "--out",
+        out.join("c1").to_str().unwrap(),
+    ]);
+    assert_eq!(beside.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&beside.stderr);
+    assert!(e.contains("no such tileset"), "{e}");
+    let many = citylod(&[
+        "check",
+        nyc().to_str().unwrap(),
+        "--views",
+        "99999999999",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(many.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&many.stderr).contains("--views must be at most 256"));
     for camera in ["1,2,3", "-73.985,40.715,-7000000,30,-45"] {
         let bad = citylod(&[
             "check",
@@ -348,6 +368,30 @@ fn explicit_camera_is_used_and_unreadable_tileset_is_exit_2() {
         ]);
         assert_eq!(bad.status.code(), Some(2), "--camera {camera}");
     }
+}
+
+/// A tileset built for a tolerance δH below the clients' 16 px needs a client at SSE = δH, and check simulates that
+/// client unless told otherwise (found by fuzzing: `build --dh-px 1` then `check` failed with 68 findings).
+#[test]
+fn check_simulates_a_client_at_the_tilesets_height_tolerance_when_it_is_below_16_px() {
+    let dir = damaged("dh-8", |ts| ts["extras"]["citylod"]["dh_px"] = 8.0.into());
+    let out = scratch_dir("check-dh-8");
+    let (code, report) = check(&dir, &out, &["--views", "2"]);
+    assert_eq!(code, 0, "{}", report["summary"]["findings_by_kind"]);
+    let s = &report["settings"];
+    assert_eq!(
+        (s["sse_px"].as_f64(), s["dh_px"].as_f64()),
+        (Some(8.0), Some(8.0)),
+        "{s}"
+    );
+    let (_, flagged) = check(
+        &dir,
+        &scratch_dir("check-dh-8-sse"),
+        &["--views", "1", "--sse", "12"],
+    );
+    assert_eq!(flagged["settings"]["sse_px"], 12.0);
+    let (_, stock) = check(nyc(), &scratch_dir("check-dh-20"), &["--views", "1"]);
+    assert_eq!(stock["settings"]["sse_px"], 16.0);
 }
 
 /// A copy of the NYC tileset with `edit` applied to its tileset.json.

@@ -12,6 +12,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use crate::progress::Progress;
+use crate::shown;
 
 #[derive(Args, Debug)]
 pub struct BuildArgs {
@@ -513,6 +514,40 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
     if args.tile_max_features == 0 || args.tile_max_triangles == 0 {
         bail!("--tile-max-features and --tile-max-triangles must be at least 1");
     }
+    if !(0.0..=1.0).contains(&args.lambda_adjacent) {
+        bail!(
+            "--lambda-adjacent must be in [0, 1], got {}",
+            shown(args.lambda_adjacent)
+        );
+    }
+    if !(args.depth_divisor > 0.0 && args.depth_divisor.is_finite()) {
+        bail!(
+            "--depth-divisor must be a positive number, got {}",
+            shown(args.depth_divisor)
+        );
+    }
+    if args.landmark_min_excess.is_nan() || args.landmark_min_excess < 0.0 {
+        bail!(
+            "--landmark-min-excess must be a non-negative number of metres (inf: no landmarks), got {}",
+            shown(args.landmark_min_excess)
+        );
+    }
+    if !(0.0..1.0).contains(&args.landmark_max_share) {
+        bail!(
+            "--landmark-max-share must be in [0, 1), got {}",
+            shown(args.landmark_max_share)
+        );
+    }
+    if args.leaves_only {
+        for (given, flag) in [
+            (args.streets.is_some(), "--streets shapes"),
+            (args.dump_levels.is_some(), "--dump-levels draws"),
+        ] {
+            if given {
+                bail!("{flag} the generalization, which --leaves-only leaves out");
+            }
+        }
+    }
     check_output_folder(&args)?;
     let t_all = Instant::now();
     let progress = Progress::new(args.quiet);
@@ -593,9 +628,6 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
     let mut streets_report = None;
     if args.streets_crs.is_some() && args.streets.is_none() {
         bail!("--streets-crs is the CRS of --streets, which is not given");
-    }
-    if args.leaves_only && args.streets.is_some() {
-        bail!("--streets shapes the generalization, which --leaves-only leaves out");
     }
     if !args.leaves_only {
         progress.stage("generalizing");
@@ -776,6 +808,14 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         for (reason, n) in &r.skipped_by_reason {
             eprintln!("  skipped {n:>6} × {reason}");
         }
+        // A model missing or broken leaves its building a prism: say so, or `--lod` seems to have done nothing.
+        for (reason, n) in &r.mesh_issues_by_reason {
+            let prism = ["model_missing", "model_invalid"].contains(&reason.as_str());
+            eprintln!(
+                "  3D model {n:>5} × {reason}{}",
+                if prism { " (written as prisms)" } else { "" }
+            );
+        }
         if r.duplicate_ids > 0 {
             eprintln!(
                 "  {} buildings share their id with an earlier one (another footprint or height: both written)",
@@ -903,15 +943,6 @@ fn lexically_absolute(p: &Path) -> Option<PathBuf> {
         }
     }
     Some(out)
-}
-
-/// A number as a user reads it: plain, or in exponent form when huge or tiny (1e308, not 309 digits).
-fn shown(v: f64) -> String {
-    if v != 0.0 && v.is_finite() && !(1e-6..1e9).contains(&v.abs()) {
-        format!("{v:e}")
-    } else {
-        format!("{v}")
-    }
 }
 
 /// Farthest a street line may lie from every building for the streets file to be taken (m).

@@ -3,6 +3,7 @@
 //! PNGs per view, a contact sheet and `report.json` (schemas/check-report.schema.json). Exit 0 all checks hold,
 //! 1 some check failed, 2 usage or input error.
 
+use crate::shown;
 use anyhow::{bail, Context, Result};
 use citylod_check::{
     check_tree, check_view, compute_sse, contact_sheet, standard_views_over, Camera, CheckSettings,
@@ -24,13 +25,10 @@ pub struct CheckArgs {
     pub tileset: PathBuf,
 
     /// Maximum screen-space error of the simulated client in pixels (CesiumJS `maximumScreenSpaceError`).
-    #[arg(
-        long,
-        value_name = "PX",
-        default_value_t = 16.0,
-        help_heading = "Check"
-    )]
-    pub sse: f64,
+    /// Default: 16, as CesiumJS and 3d-tiles-renderer, or δH where that is smaller: a tileset built with a
+    /// tolerance below 16 px needs a client at SSE = δH, and is checked as that client.
+    #[arg(long, value_name = "PX", help_heading = "Check")]
+    pub sse: Option<f64>,
 
     /// Height tolerance δH of the refinement criterion (Yang et al. 2011) in pixels. Default: the tileset's
     /// `extras.citylod.dh_px`, else 20.
@@ -100,6 +98,12 @@ fn parse_camera(s: &str, fovy_deg: f64, root_to_ecef: &[f64; 16]) -> Result<Came
     Camera::from_geodetic(lon, lat, h, heading, pitch, fovy_deg, root_to_ecef)
         .with_context(|| format!("--camera {s}"))
 }
+
+/// The maximum screen-space error of CesiumJS and 3d-tiles-renderer unless set (px).
+const DEFAULT_SSE_PX: f64 = 16.0;
+
+/// Most built-in views `--views` takes: each is rendered twice (the cut and full detail).
+const MAX_VIEWS: usize = 256;
 
 /// δH and δA: the flags, else the tileset's `extras.citylod`, else the seed defaults; with where they came from.
 fn tolerances(args: &CheckArgs, extras: Option<&Value>) -> (Tolerances, &'static str) {
@@ -258,37 +262,53 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
     // Silence Mesa's device-select layer before wgpu (and any thread) starts.
     std::env::set_var("NODEVICE_SELECT", "1");
     let t_all = Instant::now();
-    if !(args.sse.is_finite() && args.sse > 0.0) {
+    if let Some(sse) = args.sse.filter(|v| !(v.is_finite() && *v > 0.0)) {
         bail!(
             "--sse must be a positive number of pixels, got {}",
-            args.sse
+            shown(sse)
         );
     }
     for (name, v) in [("--dh-px", args.dh_px), ("--da-px", args.da_px)] {
         if let Some(v) = v.filter(|v| !(v.is_finite() && *v > 0.0)) {
-            bail!("{name} must be a positive number, got {v}");
+            bail!("{name} must be a positive number, got {}", shown(v));
         }
     }
     if args.width == 0 || args.height == 0 {
         bail!("--width and --height must be at least 1 pixel");
     }
     if !(args.fovy > 0.0 && args.fovy < 180.0) {
-        bail!("--fovy must be in (0, 180) degrees, got {}", args.fovy);
+        bail!(
+            "--fovy must be in (0, 180) degrees, got {}",
+            shown(args.fovy)
+        );
     }
     if args.camera.is_empty() && args.views == 0 {
         bail!("--views must be at least 1 (or give --camera)");
+    }
+    if args.views > MAX_VIEWS {
+        bail!(
+            "--views must be at most {MAX_VIEWS} (each view is rendered twice), got {}",
+            args.views
+        );
     }
     let path = if args.tileset.is_dir() {
         args.tileset.join("tileset.json")
     } else {
         args.tileset.clone()
     };
+    if !path.is_file() {
+        bail!(
+            "{}: no such tileset; give the folder holding tileset.json, or the file",
+            args.tileset.display()
+        );
+    }
     check_out_folder(&args.out, &path)?;
     let (data, ts) = LoadedTileset::read(&path).context("reading the tileset")?;
     if data.tiles.is_empty() {
         bail!("{} has no tiles", path.display());
     }
     let (tol, tol_source) = tolerances(&args, data.extras.as_ref());
+    let sse_px = args.sse.unwrap_or(DEFAULT_SSE_PX.min(tol.dh_px));
 
     let origin = [
         data.root_transform[12],
@@ -332,7 +352,7 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let settings = CheckSettings {
-        sse_px: args.sse,
+        sse_px,
         tolerances: tol,
         viewport: Viewport::new(args.width, args.height),
         skyline_tolerance_px: SKYLINE_TOLERANCE_PX,
@@ -446,7 +466,7 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
         "tileset": path.display().to_string(),
         "adapter": renderer.adapter_name(),
         "settings": {
-            "sse_px": args.sse,
+            "sse_px": sse_px,
             "dh_px": tol.dh_px,
             "da_px": tol.da_px,
             "tolerance_source": tol_source,

@@ -59,3 +59,12 @@ fn main() -> ExitCode {
         }
     }
 }
+
+/// A number as a user reads it: plain, or in exponent form when huge or tiny (1e308, not 309 digits).
+pub(crate) fn shown(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-6..1e9).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
