@@ -342,6 +342,22 @@ fn output_paths_that_are_not_tilesets_are_refused() {
     assert_eq!(refused.status.code(), Some(2), "{}", stderr_of(&refused));
     assert!(stderr_of(&refused).contains("is inside the output folder"));
     assert_eq!(std::fs::read_to_string(&notes).unwrap(), "keep me");
+    // Run from inside a tileset folder, `--out .` (or the folder above) would leave the shell in a deleted folder.
+    std::fs::create_dir_all(other.join("tiles/sub")).unwrap();
+    for (cwd, out) in [(other.clone(), "."), (other.join("tiles/sub"), "../..")] {
+        let here = std::process::Command::new(env!("CARGO_BIN_EXE_citylod"))
+            .args(["build", i, "--out", out])
+            .current_dir(&cwd)
+            .output()
+            .unwrap();
+        assert_eq!(here.status.code(), Some(2), "{}", stderr_of(&here));
+        assert!(
+            stderr_of(&here).contains("is the folder you are in"),
+            "{}",
+            stderr_of(&here)
+        );
+    }
+    assert!(other.join("tileset.json").is_file());
 }
 
 /// A ring of a hostile kind around (x, y) metres: ordinary rectangles (some a hair wide), stars, bowties, spikes,

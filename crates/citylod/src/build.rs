@@ -914,6 +914,13 @@ fn check_output_folder(args: &BuildArgs) -> Result<()> {
             out.display()
         );
     }
+    if std::env::current_dir().is_ok_and(|here| inside(&here)) {
+        bail!(
+            "--out {} is the folder you are in, or holds it; the build replaces the whole folder and would leave \
+             you in a deleted one. Run from another folder or write the tileset elsewhere",
+            out.display()
+        );
+    }
     let non_empty = std::fs::read_dir(out)
         .with_context(|| format!("reading {}", out.display()))?
         .next()
