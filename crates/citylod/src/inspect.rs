@@ -18,7 +18,19 @@ pub fn run(args: InspectArgs) -> Result<ExitCode> {
     } else {
         args.tileset.clone()
     };
-    let ts = citylod_tiles::read::read_tileset(&path).context("reading the tileset")?;
+    // (features, triangles) of each tile's content, counted as it is decoded and then dropped: a city's decoded
+    // tiles would take gigabytes.
+    let mut counts: Vec<Option<(u64, u64)>> = Vec::new();
+    let ts = citylod_tiles::read::read_tileset_with(&path, &mut |i, tile| {
+        if counts.len() <= i {
+            counts.resize(i + 1, None);
+        }
+        counts[i] = tile
+            .content
+            .take()
+            .map(|c| (c.features.len() as u64, c.triangles.len() as u64));
+    })
+    .context("reading the tileset")?;
     let mut rows: Vec<Row> = Vec::new();
     let mut stack = vec![(0usize, 0usize)];
     while let Some((i, depth)) = stack.pop() {
@@ -30,10 +42,10 @@ pub fn run(args: InspectArgs) -> Result<ExitCode> {
         row.tiles += 1;
         row.errors.push(tile.geometric_error_m);
         row.bytes += tile.content_bytes.unwrap_or(0);
-        if let Some(c) = &tile.content {
+        if let Some(Some((features, triangles))) = counts.get(i) {
             row.with_content += 1;
-            row.triangles += c.triangles.len() as u64;
-            row.features += c.features.len() as u64;
+            row.triangles += triangles;
+            row.features += features;
         }
         stack.extend(tile.children.iter().map(|&c| (c, depth + 1)));
     }
