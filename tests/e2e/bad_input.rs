@@ -358,6 +358,13 @@ fn output_paths_that_are_not_tilesets_are_refused() {
         );
     }
     assert!(other.join("tileset.json").is_file());
+    // From inside it, `tileset.json` alone names it (its parent is "", the current folder).
+    let inspect = std::process::Command::new(env!("CARGO_BIN_EXE_citylod"))
+        .args(["inspect", "tileset.json"])
+        .current_dir(&other)
+        .output()
+        .unwrap();
+    assert!(inspect.status.success(), "{}", stderr_of(&inspect));
 }
 
 /// A ring of a hostile kind around (x, y) metres: ordinary rectangles (some a hair wide), stars, bowties, spikes,

@@ -188,3 +188,33 @@ fn delft_lod22_tileset_has_the_model_chain_and_passes_check() {
     );
     assert_same_files(&out, &serial, "RAYON_NUM_THREADS=1");
 }
+
+/// `--lod` at a level no building has (Delft's solids are LoD 1.2 and up) writes prisms, and says so on the
+/// console as well as in the report (found by fuzzing: 1,115 prisms were announced as "0 repaired, 0 skipped").
+#[test]
+fn a_lod_no_building_has_says_how_many_prisms_were_written() {
+    let Some(input) = shared_data("delft-3dbag/delft.city.jsonl") else {
+        return;
+    };
+    let out = e2e_dir("delft-lod11");
+    let o = citylod(&[
+        "build",
+        input.to_str().unwrap(),
+        "--lod",
+        "1.1",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("3D models: 0 of 1115 buildings; 1115 without one are prisms"),
+        "{e}"
+    );
+    assert!(e.contains("1115 × model_missing"), "{e}");
+    let report = read_json(&out.join("build-report.json"));
+    assert_eq!(
+        report["ingest"]["mesh_issues_by_reason"]["model_missing"],
+        1115
+    );
+}

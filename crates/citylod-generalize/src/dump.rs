@@ -330,7 +330,7 @@ impl Unpainted {
         let mut x = x.min(self.w);
         while self.next[row + x as usize] != x {
             let up = self.next[row + x as usize];
-            // Path halving: point past the next step too.
+            // Path splitting: each column passed points past its next step.
             self.next[row + x as usize] = self.next[row + up as usize];
             x = up;
         }

@@ -350,30 +350,50 @@ pub(crate) fn triangulate(
     Ok((built, notes))
 }
 
-/// Turns outward every connected part of a closed mesh that encloses a negative volume (its faces point inwards),
-/// unless it lies within the box of a part that encloses a positive one: that may be the shell of a cavity, which is
-/// meant to point into the cavity. Returns the parts turned and the parts in all.
+/// Turns every connected part of a closed mesh whose faces point the wrong way. A part inside an even number of other
+/// parts (none: a solid's outer shell) should enclose a positive volume, one inside an odd number (the shell of a
+/// cavity, which points into the cavity) a negative one: a part of the other sign is turned. Returns the parts
+/// turned and the parts in all.
 fn turn_parts_inside_out(mesh: &mut Mesh3d) -> (usize, usize) {
     let parts =
         citylod_mesh::simplify::components::components(mesh.positions.len(), &mesh.triangles);
     let volumes = part_volumes_m3(mesh);
     let mut boxes = vec![[[f64::INFINITY; 3], [f64::NEG_INFINITY; 3]]; parts.count];
-    for (p, &c) in mesh.positions.iter().zip(&parts.of_vertex) {
+    let mut a_vertex = vec![None; parts.count];
+    for (v, (p, &c)) in mesh.positions.iter().zip(&parts.of_vertex).enumerate() {
         if let Some(b) = boxes.get_mut(c as usize) {
             for k in 0..3 {
                 b[0][k] = b[0][k].min(p[k]);
                 b[1][k] = b[1][k].max(p[k]);
             }
+            a_vertex[c as usize].get_or_insert(v);
         }
     }
     let within = |a: &[[f64; 3]; 2], b: &[[f64; 3]; 2]| {
         (0..3).all(|k| b[0][k] <= a[0][k] && a[1][k] <= b[1][k])
     };
+    let mut triangles_of: Vec<Vec<usize>> = vec![Vec::new(); parts.count];
+    for (t, &c) in parts.of_triangle.iter().enumerate() {
+        triangles_of[c as usize].push(t);
+    }
+    let encloses = |j: usize, p: [f64; 3]| {
+        let crossings = triangles_of[j]
+            .iter()
+            .filter(|&&t| ray_crosses(p, mesh.triangles[t].map(|v| mesh.positions[v as usize])))
+            .count();
+        crossings % 2 == 1
+    };
     // Below a cubic millimetre the sign says nothing.
     let turn: Vec<bool> = (0..parts.count)
         .map(|i| {
-            volumes[i] < -1e-9
-                && !(0..parts.count).any(|j| volumes[j] > 1e-9 && within(&boxes[i], &boxes[j]))
+            let Some(v) = a_vertex[i].filter(|_| volumes[i].abs() > 1e-9) else {
+                return false;
+            };
+            let p = mesh.positions[v];
+            let depth = (0..parts.count)
+                .filter(|&j| j != i && within(&boxes[i], &boxes[j]) && encloses(j, p))
+                .count();
+            (volumes[i] > 0.0) != (depth % 2 == 0)
         })
         .collect();
     for (t, &c) in mesh.triangles.iter_mut().zip(&parts.of_triangle) {
@@ -382,6 +402,38 @@ fn turn_parts_inside_out(mesh: &mut Mesh3d) -> (usize, usize) {
         }
     }
     (turn.iter().filter(|&&t| t).count(), parts.count)
+}
+
+/// Whether the ray from `p` in a fixed direction no building's edges follow crosses triangle `t` (Möller and
+/// Trumbore's test; a crossing at `p` itself does not count).
+fn ray_crosses(p: [f64; 3], t: [[f64; 3]; 3]) -> bool {
+    const DIR: [f64; 3] = [0.8017837, 0.5345225, 0.2672612];
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let cross = |a: [f64; 3], b: [f64; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let (e1, e2) = (sub(t[1], t[0]), sub(t[2], t[0]));
+    let h = cross(DIR, e2);
+    let det = dot(e1, h);
+    if det.abs() < 1e-12 {
+        return false; // the ray runs along the triangle's plane
+    }
+    let s = sub(p, t[0]);
+    let u = dot(s, h) / det;
+    if !(0.0..=1.0).contains(&u) {
+        return false;
+    }
+    let q = cross(s, e1);
+    let v = dot(DIR, q) / det;
+    if v < 0.0 || u + v > 1.0 {
+        return false;
+    }
+    dot(e2, q) / det > 1e-9
 }
 
 /// The whole 3D path of one building once its frame is known: the reader's result, CRS conversion
@@ -841,8 +893,8 @@ mod tests {
             "{}",
             signed_volume_m3(m)
         );
-        // A solid with a cavity: its inner shell points into the cavity (a negative volume) and lies within the outer
-        // shell's box, so it stays as it is.
+        // A solid with a cavity: its inner shell points into the cavity (a negative volume) inside the outer shell,
+        // so it stays as it is; the same solid wound inside out as a whole has both shells turned.
         let mut inner_vertices = box_vertices(1, 3);
         for v in &mut inner_vertices {
             v[1] = if v[1] == 0 { 1000 } else { 2000 };
@@ -855,24 +907,80 @@ mod tests {
         }
         let cavity = json!({"type": "Solid", "lod": "2.2",
             "boundaries": [outer["boundaries"][0].clone(), inner["boundaries"][0].clone()]});
-        let d = doc(
-            "2.0",
-            json!({"A": {"type": "Building", "geometry": [cavity]}}),
-            &[box_vertices(0, 4), inner_vertices].concat(),
-        );
-        let out = run(&d, Some("2.2"));
-        assert!(
-            out.report.mesh_issues.is_empty(),
-            "{:?}",
-            out.report.mesh_issues
-        );
-        let m = &out.buildings[0].mesh.as_ref().expect("a mesh").mesh;
-        // 60 m³ less the 2 × 1 × 3 m cavity.
-        assert!(
-            (signed_volume_m3(m) - 54.0).abs() < 0.1,
-            "{}",
-            signed_volume_m3(m)
-        );
+        let mut inverted = cavity.clone();
+        for shell in inverted["boundaries"].as_array_mut().unwrap() {
+            for face in shell.as_array_mut().unwrap() {
+                face[0].as_array_mut().unwrap().reverse();
+            }
+        }
+        for (solid, turned) in [(cavity, 0), (inverted, 2)] {
+            let d = doc(
+                "2.0",
+                json!({"A": {"type": "Building", "geometry": [solid]}}),
+                &[box_vertices(0, 4), inner_vertices.clone()].concat(),
+            );
+            let out = run(&d, Some("2.2"));
+            let i = &out.report.mesh_issues;
+            assert_eq!(i.len(), usize::from(turned > 0), "{i:?}");
+            if turned > 0 {
+                assert!(
+                    i[0].detail.contains("every triangle was turned"),
+                    "{}",
+                    i[0].detail
+                );
+            }
+            let m = &out.buildings[0].mesh.as_ref().expect("a mesh").mesh;
+            // 60 m³ less the 2 × 1 × 3 m cavity.
+            assert!(
+                (signed_volume_m3(m) - 54.0).abs() < 0.1,
+                "{}",
+                signed_volume_m3(m)
+            );
+        }
+        // An L-shaped part and a small box in its notch, outside it but inside its box: the small box is not a
+        // cavity. Wound outward it is left alone; wound inwards it is turned.
+        let mut l_vertices: Vec<[i64; 3]> = Vec::new();
+        for z in [0, 5000] {
+            for (x, y) in [(0, 0), (4, 0), (4, 1), (1, 1), (1, 3), (0, 3)] {
+                l_vertices.push([x * 1000, y * 1000, z]);
+            }
+        }
+        let mut notch = box_vertices(2, 3);
+        for v in &mut notch {
+            v[1] = if v[1] == 0 { 2000 } else { 2800 };
+            v[2] = if v[2] == 0 { 0 } else { 2000 };
+        }
+        let face = |v: &[u64]| json!([v]);
+        let mut l_faces = vec![face(&[5, 4, 3, 2, 1, 0]), face(&[6, 7, 8, 9, 10, 11])];
+        for k in 0..6u64 {
+            let n = (k + 1) % 6;
+            l_faces.push(face(&[k, n, n + 6, k + 6]));
+        }
+        for (wound_in, turned) in [(false, 0), (true, 1)] {
+            let mut small = box_solid(12, json!("2.2"));
+            if wound_in {
+                for face in small["boundaries"][0].as_array_mut().unwrap() {
+                    face[0].as_array_mut().unwrap().reverse();
+                }
+            }
+            let two = json!({"type": "MultiSolid", "lod": "2.2",
+                "boundaries": [[l_faces.clone()], small["boundaries"].clone()]});
+            let d = doc(
+                "2.0",
+                json!({"A": {"type": "Building", "geometry": [two]}}),
+                &[l_vertices.clone(), notch.clone()].concat(),
+            );
+            let out = run(&d, Some("2.2"));
+            let i = &out.report.mesh_issues;
+            assert_eq!(i.len(), turned, "{i:?}");
+            let m = &out.buildings[0].mesh.as_ref().expect("a mesh").mesh;
+            // The L: 1 × 4 + 1 × 2 m² × 5 m; the small box 1 × 0.8 × 2 m, outward either way.
+            assert!(
+                (signed_volume_m3(m) - 31.6).abs() < 0.1,
+                "{}",
+                signed_volume_m3(m)
+            );
+        }
         // Wound outward, nothing is turned or reported.
         let d = doc(
             "2.0",

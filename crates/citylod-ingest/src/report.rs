@@ -95,8 +95,9 @@ pub enum IssueReason {
     /// Surfaces with fewer than 3 distinct points or no area, or such holes, were left out of the
     /// mesh; the rest is kept.
     ModelSurfaceDropped,
-    /// A closed model wound inside out (its faces pointing inwards, a negative volume; also what a mirroring
-    /// transform makes) had every triangle turned, so clients that cull back faces draw it.
+    /// A closed model, or some of its parts, wound inside out (faces pointing inwards: a negative volume, or a
+    /// positive one for the shell of a cavity; also what a mirroring transform makes) had those parts' triangles
+    /// turned, so clients that cull back faces draw them. The detail says how many parts.
     ModelTurnedOutward,
 }
 

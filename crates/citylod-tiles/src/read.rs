@@ -92,8 +92,10 @@ pub fn read_tileset_with(
     visit: &mut dyn FnMut(usize, &mut TileData),
 ) -> Result<TilesetData, TilesError> {
     let ts = load_json(path, "0")?;
-    let folder = std::fs::canonicalize(path.parent().unwrap_or(Path::new(".")))
-        .map_err(TilesError::io(path))?;
+    // `tileset.json` alone has the parent "", which is the current folder.
+    let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
+    let folder =
+        std::fs::canonicalize(parent.unwrap_or(Path::new("."))).map_err(TilesError::io(path))?;
     let root_transform = ts.root.transform.unwrap_or(IDENTITY);
     let mut tiles = Vec::new();
     // The root frame: positions and boxes are expressed relative to the root's own transform, which must
@@ -355,13 +357,16 @@ struct Walk<'a> {
     ecef_to_root: [f64; 16],
     /// The root transform.
     root_to_ecef: [f64; 16],
-    /// Every external tileset followed so far (canonical path) and the tile that named it.
-    external: std::collections::HashMap<PathBuf, String>,
+    /// How often each external tileset (canonical path) has been followed so far.
+    external: std::collections::HashMap<PathBuf, usize>,
 }
 
 /// Deepest tile the reader follows, counted in tiles below the root across external tilesets (an external
 /// tileset's root is one level below its link): far beyond any real tree, well within the stack.
 pub const MAX_TREE_LEVEL: usize = 512;
+
+/// Most tiles one external tileset may hang under.
+pub const MAX_EXTERNAL_COPIES: usize = 1024;
 
 /// Where a tile sits: the tileset.json holding it, its path, how many external tilesets and how many tiles lie
 /// above it.
@@ -488,13 +493,16 @@ fn walk(
     let mut children = Vec::new();
     if let [ext] = &files[..] {
         if uris[0].ends_with(".json") {
-            // A tree, not a graph: an external tileset named from two tiles would be drawn twice (and one named
-            // from two places at each of many levels would be read exponentially often).
+            // One external tileset may hang under several tiles (copies placed by their transforms), but a chain
+            // of tilesets each naming the next twice is read 2ⁿ times: each file is followed a bounded number of
+            // times.
             let canonical = std::fs::canonicalize(ext).unwrap_or_else(|_| ext.clone());
-            if let Some(first) = w.external.insert(canonical, path.clone()) {
+            let copies = w.external.entry(canonical).or_insert(0);
+            *copies += 1;
+            if *copies > MAX_EXTERNAL_COPIES {
                 return Err(fail(format!(
-                    "its content {:?} is an external tileset tile {first} already names: each external tileset \
-                     may hang under one tile",
+                    "its content {:?} is an external tileset more than {MAX_EXTERNAL_COPIES} tiles name, the most \
+                     the reader follows (tilesets that each name the next several times multiply)",
                     uris[0]
                 )));
             }
@@ -685,8 +693,15 @@ impl Decoder<'_> {
         }
         check_node_transform(node).map_err(|e| format!("node {n}: {e}"))?;
         let m = mul(parent, &node_matrix(node));
-        if node.mesh.is_some() && (!m.iter().all(|v| v.is_finite()) || affine_inverse(&m).is_none())
-        {
+        let draws = node
+            .mesh
+            .and_then(|mi| self.doc.meshes.get(mi))
+            .is_some_and(|mesh| {
+                mesh.primitives
+                    .iter()
+                    .any(|p| p.mode.unwrap_or(gj::MODE_TRIANGLES) == gj::MODE_TRIANGLES)
+            });
+        if draws && (!m.iter().all(|v| v.is_finite()) || affine_inverse(&m).is_none()) {
             return Err(format!(
                 "node {n}: its transform with its parents' is {}: its mesh would not keep its shape",
                 if m.iter().all(|v| v.is_finite()) {
@@ -916,7 +931,6 @@ impl Decoder<'_> {
         Ok(Some(out))
     }
 
-    /// Accessor elements as f64, components flattened, normalization applied.
     /// Fails unless accessor `i`, read as `what`, has this type and one of these component types (unnormalized
     /// integers or floats as listed; `true` for normalized).
     fn expect_kind(
@@ -947,6 +961,7 @@ impl Decoder<'_> {
         Ok(())
     }
 
+    /// Accessor elements as f64, components flattened, normalization applied.
     fn accessor(&self, i: usize) -> Result<Vec<f64>, String> {
         let a = self
             .doc
@@ -1108,13 +1123,16 @@ fn check_tile_transform(m: &[f64; 16]) -> Option<[f64; 16]> {
         .flatten()
 }
 
-/// Inverse of an affine column-major matrix (last row 0 0 0 1), `None` when singular.
+/// Inverse of an affine column-major matrix (last row 0 0 0 1), `None` when singular or when its numbers overflow.
 fn affine_inverse(m: &[f64; 16]) -> Option<[f64; 16]> {
     let a = |r: usize, c: usize| m[c * 4 + r];
     let det = a(0, 0) * (a(1, 1) * a(2, 2) - a(1, 2) * a(2, 1))
         - a(0, 1) * (a(1, 0) * a(2, 2) - a(1, 2) * a(2, 0))
         + a(0, 2) * (a(1, 0) * a(2, 1) - a(1, 1) * a(2, 0));
-    if det.abs() < 1e-300 || !det.is_finite() {
+    // Singular relative to the columns' lengths (Hadamard's bound), so that a tiny uniform scale still inverts.
+    let column = |c: usize| a(0, c).hypot(a(1, c)).hypot(a(2, c));
+    let bound = column(0) * column(1) * column(2);
+    if !(det.is_finite() && bound.is_finite()) || det.abs() <= 1e-12 * bound {
         return None;
     }
     // Inverse of the 3×3 block by cofactors.
@@ -1196,8 +1214,8 @@ fn check_node_transform(n: &gj::Node) -> Result<(), String> {
     }
     if let Some(q) = n.rotation {
         let len = q.iter().map(|c| c * c).sum::<f64>().sqrt();
-        // Unit to within rounding: a quaternion of another length also scales.
-        if (len - 1.0).abs().is_nan() || (len - 1.0).abs() > 1e-4 {
+        // Unit as glTF-Validator takes it (its tolerance for a unit-length 4-vector); `node_matrix` normalises.
+        if (len - 1.0).abs().is_nan() || (len - 1.0).abs() > 0.00769 {
             return Err(format!("rotation {q:?} is not a unit quaternion"));
         }
     }
@@ -1210,7 +1228,9 @@ fn node_matrix(n: &gj::Node) -> [f64; 16] {
         return m;
     }
     let t = n.translation.unwrap_or([0.0; 3]);
-    let [x, y, z, w] = n.rotation.unwrap_or([0.0, 0.0, 0.0, 1.0]);
+    let q = n.rotation.unwrap_or([0.0, 0.0, 0.0, 1.0]);
+    let len = q.iter().map(|c| c * c).sum::<f64>().sqrt();
+    let [x, y, z, w] = if len > 0.0 { q.map(|c| c / len) } else { q };
     let s = n.scale.unwrap_or([1.0; 3]);
     let r = [
         [
@@ -1343,10 +1363,10 @@ mod tests {
     }
 
     /// Tile transforms that are not invertible affine maps (found by fuzzing: a child's zero transform collapsed its
-    /// content unnoticed, where the root's was refused), and an external tileset hung under two tiles (a chain of
-    /// files naming the next twice is read 2ⁿ times: 25 files hung `inspect` and ate memory), are errors.
+    /// content unnoticed, where the root's was refused) are errors, and so is an external tileset followed too often
+    /// (a chain of files naming the next twice is read 2ⁿ times: 25 files hung `inspect` and ate memory).
     #[test]
-    fn bad_tile_transforms_and_external_tilesets_named_twice_are_errors() {
+    fn bad_tile_transforms_and_external_tilesets_followed_too_often_are_errors() {
         let dir = tempfile::tempdir().unwrap();
         let bx = serde_json::json!({"box": [0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1]});
         let write = |name: &str, root: serde_json::Value| {
@@ -1373,30 +1393,50 @@ mod tests {
             let root = write(&format!("root-{name}.json"), leaf(serde_json::json!(t)));
             assert!(error(&root).contains("root transform is not an invertible affine transform"));
         }
-        // The same external tileset under two tiles; each under one tile reads.
+        // One external tileset under two tiles (copies placed by their transforms) reads, twice.
         write(
             "ext.json",
             serde_json::json!({"boundingVolume": bx, "geometricError": 0}),
         );
-        write(
-            "ext2.json",
-            serde_json::json!({"boundingVolume": bx, "geometricError": 0}),
-        );
-        let under = |uri: &str| serde_json::json!({"boundingVolume": bx, "geometricError": 0.5, "content": {"uri": uri}});
+        let under = |uri: &str, east: f64| {
+            let mut t: Vec<f64> = IDENTITY.to_vec();
+            t[12] = east;
+            serde_json::json!({"boundingVolume": bx, "geometricError": 0.5, "transform": t, "content": {"uri": uri}})
+        };
         let twice = write(
             "twice.json",
-            serde_json::json!({"boundingVolume": bx, "geometricError": 1, "children": [under("ext.json"), under("./ext.json")]}),
+            serde_json::json!({"boundingVolume": bx, "geometricError": 1,
+                "children": [under("ext.json", 0.0), under("./ext.json", 100.0)]}),
         );
-        let e = error(&twice);
+        let tiles = read_tileset(&twice).unwrap().tiles;
+        assert_eq!(tiles.len(), 5);
+        assert_eq!(
+            tiles
+                .iter()
+                .filter(|t| t.path_in_tree.ends_with("/ext"))
+                .count(),
+            2
+        );
+        // A chain of twelve files, each naming the next twice, would be read 2¹¹ times at its end: refused once a
+        // file is followed more than MAX_EXTERNAL_COPIES times.
+        write(
+            "c11.json",
+            serde_json::json!({"boundingVolume": bx, "geometricError": 0}),
+        );
+        for k in (0..11).rev() {
+            let next = format!("c{}.json", k + 1);
+            write(
+                &format!("c{k}.json"),
+                serde_json::json!({"boundingVolume": bx, "geometricError": 1,
+                    "children": [under(&next, 0.0), under(&next, 0.0)]}),
+            );
+        }
+        let e = error(&dir.path().join("c0.json"));
         assert!(
-            e.contains("tile 0/1") && e.contains("tile 0/0 already names"),
+            e.contains("\"c11.json\" is an external tileset more than 1024 tiles name"),
             "{e}"
         );
-        let once = write(
-            "once.json",
-            serde_json::json!({"boundingVolume": bx, "geometricError": 1, "children": [under("ext.json"), under("ext2.json")]}),
-        );
-        assert_eq!(read_tileset(&once).unwrap().tiles.len(), 5);
+        assert!(read_tileset(&dir.path().join("c2.json")).is_ok());
     }
 
     #[test]
@@ -1493,6 +1533,14 @@ mod tests {
         // As written, and under a proper rotation and matrix, the content reads.
         assert_eq!(with(&|_| {}).unwrap().triangles.len(), 2);
         assert!(with(&|d| d["nodes"][0]["rotation"] = serde_json::json!(turn)).is_ok());
+        // A quaternion a little off unit length, as exporters write them (as glTF-Validator allows), and a tiny
+        // uniform scale: both read.
+        assert!(
+            with(&|d| d["nodes"][0]["rotation"] = serde_json::json!([0, 0, 0.707, 0.707])).is_ok()
+        );
+        assert!(
+            with(&|d| d["nodes"][0]["scale"] = serde_json::json!([1e-100, 1e-100, 1e-100])).is_ok()
+        );
         // The node's translation and scale as one matrix.
         let as_matrix = |d: &mut serde_json::Value| {
             let node = d["nodes"][0].as_object_mut().unwrap();

@@ -808,13 +808,21 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         for (reason, n) in &r.skipped_by_reason {
             eprintln!("  skipped {n:>6} × {reason}");
         }
-        // A model missing or broken leaves its building a prism: say so, or `--lod` seems to have done nothing.
-        for (reason, n) in &r.mesh_issues_by_reason {
-            let prism = ["model_missing", "model_invalid"].contains(&reason.as_str());
+        // Buildings left without a model are prisms: say how many, or `--lod` may seem to have done nothing.
+        if args.lod.is_some() {
+            let with = lod.model_summary.as_ref().map_or(0, |m| m.buildings);
+            let prisms = written.saturating_sub(with);
             eprintln!(
-                "  3D model {n:>5} × {reason}{}",
-                if prism { " (written as prisms)" } else { "" }
+                "  3D models: {with} of {written} buildings{}",
+                if prisms > 0 {
+                    format!("; {prisms} without one are prisms")
+                } else {
+                    String::new()
+                }
             );
+        }
+        for (reason, n) in &r.mesh_issues_by_reason {
+            eprintln!("  3D model {n:>5} × {reason}");
         }
         if r.duplicate_ids > 0 {
             eprintln!(
