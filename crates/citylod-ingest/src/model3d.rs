@@ -351,9 +351,10 @@ pub(crate) fn triangulate(
 }
 
 /// Turns every connected part of a closed mesh whose faces point the wrong way. A part inside an even number of other
-/// parts (none: a solid's outer shell) should enclose a positive volume, one inside an odd number (the shell of a
-/// cavity, which points into the cavity) a negative one: a part of the other sign is turned. Returns the parts
-/// turned and the parts in all.
+/// parts (none: a solid's outer shell) should enclose a positive volume and is turned when it encloses a negative
+/// one. A part inside an odd number may be the shell of a cavity, which points into the cavity (a negative volume),
+/// or a part overlapping a larger one (positive): it is turned only when positive inside a part that is negative,
+/// as in a solid with a cavity wound inside out as a whole. Returns the parts turned and the parts in all.
 fn turn_parts_inside_out(mesh: &mut Mesh3d) -> (usize, usize) {
     let parts =
         citylod_mesh::simplify::components::components(mesh.positions.len(), &mesh.triangles);
@@ -384,16 +385,24 @@ fn turn_parts_inside_out(mesh: &mut Mesh3d) -> (usize, usize) {
         crossings % 2 == 1
     };
     // Below a cubic millimetre the sign says nothing.
+    let signed = |i: usize| volumes[i].abs() > 1e-9;
     let turn: Vec<bool> = (0..parts.count)
         .map(|i| {
-            let Some(v) = a_vertex[i].filter(|_| volumes[i].abs() > 1e-9) else {
+            let Some(v) = a_vertex[i].filter(|_| signed(i)) else {
                 return false;
             };
             let p = mesh.positions[v];
-            let depth = (0..parts.count)
+            let around: Vec<usize> = (0..parts.count)
                 .filter(|&j| j != i && within(&boxes[i], &boxes[j]) && encloses(j, p))
-                .count();
-            (volumes[i] > 0.0) != (depth % 2 == 0)
+                .collect();
+            if around.len() % 2 == 0 {
+                volumes[i] < 0.0
+            } else {
+                // A cavity's shell points inwards; one that points outwards is turned only inside a shell that
+                // points inwards too (a solid with a cavity wound inside out as a whole). Parts that overlap,
+                // one inside the other (a dormer inside its roof's solid), both point outwards and stay.
+                volumes[i] > 0.0 && around.iter().any(|&j| signed(j) && volumes[j] < 0.0)
+            }
         })
         .collect();
     for (t, &c) in mesh.triangles.iter_mut().zip(&parts.of_triangle) {
@@ -913,6 +922,31 @@ mod tests {
                 face[0].as_array_mut().unwrap().reverse();
             }
         }
+        // The inner box as a part of its own, wound outwards like the outer one: parts that overlap (Den Haag has
+        // dormers inside their roof's solid), not a cavity; nothing is turned.
+        let mut inner_out = inner.clone();
+        for face in inner_out["boundaries"][0].as_array_mut().unwrap() {
+            face[0].as_array_mut().unwrap().reverse();
+        }
+        let overlapping = json!({"type": "MultiSolid", "lod": "2.2",
+            "boundaries": [outer["boundaries"].clone(), inner_out["boundaries"].clone()]});
+        let d = doc(
+            "2.0",
+            json!({"A": {"type": "Building", "geometry": [overlapping]}}),
+            &[box_vertices(0, 4), inner_vertices.clone()].concat(),
+        );
+        let out = run(&d, Some("2.2"));
+        assert!(
+            out.report.mesh_issues.is_empty(),
+            "{:?}",
+            out.report.mesh_issues
+        );
+        let m = &out.buildings[0].mesh.as_ref().expect("a mesh").mesh;
+        assert!(
+            (signed_volume_m3(m) - 66.0).abs() < 0.1,
+            "{}",
+            signed_volume_m3(m)
+        );
         for (solid, turned) in [(cavity, 0), (inverted, 2)] {
             let d = doc(
                 "2.0",
