@@ -395,7 +395,7 @@ fn turn_parts_inside_out(mesh: &mut Mesh3d) -> (usize, usize) {
             let around: Vec<usize> = (0..parts.count)
                 .filter(|&j| j != i && within(&boxes[i], &boxes[j]) && encloses(j, p))
                 .collect();
-            if around.len() % 2 == 0 {
+            if around.len().is_multiple_of(2) {
                 volumes[i] < 0.0
             } else {
                 // A cavity's shell points inwards; one that points outwards is turned only inside a shell that
