@@ -7,7 +7,8 @@ use std::collections::BTreeMap;
 
 use crate::finding::{Finding, FindingKind};
 use crate::select::Selection;
-use crate::tileset::{LoadedTileset, NodeRef};
+use crate::tileset::{FeatureInfo, LoadedTileset, NodeRef};
+use crate::vec3;
 
 /// Relative slack when comparing geometric errors (float noise of the writer).
 const ERROR_SLACK: f64 = 1e-9;
@@ -341,11 +342,66 @@ pub fn check_cut(ts: &LoadedTileset, sel: &Selection) -> Vec<Finding> {
     out
 }
 
+/// Less drawn area than this (m²) is no area: a feature whose triangles are all collapsed.
+const NO_AREA_M2: f64 = 1e-4;
+
+/// One finding per tile with content whose property table has features that draw nothing (no triangle, or
+/// triangles of no area in all: content collapsed by a broken transform or garbled positions), unless the tile's
+/// geometricError e allows a block to vanish whole: κ·√area ≤ e, κ = δH/√δA (a small block on a coarse grid, far
+/// below a pixel wherever the tile is drawn). Coverage counts features, so without this a building could count as
+/// covered and never be drawn.
+pub fn check_features_drawn(ts: &LoadedTileset, tol: crate::Tolerances) -> Vec<Finding> {
+    let kappa = tol.dh_px / tol.da_px.sqrt();
+    let mut out = Vec::new();
+    for (i, t) in ts.tiles.iter().enumerate() {
+        let Some(mesh) = &t.mesh else { continue };
+        let mut area = vec![0.0f64; t.features.len()];
+        for (tri, &f) in mesh.triangles.iter().zip(&t.triangle_features) {
+            let Some(a) = area.get_mut(f as usize) else {
+                continue;
+            };
+            let p = tri.map(|v| mesh.positions.get(v as usize).copied());
+            if let [Some(p), Some(q), Some(r)] = p {
+                *a += vec3::norm(vec3::cross(vec3::sub(q, p), vec3::sub(r, p))) / 2.0;
+            }
+        }
+        let error_m = ts.tree.tiles.get(i).map_or(0.0, |n| n.geometric_error_m);
+        let may_vanish = |f: &FeatureInfo| f.area_m2.is_some_and(|a| kappa * a.sqrt() <= error_m);
+        let empty: Vec<usize> = (0..t.features.len())
+            .filter(|&k| (area[k].is_nan() || area[k] < NO_AREA_M2) && !may_vanish(&t.features[k]))
+            .collect();
+        let Some(&first) = empty.first() else {
+            continue;
+        };
+        let buildings: Vec<u32> = empty
+            .iter()
+            .flat_map(|&k| t.features[k].members.clone().unwrap_or_default())
+            .collect();
+        out.push(
+            Finding::at(
+                FindingKind::FeatureDrawsNothing,
+                ts,
+                i,
+                format!(
+                    "{} of the tile's {} features draw no triangle with area, though its geometricError ({error_m} \
+                     m) does not allow them to vanish",
+                    empty.len(),
+                    t.features.len()
+                ),
+            )
+            .node(t.features[first].node)
+            .buildings(&buildings),
+        );
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::select::{OrientedBox, TileNode, TileTree};
     use crate::tileset::{FeatureInfo, TileInfo};
+    use citylod_model::Mesh3d;
 
     fn building(b: u32) -> FeatureInfo {
         FeatureInfo {
@@ -354,6 +410,7 @@ mod tests {
             members: Some(vec![b]),
             dh_m: 0.0,
             da_m2: 0.0,
+            area_m2: None,
             fallback: false,
             bounds_m: None,
         }
@@ -369,6 +426,7 @@ mod tests {
             members: None,
             dh_m: 3.0,
             da_m2: 10.0,
+            area_m2: None,
             fallback: false,
             bounds_m: None,
         }
@@ -422,6 +480,52 @@ mod tests {
 
     fn kinds(f: &[Finding]) -> Vec<FindingKind> {
         f.iter().map(|f| f.kind).collect()
+    }
+
+    /// A feature whose triangles have no area counts as covering its buildings but draws nothing: a finding,
+    /// unless a block is small enough for its tile's error to let it vanish whole (κ·√area ≤ e).
+    #[test]
+    fn features_drawing_nothing_are_found_unless_the_error_allows_them_to_vanish() {
+        let tol = crate::Tolerances::default(); // κ = 20 / √200 ≈ 1.41 m per √m²
+        let mut ts = tileset(4, [&[0, 1], &[2, 3]], [50.0, 0.0, 0.0]);
+        let drawn = |features: &[u32]| {
+            let mut mesh = Mesh3d {
+                positions: Vec::new(),
+                triangles: Vec::new(),
+            };
+            for (k, &f) in features.iter().enumerate() {
+                let x = 10.0 * k as f64;
+                // Feature u32::MAX (none) draws a proper triangle; any other feature, one collapsed onto a line.
+                let far = if f == u32::MAX { 4.0 } else { 0.0 };
+                let v = mesh.positions.len() as u32;
+                mesh.positions
+                    .extend([[x, 0.0, 0.0], [x + 4.0, 0.0, 0.0], [x, far, 0.0]]);
+                mesh.triangles.push([v, v + 1, v + 2]);
+            }
+            mesh
+        };
+        // Leaf 0/0: building 0 drawn, building 1 collapsed; leaf 0/1: both drawn.
+        ts.tiles[1].mesh = Some(drawn(&[u32::MAX, 1]));
+        ts.tiles[1].triangle_features = vec![0, 1];
+        ts.tiles[2].mesh = Some(drawn(&[u32::MAX, u32::MAX]));
+        ts.tiles[2].triangle_features = vec![0, 1];
+        // The root's block of 4 collapsed: 1,000 m² may vanish at 50 m (κ·√1000 ≈ 44.7 m), 2,000 m² may not.
+        ts.tiles[0].mesh = Some(drawn(&[0]));
+        ts.tiles[0].triangle_features = vec![0];
+        ts.tiles[0].features[0].area_m2 = Some(1000.0);
+        let f = check_features_drawn(&ts, tol);
+        assert_eq!(kinds(&f), vec![FindingKind::FeatureDrawsNothing], "{f:?}");
+        assert_eq!(
+            (f[0].tile.as_str(), f[0].buildings.as_slice()),
+            ("0/0", &[1][..])
+        );
+        ts.tiles[0].features[0].area_m2 = Some(2000.0);
+        let f = check_features_drawn(&ts, tol);
+        assert_eq!(f.len(), 2, "{f:?}");
+        assert_eq!(f[0].tile, "0");
+        // A feature without any triangle at all draws nothing too.
+        ts.tiles[2].triangle_features = vec![0, 0];
+        assert_eq!(check_features_drawn(&ts, tol).len(), 3);
     }
 
     fn sel(selected: Vec<usize>, refined: Vec<usize>, culled: Vec<usize>) -> Selection {

@@ -240,6 +240,7 @@ mod tests {
                 members: None,
                 dh_m: 0.0,
                 da_m2: 50.0,
+                area_m2: None,
                 fallback: false,
                 bounds_m: Some(([0.0; 3], [100.0, 100.0, 0.0])),
             }],

@@ -36,6 +36,9 @@ pub enum FindingKind {
     SkylineShift,
     /// A tile draws vertices outside its own bounding box or an ancestor's: a client culling that box loses them.
     ContentOutsideVolume,
+    /// A feature of a tile's property table draws no triangle with any area: the buildings it stands for count as
+    /// covered but are not drawn.
+    FeatureDrawsNothing,
 }
 
 /// One problem.

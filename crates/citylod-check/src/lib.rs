@@ -43,7 +43,7 @@ pub use camera::{globe_enu_axes, Camera, Viewport, NEAR_M};
 pub use compare::{
     compare, ImageMetrics, COLOUR_TOLERANCE, DIFF_ADDED, DIFF_RECOLOURED, DIFF_REMOVED,
 };
-pub use coverage::{check_cut, check_tree};
+pub use coverage::{check_cut, check_features_drawn, check_tree};
 pub use criterion::{check_criterion, view_error, CriterionStats, Tolerances, ViewError};
 pub use error::CheckError;
 pub use finding::{Finding, FindingKind, MAX_LISTED};

@@ -40,6 +40,8 @@ pub struct FeatureInfo {
     /// Height spread Δh (m) and added ground Δa (m²) of a block; 0 for buildings.
     pub dh_m: f64,
     pub da_m2: f64,
+    /// The area a block says it covers (m², its `area_m2`); `None` for buildings and blocks that do not say.
+    pub area_m2: Option<f64>,
     /// A block drawn with its buildings' own meshes (exact, so no criterion applies).
     pub fallback: bool,
     /// Axis-aligned bounds (min, max) of the feature's vertices; `None` without geometry.
@@ -489,6 +491,7 @@ fn feature_info(
         members,
         dh_m: as_f64(get("dh_m")).unwrap_or(0.0).max(0.0),
         da_m2: as_f64(get("da_m2")).unwrap_or(0.0).max(0.0),
+        area_m2: as_f64(get("area_m2")).filter(|a| *a >= 0.0),
         fallback: matches!(get("fallback"), Some(PropValue::Bool(true))),
         bounds_m,
     }

@@ -329,6 +329,7 @@ mod tests {
             members: None,
             dh_m: 0.0,
             da_m2: 0.0,
+            area_m2: None,
             fallback: false,
             bounds_m: Some((lo, hi)),
         };

@@ -205,6 +205,7 @@ mod tests {
                 members: Some(vec![7]),
                 dh_m: 0.0,
                 da_m2: 0.0,
+                area_m2: None,
                 fallback: false,
                 bounds_m: None,
             }],

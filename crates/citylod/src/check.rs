@@ -6,9 +6,9 @@
 use crate::shown;
 use anyhow::{bail, Context, Result};
 use citylod_check::{
-    check_tree, check_view, compute_sse, contact_sheet, standard_views_over, Camera, CheckSettings,
-    Finding, LoadedTileset, Renderer, Selection, Tolerances, Viewport, NEAR_M,
-    SKYLINE_TOLERANCE_PX, STANDARD_FOVY_DEG,
+    check_features_drawn, check_tree, check_view, compute_sse, contact_sheet, standard_views_over,
+    Camera, CheckSettings, Finding, LoadedTileset, Renderer, Selection, Tolerances, Viewport,
+    NEAR_M, SKYLINE_TOLERANCE_PX, STANDARD_FOVY_DEG,
 };
 use citylod_model::ecef_to_geodetic;
 use clap::Args;
@@ -358,7 +358,8 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
         skyline_tolerance_px: SKYLINE_TOLERANCE_PX,
     };
 
-    let tree_findings = check_tree(&ts);
+    let mut tree_findings = check_tree(&ts);
+    tree_findings.extend(check_features_drawn(&ts, tol));
     let mut by_kind: BTreeMap<String, usize> = BTreeMap::new();
     let count = |f: &[Finding], by_kind: &mut BTreeMap<String, usize>| {
         for f in f {
