@@ -543,6 +543,19 @@ mod tests {
         d
     }
 
+    /// The one issue of `issues`, which must be of feature `id` and `reason` with `text` in its detail.
+    fn only_issue(
+        issues: &[crate::report::FeatureIssue],
+        id: &str,
+        reason: IssueReason,
+        text: &str,
+    ) {
+        assert_eq!(issues.len(), 1, "{issues:?}");
+        let i = &issues[0];
+        assert_eq!((i.feature_id.as_str(), i.reason), (id, reason));
+        assert!(i.detail.contains(text), "{}", i.detail);
+    }
+
     fn run(d: &Value, lod: Option<&str>) -> Ingested {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("city.json");
@@ -835,16 +848,11 @@ mod tests {
         assert!(a.mesh.is_none() && a.height_m > 0.0 && a.height_m <= MAX_HEIGHT_M);
         let b = out.buildings.iter().find(|b| b.source_id == "B").unwrap();
         assert!(b.mesh.is_some());
-        let i = &out.report.mesh_issues;
-        assert_eq!(i.len(), 1, "{i:?}");
-        assert_eq!(
-            (i[0].feature_id.as_str(), i[0].reason),
-            ("A", IssueReason::ModelInvalid)
-        );
-        assert!(
-            i[0].detail.contains("more than the 1000 m"),
-            "{}",
-            i[0].detail
+        only_issue(
+            &out.report.mesh_issues,
+            "A",
+            IssueReason::ModelInvalid,
+            "more than the 1000 m",
         );
         // 999 m is still a building.
         let mut v = box_vertices(0, 4);
@@ -891,10 +899,12 @@ mod tests {
             &[box_vertices(0, 8), box_vertices(10, 14)].concat(),
         );
         let out = run(&d, Some("2.2"));
-        let i = &out.report.mesh_issues;
-        assert_eq!(i.len(), 1, "{i:?}");
-        assert_eq!(i[0].reason, IssueReason::ModelTurnedOutward);
-        assert!(i[0].detail.contains("1 of its 2 parts"), "{}", i[0].detail);
+        only_issue(
+            &out.report.mesh_issues,
+            "A",
+            IssueReason::ModelTurnedOutward,
+            "1 of its 2 parts",
+        );
         let m = &out.buildings[0].mesh.as_ref().expect("a mesh").mesh;
         // 120 m³ and 60 m³, both outward (to the projection's scale, RD to the local frame).
         assert!(
@@ -1045,13 +1055,12 @@ mod tests {
         let out = run(&d, None);
         assert_eq!(out.buildings.len(), 1);
         assert_eq!(out.buildings[0].source_id, "A");
-        let s = &out.report.skipped;
-        assert_eq!(s.len(), 1, "{s:?}");
-        assert_eq!(
-            (s[0].feature_id.as_str(), s[0].reason),
-            ("B", IssueReason::CoordinateOutOfRange)
+        only_issue(
+            &out.report.skipped,
+            "B",
+            IssueReason::CoordinateOutOfRange,
+            "at 999999999.0 m",
         );
-        assert!(s[0].detail.contains("at 999999999.0 m"), "{}", s[0].detail);
     }
 
     /// The same building off the globe, but with a usable 3DBAG ground attribute: it stands on that as a prism, and
@@ -1088,25 +1097,15 @@ mod tests {
             assert!((b.height_m - 6.0).abs() < 1e-9, "{}", b.height_m);
             assert_eq!(a.mesh.is_some(), lod.is_some());
             assert!(b.mesh.is_none());
-            let r = &out.report.repaired;
-            assert_eq!(r.len(), 1, "{r:?}");
-            assert_eq!(
-                (r[0].feature_id.as_str(), r[0].reason),
-                ("B", IssueReason::GeometryHeightsIgnored)
-            );
-            assert!(
-                r[0].detail.contains("b3_h_maaiveld = -0.5 m"),
-                "{}",
-                r[0].detail
+            only_issue(
+                &out.report.repaired,
+                "B",
+                IssueReason::GeometryHeightsIgnored,
+                "b3_h_maaiveld = -0.5 m",
             );
             let m = &out.report.mesh_issues;
             if lod.is_some() {
-                assert_eq!(m.len(), 1, "{m:?}");
-                assert_eq!(
-                    (m[0].feature_id.as_str(), m[0].reason),
-                    ("B", IssueReason::ModelInvalid)
-                );
-                assert!(m[0].detail.contains("3D model"), "{}", m[0].detail);
+                only_issue(m, "B", IssueReason::ModelInvalid, "3D model");
             } else {
                 assert!(m.is_empty(), "{m:?}");
             }
