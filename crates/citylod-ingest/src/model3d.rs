@@ -1038,21 +1038,25 @@ mod tests {
 
     /// A building standing 10⁹ m up (a bad vertex or translate, found by fuzzing) put the whole tileset's frame
     /// there, and the error blamed the others' extent ("up to inf km", "0 km away"). It is skipped, named.
-    #[test]
-    fn a_building_whose_ground_is_off_the_globe_is_skipped_by_name() {
+    /// Building A on the ground and B 10⁹ m up, with these attributes.
+    fn one_off_the_globe(b_attributes: Value) -> Value {
         let mut far = box_vertices(10, 14);
         for v in &mut far {
             v[2] += 1_000_000_000_000;
         }
-        let d = doc(
+        doc(
             "2.0",
             json!({
                 "A": {"type": "Building", "geometry": [box_solid(0, json!("2.2"))]},
-                "B": {"type": "Building", "geometry": [box_solid(8, json!("2.2"))]}
+                "B": {"type": "Building", "geometry": [box_solid(8, json!("2.2"))], "attributes": b_attributes}
             }),
             &[box_vertices(0, 4), far].concat(),
-        );
-        let out = run(&d, None);
+        )
+    }
+
+    #[test]
+    fn a_building_whose_ground_is_off_the_globe_is_skipped_by_name() {
+        let out = run(&one_off_the_globe(json!({})), None);
         assert_eq!(out.buildings.len(), 1);
         assert_eq!(out.buildings[0].source_id, "A");
         only_issue(
@@ -1067,19 +1071,7 @@ mod tests {
     /// its geometry's heights (ground, top, model) are not used, each loss reported under its name.
     #[test]
     fn a_building_off_the_globe_with_a_ground_attribute_stands_on_it() {
-        let mut far = box_vertices(10, 14);
-        for v in &mut far {
-            v[2] += 1_000_000_000_000;
-        }
-        let d = doc(
-            "2.0",
-            json!({
-                "A": {"type": "Building", "geometry": [box_solid(0, json!("2.2"))]},
-                "B": {"type": "Building", "geometry": [box_solid(8, json!("2.2"))],
-                      "attributes": {"b3_h_maaiveld": -0.5, "b3_bouwlagen": 2}}
-            }),
-            &[box_vertices(0, 4), far].concat(),
-        );
+        let d = one_off_the_globe(json!({"b3_h_maaiveld": -0.5, "b3_bouwlagen": 2}));
         for lod in [None, Some("2.2")] {
             let out = run(&d, lod);
             assert!(out.report.skipped.is_empty(), "{:?}", out.report.skipped);
