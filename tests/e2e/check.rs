@@ -394,6 +394,22 @@ fn check_simulates_a_client_at_the_tilesets_height_tolerance_when_it_is_below_16
     assert_eq!(stock["settings"]["sse_px"], 16.0);
 }
 
+/// Check simulates REPLACE cuts: a tileset refining by ADD is refused with the reason, not misjudged.
+#[test]
+fn a_tileset_refining_by_add_is_refused_with_the_reason() {
+    let dir = damaged("add", |ts| ts["root"]["refine"] = "ADD".into());
+    let out = scratch_dir("check-add");
+    let o = citylod(&[
+        "check",
+        dir.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("tile 0 refines by ADD"), "{e}");
+}
+
 /// A copy of the NYC tileset with `edit` applied to its tileset.json.
 fn damaged(name: &str, edit: impl FnOnce(&mut Value)) -> PathBuf {
     let dir = scratch_dir(&format!("damaged-{name}"));

@@ -189,7 +189,7 @@ impl LoadedTileset {
                 external_tileset: t
                     .content_uri
                     .as_deref()
-                    .is_some_and(|u| u.ends_with(".json")),
+                    .is_some_and(citylod_tiles::read::names_json),
             });
         }
         // Missing boxes: content bounds joined with the children's boxes, bottom-up.
@@ -309,7 +309,7 @@ fn resolved_uris(data: &TilesetData) -> Vec<Vec<String>> {
         let link_folder = t
             .content_uri
             .as_deref()
-            .filter(|u| u.ends_with(".json"))
+            .filter(|u| citylod_tiles::read::names_json(u))
             .map(|u| join_uri(&folder[i], u.rsplit_once('/').map_or("", |(dir, _)| dir)));
         for &c in t.children.iter().filter(|&&c| c > i && c < n) {
             let is_ext_root = data.tiles[c].path_in_tree == format!("{}/ext", t.path_in_tree);
@@ -584,6 +584,7 @@ mod tests {
             content_bytes: None,
             content: Some(content(content_rows)),
             children,
+            refine_add: false,
         }
     }
 

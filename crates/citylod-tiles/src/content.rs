@@ -592,6 +592,7 @@ pub(crate) fn encode_content(
                     values,
                     string_offsets: string_offsets.map(|(view, _)| view),
                     string_offset_type: string_offsets.map(|(_, ty)| ty.into()),
+                    ..Default::default()
                 },
             );
         }

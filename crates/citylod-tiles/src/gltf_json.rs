@@ -14,6 +14,8 @@ pub const UNSIGNED_SHORT: u32 = 5123;
 pub const UNSIGNED_INT: u32 = 5125;
 pub const FLOAT: u32 = 5126;
 pub const MODE_TRIANGLES: u32 = 4;
+pub const MODE_TRIANGLE_STRIP: u32 = 5;
+pub const MODE_TRIANGLE_FAN: u32 = 6;
 
 pub const EXT_MESHOPT: &str = "EXT_meshopt_compression";
 pub const KHR_DRACO: &str = "KHR_draco_mesh_compression";
@@ -150,17 +152,41 @@ pub struct FeatureId {
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase")]
 pub struct Material {
+    /// Read with glTF's defaults for what a file leaves out (the reader ignores materials); always written.
+    #[serde(default)]
     pub pbr_metallic_roughness: Pbr,
     #[serde(default, skip_serializing_if = "is_false")]
     pub double_sided: bool,
 }
 
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase")]
 pub struct Pbr {
+    #[serde(default = "white")]
     pub base_color_factor: [f64; 4],
+    #[serde(default = "one")]
     pub metallic_factor: f64,
+    #[serde(default = "one")]
     pub roughness_factor: f64,
+}
+
+/// glTF's defaults: white, fully metallic, fully rough.
+impl Default for Pbr {
+    fn default() -> Self {
+        Pbr {
+            base_color_factor: white(),
+            metallic_factor: 1.0,
+            roughness_factor: 1.0,
+        }
+    }
+}
+
+fn white() -> [f64; 4] {
+    [1.0; 4]
+}
+
+fn one() -> f64 {
+    1.0
 }
 
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -290,6 +316,16 @@ pub struct ClassProperty {
     pub description: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub no_data: Option<serde_json::Value>,
+    /// Read to refuse what the reader does not decode (citylod writes none of them): arrays, and values to be
+    /// normalized, offset or scaled.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub array: bool,
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub normalized: bool,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub offset: Option<serde_json::Value>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale: Option<serde_json::Value>,
 }
 
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -308,4 +344,9 @@ pub struct PropertyTableProperty {
     pub string_offsets: Option<usize>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub string_offset_type: Option<String>,
+    /// A table's own offset and scale for the column (refused by the reader, like the class's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub offset: Option<serde_json::Value>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale: Option<serde_json::Value>,
 }

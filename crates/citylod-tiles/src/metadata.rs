@@ -62,6 +62,7 @@ pub(crate) fn schema_json(schema: &MetadataSchema, used: &[&str], descriptions: 
                         component_type: ct.map(Into::into),
                         description: p.description.clone().filter(|_| descriptions),
                         no_data: (p.nullable && !no_data.is_null()).then_some(no_data),
+                        ..Default::default()
                     };
                     (p.name.clone(), prop)
                 })
@@ -233,6 +234,21 @@ pub(crate) fn decode_column(
     string_offsets: Option<(&[u8], &str)>,
 ) -> Result<Vec<PropValue>, String> {
     let no_data = prop.no_data.as_ref();
+    // Misread as plain values these would be wrong without a sign: refused instead.
+    for (given, what) in [
+        (prop.array, "array"),
+        (prop.normalized, "normalized"),
+        (
+            prop.offset.is_some() || prop.scale.is_some(),
+            "offset or scaled",
+        ),
+    ] {
+        if given {
+            return Err(format!(
+                "{what} properties are not supported by this reader"
+            ));
+        }
+    }
     match prop.r#type.as_str() {
         "BOOLEAN" => {
             if values.len() < count.div_ceil(8) {

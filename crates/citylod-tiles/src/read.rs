@@ -54,6 +54,8 @@ pub struct TileData {
     pub content: Option<GlbData>,
     /// Indices into `TilesetData::tiles`.
     pub children: Vec<usize>,
+    /// The tile refines by `ADD` (its own or inherited `refine`): its children draw with it, not instead of it.
+    pub refine_add: bool,
 }
 
 /// Decoded glb content.
@@ -111,6 +113,7 @@ pub fn read_tileset_with(
         path: "0".into(),
         external_depth: 0,
         level: 0,
+        add: false,
     };
     walk(
         &ts.root,
@@ -316,6 +319,37 @@ fn check_tile(t: &tj::Tile) -> Result<(VolumeKind, [f64; 12]), String> {
 }
 
 /// The file a content uri names, which must stay inside the tileset's folder (`folder`, canonical).
+/// A content or buffer URI as the relative file path it names (RFC 3986, as 3D Tiles and glTF use it): its query and
+/// fragment dropped and its `%XX` escapes decoded. URIs with a scheme are kept as written (and refused where read).
+pub fn uri_file_path(uri: &str) -> Result<String, String> {
+    if uri.contains("://") || uri.starts_with("data:") {
+        return Ok(uri.to_string());
+    }
+    let path = uri.split(['?', '#']).next().unwrap_or("");
+    let mut bytes = Vec::with_capacity(path.len());
+    let mut rest = path.as_bytes();
+    while let Some((&b, tail)) = rest.split_first() {
+        let hex = |c: u8| (c as char).to_digit(16);
+        match (b, tail) {
+            (b'%', [h, l, more @ ..]) if hex(*h).is_some() && hex(*l).is_some() => {
+                bytes.push((hex(*h).unwrap_or(0) * 16 + hex(*l).unwrap_or(0)) as u8);
+                rest = more;
+            }
+            _ => {
+                bytes.push(b);
+                rest = tail;
+            }
+        }
+    }
+    String::from_utf8(bytes).map_err(|_| format!("uri {uri:?} decodes to bytes that are not UTF-8"))
+}
+
+/// Whether a content path names a JSON file (an external tileset), whatever the case of its extension.
+pub fn names_json(path: &str) -> bool {
+    let b = path.as_bytes();
+    b.len() >= 5 && b[b.len() - 5..].eq_ignore_ascii_case(b".json")
+}
+
 fn content_file(base: &Path, uri: &str, folder: &Path) -> Result<std::path::PathBuf, String> {
     if uri.contains("://") || uri.starts_with("data:") {
         return Err(format!(
@@ -375,6 +409,8 @@ struct Place<'a> {
     path: String,
     external_depth: usize,
     level: usize,
+    /// The parent refines by ADD (a tile without `refine` takes its parent's).
+    add: bool,
 }
 
 /// `parent_to_root` maps the parent tile's frame to the root frame (the product of the transforms below the
@@ -397,7 +433,12 @@ fn walk(
         path,
         external_depth,
         level,
+        add,
     } = at;
+    let add = match t.refine.as_deref() {
+        Some(r) => r == "ADD",
+        None => add,
+    };
     let fail = |msg: String| TilesError::Tile {
         tile: format!("{path} ({})", json.display()),
         msg,
@@ -442,10 +483,11 @@ fn walk(
         .content
         .iter()
         .chain(&t.contents)
-        .map(|c| c.uri.clone())
-        .collect();
+        .map(|c| uri_file_path(&c.uri))
+        .collect::<Result<_, _>>()
+        .map_err(fail)?;
     if uris.len() > 1 {
-        if let Some(u) = uris.iter().find(|u| u.ends_with(".json")) {
+        if let Some(u) = uris.iter().find(|u| names_json(u)) {
             return Err(fail(format!(
                 "`contents` (multiple contents) names the external tileset {u:?}; only glb contents are \
                  supported in `contents`"
@@ -489,10 +531,11 @@ fn walk(
         content_uris: uris.clone(),
         content: None,
         children: Vec::new(),
+        refine_add: add,
     });
     let mut children = Vec::new();
     if let [ext] = &files[..] {
-        if uris[0].ends_with(".json") {
+        if names_json(&uris[0]) {
             // One external tileset may hang under several tiles (copies placed by their transforms), but a chain
             // of tilesets each naming the next twice is read 2ⁿ times: each file is followed a bounded number of
             // times.
@@ -513,6 +556,7 @@ fn walk(
                 path: ext_path,
                 external_depth: external_depth + 1,
                 level: level + 1,
+                add,
             };
             children.push(walk(&ts.root, place, Some(&to_root), w)?);
         }
@@ -545,6 +589,7 @@ fn walk(
             path: format!("{path}/{k}"),
             external_depth,
             level: level + 1,
+            add,
         };
         children.push(walk(c, place, Some(&to_root), w)?);
     }
@@ -614,6 +659,16 @@ struct Decoder<'a> {
 
 impl Decoder<'_> {
     fn decode(&self) -> Result<GlbData, String> {
+        // glTF: a loader must not load an asset whose required extensions it does not support. Those that only
+        // change materials, textures or lights leave the geometry as read.
+        if let Some(x) = self.doc.extensions_required.iter().find(|x| {
+            !(READ_EXTENSIONS.contains(&x.as_str())
+                || APPEARANCE_PREFIXES.iter().any(|p| x.starts_with(p)))
+        }) {
+            return Err(format!(
+                "it requires the glTF extension {x}, which citylod's reader does not decode"
+            ));
+        }
         let mut out = GlbData::default();
         let meta = self
             .doc
@@ -641,6 +696,12 @@ impl Decoder<'_> {
                         .properties
                         .get(name)
                         .ok_or_else(|| format!("property {name} not in class {}", table.class))?;
+                    if col.offset.is_some() || col.scale.is_some() {
+                        return Err(format!(
+                            "property table {}.{name}: offset or scaled properties are not supported by this reader",
+                            table.class
+                        ));
+                    }
                     let values = self.view(col.values)?;
                     let offsets = match col.string_offsets {
                         Some(v) => Some(self.view(v)?),
@@ -693,29 +754,21 @@ impl Decoder<'_> {
         }
         check_node_transform(node).map_err(|e| format!("node {n}: {e}"))?;
         let m = mul(parent, &node_matrix(node));
-        let draws = node
-            .mesh
-            .and_then(|mi| self.doc.meshes.get(mi))
-            .is_some_and(|mesh| {
-                mesh.primitives
-                    .iter()
-                    .any(|p| p.mode.unwrap_or(gj::MODE_TRIANGLES) == gj::MODE_TRIANGLES)
-            });
-        if draws && (!m.iter().all(|v| v.is_finite()) || affine_inverse(&m).is_none()) {
+        // Numbers that overflow once squared (a scale of 1e300) are no transform.
+        let big = m[..12].iter().fold(0.0f64, |b, v| b.max(v.abs()));
+        if big.is_nan() || big >= 1e100 {
             return Err(format!(
-                "node {n}: its transform with its parents' is {}: its mesh would not keep its shape",
-                if m.iter().all(|v| v.is_finite()) {
-                    "singular or too large to invert"
-                } else {
-                    "not finite"
-                }
+                "node {n}: its transform with its parents' is not finite or too large ({big:e})"
             ));
         }
-        if let Some(mi) = node.mesh {
+        // A singular transform (a scale of 0 hides a node, which glTF allows) flattens the mesh: it draws nothing.
+        let flattened = affine_inverse(&m).is_none();
+        if let Some(mi) = node.mesh.filter(|_| !flattened) {
             let mesh = self.doc.meshes.get(mi).ok_or("mesh index out of range")?;
             for prim in &mesh.primitives {
-                if prim.mode.unwrap_or(gj::MODE_TRIANGLES) != gj::MODE_TRIANGLES {
-                    continue;
+                let mode = prim.mode.unwrap_or(gj::MODE_TRIANGLES);
+                if !(gj::MODE_TRIANGLES..=gj::MODE_TRIANGLE_FAN).contains(&mode) {
+                    continue; // points and lines draw no surface
                 }
                 // Draco primitives: accessor values come from the decoded mesh.
                 let draco = self.draco(prim)?;
@@ -759,6 +812,13 @@ impl Decoder<'_> {
                     out.positions_local.push([g[0], -g[2], g[1]]);
                 }
                 let n_vertices = pos.len() / 3;
+                if !out.normals_local.is_empty()
+                    && out.normals_local.len() != out.positions_local.len()
+                {
+                    return Err(format!(
+                        "mesh {mi}: its NORMAL accessor has another count than its POSITION accessor"
+                    ));
+                }
                 let idx: Vec<u32> = match prim.indices {
                     Some(a) => get(a)?.iter().map(|&i| i as u32).collect(),
                     None => (0..n_vertices as u32).collect(),
@@ -766,10 +826,8 @@ impl Decoder<'_> {
                 if idx.iter().any(|&i| i as usize >= n_vertices) {
                     return Err("index out of range".into());
                 }
-                out.triangles.extend(
-                    idx.chunks_exact(3)
-                        .map(|t| [t[0] + v0, t[1] + v0, t[2] + v0]),
-                );
+                out.triangles
+                    .extend(triangles_of(mode, &idx).map(|t| [t[0] + v0, t[1] + v0, t[2] + v0]));
                 let fid_set = prim
                     .extensions
                     .as_ref()
@@ -848,7 +906,7 @@ impl Decoder<'_> {
             {
                 Err(format!("buffer uri {uri:?} is not a file beside the glb"))
             }
-            Some(uri) => read_file(&self.base.join(uri))
+            Some(uri) => read_file(&self.base.join(uri_file_path(uri)?))
                 .map(Cow::Owned)
                 .map_err(|e| format!("buffer {uri}: {e}")),
         }
@@ -986,6 +1044,12 @@ impl Decoder<'_> {
         let stride = self.doc.buffer_views[bv_index]
             .byte_stride
             .unwrap_or(ncomp * size);
+        if stride < ncomp * size {
+            return Err(format!(
+                "accessor {i}: byteStride {stride} is shorter than its {}-byte elements",
+                ncomp * size
+            ));
+        }
         let mut out = Vec::with_capacity((a.count.min(MAX_ELEMENTS) * ncomp).min(data.len()));
         for e in 0..a.count {
             for c in 0..ncomp {
@@ -1177,6 +1241,23 @@ fn transform_normal(nm: &[f64; 16], n: [f64; 3]) -> [f64; 3] {
     }
 }
 
+/// glTF extensions the reader decodes or reads.
+const READ_EXTENSIONS: &[&str] = &[
+    "KHR_mesh_quantization",
+    "EXT_meshopt_compression",
+    "KHR_draco_mesh_compression",
+    "EXT_mesh_features",
+    "EXT_structural_metadata",
+];
+
+/// Prefixes of glTF extensions that change only how surfaces look, which the reader does not need.
+const APPEARANCE_PREFIXES: &[&str] = &[
+    "KHR_materials_",
+    "KHR_texture_",
+    "EXT_texture_",
+    "KHR_lights_",
+];
+
 /// Component types (with `normalized`) glTF and KHR_mesh_quantization allow for positions, normals and indices.
 const POSITION_TYPES: &[(u32, bool)] = &[
     (gj::FLOAT, false),
@@ -1220,6 +1301,24 @@ fn check_node_transform(n: &gj::Node) -> Result<(), String> {
         }
     }
     Ok(())
+}
+
+/// The triangles of a primitive's index list in glTF's winding: as listed, or unrolled from a strip (every other
+/// triangle turned back) or a fan.
+fn triangles_of(mode: u32, idx: &[u32]) -> Box<dyn Iterator<Item = [u32; 3]> + '_> {
+    match mode {
+        gj::MODE_TRIANGLE_STRIP => Box::new(idx.windows(3).enumerate().map(|(k, w)| {
+            if k % 2 == 0 {
+                [w[0], w[1], w[2]]
+            } else {
+                [w[1], w[0], w[2]]
+            }
+        })),
+        gj::MODE_TRIANGLE_FAN => {
+            Box::new(idx.windows(2).skip(1).map(move |w| [idx[0], w[0], w[1]]))
+        }
+        _ => Box::new(idx.chunks_exact(3).map(|t| [t[0], t[1], t[2]])),
+    }
 }
 
 /// A node's local matrix: `matrix`, or translation · rotation · scale.
@@ -1515,6 +1614,66 @@ mod tests {
         .glb
     }
 
+    /// `refine` is inherited: a tile without one refines as its parent does.
+    #[test]
+    fn refine_add_is_read_and_inherited() {
+        let dir = tempfile::tempdir().unwrap();
+        let bx = serde_json::json!({"box": [0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1]});
+        let leaf = serde_json::json!({"boundingVolume": bx, "geometricError": 0});
+        let mut replace = leaf.clone();
+        replace["refine"] = "REPLACE".into();
+        replace["children"] = serde_json::json!([leaf]);
+        let ts = serde_json::json!({"asset": {"version": "1.1"}, "geometricError": 1,
+            "root": {"boundingVolume": bx, "geometricError": 1, "refine": "ADD", "children": [leaf, replace]}});
+        let p = dir.path().join("tileset.json");
+        std::fs::write(&p, ts.to_string()).unwrap();
+        let add: Vec<(String, bool)> = read_tileset(&p)
+            .unwrap()
+            .tiles
+            .into_iter()
+            .map(|t| (t.path_in_tree, t.refine_add))
+            .collect();
+        let want = [("0", true), ("0/0", true), ("0/1", false), ("0/1/0", false)];
+        assert_eq!(add, want.map(|(p, a)| (p.to_string(), a)));
+    }
+
+    /// URIs name files as RFC 3986 has it: query and fragment dropped, `%XX` decoded; `.JSON` is JSON too.
+    #[test]
+    fn uris_become_file_paths() {
+        assert_eq!(
+            uri_file_path("tiles/a%20b.glb?v=2#x").unwrap(),
+            "tiles/a b.glb"
+        );
+        assert_eq!(uri_file_path("caf%C3%A9.glb").unwrap(), "café.glb");
+        assert_eq!(uri_file_path("100%.glb").unwrap(), "100%.glb");
+        assert!(uri_file_path("%FF.glb").is_err());
+        assert_eq!(
+            uri_file_path("https://x/a%20b.glb").unwrap(),
+            "https://x/a%20b.glb"
+        );
+        assert!(names_json("ext/EXT.JSON") && names_json("a.json") && !names_json("a.glb"));
+        assert!(!names_json("é") && !names_json("ééé.glb"));
+    }
+
+    /// Strips and fans unroll into glTF's triangles, all wound like the first.
+    #[test]
+    fn strips_and_fans_unroll_into_triangles() {
+        let idx = [0, 1, 2, 3, 4];
+        let list = |mode| triangles_of(mode, &idx).collect::<Vec<_>>();
+        assert_eq!(list(gj::MODE_TRIANGLES), vec![[0, 1, 2]]);
+        assert_eq!(
+            list(gj::MODE_TRIANGLE_STRIP),
+            vec![[0, 1, 2], [2, 1, 3], [2, 3, 4]]
+        );
+        assert_eq!(
+            list(gj::MODE_TRIANGLE_FAN),
+            vec![[0, 1, 2], [0, 2, 3], [0, 3, 4]]
+        );
+        assert!(triangles_of(gj::MODE_TRIANGLE_STRIP, &idx[..2])
+            .next()
+            .is_none());
+    }
+
     /// glTF that parses but breaks the format's rules, each found by fuzzing `citylod check` (a panic on a NaN, or
     /// content silently collapsed, garbled or thrown to infinity): an error naming what is wrong.
     #[test]
@@ -1559,6 +1718,20 @@ mod tests {
             by_matrix.positions_local,
             with(&|_| {}).unwrap().positions_local
         );
+        // A scale of 0 (glTF's way to hide a node) flattens the mesh: it draws nothing. Materials read with glTF's
+        // defaults for what they leave out; extensions required only for looks do not stop the reader.
+        assert!(
+            with(&|d| d["nodes"][0]["scale"] = serde_json::json!([1, 0, 1]))
+                .unwrap()
+                .triangles
+                .is_empty()
+        );
+        let plain = with(&|d| {
+            d["materials"] = serde_json::json!([{}, {"pbrMetallicRoughness": {}}]);
+            d["extensionsUsed"] = serde_json::json!(["KHR_materials_unlit"]);
+            d["extensionsRequired"] = serde_json::json!(["KHR_materials_unlit"]);
+        });
+        assert_eq!(plain.unwrap().triangles.len(), 2);
         let msg = |edit: &dyn Fn(&mut serde_json::Value)| with(edit).unwrap_err().to_string();
         for (edit, says) in [
             (
@@ -1569,15 +1742,36 @@ mod tests {
             ),
             (
                 Box::new(|d: &mut serde_json::Value| {
-                    d["nodes"][0]["scale"] = serde_json::json!([1, 0, 1])
+                    d["nodes"][0]["scale"] = serde_json::json!([1e300, 1e300, 1e300])
                 }),
-                "singular",
+                "not finite or too large",
             ),
             (
                 Box::new(|d: &mut serde_json::Value| {
-                    d["nodes"][0]["scale"] = serde_json::json!([1e300, 1e300, 1e300])
+                    d["extensionsRequired"] = serde_json::json!(["EXT_mesh_gpu_instancing"])
                 }),
-                "too large to invert",
+                "requires the glTF extension EXT_mesh_gpu_instancing",
+            ),
+            (
+                Box::new(|d: &mut serde_json::Value| {
+                    d["bufferViews"][0]["byteStride"] = serde_json::json!(0)
+                }),
+                "byteStride 0 is shorter",
+            ),
+            // Metadata the reader would misread as plain values.
+            (
+                Box::new(|d: &mut serde_json::Value| {
+                    let m = &mut d["extensions"]["EXT_structural_metadata"];
+                    m["schema"]["classes"]["c"]["properties"]["n"]["array"] = true.into();
+                }),
+                "array properties are not supported",
+            ),
+            (
+                Box::new(|d: &mut serde_json::Value| {
+                    let m = &mut d["extensions"]["EXT_structural_metadata"];
+                    m["propertyTables"][0]["properties"]["n"]["offset"] = 1.into();
+                }),
+                "offset or scaled properties are not supported",
             ),
             (
                 Box::new(move |d: &mut serde_json::Value| {
@@ -1606,7 +1800,7 @@ mod tests {
                 Box::new(|d: &mut serde_json::Value| {
                     d["nodes"][0]["scale"] = serde_json::json!([1e308, 1, 1])
                 }),
-                "not a finite point",
+                "not finite or too large",
             ),
             (
                 Box::new(|d: &mut serde_json::Value| {

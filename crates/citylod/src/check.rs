@@ -307,6 +307,18 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
     if data.tiles.is_empty() {
         bail!("{} has no tiles", path.display());
     }
+    // The cuts are REPLACE cuts: with ADD a client draws a tile and its children together, which the coverage and
+    // criterion checks would misjudge.
+    if let Some(t) = data
+        .tiles
+        .iter()
+        .find(|t| t.refine_add && !t.children.is_empty())
+    {
+        bail!(
+            "tile {} refines by ADD; citylod check simulates REPLACE refinement only (what citylod writes)",
+            t.path_in_tree
+        );
+    }
     let (tol, tol_source) = tolerances(&args, data.extras.as_ref());
     let sse_px = args.sse.unwrap_or(DEFAULT_SSE_PX.min(tol.dh_px));
 
