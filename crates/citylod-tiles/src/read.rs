@@ -924,9 +924,7 @@ impl Decoder<'_> {
             let data = src
                 .get(mo.byte_offset..mo.byte_offset + mo.byte_length)
                 .ok_or("compressed view out of range")?;
-            if mo.filter.as_deref().is_some_and(|f| f != "NONE") {
-                return Err(format!("meshopt filter {:?} is not supported", mo.filter));
-            }
+
             if mo.count.checked_mul(mo.byte_stride) != Some(bv.byte_length)
                 || bv.byte_length > MAX_VIEW_BYTES
             {
@@ -934,7 +932,11 @@ impl Decoder<'_> {
                     "compressed view {i}: count × stride does not match its length"
                 ));
             }
-            let bytes = decode_meshopt(data, &mo.mode, mo.byte_stride, mo.count)?;
+            let mut bytes = decode_meshopt(data, &mo.mode, mo.byte_stride, mo.count)?;
+            if let Some(filter) = mo.filter.as_deref().filter(|f| *f != "NONE") {
+                unfilter_meshopt(&mut bytes, filter, mo.byte_stride)
+                    .map_err(|e| format!("compressed view {i}: {e}"))?;
+            }
             if bytes.len() != bv.byte_length {
                 return Err("decompressed length differs from the buffer view length".into());
             }
@@ -1104,6 +1106,50 @@ fn normalize(component_type: u32, normalized: bool, x: f64) -> f64 {
 }
 
 /// Decompresses one EXT_meshopt_compression view into `count × stride` bytes.
+/// Undoes an EXT_meshopt_compression filter on decoded attribute bytes (little-endian elements of `stride` bytes):
+/// octahedral unit vectors (4 × 8 or 16 bits), quaternions (4 × 16 bits) or exponential floats (32-bit words).
+fn unfilter_meshopt(bytes: &mut [u8], filter: &str, stride: usize) -> Result<(), String> {
+    match (filter, stride) {
+        ("OCTAHEDRAL", 4) => {
+            let mut v: Vec<[i8; 4]> = bytes
+                .chunks_exact(4)
+                .map(|c| std::array::from_fn(|k| c[k] as i8))
+                .collect();
+            meshopt::decode_filter_oct(&mut v);
+            bytes.copy_from_slice(&v.iter().flatten().map(|&b| b as u8).collect::<Vec<_>>());
+        }
+        ("OCTAHEDRAL" | "QUATERNION", 8) => {
+            let mut v: Vec<[i16; 4]> = bytes
+                .chunks_exact(8)
+                .map(|c| std::array::from_fn(|k| i16::from_le_bytes([c[2 * k], c[2 * k + 1]])))
+                .collect();
+            if filter == "OCTAHEDRAL" {
+                meshopt::decode_filter_oct(&mut v);
+            } else {
+                meshopt::decode_filter_quat(&mut v);
+            }
+            let out: Vec<u8> = v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+            bytes.copy_from_slice(&out);
+        }
+        ("EXPONENTIAL", s) if s % 4 == 0 => {
+            // Each 32-bit word is decoded on its own, whatever the element it belongs to.
+            let mut v: Vec<[u32; 1]> = bytes
+                .chunks_exact(4)
+                .map(|c| [u32::from_le_bytes([c[0], c[1], c[2], c[3]])])
+                .collect();
+            meshopt::decode_filter_exp(&mut v);
+            let out: Vec<u8> = v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+            bytes.copy_from_slice(&out);
+        }
+        _ => {
+            return Err(format!(
+                "meshopt filter {filter} with stride {stride} is not supported"
+            ))
+        }
+    }
+    Ok(())
+}
+
 fn decode_meshopt(data: &[u8], mode: &str, stride: usize, count: usize) -> Result<Vec<u8>, String> {
     let fail = |e: meshopt::Error| format!("meshopt {mode} decoding failed: {e:?}");
     // Elements decoded as arrays of stride/4 words (the codec copies raw bytes; native order keeps them).
@@ -1653,6 +1699,43 @@ mod tests {
         );
         assert!(names_json("ext/EXT.JSON") && names_json("a.json") && !names_json("a.glb"));
         assert!(!names_json("é") && !names_json("ééé.glb"));
+    }
+
+    /// EXT_meshopt_compression's filters undone as meshoptimizer encodes them: octahedral normals (8 and 16 bits),
+    /// exponential floats; a filter the reader does not know is refused.
+    #[test]
+    fn meshopt_filters_are_undone() {
+        let n = [0.6f32, 0.0, 0.8, 0.0];
+        let oct8: Vec<[i8; 4]> = meshopt::encode_filter_oct(&[n], 8);
+        let mut b: Vec<u8> = oct8[0].iter().map(|&x| x as u8).collect();
+        unfilter_meshopt(&mut b, "OCTAHEDRAL", 4).unwrap();
+        let got: Vec<f64> = b[..3].iter().map(|&x| f64::from(x as i8) / 127.0).collect();
+        assert!(
+            got.iter()
+                .zip(&n)
+                .all(|(g, w)| (g - f64::from(*w)).abs() < 0.02),
+            "{got:?}"
+        );
+        let oct16: Vec<[i16; 4]> = meshopt::encode_filter_oct(&[n], 16);
+        let mut b: Vec<u8> = oct16[0].iter().flat_map(|x| x.to_le_bytes()).collect();
+        unfilter_meshopt(&mut b, "OCTAHEDRAL", 8).unwrap();
+        let z = f64::from(i16::from_le_bytes([b[4], b[5]])) / 32767.0;
+        assert!((z - 0.8).abs() < 1e-3, "{z}");
+        let floats = [[1234.5f32, -0.001, 7.0]];
+        let exp = meshopt::encode_filter_exp(&floats, 24, meshopt::EncodeExpMode::Separate);
+        let mut b: Vec<u8> = exp[0].iter().flat_map(|x| x.to_le_bytes()).collect();
+        unfilter_meshopt(&mut b, "EXPONENTIAL", 12).unwrap();
+        let got: Vec<f32> = b
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
+            .collect();
+        assert!(
+            got.iter()
+                .zip(&floats[0])
+                .all(|(g, w)| (g - w).abs() <= w.abs() * 1e-5),
+            "{got:?}"
+        );
+        assert!(unfilter_meshopt(&mut b, "COLOR", 12).is_err());
     }
 
     /// Strips and fans unroll into glTF's triangles, all wound like the first.
