@@ -224,8 +224,10 @@ pub struct BufferView {
 
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct BufferViewExtensions {
+    /// Also read under KHR_meshopt_compression, the same layout (its codec and filter versions are the decoder's).
     #[serde(
         rename = "EXT_meshopt_compression",
+        alias = "KHR_meshopt_compression",
         default,
         skip_serializing_if = "Option::is_none"
     )]
@@ -261,6 +263,7 @@ pub struct Buffer {
 pub struct BufferExtensions {
     #[serde(
         rename = "EXT_meshopt_compression",
+        alias = "KHR_meshopt_compression",
         default,
         skip_serializing_if = "Option::is_none"
     )]

@@ -1107,7 +1107,8 @@ fn normalize(component_type: u32, normalized: bool, x: f64) -> f64 {
 
 /// Decompresses one EXT_meshopt_compression view into `count × stride` bytes.
 /// Undoes an EXT_meshopt_compression filter on decoded attribute bytes (little-endian elements of `stride` bytes):
-/// octahedral unit vectors (4 × 8 or 16 bits), quaternions (4 × 16 bits) or exponential floats (32-bit words).
+/// octahedral unit vectors (4 × 8 or 16 bits), quaternions (4 × 16 bits), exponential floats (32-bit words) or
+/// KHR_meshopt_compression's colours (4 × 8 or 16 bits).
 fn unfilter_meshopt(bytes: &mut [u8], filter: &str, stride: usize) -> Result<(), String> {
     match (filter, stride) {
         ("OCTAHEDRAL", 4) => {
@@ -1128,6 +1129,23 @@ fn unfilter_meshopt(bytes: &mut [u8], filter: &str, stride: usize) -> Result<(),
             } else {
                 meshopt::decode_filter_quat(&mut v);
             }
+            let out: Vec<u8> = v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+            bytes.copy_from_slice(&out);
+        }
+        ("COLOR", 4) => {
+            let mut v: Vec<[u8; 4]> = bytes
+                .chunks_exact(4)
+                .map(|c| [c[0], c[1], c[2], c[3]])
+                .collect();
+            meshopt::decode_filter_color(&mut v);
+            bytes.copy_from_slice(&v.concat());
+        }
+        ("COLOR", 8) => {
+            let mut v: Vec<[u16; 4]> = bytes
+                .chunks_exact(8)
+                .map(|c| std::array::from_fn(|k| u16::from_le_bytes([c[2 * k], c[2 * k + 1]])))
+                .collect();
+            meshopt::decode_filter_color(&mut v);
             let out: Vec<u8> = v.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
             bytes.copy_from_slice(&out);
         }
@@ -1291,6 +1309,7 @@ fn transform_normal(nm: &[f64; 16], n: [f64; 3]) -> [f64; 3] {
 const READ_EXTENSIONS: &[&str] = &[
     "KHR_mesh_quantization",
     "EXT_meshopt_compression",
+    "KHR_meshopt_compression",
     "KHR_draco_mesh_compression",
     "EXT_mesh_features",
     "EXT_structural_metadata",
@@ -1702,7 +1721,7 @@ mod tests {
     }
 
     /// EXT_meshopt_compression's filters undone as meshoptimizer encodes them: octahedral normals (8 and 16 bits),
-    /// exponential floats; a filter the reader does not know is refused.
+    /// exponential floats, KHR_meshopt_compression's colours; a filter the reader does not know is refused.
     #[test]
     fn meshopt_filters_are_undone() {
         let n = [0.6f32, 0.0, 0.8, 0.0];
@@ -1735,7 +1754,18 @@ mod tests {
                 .all(|(g, w)| (g - w).abs() <= w.abs() * 1e-5),
             "{got:?}"
         );
+        let rgba = [0.8f32, 0.4, 0.2, 1.0];
+        let col: Vec<[u8; 4]> = meshopt::encode_filter_color(&[rgba], 8);
+        let mut c = col[0].to_vec();
+        unfilter_meshopt(&mut c, "COLOR", 4).unwrap();
+        assert!(
+            c.iter()
+                .zip(&rgba)
+                .all(|(&g, &w)| (f32::from(g) / 255.0 - w).abs() < 0.02),
+            "{c:?}"
+        );
         assert!(unfilter_meshopt(&mut b, "COLOR", 12).is_err());
+        assert!(unfilter_meshopt(&mut b, "WAVELET", 4).is_err());
     }
 
     /// Strips and fans unroll into glTF's triangles, all wound like the first.
