@@ -513,6 +513,7 @@ pub(crate) fn encode_content(
                                 attribute: Some(0),
                                 property_table: None, // set below
                                 null_feature_id: None,
+                                texture: None,
                             }],
                         }),
                         draco: draco_ext,

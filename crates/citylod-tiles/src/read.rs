@@ -835,13 +835,9 @@ impl Decoder<'_> {
                     .and_then(|f| f.feature_ids.first());
                 let ids: Vec<u32> = match fid_set {
                     Some(set) => {
-                        let attr = set
-                            .attribute
-                            .ok_or("feature ids without attribute are not supported")?;
-                        let acc = *prim
-                            .attributes
-                            .get(&format!("_FEATURE_ID_{attr}"))
-                            .ok_or("feature id attribute missing")?;
+                        if set.texture.is_some() {
+                            return Err("feature ids from a texture are not supported".into());
+                        }
                         let offset = set
                             .property_table
                             .map(|t| {
@@ -852,8 +848,15 @@ impl Decoder<'_> {
                             })
                             .transpose()?
                             .unwrap_or(0);
-                        get(acc)?
-                            .iter()
+                        // Without an attribute (or texture) the ids are implicit: each vertex's index.
+                        let raw: Vec<f64> = match set.attribute {
+                            Some(attr) => get(*prim
+                                .attributes
+                                .get(&format!("_FEATURE_ID_{attr}"))
+                                .ok_or("feature id attribute missing")?)?,
+                            None => (0..n_vertices).map(|v| v as f64).collect(),
+                        };
+                        raw.iter()
                             .map(|&f| {
                                 let id = f as u32;
                                 if Some(id) == set.null_feature_id
@@ -1845,6 +1848,24 @@ mod tests {
             d["extensionsRequired"] = serde_json::json!(["KHR_materials_unlit"]);
         });
         assert_eq!(plain.unwrap().triangles.len(), 2);
+        // Feature ids without an attribute are implicit, the vertex index (ids past feature_count 1 are none);
+        // ids from a texture are refused.
+        let fids = "/meshes/0/primitives/0/extensions/EXT_mesh_features/featureIds/0";
+        let implicit = with(&|d| {
+            d.pointer_mut(fids)
+                .unwrap()
+                .as_object_mut()
+                .unwrap()
+                .remove("attribute");
+        })
+        .unwrap();
+        assert_eq!(implicit.feature_ids, vec![0, u32::MAX, u32::MAX, u32::MAX]);
+        let texture = with(&|d| {
+            let f = d.pointer_mut(fids).unwrap().as_object_mut().unwrap();
+            f.remove("attribute");
+            f.insert("texture".into(), serde_json::json!({"index": 0}));
+        });
+        assert!(texture.unwrap_err().to_string().contains("from a texture"));
         let msg = |edit: &dyn Fn(&mut serde_json::Value)| with(edit).unwrap_err().to_string();
         for (edit, says) in [
             (
