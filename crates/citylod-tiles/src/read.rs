@@ -74,6 +74,9 @@ pub struct GlbData {
 
 /// Sanity limits against hostile or corrupt files (allocation happens before data is checked).
 const MAX_ELEMENTS: usize = 1 << 28;
+
+/// Most elements of a sparse accessor without a buffer view (whose zeros no bytes of the file back).
+const MAX_ZERO_BASE_ELEMENTS: usize = 1 << 22;
 const MAX_VIEW_BYTES: usize = 1 << 31;
 
 const IDENTITY: [f64; 16] = [
@@ -1044,50 +1047,101 @@ impl Decoder<'_> {
             gj::UNSIGNED_INT | gj::FLOAT => 4,
             c => return Err(format!("component type {c}")),
         };
-        let bv_index = a.buffer_view.ok_or("accessor without buffer view")?;
-        let data = self.view(bv_index)?;
-        let stride = self.doc.buffer_views[bv_index]
-            .byte_stride
-            .unwrap_or(ncomp * size);
-        if stride < ncomp * size {
-            return Err(format!(
-                "accessor {i}: byteStride {stride} is shorter than its {}-byte elements",
-                ncomp * size
-            ));
-        }
-        let mut out = Vec::with_capacity((a.count.min(MAX_ELEMENTS) * ncomp).min(data.len()));
-        for e in 0..a.count {
-            for c in 0..ncomp {
-                let o = a.byte_offset + e * stride + c * size;
-                let b = data
-                    .get(o..o + size)
-                    .ok_or("accessor reads past its buffer view")?;
-                let v = match a.component_type {
-                    gj::BYTE => {
-                        let x = b[0] as i8 as f64;
-                        if a.normalized {
-                            (x / 127.0).max(-1.0)
-                        } else {
-                            x
-                        }
+        let value = |b: &[u8]| -> f64 {
+            match a.component_type {
+                gj::BYTE => {
+                    let x = b[0] as i8 as f64;
+                    if a.normalized {
+                        (x / 127.0).max(-1.0)
+                    } else {
+                        x
                     }
-                    gj::UNSIGNED_BYTE => b[0] as f64 / if a.normalized { 255.0 } else { 1.0 },
-                    gj::SHORT => {
-                        let x = i16::from_le_bytes([b[0], b[1]]) as f64;
-                        if a.normalized {
-                            (x / 32767.0).max(-1.0)
-                        } else {
-                            x
-                        }
+                }
+                gj::UNSIGNED_BYTE => b[0] as f64 / if a.normalized { 255.0 } else { 1.0 },
+                gj::SHORT => {
+                    let x = i16::from_le_bytes([b[0], b[1]]) as f64;
+                    if a.normalized {
+                        (x / 32767.0).max(-1.0)
+                    } else {
+                        x
                     }
-                    gj::UNSIGNED_SHORT => {
-                        u16::from_le_bytes([b[0], b[1]]) as f64
-                            / if a.normalized { 65535.0 } else { 1.0 }
+                }
+                gj::UNSIGNED_SHORT => {
+                    u16::from_le_bytes([b[0], b[1]]) as f64
+                        / if a.normalized { 65535.0 } else { 1.0 }
+                }
+                gj::UNSIGNED_INT => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+                _ => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+            }
+        };
+        let mut out = match a.buffer_view {
+            Some(bv_index) => {
+                let data = self.view(bv_index)?;
+                let stride = self.doc.buffer_views[bv_index]
+                    .byte_stride
+                    .unwrap_or(ncomp * size);
+                if stride < ncomp * size {
+                    return Err(format!(
+                        "accessor {i}: byteStride {stride} is shorter than its {}-byte elements",
+                        ncomp * size
+                    ));
+                }
+                let mut out =
+                    Vec::with_capacity((a.count.min(MAX_ELEMENTS) * ncomp).min(data.len()));
+                for e in 0..a.count {
+                    for c in 0..ncomp {
+                        let o = a.byte_offset + e * stride + c * size;
+                        let b = data
+                            .get(o..o + size)
+                            .ok_or("accessor reads past its buffer view")?;
+                        out.push(value(b));
                     }
-                    gj::UNSIGNED_INT => u32::from_le_bytes(b.try_into().unwrap()) as f64,
-                    _ => f32::from_le_bytes(b.try_into().unwrap()) as f64,
-                };
-                out.push(v);
+                }
+                out
+            }
+            // A sparse accessor without a buffer view starts from zeros (as many as a file could hold without one:
+            // its count is not backed by bytes).
+            None if a.sparse.is_some() && a.count <= MAX_ZERO_BASE_ELEMENTS => {
+                vec![0.0; a.count * ncomp]
+            }
+            None => return Err(format!("accessor {i} without buffer view")),
+        };
+        if let Some(sp) = &a.sparse {
+            let isize = match sp.indices.component_type {
+                gj::UNSIGNED_BYTE => 1,
+                gj::UNSIGNED_SHORT => 2,
+                gj::UNSIGNED_INT => 4,
+                c => {
+                    return Err(format!(
+                        "accessor {i}: sparse indices of component type {c}"
+                    ))
+                }
+            };
+            let (indices, values) = (
+                self.view(sp.indices.buffer_view)?,
+                self.view(sp.values.buffer_view)?,
+            );
+            for k in 0..sp.count {
+                let o = sp.indices.byte_offset + k * isize;
+                let e = indices
+                    .get(o..o + isize)
+                    .ok_or("sparse indices read past their buffer view")?
+                    .iter()
+                    .rev()
+                    .fold(0usize, |acc, &b| acc << 8 | b as usize);
+                if e >= a.count {
+                    return Err(format!(
+                        "accessor {i}: sparse index {e} past its {} elements",
+                        a.count
+                    ));
+                }
+                for c in 0..ncomp {
+                    let o = sp.values.byte_offset + (k * ncomp + c) * size;
+                    let b = values
+                        .get(o..o + size)
+                        .ok_or("sparse values read past their buffer view")?;
+                    out[e * ncomp + c] = value(b);
+                }
             }
         }
         Ok(out)
@@ -1788,6 +1842,56 @@ mod tests {
         assert!(triangles_of(gj::MODE_TRIANGLE_STRIP, &idx[..2])
             .next()
             .is_none());
+    }
+
+    /// A sparse accessor replaces the elements it lists: vertex 1 given vertex 3's stored position reads there.
+    #[test]
+    fn sparse_accessors_replace_the_elements_they_list() {
+        let glb = two_triangles(crate::Compression::None);
+        let (json, bin) = crate::glb::parse_glb(&glb).unwrap();
+        let mut d: serde_json::Value = serde_json::from_slice(json).unwrap();
+        let pos = d["meshes"][0]["primitives"][0]["attributes"]["POSITION"]
+            .as_u64()
+            .unwrap() as usize;
+        let acc = d["accessors"][pos].clone();
+        assert!(acc.get("sparse").is_none());
+        let bv = &d["bufferViews"][acc["bufferView"].as_u64().unwrap() as usize];
+        let size = match acc["componentType"].as_u64().unwrap() {
+            5126 => 4,
+            5122 | 5123 => 2,
+            _ => 1,
+        };
+        let stride = bv["byteStride"].as_u64().map_or(3 * size, |s| s as usize);
+        let at = bv["byteOffset"].as_u64().unwrap_or(0) as usize
+            + acc["byteOffset"].as_u64().unwrap_or(0) as usize
+            + 3 * stride;
+        let mut bin = bin.to_vec();
+        while bin.len() % 4 != 0 {
+            bin.push(0);
+        }
+        let (idx_at, val_at) = (bin.len(), bin.len() + 4);
+        bin.extend([1u8, 0, 0, 0]); // index 1 as u16, padded
+        let stored = bin[at..at + 3 * size].to_vec();
+        bin.extend(&stored);
+        while bin.len() % 4 != 0 {
+            bin.push(0);
+        }
+        let views = d["bufferViews"].as_array_mut().unwrap();
+        views.push(serde_json::json!({"buffer": 0, "byteOffset": idx_at, "byteLength": 2}));
+        views.push(serde_json::json!({"buffer": 0, "byteOffset": val_at, "byteLength": 3 * size}));
+        let n = views.len();
+        d["accessors"][pos]["sparse"] = serde_json::json!({"count": 1,
+            "indices": {"bufferView": n - 2, "componentType": 5123}, "values": {"bufferView": n - 1}});
+        d["buffers"][0]["byteLength"] = bin.len().into();
+        let read = read_glb(
+            &crate::glb::write_glb(d.to_string().as_bytes(), &bin),
+            Path::new("t.glb"),
+        )
+        .unwrap();
+        let plain = read_glb(&glb, Path::new("t.glb")).unwrap();
+        assert_ne!(plain.positions_local[1], plain.positions_local[3]);
+        assert_eq!(read.positions_local[1], plain.positions_local[3]);
+        assert_eq!(read.positions_local[0], plain.positions_local[0]);
     }
 
     /// glTF that parses but breaks the format's rules, each found by fuzzing `citylod check` (a panic on a NaN, or
