@@ -737,6 +737,21 @@ impl Decoder<'_> {
         }
         let scene = self.doc.scenes.get(self.doc.scene.unwrap_or(0));
         let roots = scene.map(|s| s.nodes.clone()).unwrap_or_default();
+        // glTF's nodes form trees: a node has one parent at most and a scene's roots none, else its meshes would be
+        // read (and drawn) twice.
+        let mut named = vec![false; self.doc.nodes.len()];
+        for &c in roots
+            .iter()
+            .chain(self.doc.nodes.iter().flat_map(|n| &n.children))
+        {
+            if let Some(seen) = named.get_mut(c) {
+                if std::mem::replace(seen, true) {
+                    return Err(format!(
+                        "node {c} has two parents (or is a scene root and a child)"
+                    ));
+                }
+            }
+        }
         for n in roots {
             self.node(n, &IDENTITY, &table_offsets, &mut out, 0)?;
         }
@@ -1989,6 +2004,13 @@ mod tests {
                     d["extensionsRequired"] = serde_json::json!(["EXT_mesh_gpu_instancing"])
                 }),
                 "requires the glTF extension EXT_mesh_gpu_instancing",
+            ),
+            (
+                Box::new(|d: &mut serde_json::Value| {
+                    d["nodes"] = serde_json::json!([{"children": [2]}, {"children": [2]}, d["nodes"][0].clone()]);
+                    d["scenes"][0]["nodes"] = serde_json::json!([0, 1]);
+                }),
+                "node 2 has two parents",
             ),
             (
                 Box::new(|d: &mut serde_json::Value| {
