@@ -1095,9 +1095,10 @@ impl Decoder<'_> {
                 let stride = self.doc.buffer_views[bv_index]
                     .byte_stride
                     .unwrap_or(ncomp * size);
-                if stride < ncomp * size {
+                if stride < ncomp * size || stride > 252 {
                     return Err(format!(
-                        "accessor {i}: byteStride {stride} is shorter than its {}-byte elements",
+                        "accessor {i}: byteStride {stride} lies outside {}–252 bytes (its elements' size to glTF's \
+                         largest)",
                         ncomp * size
                     ));
                 }
@@ -1105,9 +1106,7 @@ impl Decoder<'_> {
                     Vec::with_capacity((a.count.min(MAX_ELEMENTS) * ncomp).min(data.len()));
                 for e in 0..a.count {
                     for c in 0..ncomp {
-                        let o = a.byte_offset + e * stride + c * size;
-                        let b = data
-                            .get(o..o + size)
+                        let b = at(&data, a.byte_offset, e * stride + c * size, size)
                             .ok_or("accessor reads past its buffer view")?;
                         out.push(value(b));
                     }
@@ -1137,9 +1136,7 @@ impl Decoder<'_> {
                 self.view(sp.values.buffer_view)?,
             );
             for k in 0..sp.count {
-                let o = sp.indices.byte_offset + k * isize;
-                let e = indices
-                    .get(o..o + isize)
+                let e = at(&indices, sp.indices.byte_offset, k * isize, isize)
                     .ok_or("sparse indices read past their buffer view")?
                     .iter()
                     .rev()
@@ -1151,9 +1148,7 @@ impl Decoder<'_> {
                     ));
                 }
                 for c in 0..ncomp {
-                    let o = sp.values.byte_offset + (k * ncomp + c) * size;
-                    let b = values
-                        .get(o..o + size)
+                    let b = at(&values, sp.values.byte_offset, (k * ncomp + c) * size, size)
                         .ok_or("sparse values read past their buffer view")?;
                     out[e * ncomp + c] = value(b);
                 }
@@ -1178,6 +1173,13 @@ fn normalize(component_type: u32, normalized: bool, x: f64) -> f64 {
 }
 
 /// Decompresses one EXT_meshopt_compression view into `count × stride` bytes.
+/// The `len` bytes of `data` at `offset + pos`, `None` when they lie past its end or the sum overflows (offsets come
+/// from the file). `pos` is bounded by the loops that make it (elements read so far times a small stride).
+fn at(data: &[u8], offset: usize, pos: usize, len: usize) -> Option<&[u8]> {
+    let start = offset.checked_add(pos)?;
+    data.get(start..start.checked_add(len)?)
+}
+
 /// Undoes an EXT_meshopt_compression filter on decoded attribute bytes (little-endian elements of `stride` bytes):
 /// octahedral unit vectors (4 × 8 or 16 bits), quaternions (4 × 16 bits), exponential floats (32-bit words) or
 /// KHR_meshopt_compression's colours (4 × 8 or 16 bits).
@@ -2016,7 +2018,7 @@ mod tests {
                 Box::new(|d: &mut serde_json::Value| {
                     d["bufferViews"][0]["byteStride"] = serde_json::json!(0)
                 }),
-                "byteStride 0 is shorter",
+                "byteStride 0 lies outside",
             ),
             // Metadata the reader would misread as plain values.
             (
