@@ -513,7 +513,7 @@ pub(crate) fn encode_content(
                                 attribute: Some(0),
                                 property_table: None, // set below
                                 null_feature_id: None,
-                                texture: None,
+                                ..Default::default()
                             }],
                         }),
                         draco: draco_ext,

@@ -147,9 +147,14 @@ pub struct FeatureId {
     pub property_table: Option<usize>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub null_feature_id: Option<u32>,
-    /// Feature ids from a texture (read only to refuse them; citylod writes attributes).
+    /// Feature ids from a texture, and the draft extension's `offset` and `repeat` (read only to refuse them;
+    /// citylod writes attributes).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub texture: Option<serde_json::Value>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub offset: Option<serde_json::Value>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub repeat: Option<serde_json::Value>,
 }
 
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]

@@ -75,6 +75,9 @@ pub struct GlbData {
 /// Sanity limits against hostile or corrupt files (allocation happens before data is checked).
 const MAX_ELEMENTS: usize = 1 << 28;
 
+/// Most vertices one glb may draw in all: nodes sharing a mesh repeat it at no cost in the file.
+const MAX_GLB_VERTICES: usize = 1 << 24;
+
 /// Most elements of a sparse accessor without a buffer view (whose zeros no bytes of the file back).
 const MAX_ZERO_BASE_ELEMENTS: usize = 1 << 22;
 const MAX_VIEW_BYTES: usize = 1 << 31;
@@ -321,7 +324,6 @@ fn check_tile(t: &tj::Tile) -> Result<(VolumeKind, [f64; 12]), String> {
     }
 }
 
-/// The file a content uri names, which must stay inside the tileset's folder (`folder`, canonical).
 /// A content or buffer URI as the relative file path it names (RFC 3986, as 3D Tiles and glTF use it): its query and
 /// fragment dropped and its `%XX` escapes decoded. URIs with a scheme are kept as written (and refused where read).
 pub fn uri_file_path(uri: &str) -> Result<String, String> {
@@ -353,6 +355,7 @@ pub fn names_json(path: &str) -> bool {
     b.len() >= 5 && b[b.len() - 5..].eq_ignore_ascii_case(b".json")
 }
 
+/// The file a content uri names, which must stay inside the tileset's folder (`folder`, canonical).
 fn content_file(base: &Path, uri: &str, folder: &Path) -> Result<std::path::PathBuf, String> {
     if uri.contains("://") || uri.starts_with("data:") {
         return Err(format!(
@@ -788,8 +791,13 @@ impl Decoder<'_> {
                 if !(gj::MODE_TRIANGLES..=gj::MODE_TRIANGLE_FAN).contains(&mode) {
                     continue; // points and lines draw no surface
                 }
-                // Draco primitives: accessor values come from the decoded mesh.
+                // Draco primitives: accessor values come from the decoded mesh, whose indices list triangles.
                 let draco = self.draco(prim)?;
+                let mode = if draco.is_some() {
+                    gj::MODE_TRIANGLES
+                } else {
+                    mode
+                };
                 let get = |a: usize| -> Result<Vec<f64>, String> {
                     match draco.as_ref().and_then(|d| d.get(&a)) {
                         Some(v) => Ok(v.clone()),
@@ -819,6 +827,11 @@ impl Decoder<'_> {
                     }
                     // A primitive without normals after one with: drop them all (mixed content).
                     _ => out.normals_local.clear(),
+                }
+                if out.positions_local.len() + pos.len() / 3 > MAX_GLB_VERTICES {
+                    return Err(format!(
+                        "more than {MAX_GLB_VERTICES} vertices in one glb (nodes drawing one mesh many times?)"
+                    ));
                 }
                 for p in pos.chunks_exact(3) {
                     let g = apply(&m, [p[0], p[1], p[2]]);
@@ -855,6 +868,12 @@ impl Decoder<'_> {
                     Some(set) => {
                         if set.texture.is_some() {
                             return Err("feature ids from a texture are not supported".into());
+                        }
+                        if set.offset.is_some() || set.repeat.is_some() {
+                            return Err(
+                                "feature ids with offset or repeat (a draft of EXT_mesh_features) are not supported"
+                                    .into(),
+                            );
                         }
                         let offset = set
                             .property_table
@@ -917,19 +936,21 @@ impl Decoder<'_> {
                     )
                 }),
             None => Err(format!("buffer {i} has no data")),
-            Some(uri)
-                if uri.contains("://")
-                    || uri.starts_with("data:")
-                    || Path::new(uri).is_absolute()
-                    || Path::new(uri)
-                        .components()
-                        .any(|c| c == std::path::Component::ParentDir) =>
-            {
-                Err(format!("buffer uri {uri:?} is not a file beside the glb"))
+            Some(uri) => {
+                // Judged as the path it decodes to (`%2E%2E/` is `../`).
+                let path = uri_file_path(uri)?;
+                let p = Path::new(&path);
+                if path.contains("://")
+                    || path.starts_with("data:")
+                    || p.is_absolute()
+                    || p.components().any(|c| c == std::path::Component::ParentDir)
+                {
+                    return Err(format!("buffer uri {uri:?} is not a file beside the glb"));
+                }
+                read_file(&self.base.join(p))
+                    .map(Cow::Owned)
+                    .map_err(|e| format!("buffer {uri}: {e}"))
             }
-            Some(uri) => read_file(&self.base.join(uri_file_path(uri)?))
-                .map(Cow::Owned)
-                .map_err(|e| format!("buffer {uri}: {e}")),
         }
     }
 
@@ -1118,6 +1139,13 @@ impl Decoder<'_> {
             None if a.sparse.is_some() && a.count <= MAX_ZERO_BASE_ELEMENTS => {
                 vec![0.0; a.count * ncomp]
             }
+            None if a.sparse.is_some() => {
+                return Err(format!(
+                    "accessor {i}: sparse without a buffer view and {} elements, more than the {MAX_ZERO_BASE_ELEMENTS} \
+                     the reader makes from nothing",
+                    a.count
+                ))
+            }
             None => return Err(format!("accessor {i} without buffer view")),
         };
         if let Some(sp) = &a.sparse {
@@ -1172,7 +1200,6 @@ fn normalize(component_type: u32, normalized: bool, x: f64) -> f64 {
     }
 }
 
-/// Decompresses one EXT_meshopt_compression view into `count × stride` bytes.
 /// The `len` bytes of `data` at `offset + pos`, `None` when they lie past its end or the sum overflows (offsets come
 /// from the file). `pos` is bounded by the loops that make it (elements read so far times a small stride).
 fn at(data: &[u8], offset: usize, pos: usize, len: usize) -> Option<&[u8]> {
@@ -1242,6 +1269,7 @@ fn unfilter_meshopt(bytes: &mut [u8], filter: &str, stride: usize) -> Result<(),
     Ok(())
 }
 
+/// Decompresses one EXT_meshopt_compression view into `count × stride` bytes.
 fn decode_meshopt(data: &[u8], mode: &str, stride: usize, count: usize) -> Result<Vec<u8>, String> {
     let fail = |e: meshopt::Error| format!("meshopt {mode} decoding failed: {e:?}");
     // Elements decoded as arrays of stride/4 words (the codec copies raw bytes; native order keeps them).
@@ -2019,6 +2047,26 @@ mod tests {
                     d["bufferViews"][0]["byteStride"] = serde_json::json!(0)
                 }),
                 "byteStride 0 lies outside",
+            ),
+            // A buffer outside the glb's folder, however its URI spells `..`.
+            (
+                Box::new(|d: &mut serde_json::Value| {
+                    d["buffers"][0]["uri"] = "%2E%2E/secret.bin".into()
+                }),
+                "is not a file beside the glb",
+            ),
+            // The draft extension's feature ids.
+            (
+                Box::new(|d: &mut serde_json::Value| {
+                    let f = d
+                        .pointer_mut(
+                            "/meshes/0/primitives/0/extensions/EXT_mesh_features/featureIds/0",
+                        )
+                        .unwrap();
+                    f["offset"] = 0.into();
+                    f["repeat"] = 1.into();
+                }),
+                "offset or repeat",
             ),
             // Metadata the reader would misread as plain values.
             (

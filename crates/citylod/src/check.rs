@@ -179,7 +179,7 @@ fn traversal_json<'a>(
         .iter()
         .chain(&sel.selected_empty)
         .flat_map(|&i| ts.tiles[i].content_uris.iter().map(String::as_str))
-        .filter(|u| !u.ends_with(".json"))
+        .filter(|u| !citylod_tiles::read::names_json(u))
         .collect();
     uris.sort_unstable();
     let visited = state
@@ -309,11 +309,15 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
     }
     // The cuts are REPLACE cuts: with ADD a client draws a tile and its children together, which the coverage and
     // criterion checks would misjudge.
-    if let Some(t) = data
-        .tiles
-        .iter()
-        .find(|t| t.refine_add && !t.children.is_empty())
-    {
+    if let Some(t) = data.tiles.iter().find(|t| {
+        // A tile without glb content draws nothing of its own: ADD on it is REPLACE (a root linking external
+        // tilesets, as some tilers write).
+        let draws = t
+            .content_uris
+            .iter()
+            .any(|u| !citylod_tiles::read::names_json(u));
+        t.refine_add && !t.children.is_empty() && draws
+    }) {
         bail!(
             "tile {} refines by ADD; citylod check simulates REPLACE refinement only (what citylod writes)",
             t.path_in_tree
