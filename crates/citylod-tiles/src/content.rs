@@ -628,6 +628,7 @@ pub(crate) fn encode_content(
             schema: Some(schema_json(schema, &used, false)),
             property_tables: tables,
         }),
+        ..Default::default()
     });
     doc.buffers.push(Buffer {
         byte_length: bin.padded_len(),

@@ -320,6 +320,19 @@ pub struct RootExtensions {
         skip_serializing_if = "Option::is_none"
     )]
     pub structural_metadata: Option<StructuralMetadata>,
+    /// Cesium's relative-to-centre offset (read only; citylod places content with the tile transform).
+    #[serde(
+        rename = "CESIUM_RTC",
+        default,
+        skip_serializing_if = "Option::is_none"
+    )]
+    pub cesium_rtc: Option<CesiumRtc>,
+}
+
+/// `CESIUM_RTC`: positions are relative to `center`, in the tile's z-up frame.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct CesiumRtc {
+    pub center: [f64; 3],
 }
 
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]

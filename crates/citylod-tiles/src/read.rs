@@ -758,6 +758,21 @@ impl Decoder<'_> {
         for n in roots {
             self.node(n, &IDENTITY, &table_offsets, &mut out, 0)?;
         }
+        // CESIUM_RTC: the positions (after glTF's y-up turn to z-up) are relative to a centre in the tile's frame.
+        if let Some(rtc) = self
+            .doc
+            .extensions
+            .as_ref()
+            .and_then(|e| e.cesium_rtc.as_ref())
+        {
+            let c = rtc.center;
+            if !c.iter().all(|v| v.is_finite()) {
+                return Err(format!("CESIUM_RTC centre {c:?} is not a finite point"));
+            }
+            for p in &mut out.positions_local {
+                *p = [p[0] + c[0], p[1] + c[1], p[2] + c[2]];
+            }
+        }
         Ok(out)
     }
 
@@ -1415,6 +1430,7 @@ const READ_EXTENSIONS: &[&str] = &[
     "KHR_draco_mesh_compression",
     "EXT_mesh_features",
     "EXT_structural_metadata",
+    "CESIUM_RTC",
 ];
 
 /// Prefixes of glTF extensions that change only how surfaces look, which the reader does not need.
@@ -1997,6 +2013,25 @@ mod tests {
             d["extensionsRequired"] = serde_json::json!(["KHR_materials_unlit"]);
         });
         assert_eq!(plain.unwrap().triangles.len(), 2);
+        // CESIUM_RTC moves every position by its centre (z up, after glTF's y-up turn), required or not.
+        let base = with(&|_| {}).unwrap();
+        for required in [false, true] {
+            let rtc = with(&|d| {
+                d["extensions"]["CESIUM_RTC"] =
+                    serde_json::json!({"center": [100.0, 200.0, 300.0]});
+                d["extensionsUsed"]
+                    .as_array_mut()
+                    .unwrap()
+                    .push("CESIUM_RTC".into());
+                if required {
+                    d["extensionsRequired"] = serde_json::json!(["CESIUM_RTC"]);
+                }
+            })
+            .unwrap();
+            for (p, q) in rtc.positions_local.iter().zip(&base.positions_local) {
+                assert_eq!(*p, [q[0] + 100.0, q[1] + 200.0, q[2] + 300.0]);
+            }
+        }
         // Feature ids without an attribute are implicit, the vertex index (ids past feature_count 1 are none);
         // ids from a texture are refused.
         let fids = "/meshes/0/primitives/0/extensions/EXT_mesh_features/featureIds/0";
