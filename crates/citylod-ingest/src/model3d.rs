@@ -358,7 +358,7 @@ pub(crate) fn triangulate(
 fn turn_parts_inside_out(mesh: &mut Mesh3d) -> (usize, usize) {
     let parts =
         citylod_mesh::simplify::components::components(mesh.positions.len(), &mesh.triangles);
-    let volumes = part_volumes_m3(mesh);
+    let volumes = part_volumes_m3(mesh, &parts);
     let mut boxes = vec![[[f64::INFINITY; 3], [f64::NEG_INFINITY; 3]]; parts.count];
     let mut a_vertex = vec![None; parts.count];
     for (v, (p, &c)) in mesh.positions.iter().zip(&parts.of_vertex).enumerate() {
@@ -529,6 +529,16 @@ mod tests {
             f([0, 3, 2, 1]), f([4, 5, 6, 7]), f([0, 1, 5, 4]), f([1, 2, 6, 5]), f([2, 3, 7, 6]), f([3, 0, 4, 7])
         ]], "semantics": {"surfaces": [{"type": "GroundSurface"}, {"type": "RoofSurface"},
             {"type": "WallSurface"}], "values": [[0, 1, 2, 2, 2, 2]]}})
+    }
+
+    /// A Solid with every face's ring reversed, in every shell: wound the other way.
+    fn wound_back(mut solid: Value) -> Value {
+        for shell in solid["boundaries"].as_array_mut().unwrap() {
+            for face in shell.as_array_mut().unwrap() {
+                face[0].as_array_mut().unwrap().reverse();
+            }
+        }
+        solid
     }
 
     /// A CityJSON document near Delft (EPSG:7415) with these objects and integer vertices.
@@ -869,10 +879,7 @@ mod tests {
     /// and the profile simplifier found no section of it) is turned outward and the turn reported.
     #[test]
     fn a_solid_wound_inside_out_is_turned_outward() {
-        let mut g = box_solid(0, json!("2.2"));
-        for face in g["boundaries"][0].as_array_mut().unwrap() {
-            face[0].as_array_mut().unwrap().reverse();
-        }
+        let g = wound_back(box_solid(0, json!("2.2")));
         let d = doc(
             "2.0",
             json!({"A": {"type": "Building", "geometry": [g]}}),
@@ -887,10 +894,7 @@ mod tests {
         // Two parts side by side, one wound inwards and twice the other's size: that one is turned (a rule on the
         // whole mesh's volume would turn the right part inside out instead), and the turn reported.
         let right = box_solid(8, json!("2.2"));
-        let mut wrong = box_solid(0, json!("2.2"));
-        for face in wrong["boundaries"][0].as_array_mut().unwrap() {
-            face[0].as_array_mut().unwrap().reverse();
-        }
+        let wrong = wound_back(box_solid(0, json!("2.2")));
         let two = json!({"type": "MultiSolid", "lod": "2.2",
             "boundaries": [wrong["boundaries"].clone(), right["boundaries"].clone()]});
         let d = doc(
@@ -920,24 +924,13 @@ mod tests {
             v[2] = if v[2] == 0 { 1000 } else { 4000 };
         }
         let outer = box_solid(0, json!("2.2"));
-        let mut inner = box_solid(8, json!("2.2"));
-        for face in inner["boundaries"][0].as_array_mut().unwrap() {
-            face[0].as_array_mut().unwrap().reverse();
-        }
+        let inner = wound_back(box_solid(8, json!("2.2")));
         let cavity = json!({"type": "Solid", "lod": "2.2",
             "boundaries": [outer["boundaries"][0].clone(), inner["boundaries"][0].clone()]});
-        let mut inverted = cavity.clone();
-        for shell in inverted["boundaries"].as_array_mut().unwrap() {
-            for face in shell.as_array_mut().unwrap() {
-                face[0].as_array_mut().unwrap().reverse();
-            }
-        }
+        let inverted = wound_back(cavity.clone());
         // The inner box as a part of its own, wound outwards like the outer one: parts that overlap (Den Haag has
         // dormers inside their roof's solid), not a cavity; nothing is turned.
-        let mut inner_out = inner.clone();
-        for face in inner_out["boundaries"][0].as_array_mut().unwrap() {
-            face[0].as_array_mut().unwrap().reverse();
-        }
+        let inner_out = wound_back(inner.clone());
         let overlapping = json!({"type": "MultiSolid", "lod": "2.2",
             "boundaries": [outer["boundaries"].clone(), inner_out["boundaries"].clone()]});
         let d = doc(
@@ -1001,12 +994,8 @@ mod tests {
             l_faces.push(face(&[k, n, n + 6, k + 6]));
         }
         for (wound_in, turned) in [(false, 0), (true, 1)] {
-            let mut small = box_solid(12, json!("2.2"));
-            if wound_in {
-                for face in small["boundaries"][0].as_array_mut().unwrap() {
-                    face[0].as_array_mut().unwrap().reverse();
-                }
-            }
+            let small = box_solid(12, json!("2.2"));
+            let small = if wound_in { wound_back(small) } else { small };
             let two = json!({"type": "MultiSolid", "lod": "2.2",
                 "boundaries": [[l_faces.clone()], small["boundaries"].clone()]});
             let d = doc(

@@ -41,11 +41,10 @@ pub fn signed_volume_m3(mesh: &Mesh3d) -> f64 {
         .sum()
 }
 
-/// Signed volume (m³) of each connected part of a mesh (parts as [`crate::simplify::components::components`]
-/// numbers them), each summed from the part's own first vertex: well conditioned however far the coordinates' origin
+/// Signed volume (m³) of each connected part of a mesh (`parts`, from [`crate::simplify::components::components`]
+/// of this mesh), each summed from the part's own first vertex: well conditioned however far the coordinates' origin
 /// is (the frame's origin can be 100 km away). Meaningless for an open part; the indices must be in range.
-pub fn part_volumes_m3(mesh: &Mesh3d) -> Vec<f64> {
-    let parts = crate::simplify::components::components(mesh.positions.len(), &mesh.triangles);
+pub fn part_volumes_m3(mesh: &Mesh3d, parts: &crate::simplify::components::Components) -> Vec<f64> {
     let mut volume = vec![0.0f64; parts.count];
     let mut apex: Vec<Option<V3>> = vec![None; parts.count];
     for (t, &c) in mesh.triangles.iter().zip(&parts.of_triangle) {

@@ -1360,12 +1360,15 @@ fn box_to_root(m: &[f64; 16], b: [f64; 12]) -> [f64; 12] {
     ]
 }
 
+/// Whether a column-major 4×4 matrix has finite numbers and the last row 0 0 0 1.
+fn is_finite_affine(m: &[f64; 16]) -> bool {
+    m.iter().all(|v| v.is_finite()) && [m[3], m[7], m[11], m[15]] == [0.0, 0.0, 0.0, 1.0]
+}
+
 /// The inverse of a tile's `transform` when it is what 3D Tiles asks: finite, affine (last row 0 0 0 1) and
 /// invertible.
 fn check_tile_transform(m: &[f64; 16]) -> Option<[f64; 16]> {
-    (m.iter().all(|v| v.is_finite()) && [m[3], m[7], m[11], m[15]] == [0.0, 0.0, 0.0, 1.0])
-        .then(|| affine_inverse(m))
-        .flatten()
+    is_finite_affine(m).then(|| affine_inverse(m)).flatten()
 }
 
 /// Inverse of an affine column-major matrix (last row 0 0 0 1), `None` when singular or when its numbers overflow.
@@ -1468,7 +1471,7 @@ fn check_node_transform(n: &gj::Node) -> Result<(), String> {
         if trs {
             return Err("both a matrix and a translation, rotation or scale".into());
         }
-        if !m.iter().all(|v| v.is_finite()) || [m[3], m[7], m[11], m[15]] != [0.0, 0.0, 0.0, 1.0] {
+        if !is_finite_affine(&m) {
             return Err(format!("matrix {m:?} is not a finite affine transform"));
         }
     }
