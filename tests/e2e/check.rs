@@ -729,6 +729,102 @@ fn multiple_contents_are_read() {
     assert_eq!(num(&merged, 4), num(&plain, 4) + child.triangles.len());
 }
 
+/// `glb` with `edit` applied to its JSON chunk (re-padded with spaces; the BIN chunk kept as it is).
+fn edit_glb_json(glb: &[u8], edit: impl FnOnce(&mut Value)) -> Vec<u8> {
+    let u32_at = |k: usize| u32::from_le_bytes(glb[k..k + 4].try_into().unwrap()) as usize;
+    let json_len = u32_at(12);
+    let mut json: Value = serde_json::from_slice(&glb[20..20 + json_len]).unwrap();
+    edit(&mut json);
+    let mut text = serde_json::to_vec(&json).unwrap();
+    text.resize(text.len().next_multiple_of(4), b' ');
+    let rest = &glb[20 + json_len..];
+    let mut out = Vec::new();
+    out.extend(b"glTF");
+    out.extend(2u32.to_le_bytes());
+    out.extend(((20 + text.len() + rest.len()) as u32).to_le_bytes());
+    out.extend((text.len() as u32).to_le_bytes());
+    out.extend(b"JSON");
+    out.extend(text);
+    out.extend(rest);
+    out
+}
+
+/// A third-party tileset (no `extras.citylod`) whose features have identities of their own is checked by its tree,
+/// volumes and pictures, and says that coverage by identity was not checked; the same content in a tileset citylod
+/// says it wrote is a finding at every tile (its features lost the identity every citylod tileset carries).
+#[test]
+fn third_party_features_are_not_held_to_citylods_identity() {
+    let renamed = |name: &str| match name {
+        "building_index" => "objectid".to_string(),
+        "node_index" => "block_no".to_string(),
+        "level" => "lod_level".to_string(),
+        "members" => "member_list".to_string(),
+        other => other.to_string(),
+    };
+    fn rename_keys(m: &mut serde_json::Map<String, Value>, f: &dyn Fn(&str) -> String) {
+        *m = std::mem::take(m)
+            .into_iter()
+            .map(|(k, v)| (f(&k), v))
+            .collect();
+    }
+    let third_party = |keep_extras: bool| {
+        let name = if keep_extras {
+            "renamed-ours"
+        } else {
+            "renamed-theirs"
+        };
+        let dir = damaged(name, |ts| {
+            if !keep_extras {
+                ts.as_object_mut().unwrap().remove("extras");
+            }
+        });
+        let mut glbs = 0;
+        for (rel, bytes) in tree_bytes(&dir) {
+            if !rel.ends_with(".glb") {
+                continue;
+            }
+            let edited = edit_glb_json(&bytes, |g| {
+                let meta = &mut g["extensions"]["EXT_structural_metadata"];
+                for class in meta["schema"]["classes"]
+                    .as_object_mut()
+                    .unwrap()
+                    .values_mut()
+                {
+                    rename_keys(class["properties"].as_object_mut().unwrap(), &renamed);
+                }
+                for table in meta["propertyTables"].as_array_mut().unwrap() {
+                    rename_keys(table["properties"].as_object_mut().unwrap(), &renamed);
+                }
+            });
+            std::fs::write(dir.join(&rel), edited).unwrap();
+            glbs += 1;
+        }
+        assert!(glbs > 3, "{glbs} glbs");
+        dir
+    };
+    let out = scratch_dir("renamed-theirs-out");
+    let (code, report) = check(&third_party(false), &out, &["--views", "3"]);
+    assert_eq!(code, 0, "{:?}", findings(&report));
+    let stats = &report["tileset_stats"];
+    assert_eq!(stats["identity_checked"], false, "{stats}");
+    assert_eq!(stats["buildings"], 0, "{stats}");
+    assert!(stats["features"].as_u64().unwrap() > 1000, "{stats}");
+    for v in report["views"].as_array().unwrap() {
+        assert_eq!(v["criterion"]["blocks_checked"], 0);
+    }
+
+    let out = scratch_dir("renamed-ours-out");
+    let (code, report) = check(&third_party(true), &out, &["--views", "3"]);
+    assert_eq!(code, 1);
+    assert_eq!(report["tileset_stats"]["identity_checked"], true);
+    let unknown = findings(&report)
+        .into_iter()
+        .filter(|(kind, _)| kind == "unknown_feature")
+        .count();
+    let tiles = report["tileset_stats"]["tiles"].as_u64().unwrap() as usize;
+    assert_eq!(unknown, tiles, "{:?}", findings(&report));
+}
+
 /// Input the reader cannot use is exit 2 with the file and what is wrong: a glb cut short of the length its
 /// header gives, and a tree nested deeper than one tileset.json holds.
 #[test]

@@ -76,13 +76,14 @@ pub fn check_tree(ts: &LoadedTileset) -> Vec<Finding> {
     }
 
     let counts = held_counts(ts);
+    let identity_checked = ts.identity_checked();
     for (i, t) in ts.tiles.iter().enumerate() {
         let unknown = t
             .features
             .iter()
             .filter(|f| matches!(f.node, NodeRef::Feature { .. }))
             .count();
-        if unknown > 0 {
+        if unknown > 0 && identity_checked {
             out.push(Finding::at(
                 FindingKind::UnknownFeature,
                 ts,
@@ -475,6 +476,7 @@ mod tests {
             },
             tiles,
             buildings: all.into_iter().collect(),
+            written_by_citylod: true,
         }
     }
 
@@ -553,6 +555,37 @@ mod tests {
         assert!(check_cut(&ts, &sel(vec![0], vec![], vec![])).is_empty());
         ts.tiles[0].features[0].members = Some(vec![0, 1, 2, 3]);
         assert!(check_cut(&ts, &sel(vec![0], vec![], vec![])).is_empty());
+    }
+
+    #[test]
+    fn features_without_identity_are_findings_unless_the_tileset_is_third_party() {
+        let unknown = |feature| FeatureInfo {
+            node: NodeRef::Feature { feature },
+            ..building(0)
+        };
+        let unknown_tiles = |f: &[Finding]| -> Vec<String> {
+            f.iter()
+                .filter(|f| f.kind == FindingKind::UnknownFeature)
+                .map(|f| f.tile.clone())
+                .collect()
+        };
+        // citylod's tileset with one leaf's features stripped of their identity: a finding at that leaf.
+        let mut ts = tileset(4, [&[0, 1], &[2, 3]], [5.0, 0.0, 0.0]);
+        ts.tiles[2].features = vec![unknown(0), unknown(1)];
+        assert_eq!(unknown_tiles(&check_tree(&ts)), vec!["0/1"]);
+        // Not said to be citylod's, but other features carry citylod's identity: still a finding.
+        ts.written_by_citylod = false;
+        assert!(ts.identity_checked());
+        assert_eq!(unknown_tiles(&check_tree(&ts)), vec!["0/1"]);
+        // A third-party tileset whose features all have identities of their own: nothing to hold them to.
+        for t in &mut ts.tiles {
+            t.features = vec![unknown(0)];
+        }
+        assert!(!ts.identity_checked());
+        assert!(unknown_tiles(&check_tree(&ts)).is_empty());
+        // The same features in a tileset citylod says it wrote are findings in every tile.
+        ts.written_by_citylod = true;
+        assert_eq!(unknown_tiles(&check_tree(&ts)), vec!["0", "0/0", "0/1"]);
     }
 
     #[test]

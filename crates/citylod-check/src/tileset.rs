@@ -106,6 +106,9 @@ pub struct LoadedTileset {
     pub tiles: Vec<TileInfo>,
     /// Every building index held by a building feature of a leaf tile.
     pub buildings: BTreeSet<u32>,
+    /// Whether `tileset.json` says citylod wrote it (`extras.citylod`): its features must then carry citylod's
+    /// identity columns, which third-party tilesets need not have.
+    pub written_by_citylod: bool,
 }
 
 impl LoadedTileset {
@@ -213,7 +216,24 @@ impl LoadedTileset {
             },
             tiles,
             buildings,
+            written_by_citylod: data
+                .extras
+                .as_ref()
+                .is_some_and(|e| e.get("citylod").is_some_and(|c| c.is_object())),
         }
+    }
+
+    /// Whether the identity checks apply: the cut's coverage of every building, member counts, and a finding for a
+    /// feature without identity. They do for citylod's tilesets and for any tileset one of whose features carries
+    /// citylod's identity (`building_index`, or `level` and `node_index`); a third-party tileset's features have
+    /// identities of their own, which say nothing of which buildings a tile stands for.
+    pub fn identity_checked(&self) -> bool {
+        self.written_by_citylod
+            || self
+                .tiles
+                .iter()
+                .flat_map(|t| &t.features)
+                .any(|f| !matches!(f.node, NodeRef::Feature { .. }))
     }
 
     /// Axis-aligned bounds (min, max) of the root's box, root frame (m); `None` without tiles.

@@ -236,6 +236,7 @@ mod tests {
             },
             tiles: vec![tile("0", tri(5.0)), tile("0/0", tri(child_vertex_x))],
             buildings: Default::default(),
+            written_by_citylod: false,
         }
     }
 

@@ -376,6 +376,15 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
 
     let mut tree_findings = check_tree(&ts);
     tree_findings.extend(check_features_drawn(&ts, tol));
+    let features: usize = ts.tiles.iter().map(|t| t.features.len()).sum();
+    let identity_checked = ts.identity_checked();
+    if !identity_checked && !args.quiet {
+        eprintln!(
+            "citylod check: not a citylod tileset, and none of its {features} feature(s) carries citylod's identity \
+             (building_index, or level and node_index): whether each cut holds every building once and the Δh / Δa \
+             criterion are not checked; the tree, the bounding volumes and the drawn pictures are"
+        );
+    }
     let mut by_kind: BTreeMap<String, usize> = BTreeMap::new();
     let count = |f: &[Finding], by_kind: &mut BTreeMap<String, usize>| {
         for f in f {
@@ -497,6 +506,8 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
             "tiles": ts.tiles.len(),
             "leaf_tiles": ts.leaf_tiles().len(),
             "buildings": ts.buildings.len(),
+            "features": features,
+            "identity_checked": identity_checked,
             "geometric_error_m": data.geometric_error_m,
         },
         "tileset_findings": findings_json(&tree_findings),
