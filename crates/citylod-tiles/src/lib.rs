@@ -36,6 +36,7 @@ mod glb;
 mod gltf_json;
 pub mod hlod;
 mod implicit;
+mod legacy;
 mod metadata;
 pub mod read;
 mod shading;

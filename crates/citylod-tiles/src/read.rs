@@ -1,6 +1,7 @@
 //! A tileset reader for tests and the checker: walks `tileset.json` (and external tilesets named by
 //! `content.uri` ending in `.json`), decodes glb content (plain or EXT_meshopt_compression buffers, KHR_draco_mesh_compression primitives,
-//! any quantized or float positions, node transforms, feature ids, property tables).
+//! any quantized or float positions, node transforms, feature ids, property tables), and the 3D Tiles 1.0 b3dm and cmpt
+//! around glb (`legacy.rs`).
 //! Output positions are in the root tile's frame (z up; for citylod: local ENU metres), and so is every tile's
 //! bounding volume, as a box (a `sphere` or `region` as the box enclosing it). 3D Tiles 1.1 `contents` (several
 //! glbs on one tile) are appended into one content; implicit tiling is expanded into the explicit tree its
@@ -181,6 +182,15 @@ fn load_json(path: &Path, root_path: &str) -> Result<tj::Tileset, TilesError> {
         tile: path.display().to_string(),
         msg,
     })?;
+    if let Some(axis) = ts.asset.gltf_up_axis.as_deref().filter(|a| *a != "Y") {
+        return Err(TilesError::Tile {
+            tile: path.display().to_string(),
+            msg: format!(
+                "asset.gltfUpAxis is {axis:?}: glTF content that is not y-up (a convention from before 3D Tiles \
+                 1.0) is not read"
+            ),
+        });
+    }
     Ok(ts)
 }
 
@@ -570,7 +580,7 @@ fn walk(
     if children.is_empty() && !files.is_empty() {
         let mut glb = GlbData::default();
         for file in &files {
-            glb.append(read_glb(&read_file(file)?, file)?);
+            glb.append(read_content(&read_file(file)?, file)?);
         }
         for p in &mut glb.positions_local {
             *p = apply(&to_root, *p);
@@ -638,6 +648,70 @@ impl GlbData {
 /// Decodes a glb; positions are in the tile's frame (glTF y-up converted to z-up). `path` is only
 /// used in errors and to resolve external buffer uris.
 pub fn read_glb(bytes: &[u8], path: &Path) -> Result<GlbData, TilesError> {
+    decode_glb(bytes, path, None)
+}
+
+/// Decodes tile content by its magic: glb, or the 3D Tiles 1.0 formats b3dm and cmpt ([`crate::legacy`]); i3dm,
+/// pnts and glTF JSON are refused by name. Positions in the tile's frame, as [`read_glb`].
+pub fn read_content(bytes: &[u8], path: &Path) -> Result<GlbData, TilesError> {
+    content_at_depth(bytes, path, 0)
+}
+
+fn content_at_depth(bytes: &[u8], path: &Path, depth: usize) -> Result<GlbData, TilesError> {
+    let err = |msg: String| TilesError::Glb {
+        path: path.to_path_buf(),
+        msg,
+    };
+    match bytes.get(..4).unwrap_or(bytes) {
+        b"b3dm" => {
+            let b = crate::legacy::parse_b3dm(bytes).map_err(|m| err(format!("b3dm: {m}")))?;
+            let mut glb = decode_glb(b.glb, path, Some(b.batch_length))?;
+            if let Some(c) = b.rtc_center {
+                for p in &mut glb.positions_local {
+                    *p = [p[0] + c[0], p[1] + c[1], p[2] + c[2]];
+                }
+            }
+            glb.features.extend(b.rows.into_iter().map(|values| FeatureRow {
+                class: BATCH_TABLE_CLASS.into(),
+                values,
+            }));
+            Ok(glb)
+        }
+        b"cmpt" => {
+            if depth >= crate::legacy::MAX_COMPOSITE_DEPTH {
+                return Err(err(format!(
+                    "composite tiles nested deeper than {}",
+                    crate::legacy::MAX_COMPOSITE_DEPTH
+                )));
+            }
+            let mut out = GlbData::default();
+            for inner in crate::legacy::parse_cmpt(bytes).map_err(|m| err(format!("cmpt: {m}")))? {
+                out.append(content_at_depth(inner, path, depth + 1)?);
+            }
+            Ok(out)
+        }
+        b"i3dm" => Err(err(
+            "instanced 3D model (i3dm) content is not read by citylod (it reads glb, b3dm and cmpt)".into(),
+        )),
+        b"pnts" => Err(err(
+            "point cloud (pnts) content has no surfaces; citylod reads glb, b3dm and cmpt".into(),
+        )),
+        m if m.first() == Some(&b'{') => Err(err(
+            "glTF JSON content (.gltf) is not read by citylod; write it as glb (e.g. gltf-pipeline -b)".into(),
+        )),
+        _ => read_glb(bytes, path),
+    }
+}
+
+/// The class of a b3dm's batch-table rows in [`GlbData::features`].
+pub const BATCH_TABLE_CLASS: &str = "b3dm batch table";
+
+/// `batch_length`: inside a b3dm, the features of its batch table, which the vertices' `_BATCHID` indexes.
+fn decode_glb(
+    bytes: &[u8],
+    path: &Path,
+    batch_length: Option<usize>,
+) -> Result<GlbData, TilesError> {
     let err = |msg: String| TilesError::Glb {
         path: path.to_path_buf(),
         msg,
@@ -652,6 +726,7 @@ pub fn read_glb(bytes: &[u8], path: &Path) -> Result<GlbData, TilesError> {
         doc: &doc,
         bin,
         base,
+        batch_length,
     }
     .decode()
     .map_err(err)
@@ -661,6 +736,7 @@ struct Decoder<'a> {
     doc: &'a Gltf,
     bin: &'a [u8],
     base: PathBuf,
+    batch_length: Option<usize>,
 }
 
 impl Decoder<'_> {
@@ -921,7 +997,30 @@ impl Decoder<'_> {
                             })
                             .collect()
                     }
-                    None => vec![u32::MAX; n_vertices],
+                    // In a b3dm, `_BATCHID` (`BATCHID` before 3D Tiles 1.0) indexes the batch table, which follows
+                    // any property tables of the glb's own.
+                    None => match (
+                        self.batch_length,
+                        prim.attributes
+                            .get("_BATCHID")
+                            .or_else(|| prim.attributes.get("BATCHID")),
+                    ) {
+                        (Some(len), Some(&a)) => {
+                            self.expect_kind(a, "_BATCHID", "SCALAR", BATCH_ID_TYPES)?;
+                            let offset = out.features.len() as u32;
+                            get(a)?
+                                .iter()
+                                .map(|&f| {
+                                    if f >= 0.0 && f < len as f64 && f.fract() == 0.0 {
+                                        f as u32 + offset
+                                    } else {
+                                        u32::MAX
+                                    }
+                                })
+                                .collect()
+                        }
+                        _ => vec![u32::MAX; n_vertices],
+                    },
                 };
                 if ids.len() != n_vertices {
                     return Err("feature id count differs from vertex count".into());
@@ -1457,6 +1556,13 @@ const POSITION_TYPES: &[(u32, bool)] = &[
     (gj::UNSIGNED_SHORT, true),
 ];
 const NORMAL_TYPES: &[(u32, bool)] = &[(gj::FLOAT, false), (gj::BYTE, true), (gj::SHORT, true)];
+/// `_BATCHID`: unsigned integers (3D Tiles 1.0 b3dm) or floats holding them (what many exporters wrote).
+const BATCH_ID_TYPES: &[(u32, bool)] = &[
+    (gj::UNSIGNED_BYTE, false),
+    (gj::UNSIGNED_SHORT, false),
+    (gj::UNSIGNED_INT, false),
+    (gj::FLOAT, false),
+];
 const INDEX_TYPES: &[(u32, bool)] = &[
     (gj::UNSIGNED_BYTE, false),
     (gj::UNSIGNED_SHORT, false),
@@ -2371,6 +2477,140 @@ mod volume_and_contents_tests {
             c.feature_ids
         );
         assert!((c.positions_local[last[0] as usize][0] - 0.0).abs() < 0.02);
+    }
+
+    /// `glb` as a b3dm's glb: its feature ids become `_BATCHID`, its own metadata is removed.
+    fn batched_glb(glb: &[u8]) -> Vec<u8> {
+        let (json, bin) = parse_glb(glb).unwrap();
+        let mut doc: serde_json::Value = serde_json::from_slice(json).unwrap();
+        for mesh in doc["meshes"].as_array_mut().unwrap() {
+            for prim in mesh["primitives"].as_array_mut().unwrap() {
+                let attrs = prim["attributes"].as_object_mut().unwrap();
+                let fid = attrs.remove("_FEATURE_ID_0").unwrap();
+                attrs.insert("_BATCHID".into(), fid);
+                prim.as_object_mut().unwrap().remove("extensions");
+            }
+        }
+        doc.as_object_mut().unwrap().remove("extensions");
+        for list in ["extensionsUsed", "extensionsRequired"] {
+            if let Some(l) = doc[list].as_array_mut() {
+                l.retain(|x| !x.as_str().unwrap().starts_with("EXT_"));
+            }
+        }
+        crate::glb::write_glb(&serde_json::to_vec(&doc).unwrap(), bin)
+    }
+
+    #[test]
+    fn b3dm_and_cmpt_content_is_read_with_its_batch_table_and_centre() {
+        use crate::legacy::tests::{b3dm, cmpt};
+        let dir = tempfile::tempdir().unwrap();
+        let glb = batched_glb(&glb_of(&["x", "y"]));
+        let ft = json!({"BATCH_LENGTH": 2, "RTC_CENTER": [1000.0, 2000.0, 30.0]});
+        let bt = json!({"name": ["p", "q"], "height": [12.5, 40]});
+        let one = b3dm(&ft, &[], Some(&bt), &[], &glb);
+        std::fs::write(dir.path().join("a.b3dm"), &one).unwrap();
+        let bx = json!({"box": [1000, 2000, 30, 50, 0, 0, 0, 50, 0, 0, 0, 50]});
+        let root = json!({"boundingVolume": bx, "geometricError": 0, "content": {"uri": "a.b3dm"}});
+        let back = read_tileset(&write_tileset(dir.path(), root.clone())).unwrap();
+        let c = back.tiles[0].content.as_ref().unwrap();
+        assert_eq!(c.triangles.len(), 2);
+        let rows: Vec<_> = c
+            .features
+            .iter()
+            .map(|f| {
+                (
+                    f.class.as_str(),
+                    f.values["name"].clone(),
+                    f.values["height"].clone(),
+                )
+            })
+            .collect();
+        assert_eq!(
+            rows,
+            vec![
+                (
+                    BATCH_TABLE_CLASS,
+                    PropValue::Str("p".into()),
+                    PropValue::Float(12.5)
+                ),
+                (
+                    BATCH_TABLE_CLASS,
+                    PropValue::Str("q".into()),
+                    PropValue::Int(40)
+                ),
+            ]
+        );
+        // The second triangle (feature 1 of the glb, written at x = 10 m) is `q`, moved by RTC_CENTER.
+        let t = c.triangles[1];
+        assert!(
+            t.iter().all(|&v| c.feature_ids[v as usize] == 1),
+            "{:?}",
+            c.feature_ids
+        );
+        let p = c.positions_local[t[0] as usize];
+        for (got, want) in p.iter().zip([1010.0, 2000.0, 30.0]) {
+            assert!((got - want).abs() < 0.02, "{p:?}");
+        }
+
+        // A composite of the b3dm twice: the second's ids index its own rows, after the first's.
+        std::fs::write(dir.path().join("a.cmpt"), cmpt(&[&one, &one])).unwrap();
+        let root_c =
+            json!({"boundingVolume": bx, "geometricError": 0, "content": {"uri": "a.cmpt"}});
+        let back = read_tileset(&write_tileset(dir.path(), root_c)).unwrap();
+        let c = back.tiles[0].content.as_ref().unwrap();
+        assert_eq!((c.triangles.len(), c.features.len()), (4, 4));
+        let ids: std::collections::BTreeSet<u32> = c.feature_ids.iter().copied().collect();
+        assert_eq!(ids.into_iter().collect::<Vec<_>>(), vec![0, 1, 2, 3]);
+
+        // A _BATCHID past BATCH_LENGTH is no feature; a b3dm whose glb is broken names the file.
+        let short = b3dm(&json!({"BATCH_LENGTH": 1}), &[], None, &[], &glb);
+        std::fs::write(dir.path().join("a.b3dm"), &short).unwrap();
+        let back = read_tileset(&write_tileset(dir.path(), root.clone())).unwrap();
+        let c = back.tiles[0].content.as_ref().unwrap();
+        assert_eq!(c.features.len(), 1);
+        assert_eq!(c.feature_ids.iter().filter(|&&f| f == u32::MAX).count(), 3);
+        let broken = b3dm(
+            &json!({"BATCH_LENGTH": 1}),
+            &[],
+            None,
+            &[],
+            &glb[..glb.len() - 8],
+        );
+        std::fs::write(dir.path().join("a.b3dm"), &broken).unwrap();
+        let e = read_tileset(&write_tileset(dir.path(), root.clone()))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("a.b3dm") && e.contains("truncated"), "{e}");
+    }
+
+    #[test]
+    fn content_citylod_does_not_read_is_refused_by_name() {
+        let dir = tempfile::tempdir().unwrap();
+        let bx = json!({"box": [0, 0, 0, 50, 0, 0, 0, 50, 0, 0, 0, 50]});
+        for (bytes, want) in [
+            (b"i3dm\x01\0\0\0".to_vec(), "i3dm"),
+            (b"pnts\x01\0\0\0".to_vec(), "pnts"),
+            (br#"{"asset": {"version": "2.0"}}"#.to_vec(), ".gltf"),
+            (b"XXXX\x01\0\0\0".to_vec(), "not a glb"),
+        ] {
+            std::fs::write(dir.path().join("c.bin"), &bytes).unwrap();
+            let root =
+                json!({"boundingVolume": bx, "geometricError": 0, "content": {"uri": "c.bin"}});
+            let e = read_tileset(&write_tileset(dir.path(), root))
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(want) && e.contains("c.bin"), "{want}: {e}");
+        }
+        let p = dir.path().join("tileset.json");
+        let ts = json!({"asset": {"version": "1.0", "gltfUpAxis": "Z"}, "geometricError": 1,
+            "root": {"boundingVolume": bx, "geometricError": 0}});
+        std::fs::write(&p, ts.to_string()).unwrap();
+        let e = read_tileset(&p).unwrap_err().to_string();
+        assert!(e.contains("gltfUpAxis is \"Z\""), "{e}");
+        let ts = json!({"asset": {"version": "1.0", "gltfUpAxis": "Y"}, "geometricError": 1,
+            "root": {"boundingVolume": bx, "geometricError": 0}});
+        std::fs::write(&p, ts.to_string()).unwrap();
+        read_tileset(&p).unwrap();
     }
 
     /// A binary `.subtree`: header, JSON padded to 8 bytes, binary chunk.

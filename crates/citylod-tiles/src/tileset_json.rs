@@ -21,6 +21,9 @@ pub struct Asset {
     pub version: String,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub generator: Option<String>,
+    /// Before 3D Tiles 1.0 a tileset could say its glTF content was not y-up (read only, to refuse it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gltf_up_axis: Option<String>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -226,6 +226,7 @@ pub fn write_tileset_with<C: Sync>(
         asset: tj::Asset {
             version: "1.1".into(),
             generator: Some(generator.clone()),
+            gltf_up_axis: None,
         },
         geometric_error: if main {
             tileset_error_m
@@ -1388,6 +1389,7 @@ mod tests {
             asset: crate::tileset_json::Asset {
                 version: "1.1".into(),
                 generator: None,
+                gltf_up_axis: None,
             },
             geometric_error: 1e5,
             extras: None,
