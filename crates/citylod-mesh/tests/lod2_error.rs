@@ -1,5 +1,5 @@
-//! Measured error of the simplifiers on real LoD2 buildings: the sampled Hausdorff error is never 0 for a
-//! changed mesh and its mean does not decrease as the rate grows (50 → 60 → 80 %), and topo_qem keeps
+//! Measured error of the simplifiers on real LoD2 buildings: every one of the largest buildings changes and the
+//! sampled Hausdorff distance sees it (above its resolution), its mean does not decrease as the rate grows (50 → 60 → 80 %), and topo_qem keeps
 //! within its error bound. Also (ignored) the timing of simplifying every Delft LoD2.2 building.
 
 mod lod2_support;
@@ -18,7 +18,7 @@ fn errors(set: &[TestBuilding], method: Simplifier, rate: f64) -> Vec<(f64, f64,
             // 0.5 samples per m² keep the debug-build test fast; measured_error_m uses 4.
             let changed = out.mesh != b.mesh;
             let e = if changed {
-                hausdorff_m(&b.mesh, &out.mesh, 0.5).max(RESOLUTION_M)
+                hausdorff_m(&b.mesh, &out.mesh, 0.5)
             } else {
                 0.0
             };
@@ -40,13 +40,19 @@ fn check(name: &str, set: &[TestBuilding]) {
         let mut last_mean = 0.0;
         for rate in [0.5, 0.6, 0.8] {
             let rows = errors(set, method, rate);
+            // The largest buildings all simplify, and the sampled distance sees every change (raw, not floored at
+            // the resolution the tile errors use): on these sets it is at least 6.7 cm.
             for (i, (e, _, changed)) in rows.iter().enumerate() {
                 assert!(
-                    !changed || *e > 0.0,
-                    "{name} {mname} {}: changed mesh with zero error",
+                    *changed,
+                    "{name} {mname} {} at {rate}: unchanged",
                     set[i].id
                 );
-                assert!(*changed || *e == 0.0);
+                assert!(
+                    *e > RESOLUTION_M,
+                    "{name} {mname} {} at {rate}: changed mesh measured {e} m from its input",
+                    set[i].id
+                );
             }
             let n = rows.len() as f64;
             let mean = rows.iter().map(|r| r.0).sum::<f64>() / n;
@@ -82,7 +88,7 @@ fn hausdorff_error_is_positive_and_grows_with_rate_on_den_haag() {
 }
 
 /// What `make bench` reports: every Delft LoD2.2 building through [`simplify_all`] at the paper's rates.
-/// Issue 6 targets ≤ 5 s per run on 2 cores; asserted (release builds only) with room for a busy machine.
+/// Issue 6 targets ≤ 5 s per run on 2 cores; `make bench` measures it (tests assert no times).
 #[test]
 #[ignore = "timing on the full Delft set; run with --release -- --ignored --nocapture"]
 fn time_all_delft_lod22() {

@@ -24,7 +24,9 @@ struct Tally {
     watertight_kept: usize,
 }
 
-fn check_set(name: &str, buildings: &[TestBuilding]) {
+/// `contacts`: the set has touching components (Den Haag's dormers and annexes), so the contact check must have
+/// something to hold: touching pairs, and plain QEM separating some of them.
+fn check_set(name: &str, buildings: &[TestBuilding], contacts: bool) {
     let topo = Simplifier::TopoQem {
         a: DEFAULT_TOPO_QEM_A,
     };
@@ -45,13 +47,24 @@ fn check_set(name: &str, buildings: &[TestBuilding]) {
                     ct.lost
                 );
                 let rate_ok = (t.rate_reached - rate).abs() <= 0.01;
+                // Past the target only by the last collapse (up to 2 triangles); short of it only when no
+                // collapse was left within the error bound or keeping the mesh valid, as the note says.
+                let n = b.mesh.triangles.len() as f64;
                 assert!(
-                    rate_ok || t.note.is_some(),
-                    "{name} {}: rate {} without a note",
+                    t.rate_reached <= rate + 0.01 || t.rate_reached <= rate + 2.0 / n + 1e-12,
+                    "{name} {} at {rate}: removed {} of {n} triangles",
                     b.id,
                     t.rate_reached
                 );
-                assert!(t.rate_reached <= rate + 0.01 || t.note.is_some());
+                if t.rate_reached < rate - 0.01 {
+                    let note = t.note.as_deref().unwrap_or_default();
+                    assert!(
+                        note.contains("max_error_m") || note.contains("no collapse left"),
+                        "{name} {} at {rate}: stopped at {} with the note {note:?}",
+                        b.id,
+                        t.rate_reached
+                    );
+                }
                 if before.watertight {
                     assert!(
                         after.watertight,
@@ -107,6 +120,17 @@ fn check_set(name: &str, buildings: &[TestBuilding]) {
         println!("{name} rate {:.0} %: {s:?}", rate * 100.0);
         assert_eq!(s.lost_topo, 0);
         assert_eq!(s.watertight_in, s.watertight_kept);
+        assert!(
+            s.watertight_in > 0,
+            "{name}: no watertight input to keep so"
+        );
+        if contacts {
+            assert!(s.touching_pairs > 0, "{name} at {rate}: {s:?}");
+            assert!(
+                s.lost_qem > 0,
+                "{name} at {rate}: plain QEM separated nothing, so the contact check was not shown to catch it"
+            );
+        }
     }
 }
 
@@ -122,22 +146,24 @@ fn topo_qem_keeps_touching_components_together_on_den_haag() {
         )
         .count
             > 1));
-    check_set("den-haag-100", &set);
+    check_set("den-haag-100", &set, true);
 }
 
+/// Delft's 100 largest LoD2.2 solids are one component each (the contacts are Den Haag's test): topo_qem keeps them
+/// closed, unflipped, and stops short of a rate only for a reason.
 #[test]
-fn topo_qem_keeps_touching_components_together_on_delft() {
+fn topo_qem_keeps_delft_solids_closed_and_stops_only_for_a_reason() {
     let Some(all) = load_delft("2.2") else { return };
-    check_set("delft-100", &largest(all, 100));
+    check_set("delft-100", &largest(all, 100), false);
 }
 
 #[test]
 #[ignore = "full data sets; run with --release -- --ignored --nocapture for the report figures"]
 fn topo_qem_full_sets() {
     if let Some(all) = load_denhaag() {
-        check_set("den-haag-all", &all);
+        check_set("den-haag-all", &all, true);
     }
     if let Some(all) = load_delft("2.2") {
-        check_set("delft-all", &all);
+        check_set("delft-all", &all, false);
     }
 }

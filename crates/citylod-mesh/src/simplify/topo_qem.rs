@@ -552,7 +552,17 @@ mod tests {
                 r.watertight && r.orientation_consistent && r.degenerate == 0,
                 "{r:?}"
             );
-            assert!((out.rate_reached - rate_target).abs() <= 0.01 || out.note.is_some());
+            // 80 % of a house is more than the error bound allows: short of it, the note says so.
+            if out.rate_reached < rate_target - 0.01 {
+                let note = out.note.as_deref().unwrap_or_default();
+                assert!(note.contains("max_error_m"), "{rate_target}: {note:?}");
+            } else {
+                assert!(
+                    out.rate_reached <= rate_target + 0.01,
+                    "{rate_target}: {}",
+                    out.rate_reached
+                );
+            }
         }
     }
 
