@@ -196,17 +196,26 @@ mod tests {
 
     proptest! {
         #[test]
-        fn height_within_range_and_deltas_non_negative(
+        fn height_is_the_area_weighted_mean_and_deltas_follow_the_members(
             hs in prop::collection::vec((1.0f64..20.0, 0.5f64..80.0), 1..12)
         ) {
+            // Squares of side w, 25 m apart, under a 20 m-deep block: they never overlap, so nothing clamps.
             let b: Vec<Building> = hs.iter().enumerate()
                 .map(|(i, &(w, h))| building(i as u32, rect(i as f64 * 25.0, 0.0, i as f64 * 25.0 + w, w), 0.0, h))
                 .collect();
             let refs: Vec<&Building> = b.iter().collect();
             let fp = rect(0.0, 0.0, hs.len() as f64 * 25.0, 20.0);
             let s = node_stats(&refs, &fp, &[]);
-            prop_assert!(s.h_min_m <= s.height_m && s.height_m <= s.h_max_m);
-            prop_assert!(s.dh_m >= 0.0 && s.da_m2 >= 0.0);
+            let areas: f64 = hs.iter().map(|&(w, _)| w * w).sum();
+            let mean = hs.iter().map(|&(w, h)| w * w * h).sum::<f64>() / areas;
+            let (lo, hi) = hs.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &(_, h)| (lo.min(h), hi.max(h)));
+            let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1.0);
+            prop_assert!(close(s.height_m, mean), "height {} against {mean}", s.height_m);
+            prop_assert!((s.h_min_m, s.h_max_m) == (lo, hi));
+            prop_assert!(s.dh_m == hi - lo);
+            let block = hs.len() as f64 * 25.0 * 20.0;
+            prop_assert!(close(s.area_m2, block), "area {} against {block}", s.area_m2);
+            prop_assert!(close(s.da_m2, block - areas), "Δa {} against {}", s.da_m2, block - areas);
         }
     }
 }

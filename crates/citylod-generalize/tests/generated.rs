@@ -68,7 +68,16 @@ proptest! {
             prop_assert!(lv.nodes.len() < below.nodes.len() || n == 1);
             for node in &lv.nodes {
                 prop_assert!(node.children.len() <= g.report.delta_p);
-                prop_assert!(node.dh_m >= 0.0 && node.da_m2 >= 0.0);
+                // Δh is the spread of the members it keeps (landmarks are drawn apart), h_min / h_max its ends.
+                let kept: Vec<f64> = node.members.iter()
+                    .filter(|b| !node.landmarks.contains(b))
+                    .map(|b| bs[b.0 as usize].height_m)
+                    .collect();
+                let (lo, hi) = kept.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| (l.min(x), h.max(x)));
+                prop_assert!(!kept.is_empty(), "a node of landmarks only");
+                prop_assert_eq!((node.h_min_m, node.h_max_m), (lo, hi));
+                prop_assert_eq!(node.dh_m, hi - lo);
+                prop_assert!(node.da_m2 >= 0.0 && node.da_m2 <= node.area_m2);
                 // Δh grows up the tree once the node's landmarks (drawn apart) leave the child's spread too.
                 for c in &node.children {
                     let hs: Vec<f64> = below.nodes[c.0 as usize].members.iter()
