@@ -1254,6 +1254,15 @@ pub(crate) mod tests {
     /// Up to `n` Boston footprints nearest the data's centre, in local ENU metres; `None` without data.
     pub(crate) fn boston_sample(n: usize) -> Option<Vec<Footprint>> {
         let path = citylod_testdata::shared_data("boston/boston_buildings.geojson")?;
+        Some(read_boston_sample(&path, n).unwrap_or_else(|| {
+            panic!(
+                "{}: present but not readable as the test expects",
+                path.display()
+            )
+        }))
+    }
+
+    fn read_boston_sample(path: &std::path::Path, n: usize) -> Option<Vec<Footprint>> {
         let text = std::fs::read_to_string(path).ok()?;
         let v: serde_json::Value = serde_json::from_str(&text).ok()?;
         let ring = |r: &serde_json::Value| -> Vec<(f64, f64)> {

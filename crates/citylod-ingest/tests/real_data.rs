@@ -1,7 +1,7 @@
 //! Ingest of the real data sets in ../shared/data (see its README): counts, skip reasons, heights
 //! and placement on the globe. Each test skips with a message when the data folder is absent.
 
-use citylod_ingest::{check_footprint, ingest, IngestOptions, IssueReason};
+use citylod_ingest::{check_footprint, ingest, IngestOptions, IssueReason, MIN_AREA_M2};
 use citylod_mesh::topology::signed_volume_m3;
 use citylod_model::HeightSource;
 
@@ -107,12 +107,14 @@ fn boston_every_feature_is_written_or_skipped_with_a_real_reason() {
             .windows(2)
             .map(|w| w[0].0 * w[1].1 - w[1].0 * w[0].1)
             .sum();
-        // 0.01 m² ≈ 1.5e-12 deg² at 42°N; allow the multi-part/hole case a generous margin.
+        // Square degrees to square metres at the ring's latitude (to 0.3 %, enough to tell 0.01 m² from 0.4 m²).
+        let lat = ring[0].1.to_radians();
+        let area_m2 = twice_area_deg2.abs() / 2.0 * 111_132.0 * 111_320.0 * lat.cos();
         match s.reason {
             IssueReason::TooFewPoints => assert!(distinct.len() < 3, "{s:?}"),
             IssueReason::ZeroArea => assert!(
-                twice_area_deg2.abs() / 2.0 < 1e-10,
-                "{s:?} area {twice_area_deg2}"
+                area_m2 < MIN_AREA_M2 * 1.01,
+                "{s:?}: its ring has {area_m2} m², the rule skips below {MIN_AREA_M2} m²"
             ),
             other => panic!("unexpected skip reason {other:?} for {s:?}"),
         }

@@ -1,6 +1,7 @@
 //! Dev-only: where every crate's tests find the real data sets — `../shared/data` beside the repository (its
 //! README lists them). A clone without that folder still runs the rest of the suite: a data test asks
-//! [`shared_data`] for its file, gets `None` with a `SKIP:` line on stderr, and returns.
+//! [`shared_data`] for its file, gets `None` with a `SKIP:` line on stderr, and returns. Where the folder is there,
+//! a file missing from it fails the test instead.
 
 use std::path::{Path, PathBuf};
 
@@ -9,16 +10,30 @@ pub fn shared_data_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data")
 }
 
-/// `../shared/data/<rel>` when it exists; otherwise `None`, after printing why the caller skips.
+/// `../shared/data/<rel>` when it exists; `None`, after printing why the caller skips, when `../shared/data` is not
+/// beside this clone at all (a user's clone).
+///
+/// # Panics
+/// When `../shared/data` is there but `<rel>` is not: a file renamed or moved would otherwise turn every test that
+/// reads it green without running it.
 ///
 /// # Examples
 /// ```
-/// assert!(citylod_testdata::shared_data("no/such/file.geojson").is_none());
+/// if let Some(p) = citylod_testdata::shared_data("boston/boston_buildings.geojson") {
+///     assert!(p.is_file());
+/// }
 /// ```
 pub fn shared_data(rel: &str) -> Option<PathBuf> {
-    let p = shared_data_dir().join(rel);
+    let dir = shared_data_dir();
+    let p = dir.join(rel);
     if p.exists() {
         Some(p)
+    } else if dir.is_dir() {
+        panic!(
+            "test data {} not found, though {} is there: was it renamed or moved?",
+            p.display(),
+            dir.display()
+        );
     } else {
         eprintln!(
             "SKIP: test data {} not found (../shared/data is not beside this clone)",

@@ -57,6 +57,15 @@ fn building(i: usize, source_id: String, footprint: Footprint, height_m: f64) ->
 /// centred on the mean vertex. Features without a usable polygon are skipped (counted in the result).
 pub fn load_geojson(rel: &str) -> Option<(Vec<Building>, usize)> {
     let path = data_path(rel)?;
+    Some(read_geojson(&path).unwrap_or_else(|| {
+        panic!(
+            "{}: present but not readable as the test expects",
+            path.display()
+        )
+    }))
+}
+
+fn read_geojson(path: &std::path::Path) -> Option<(Vec<Building>, usize)> {
     let doc: Value = serde_json::from_str(&std::fs::read_to_string(path).ok()?).ok()?;
     let feats = doc["features"].as_array()?;
     let polys_of = |g: &Value| -> Vec<Value> {
@@ -133,6 +142,15 @@ pub fn load_geojson(rel: &str) -> Option<(Vec<Building>, usize)> {
 /// mean vertex; height = `b3_h_dak_70p − b3_h_maaiveld` (10 m when missing).
 pub fn load_cityjsonseq(rel: &str) -> Option<Vec<Building>> {
     let path = data_path(rel)?;
+    Some(read_cityjsonseq(&path).unwrap_or_else(|| {
+        panic!(
+            "{}: present but not readable as the test expects",
+            path.display()
+        )
+    }))
+}
+
+fn read_cityjsonseq(path: &std::path::Path) -> Option<Vec<Building>> {
     let text = std::fs::read_to_string(path).ok()?;
     let mut lines = text.lines();
     let header: Value = serde_json::from_str(lines.next()?).ok()?;
@@ -149,9 +167,7 @@ pub fn load_cityjsonseq(rel: &str) -> Option<Vec<Building>> {
     type Surfaces = Vec<Vec<Vec<(f64, f64)>>>;
     let mut raw: Vec<(String, Surfaces, f64)> = Vec::new();
     for line in lines {
-        let Ok(f): Result<Value, _> = serde_json::from_str(line) else {
-            continue;
-        };
+        let f: Value = serde_json::from_str(line).ok()?;
         let verts: Vec<(f64, f64)> = f["vertices"]
             .as_array()
             .into_iter()

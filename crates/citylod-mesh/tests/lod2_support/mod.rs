@@ -138,6 +138,15 @@ fn int_vertex(v: &Value) -> Option<[i64; 3]> {
 /// Delft 3DBAG buildings at LoD `lod` ("1.2", "1.3" or "2.2"), origin at the tile's translate.
 pub fn load_delft(lod: &str) -> Option<Vec<TestBuilding>> {
     let path = data_path("delft-3dbag/delft.city.jsonl")?;
+    Some(read_delft(&path, lod).unwrap_or_else(|| {
+        panic!(
+            "{}: present but not readable as the test expects",
+            path.display()
+        )
+    }))
+}
+
+fn read_delft(path: &std::path::Path, lod: &str) -> Option<Vec<TestBuilding>> {
     let text = std::fs::read_to_string(path).ok()?;
     let mut lines = text.lines();
     let header: Value = serde_json::from_str(lines.next()?).ok()?;
@@ -151,9 +160,7 @@ pub fn load_delft(lod: &str) -> Option<Vec<TestBuilding>> {
     };
     let mut out = Vec::new();
     for line in lines {
-        let Ok(f): Result<Value, _> = serde_json::from_str(line) else {
-            continue;
-        };
+        let f: Value = serde_json::from_str(line).ok()?;
         let verts: Vec<Option<[i64; 3]>> = f["vertices"]
             .as_array()
             .into_iter()
@@ -185,6 +192,15 @@ pub fn load_delft(lod: &str) -> Option<Vec<TestBuilding>> {
 /// Den Haag LoD2 buildings (each Building with its BuildingParts), origin at the file's translate.
 pub fn load_denhaag() -> Option<Vec<TestBuilding>> {
     let path = data_path("denhaag-lod2/DenHaag_01.json")?;
+    Some(read_denhaag(&path).unwrap_or_else(|| {
+        panic!(
+            "{}: present but not readable as the test expects",
+            path.display()
+        )
+    }))
+}
+
+fn read_denhaag(path: &std::path::Path) -> Option<Vec<TestBuilding>> {
     let doc: Value = serde_json::from_str(&std::fs::read_to_string(path).ok()?).ok()?;
     let (scale, _) = transform(&doc);
     let verts: Vec<Option<[i64; 3]>> = doc["vertices"]
