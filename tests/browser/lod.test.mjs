@@ -193,10 +193,12 @@ describe('NYC Lower East Side, LOD in the browser', () => {
   // before the top of the tree was condensed and levels that remove little were left out, --level-ratio 0.8). (Before rough blocks were drawn as their buildings in their level-1
   // tile (hlod::DEMOTE_ERROR_RATIO), one block of a 10 m and a 57 m building set a whole level-1 tile's error to 47 m
   // and the far view refined it to the leaves: ratio 1.17, before that 1.36, 1.77 and 2.03.)
-  test('far view: LOD loads fewer bytes than leaves-only', () => {
+  // Held at a third, so that a regression from today's 0.29 shows while the 20 % target below stays a todo.
+  const FAR_BYTES_REGRESSION_BOUND = 1 / 3;
+  test('far view: LOD loads at most a third of the leaves-only bytes', () => {
     for (const client of clients) {
       const c = farComparison(client);
-      assert.ok(c && c.lodBytes < c.leavesBytes, `${client}: LOD far ${c?.lodBytes} B >= leaves-only far ${c?.leavesBytes} B (ratio ${c?.bytesRatio.toFixed(3)})`);
+      assert.ok(c && c.bytesRatio <= FAR_BYTES_REGRESSION_BOUND, `${client}: LOD far ${c?.lodBytes} B against leaves-only far ${c?.leavesBytes} B (ratio ${c?.bytesRatio.toFixed(3)} > ${FAR_BYTES_REGRESSION_BOUND.toFixed(3)})`);
     }
   });
   // Known shortfall: at 800×600 this 1 km district's far camera allows ~36 m of error near it; one level-2 tile keeps

@@ -740,6 +740,7 @@ mod tests {
         let (d1, d2) = (scratch("det1"), scratch("det2"));
         let f1 = dump_levels(&d1, &h, &buildings, &frame).unwrap();
         let f2 = dump_levels(&d2, &h, &buildings, &frame).unwrap();
+        assert!(!f1.is_empty() && f1.len() == f2.len(), "{f1:?} / {f2:?}");
         for (a, b) in f1.iter().zip(&f2) {
             assert_eq!(
                 std::fs::read(a).unwrap(),

@@ -801,7 +801,14 @@ mod tests {
         let bs = [rect(0, 0.0, 0.0, 10.0, 10.0), rect(1, 0.0, 0.0, 10.0, 10.0)];
         let g = generalize(&bs, &Default::default()).unwrap();
         assert_sound(&g, 2);
-        assert_eq!(g.hierarchy.levels.last().unwrap().nodes[0].members.len(), 2);
+        // They touch (distance 0), so the first level above the buildings already holds them as one block.
+        assert_eq!(
+            g.hierarchy.levels[1].nodes.len(),
+            1,
+            "{:?}",
+            g.hierarchy.levels[1].nodes
+        );
+        assert_eq!(g.hierarchy.levels[1].nodes[0].members.len(), 2);
     }
 
     #[test]
