@@ -168,6 +168,12 @@ fn unreadable_inputs_exit_2_with_a_clear_message() {
         (vec![good.display().to_string(), "--dh-px=1e308".into()], "got 1e308"),
         (vec![good.display().to_string(), "--storey-height=1e308".into()], "--storey-height must be a number of metres from 0.1 to 1000, got 1e308"),
         (vec![good.display().to_string(), "--height-offset=-5000".into()], "--height-offset"),
+        // A negative number given as the next argument is the flag's value, refused by its range (clap took it
+        // for a flag and suggested `-- -1`, which failed too).
+        (vec![good.display().to_string(), "--storey-height".into(), "-1".into()], "--storey-height must be a number of metres from 0.1 to 1000, got -1"),
+        (vec![good.display().to_string(), "--dh-px".into(), "-2".into()], "--dh-px must be a positive number"),
+        (vec![good.display().to_string(), "--level-ratio".into(), "-0.5".into()], "--level-ratio must be in (0, 1], got -0.5"),
+        (vec![good.display().to_string(), "--tile-max-features".into(), "-5".into()], "'-5' for '--tile-max-features"),
     ];
     for (inputs, expect) in cases {
         let out = d.join("out");

@@ -880,15 +880,22 @@ fn truncated_glb_and_too_deep_tree_are_exit_2() {
 fn bad_options_and_out_inside_the_tileset_are_exit_2() {
     let dir = damaged("out-inside", |_| {});
     let out = scratch_dir("bad-options-out");
-    for (flag, value) in [("--dh-px", "0"), ("--da-px", "-3"), ("--sse", "0")] {
+    // `--flag=value`, or the value as the next argument (a negative one too).
+    for (flag, value, joined) in [
+        ("--dh-px", "0", true),
+        ("--da-px", "-3", true),
+        ("--sse", "0", true),
+        ("--sse", "-2", false),
+    ] {
         let arg = format!("{flag}={value}");
-        let o = citylod(&[
-            "check",
-            dir.to_str().unwrap(),
-            &arg,
-            "--out",
-            out.to_str().unwrap(),
-        ]);
+        let mut args = vec!["check", dir.to_str().unwrap()];
+        if joined {
+            args.push(&arg);
+        } else {
+            args.extend([flag, value]);
+        }
+        args.extend(["--out", out.to_str().unwrap()]);
+        let o = citylod(&args);
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{flag}: {err}");
         assert!(
@@ -900,6 +907,22 @@ fn bad_options_and_out_inside_the_tileset_are_exit_2() {
             "{err}"
         );
     }
+    // A render larger than the device allows is refused by the flags' names, before any view is drawn.
+    let o = citylod(&[
+        "check",
+        dir.to_str().unwrap(),
+        "--width",
+        "100000",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--width and --height must be at most") && err.contains("got 100000×600"),
+        "{err}"
+    );
+    assert!(!out.join("view-0").exists());
     let before = tree_bytes(&dir);
     for inside in [dir.clone(), dir.join("check"), dir.join("tiles")] {
         let o = citylod(&[

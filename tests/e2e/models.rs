@@ -218,3 +218,30 @@ fn a_lod_no_building_has_says_how_many_prisms_were_written() {
         1115
     );
 }
+
+/// `--lod` above what the buildings have reads their highest LoD below it, and the console says so (a `--lod 2.1`
+/// that quietly gave LoD 1.3 models looked like what was asked).
+#[test]
+fn a_lod_the_buildings_lack_says_which_lod_was_read_instead() {
+    let Some(input) = shared_data("delft-3dbag/delft.city.jsonl") else {
+        return;
+    };
+    let out = e2e_dir("delft-lod21");
+    let o = citylod(&[
+        "build",
+        input.to_str().unwrap(),
+        "--lod",
+        "2.1",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("3D models: 1115 of 1115 buildings (1115 at LoD 1.3); 1115 had no LoD 2.1 and use their highest below it"),
+        "{e}"
+    );
+    let report = read_json(&out.join("build-report.json"));
+    assert_eq!(report["ingest"]["mesh_lod_fallbacks"], 1115);
+    assert_eq!(report["ingest"]["mesh_lods"]["1.3"], 1115);
+}

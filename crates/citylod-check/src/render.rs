@@ -116,6 +116,11 @@ impl Renderer {
         })
     }
 
+    /// The largest width or height a render may have on this device (its largest 2D texture; 8192 on lavapipe).
+    pub fn max_size_px(&self) -> u32 {
+        self.max_size_px
+    }
+
     /// Name, type and driver of the adapter in use, e.g. `llvmpipe (LLVM 19.1.7, 256 bits) (Cpu, llvmpipe)`.
     pub fn adapter_name(&self) -> &str {
         &self.adapter_name

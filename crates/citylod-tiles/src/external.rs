@@ -29,7 +29,9 @@ pub(crate) fn split_external(
     compact(root, "0", &limit_for, wrap, &mut files).map_err(|e| match e {
         TilesError::Tile { tile, msg } => TilesError::Tile {
             tile,
-            msg: format!("{msg} (limit {limit_bytes} bytes per tileset JSON file)"),
+            msg: format!(
+                "{msg} (limit {limit_bytes} bytes per tileset JSON file: raise --max-tileset-json-bytes)"
+            ),
         },
         e => e,
     })?;
@@ -78,7 +80,7 @@ fn compact(
                 tile: path.into(),
                 msg: format!(
                     "its JSON needs {size} bytes even with every child in an external tileset, \
-                     over the budget of {budget}"
+                     over the {budget} bytes a file has for it after its own wrapper"
                 ),
             });
         };

@@ -15,6 +15,8 @@ use crate::progress::Progress;
 use crate::shown;
 
 #[derive(Args, Debug)]
+// A negative number is a value (`--storey-height -1` is refused by its range check, naming the flag).
+#[command(allow_negative_numbers = true)]
 pub struct BuildArgs {
     /// Input files: GeoJSON (.geojson, .json), CityJSON (.city.json, .json) or CityJSONSeq (.city.jsonl, .jsonl).
     #[arg(required = true, value_name = "INPUT", help_heading = "Input")]
@@ -70,7 +72,10 @@ pub struct BuildArgs {
     /// Read the 3D geometry of CityJSON buildings at this LoD (`2.2`, `2`, `1.3`, … or `highest`) and give every
     /// building a chain of detail below its footprint prism: the full model (error 0), a simplified model and the
     /// prism, each with its measured error (sampled two-sided Hausdorff distance to the full model, metres).
-    /// Without it, buildings are prisms of their footprints. GeoJSON input ignores it.
+    /// `2` means the highest 2.x a building has; a building without the LoD asked uses its highest LoD below it, one
+    /// with none at or below it stays a prism (the console and the build report's `mesh_lods` and
+    /// `mesh_lod_fallbacks` say how many). Without it, buildings are prisms of their footprints. GeoJSON input
+    /// ignores it.
     #[arg(long, value_name = "LOD", help_heading = "3D buildings")]
     pub lod: Option<String>,
 
@@ -79,7 +84,8 @@ pub struct BuildArgs {
     #[arg(long, value_enum, default_value_t = SimplifierArg::TopoQem, help_heading = "3D buildings")]
     pub building_simplifier: SimplifierArg,
 
-    /// Share of a model's triangles the simplified level removes (0–1; the IJGI 2021 paper used 0.5, 0.6 and 0.8).
+    /// Share of a model's triangles the simplified level removes, strictly between 0 and 1 (the IJGI 2021 paper used
+    /// 0.5, 0.6 and 0.8).
     #[arg(
         long,
         value_name = "RATE",
@@ -142,7 +148,8 @@ pub struct BuildArgs {
     )]
     pub landmark_min_excess: f64,
 
-    /// At most this fraction of a block's buildings are landmarks (tallest first), 0–1 (exclusive).
+    /// At most this fraction of a block's buildings are landmarks (tallest first), from 0 (none) up to but not
+    /// including 1.
     #[arg(
         long,
         value_name = "SHARE",
@@ -218,7 +225,7 @@ pub struct BuildArgs {
     /// 1 = every level. A level that removes little is barely coarser either, so a client would use it over a
     /// short range of distances while every closer view loads it on the way down; but a low value makes clients
     /// jump further between levels, so views load more: on Boston 0.25 stores 1.03× the bytes of --leaves-only,
-    /// and `citylod check`'s views load 4.6× the bytes of the default (measurements: docs/coarse-bytes.md).
+    /// and `citylod check`'s views load 4.2× the bytes of the default (measurements: docs/coarse-bytes.md).
     #[arg(long, value_name = "R", default_value_t = 0.8, help_heading = "Tiles")]
     pub level_ratio: f64,
 
@@ -812,8 +819,28 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         if args.lod.is_some() {
             let with = lod.model_summary.as_ref().map_or(0, |m| m.buildings);
             let prisms = written.saturating_sub(with);
+            // Which LoDs were read: a building without the one asked uses its highest below it.
+            let lods: Vec<String> = r
+                .mesh_lods
+                .iter()
+                .map(|(l, n)| format!("{n} at LoD {l}"))
+                .collect();
             eprintln!(
-                "  3D models: {with} of {written} buildings{}",
+                "  3D models: {with} of {written} buildings{}{}{}",
+                if lods.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({})", lods.join(", "))
+                },
+                if r.mesh_lod_fallbacks > 0 {
+                    format!(
+                        "; {} had no LoD {} and use their highest below it",
+                        r.mesh_lod_fallbacks,
+                        args.lod.as_deref().unwrap_or_default()
+                    )
+                } else {
+                    String::new()
+                },
                 if prisms > 0 {
                     format!("; {prisms} without one are prisms")
                 } else {

@@ -19,6 +19,8 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 #[derive(Args, Debug)]
+// A negative number is a value (`--storey-height -1` is refused by its range check, naming the flag).
+#[command(allow_negative_numbers = true)]
 pub struct CheckArgs {
     /// Tileset folder (holding tileset.json) or the tileset.json itself.
     #[arg(value_name = "TILESET", help_heading = "Input")]
@@ -62,11 +64,11 @@ pub struct CheckArgs {
     #[arg(long, value_name = "DEG", default_value_t = STANDARD_FOVY_DEG, help_heading = "Views")]
     pub fovy: f64,
 
-    /// Width of every render in pixels.
+    /// Width of every render in pixels (at most the device's largest texture: 8192 on lavapipe).
     #[arg(long, value_name = "PX", default_value_t = 800, help_heading = "Views")]
     pub width: u32,
 
-    /// Height of every render in pixels.
+    /// Height of every render in pixels (at most the device's largest texture: 8192 on lavapipe).
     #[arg(long, value_name = "PX", default_value_t = 600, help_heading = "Views")]
     pub height: u32,
 
@@ -365,6 +367,15 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
     }
 
     let renderer = Renderer::new().context("opening a Vulkan device for rendering")?;
+    let max_px = renderer.max_size_px();
+    if args.width.max(args.height) > max_px {
+        bail!(
+            "--width and --height must be at most {max_px} px on this device ({}), got {}×{}",
+            renderer.adapter_name(),
+            args.width,
+            args.height
+        );
+    }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let settings = CheckSettings {
