@@ -77,16 +77,22 @@ impl BuildingTable {
         let mut kinds: BTreeMap<&str, Option<PropertyKind>> = BTreeMap::new();
         // Buildings with a value (not null) per attribute.
         let mut present: BTreeMap<&str, usize> = BTreeMap::new();
-        // Buildings that have the attribute at all (null included).
+        // Buildings that hold a value of the attribute: not null, not the empty string (GDAL writes every key on every
+        // feature, null where it has none, so counting keys would never fold anything).
         let mut held: BTreeMap<&str, usize> = BTreeMap::new();
         // Attributes some building has as the empty string.
         let mut empty: BTreeSet<&str> = BTreeSet::new();
         for b in buildings {
             for (k, v) in &b.attributes {
-                if matches!(v, AttrValue::String(s) if s.is_empty()) {
-                    empty.insert(k.as_str());
-                }
-                *held.entry(k.as_str()).or_default() += 1;
+                let no_value = match v {
+                    AttrValue::String(s) if s.is_empty() => {
+                        empty.insert(k.as_str());
+                        true
+                    }
+                    AttrValue::Null => true,
+                    _ => false,
+                };
+                *held.entry(k.as_str()).or_default() += usize::from(!no_value);
                 let seen = kinds.entry(k.as_str()).or_insert(None);
                 let this = match v {
                     AttrValue::Null => continue,
@@ -146,7 +152,7 @@ impl BuildingTable {
             .collect();
         let mut attrs = Vec::new();
         for (name, kind) in kinds.into_iter().filter(|(k, _)| columns.contains(k)) {
-            // An attribute that is null everywhere still gets a column, so no attribute is dropped.
+            // A column holds some value (`held`); the kind is known unless every value was null.
             let kind = kind.unwrap_or(PropertyKind::String);
             let id = unique_id(name, &mut used);
             let mut description = (id != name).then(|| format!("input attribute `{name}`"));
@@ -239,7 +245,8 @@ impl BuildingTable {
             let rare: serde_json::Map<String, serde_json::Value> = b
                 .attributes
                 .iter()
-                .filter(|(k, _)| self.folded.contains(k.as_str()))
+                // A null is no value, in a column or here (GDAL's nulls for keys a feature lacks would fill every row).
+                .filter(|(k, v)| self.folded.contains(k.as_str()) && !matches!(v, AttrValue::Null))
                 .map(|(k, v)| (k.clone(), serde_json::to_value(v).unwrap_or_default()))
                 .collect();
             values.push(if rare.is_empty() {
@@ -652,7 +659,8 @@ mod tests {
 
     #[test]
     fn rare_attributes_share_one_json_column_and_columns_are_capped() {
-        // 300 buildings: `common` on all, `rare` on two (under 1 %), `other_attributes` as an input name on all.
+        // 300 buildings: `common` on all, `rare` with a value on two (under 1 %; null or empty on the rest),
+        // `other_attributes` as an input name on all.
         let buildings: Vec<Building> = (0..300)
             .map(|i| {
                 let mut a = vec![
@@ -662,6 +670,10 @@ mod tests {
                 if i < 2 {
                     a.push(("rare", AttrValue::Float(1.5)));
                     a.push(("rare:text", AttrValue::String("a \"b\"".into())));
+                } else {
+                    // As GDAL writes it: the key on every feature, null or empty where it has no value.
+                    a.push(("rare", AttrValue::Null));
+                    a.push(("rare:text", AttrValue::String(String::new())));
                 }
                 building(i, a)
             })
@@ -686,7 +698,11 @@ mod tests {
             folded,
             serde_json::json!({"rare": 1.5, "rare:text": "a \"b\""})
         );
-        assert_eq!(row(2).last(), Some(&PropValue::Null));
+        // No null in the object; the empty text is a value of its own and kept.
+        assert_eq!(
+            row(2).last(),
+            Some(&PropValue::Str(r#"{"rare:text":""}"#.into()))
+        );
         assert_eq!(row(2).len(), t.class.properties.len());
 
         // 300 attributes every building has: the first 256 by name get columns.
