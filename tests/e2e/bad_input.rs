@@ -174,6 +174,9 @@ fn unreadable_inputs_exit_2_with_a_clear_message() {
         (vec![good.display().to_string(), "--dh-px".into(), "-2".into()], "--dh-px must be a positive number"),
         (vec![good.display().to_string(), "--level-ratio".into(), "-0.5".into()], "--level-ratio must be in (0, 1], got -0.5"),
         (vec![good.display().to_string(), "--tile-max-features".into(), "-5".into()], "'-5' for '--tile-max-features"),
+        // Coordinates read in the wrong CRS: every footprint lost the same way, and the message says what to try.
+        (vec![good.display().to_string(), "--crs".into(), "EPSG:2263".into()], "are the coordinates longitude/latitude degrees? then leave --crs out"),
+        (vec![write(&d, "projected.geojson", r#"{"type":"FeatureCollection","features":[{"type":"Feature","id":"p1","properties":{},"geometry":{"type":"Polygon","coordinates":[[[85000,446000],[85010,446000],[85010,446010],[85000,446000]]]}}]}"#).display().to_string()], "give it with --crs"),
     ];
     for (inputs, expect) in cases {
         let out = d.join("out");

@@ -623,6 +623,25 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         if skipped.len() > SKIPS_SHOWN {
             why += &format!("\n  … and {} more", skipped.len() - SKIPS_SHOWN);
         }
+        // Most features lost the same way: coordinates read in the wrong CRS.
+        let most = |reason: &str| {
+            2 * skipped
+                .iter()
+                .filter(|i| i.reason.as_str() == reason)
+                .count()
+                > skipped.len()
+        };
+        if most("coordinate_out_of_range") && args.crs.is_none() {
+            why += "\n  hint: the coordinates are not longitude/latitude degrees; if the file is in a projected CRS it \
+                    does not declare, give it with --crs (e.g. --crs EPSG:28992)";
+        } else if most("zero_area") {
+            if let Some(crs) = &args.crs {
+                why += &format!(
+                    "\n  hint: the footprints have almost no area in {crs}'s units; are the coordinates longitude/\
+                     latitude degrees? then leave --crs out (GeoJSON is lon/lat by RFC 7946)"
+                );
+            }
+        }
         bail!(
             "no building could be read from the input ({} features read, {} skipped){}{why}",
             ingested.report.features_read,
