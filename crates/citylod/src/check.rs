@@ -73,7 +73,7 @@ pub struct CheckArgs {
     pub height: u32,
 
     /// Output folder for view-K/{cut,full,diff}.png, views.png and report.json (created if missing; not the
-    /// tileset's folder or inside it).
+    /// tileset's folder or inside it). view-K folders of an earlier run with more views are removed.
     #[arg(short, long, value_name = "DIR", help_heading = "Output")]
     pub out: PathBuf,
 
@@ -378,6 +378,7 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
     }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
+    remove_stale_views(&args.out, cameras.len())?;
     let settings = CheckSettings {
         sse_px,
         tolerances: tol,
@@ -550,9 +551,72 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
     })
 }
 
+/// The pictures of one view, all a `view-K` folder holds when check wrote it.
+const VIEW_FILES: [&str; 3] = ["cut.png", "full.png", "diff.png"];
+
+/// Removes the `view-K` folders of an earlier check into `out` for K ≥ `views` (a run with fewer views would leave
+/// them beside a report that does not list them). A folder holding anything but check's pictures is left alone.
+fn remove_stale_views(out: &Path, views: usize) -> Result<()> {
+    let entries = std::fs::read_dir(out).with_context(|| format!("reading {}", out.display()))?;
+    for e in entries {
+        let e = e.with_context(|| format!("reading {}", out.display()))?;
+        let name = e.file_name();
+        let Some(k) = name
+            .to_str()
+            .and_then(|n| n.strip_prefix("view-"))
+            .filter(|k| !k.is_empty() && k.bytes().all(|b| b.is_ascii_digit()))
+            .and_then(|k| k.parse::<usize>().ok())
+        else {
+            continue;
+        };
+        let dir = e.path();
+        if k < views || !dir.is_dir() || std::fs::symlink_metadata(&dir)?.file_type().is_symlink() {
+            continue;
+        }
+        let only_pictures = std::fs::read_dir(&dir)?.all(|f| {
+            f.is_ok_and(|f| {
+                f.file_type().is_ok_and(|t| t.is_file())
+                    && f.file_name()
+                        .to_str()
+                        .is_some_and(|n| VIEW_FILES.contains(&n))
+            })
+        });
+        if only_pictures {
+            std::fs::remove_dir_all(&dir)
+                .with_context(|| format!("removing the earlier {}", dir.display()))?;
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn only_earlier_views_past_this_run_are_removed() {
+        let out = tempfile::tempdir().unwrap();
+        let view = |k: &str, files: &[&str]| {
+            let d = out.path().join(k);
+            std::fs::create_dir_all(&d).unwrap();
+            for f in files {
+                std::fs::write(d.join(f), "png").unwrap();
+            }
+        };
+        view("view-1", &VIEW_FILES);
+        view("view-2", &VIEW_FILES);
+        view("view-10", &["cut.png"]);
+        view("view-3", &["cut.png", "notes.txt"]);
+        view("view-x", &VIEW_FILES);
+        std::fs::write(out.path().join("view-4"), "a file").unwrap();
+        remove_stale_views(out.path(), 2).unwrap();
+        let mut left: Vec<String> = std::fs::read_dir(out.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        left.sort();
+        assert_eq!(left, ["view-1", "view-3", "view-4", "view-x"]);
+    }
 
     #[test]
     fn out_inside_the_tileset_folder_is_refused_however_it_is_spelled() {
