@@ -1538,6 +1538,7 @@ const READ_EXTENSIONS: &[&str] = &[
 /// Prefixes of glTF extensions that change only how surfaces look, which the reader does not need.
 const APPEARANCE_PREFIXES: &[&str] = &[
     "KHR_materials_",
+    "KHR_techniques_",
     "KHR_texture_",
     "EXT_texture_",
     "KHR_lights_",
@@ -2116,12 +2117,15 @@ mod tests {
                 .triangles
                 .is_empty()
         );
-        let plain = with(&|d| {
-            d["materials"] = serde_json::json!([{}, {"pbrMetallicRoughness": {}}]);
-            d["extensionsUsed"] = serde_json::json!(["KHR_materials_unlit"]);
-            d["extensionsRequired"] = serde_json::json!(["KHR_materials_unlit"]);
-        });
-        assert_eq!(plain.unwrap().triangles.len(), 2);
+        // (KHR_techniques_webgl: the shaders of b3dm content upgraded from glTF 1.0.)
+        for looks in ["KHR_materials_unlit", "KHR_techniques_webgl"] {
+            let plain = with(&|d| {
+                d["materials"] = serde_json::json!([{}, {"pbrMetallicRoughness": {}}]);
+                d["extensionsUsed"] = serde_json::json!([looks]);
+                d["extensionsRequired"] = serde_json::json!([looks]);
+            });
+            assert_eq!(plain.unwrap().triangles.len(), 2, "{looks}");
+        }
         // CESIUM_RTC moves every position by its centre (z up, after glTF's y-up turn), required or not.
         let base = with(&|_| {}).unwrap();
         for required in [false, true] {
