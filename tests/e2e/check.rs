@@ -749,7 +749,7 @@ fn edit_glb_json(glb: &[u8], edit: impl FnOnce(&mut Value)) -> Vec<u8> {
     out
 }
 
-/// A third-party tileset (no `extras.citylod`) whose features have identities of their own is checked by its tree,
+/// A third-party tileset (no `extras.citylod`, no citylod `asset.generator`) whose features have identities of their own is checked by its tree,
 /// volumes and pictures, and says that coverage by identity was not checked; the same content in a tileset citylod
 /// says it wrote is a finding at every tile (its features lost the identity every citylod tileset carries).
 #[test]
@@ -776,6 +776,7 @@ fn third_party_features_are_not_held_to_citylods_identity() {
         let dir = damaged(name, |ts| {
             if !keep_extras {
                 ts.as_object_mut().unwrap().remove("extras");
+                ts["asset"].as_object_mut().unwrap().remove("generator");
             }
         });
         let mut glbs = 0;
@@ -813,6 +814,36 @@ fn third_party_features_are_not_held_to_citylods_identity() {
         assert_eq!(v["criterion"]["blocks_checked"], 0);
     }
 
+    // citylod's tileset with every glb's metadata removed: no feature left to hold, and every triangle is one no
+    // building stands for.
+    let bare = damaged("bare", |_| {});
+    for (rel, bytes) in tree_bytes(&bare) {
+        if rel.ends_with(".glb") {
+            let edited = edit_glb_json(&bytes, |g| {
+                g["extensions"]
+                    .as_object_mut()
+                    .unwrap()
+                    .remove("EXT_structural_metadata");
+                for mesh in g["meshes"].as_array_mut().unwrap() {
+                    for prim in mesh["primitives"].as_array_mut().unwrap() {
+                        prim.as_object_mut().unwrap().remove("extensions");
+                    }
+                }
+            });
+            std::fs::write(bare.join(&rel), edited).unwrap();
+        }
+    }
+    let out = scratch_dir("bare-out");
+    let (code, report) = check(&bare, &out, &["--views", "2"]);
+    assert_eq!(code, 1, "a citylod tileset without features must fail");
+    assert_eq!(report["tileset_stats"]["features"], 0);
+    let tiles = report["tileset_stats"]["tiles"].as_u64().unwrap() as usize;
+    let orphans = findings(&report)
+        .into_iter()
+        .filter(|(kind, _)| kind == "unknown_feature")
+        .count();
+    assert_eq!(orphans, tiles, "{:?}", findings(&report));
+
     let out = scratch_dir("renamed-ours-out");
     let (code, report) = check(&third_party(true), &out, &["--views", "3"]);
     assert_eq!(code, 1);
@@ -823,6 +854,120 @@ fn third_party_features_are_not_held_to_citylods_identity() {
         .count();
     let tiles = report["tileset_stats"]["tiles"].as_u64().unwrap() as usize;
     assert_eq!(unknown, tiles, "{:?}", findings(&report));
+}
+
+/// `glb` as the b3dm a 3D Tiles 1.0 writer would make of it: its property table as the batch table (JSON arrays),
+/// its feature ids as `_BATCHID`, its own metadata removed; the binary parts 8-byte aligned.
+fn as_b3dm(glb: &[u8], path: &Path) -> Vec<u8> {
+    use citylod_tiles::PropValue;
+    let features = citylod_tiles::read::read_glb(glb, path).unwrap().features;
+    let mut columns: std::collections::BTreeMap<String, Vec<Value>> = Default::default();
+    for (k, f) in features.iter().enumerate() {
+        for (name, v) in &f.values {
+            let column = columns
+                .entry(name.clone())
+                .or_insert_with(|| vec![Value::Null; features.len()]);
+            column[k] = match v {
+                PropValue::Null => Value::Null,
+                PropValue::Bool(b) => (*b).into(),
+                PropValue::Int(i) => (*i).into(),
+                PropValue::Float(x) => (*x).into(),
+                PropValue::Str(t) => t.as_str().into(),
+            };
+        }
+    }
+    let glb = edit_glb_json(glb, |g| {
+        for mesh in g["meshes"].as_array_mut().unwrap() {
+            for prim in mesh["primitives"].as_array_mut().unwrap() {
+                let attrs = prim["attributes"].as_object_mut().unwrap();
+                let ids = attrs.remove("_FEATURE_ID_0").unwrap();
+                attrs.insert("_BATCHID".into(), ids);
+                prim.as_object_mut().unwrap().remove("extensions");
+            }
+        }
+        g["extensions"]
+            .as_object_mut()
+            .unwrap()
+            .remove("EXT_structural_metadata");
+        for list in ["extensionsUsed", "extensionsRequired"] {
+            if let Some(l) = g[list].as_array_mut() {
+                l.retain(|x| {
+                    !x.as_str().unwrap().starts_with("EXT_mesh_features")
+                        && !x.as_str().unwrap().starts_with("EXT_structural_metadata")
+                });
+            }
+        }
+    });
+    let padded = |v: Value, at: usize| {
+        let mut t = serde_json::to_vec(&v).unwrap();
+        t.resize((at + t.len()).next_multiple_of(8) - at, b' ');
+        t
+    };
+    let ft = padded(serde_json::json!({"BATCH_LENGTH": features.len()}), 28);
+    let bt = padded(serde_json::to_value(&columns).unwrap(), 28 + ft.len());
+    let total = 28 + ft.len() + bt.len() + glb.len();
+    let mut out = b"b3dm".to_vec();
+    for v in [1, total, ft.len(), 0, bt.len(), 0] {
+        out.extend((v as u32).to_le_bytes());
+    }
+    out.extend(ft);
+    out.extend(bt);
+    out.extend(glb);
+    out
+}
+
+/// NYC rewritten as 3D Tiles 1.0 (b3dm content, citylod's columns in the batch tables) is checked in full: the
+/// batch tables' `building_index`, `level` and `node_index` identify buildings and blocks as the glb's property
+/// tables did, whether or not `tileset.json` says citylod wrote it.
+#[test]
+fn a_tileset_rewritten_as_b3dm_is_checked_by_its_batch_tables() {
+    for keep_extras in [true, false] {
+        let name = if keep_extras {
+            "b3dm-ours"
+        } else {
+            "b3dm-theirs"
+        };
+        let dir = damaged(name, |ts| {
+            if !keep_extras {
+                ts.as_object_mut().unwrap().remove("extras");
+                ts["asset"].as_object_mut().unwrap().remove("generator");
+            }
+            fn rename(t: &mut Value) {
+                if let Some(uri) = t["content"]["uri"].as_str() {
+                    t["content"]["uri"] = uri.replace(".glb", ".b3dm").into();
+                }
+                for c in t
+                    .get_mut("children")
+                    .and_then(Value::as_array_mut)
+                    .into_iter()
+                    .flatten()
+                {
+                    rename(c);
+                }
+            }
+            rename(&mut ts["root"]);
+        });
+        for (rel, bytes) in tree_bytes(&dir) {
+            if let Some(stem) = rel.strip_suffix(".glb") {
+                let b3dm = as_b3dm(&bytes, &dir.join(&rel));
+                std::fs::write(dir.join(format!("{stem}.b3dm")), b3dm).unwrap();
+                std::fs::remove_file(dir.join(&rel)).unwrap();
+            }
+        }
+        let out = scratch_dir(&format!("{name}-out"));
+        let (code, report) = check(&dir, &out, &["--views", "3"]);
+        assert_eq!(code, 0, "{name}: {:?}", findings(&report));
+        let stats = &report["tileset_stats"];
+        assert_eq!(stats["identity_checked"], true, "{name}: {stats}");
+        assert_eq!(stats["buildings"], 1416, "{name}: {stats}");
+        let blocks: u64 = report["views"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v["criterion"]["blocks_checked"].as_u64().unwrap())
+            .sum();
+        assert!(blocks > 0, "{name}: the Δh / Δa criterion checked no block");
+    }
 }
 
 /// Input the reader cannot use is exit 2 with the file and what is wrong: a glb cut short of the length its

@@ -93,6 +93,20 @@ pub fn check_tree(ts: &LoadedTileset) -> Vec<Finding> {
                 ),
             ));
         }
+        // citylod draws every triangle for a feature: one without is content no building or block stands for.
+        let orphans = t
+            .triangle_features
+            .iter()
+            .filter(|&&f| f as usize >= t.features.len())
+            .count();
+        if orphans > 0 && identity_checked {
+            out.push(Finding::at(
+                FindingKind::UnknownFeature,
+                ts,
+                i,
+                format!("{orphans} triangle(s) belong to no feature of the tile's property tables"),
+            ));
+        }
         if !t.has_clusters() {
             continue;
         }
@@ -586,6 +600,17 @@ mod tests {
         // The same features in a tileset citylod says it wrote are findings in every tile.
         ts.written_by_citylod = true;
         assert_eq!(unknown_tiles(&check_tree(&ts)), vec!["0", "0/0", "0/1"]);
+        // Content whose features are gone altogether: its triangles belong to no feature.
+        let mut ts = tileset(4, [&[0, 1], &[2, 3]], [5.0, 0.0, 0.0]);
+        ts.tiles[2].features.clear();
+        ts.tiles[2].triangle_features = vec![u32::MAX, u32::MAX];
+        let f = check_tree(&ts);
+        assert_eq!(unknown_tiles(&f), vec!["0/1"]);
+        assert!(
+            f.iter()
+                .any(|f| f.message.contains("2 triangle(s) belong to no feature")),
+            "{f:?}"
+        );
     }
 
     #[test]

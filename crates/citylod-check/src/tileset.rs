@@ -106,8 +106,8 @@ pub struct LoadedTileset {
     pub tiles: Vec<TileInfo>,
     /// Every building index held by a building feature of a leaf tile.
     pub buildings: BTreeSet<u32>,
-    /// Whether `tileset.json` says citylod wrote it (`extras.citylod`): its features must then carry citylod's
-    /// identity columns, which third-party tilesets need not have.
+    /// Whether `tileset.json` says citylod wrote it (`extras.citylod`, or `asset.generator` "citylod …"): its
+    /// features must then carry citylod's identity columns, which third-party tilesets need not have.
     pub written_by_citylod: bool,
 }
 
@@ -219,7 +219,11 @@ impl LoadedTileset {
             written_by_citylod: data
                 .extras
                 .as_ref()
-                .is_some_and(|e| e.get("citylod").is_some_and(|c| c.is_object())),
+                .is_some_and(|e| e.get("citylod").is_some_and(|c| c.is_object()))
+                || data
+                    .generator
+                    .as_deref()
+                    .is_some_and(|g| g.starts_with("citylod")),
         }
     }
 
@@ -482,10 +486,16 @@ fn feature_info(
 ) -> FeatureInfo {
     let get = |name: &str| values.get(name);
     // citylod writes a block's landmarks as `cluster` features flagged `landmark`; they stand for one building.
-    let is_landmark = matches!(get("landmark"), Some(PropValue::Bool(true)));
-    let building = as_u32(get("building_index")).filter(|_| class == "building" || is_landmark);
-    let cluster = match (class, as_u32(get("level")), as_u32(get("node_index"))) {
-        ("cluster", Some(level), Some(node_index)) => Some((level, node_index)),
+    // A b3dm's batch table has no classes: its rows are told apart by the columns they have.
+    let batch = class == citylod_tiles::read::BATCH_TABLE_CLASS;
+    let (level, node_index) = (as_u32(get("level")), as_u32(get("node_index")));
+    let is_landmark =
+        (class == "cluster" || batch) && matches!(get("landmark"), Some(PropValue::Bool(true)));
+    let building = as_u32(get("building_index")).filter(|_| {
+        class == "building" || is_landmark || (batch && (level.is_none() || node_index.is_none()))
+    });
+    let cluster = match (class == "cluster" || batch, level, node_index) {
+        (true, Some(level), Some(node_index)) => Some((level, node_index)),
         _ => None,
     };
     let (node, member_count, members) = match (building, cluster) {
@@ -620,6 +630,7 @@ mod tests {
             ]),
         };
         let data = TilesetData {
+            generator: None,
             root_transform: [0.0; 16],
             geometric_error_m: 100.0,
             extras: None,
@@ -662,6 +673,7 @@ mod tests {
         // 0 (tiles/0.glb) → 0/0 links ./sub/a/tileset.json → its root 0/0/ext (../b/x.glb) → 0/0/ext/0
         // (./y.glb); 0/1 beside the link keeps the main folder.
         let data = TilesetData {
+            generator: None,
             root_transform: [0.0; 16],
             geometric_error_m: 100.0,
             extras: None,

@@ -16,9 +16,27 @@ pub(crate) struct Batched<'a> {
     pub batch_length: usize,
     /// The feature table's `RTC_CENTER`: positions are relative to it (tile frame, z up).
     pub rtc_center: Option<[f64; 3]>,
-    /// The batch table's properties per feature (every row has every property; missing values Null).
-    pub rows: Vec<BTreeMap<String, PropValue>>,
+    /// The batch table's properties: name and one value per feature (rows are built by the caller once it has
+    /// checked the glb backs `batch_length` features).
+    pub columns: Vec<(String, Vec<PropValue>)>,
 }
+
+impl Batched<'_> {
+    /// The rows of the batch table, one per feature, each with every property.
+    pub fn rows(self) -> Vec<BTreeMap<String, PropValue>> {
+        let mut rows = vec![BTreeMap::new(); self.batch_length];
+        for (name, values) in self.columns {
+            for (row, v) in rows.iter_mut().zip(values) {
+                row.insert(name.clone(), v);
+            }
+        }
+        rows
+    }
+}
+
+/// Most values one content's property tables may hold in all (rows × properties, across a composite's tiles):
+/// each becomes a decoded value in memory, while properties may share their bytes.
+pub(crate) const MAX_TABLE_CELLS: usize = 1 << 24;
 
 /// Most features one batch table may declare: each row is allocated before its values are read.
 const MAX_BATCH_LENGTH: usize = 1 << 24;
@@ -80,6 +98,9 @@ pub(crate) fn parse_b3dm(b: &[u8]) -> Result<Batched<'_>, String> {
         &b[bt_at..bt_at + lens[2]],
         &b[bt_at + lens[2]..bt_at + lens[2] + lens[3]],
     );
+    if ft_json.iter().all(u8::is_ascii_whitespace) {
+        return Err("its feature table is empty: BATCH_LENGTH is required".into());
+    }
     let ft: serde_json::Value =
         serde_json::from_slice(ft_json).map_err(|e| format!("feature table JSON: {e}"))?;
     let batch_length = match ft.get("BATCH_LENGTH") {
@@ -109,21 +130,21 @@ pub(crate) fn parse_b3dm(b: &[u8]) -> Result<Batched<'_>, String> {
             }
         }
     };
-    let rows = if bt_json.is_empty() {
-        vec![BTreeMap::new(); batch_length]
+    let columns = if bt_json.iter().all(u8::is_ascii_whitespace) {
+        Vec::new()
     } else {
-        batch_rows(bt_json, bt_bin, batch_length)?
+        batch_columns(bt_json, bt_bin, batch_length)?
     };
     Ok(Batched {
         glb: &b[glb_start..],
         batch_length,
         rtc_center,
-        rows,
+        columns,
     })
 }
 
 /// A feature-table value: a JSON number or array of `count` numbers, or `{"byteOffset"}` into the binary body with
-/// the component type the property has by definition.
+/// the component type the property has by definition (a `componentType` given with it is not the property's).
 fn table_value(
     v: &serde_json::Value,
     bin: &[u8],
@@ -140,13 +161,20 @@ fn table_value(
                 .get("byteOffset")
                 .and_then(serde_json::Value::as_u64)
                 .ok_or("a binary reference without byteOffset")?;
-            let component = o
-                .get("componentType")
-                .and_then(serde_json::Value::as_str)
-                .unwrap_or(component);
             binary_values(bin, offset as usize, component, count)
         }
         other => Err(format!("{other} is not {count} number(s)")),
+    }
+}
+
+/// Bytes of one value of a 3D Tiles 1.0 component type; `None` for a name that is not one.
+fn component_size(component: &str) -> Option<usize> {
+    match component {
+        "BYTE" | "UNSIGNED_BYTE" => Some(1),
+        "SHORT" | "UNSIGNED_SHORT" => Some(2),
+        "INT" | "UNSIGNED_INT" | "FLOAT" => Some(4),
+        "DOUBLE" => Some(8),
+        _ => None,
     }
 }
 
@@ -157,13 +185,7 @@ fn binary_values(
     component: &str,
     count: usize,
 ) -> Result<Vec<f64>, String> {
-    let size = match component {
-        "BYTE" | "UNSIGNED_BYTE" => 1,
-        "SHORT" | "UNSIGNED_SHORT" => 2,
-        "INT" | "UNSIGNED_INT" | "FLOAT" => 4,
-        "DOUBLE" => 8,
-        c => return Err(format!("component type {c:?}")),
-    };
+    let size = component_size(component).ok_or_else(|| format!("component type {component:?}"))?;
     let end = count
         .checked_mul(size)
         .and_then(|n| n.checked_add(offset))
@@ -189,18 +211,32 @@ fn binary_values(
         .collect())
 }
 
-/// The batch table's properties, row by row. A property is a JSON array of one value per feature, or a binary
-/// reference (`byteOffset`, `componentType`, `type`) into the batch table's body; a vector or a JSON array or object
-/// value is kept as its JSON text, integers of integer component types as integers. `extensions` and `extras` are
-/// not properties (3DTILES_batch_table_hierarchy's inherited properties are not read).
-fn batch_rows(
+/// The batch table's properties, column by column. A property is a JSON array of one value per feature, or a
+/// binary reference (`byteOffset`, `componentType`, `type`) into the batch table's body; a vector or a JSON array or
+/// object value is kept as its JSON text, integers of integer component types as integers. `extensions` and
+/// `extras` are not properties (3DTILES_batch_table_hierarchy's inherited properties are not read). Binary
+/// properties may not share bytes, and rows × properties stay within
+/// [`MAX_TABLE_CELLS`]: every value is decoded into memory.
+fn batch_columns(
     json: &[u8],
     bin: &[u8],
     batch_length: usize,
-) -> Result<Vec<BTreeMap<String, PropValue>>, String> {
+) -> Result<Vec<(String, Vec<PropValue>)>, String> {
     let bt: serde_json::Map<String, serde_json::Value> =
         serde_json::from_slice(json).map_err(|e| format!("batch table JSON: {e}"))?;
-    let mut rows = vec![BTreeMap::new(); batch_length];
+    let properties = bt
+        .keys()
+        .filter(|k| *k != "extensions" && *k != "extras")
+        .count();
+    if batch_length.saturating_mul(properties) > MAX_TABLE_CELLS {
+        return Err(format!(
+            "its batch table has {properties} properties of {batch_length} features, more than the \
+             {MAX_TABLE_CELLS} values citylod's reader holds"
+        ));
+    }
+    // The byte ranges of the binary properties read so far: they may not overlap.
+    let mut ranges: BTreeMap<usize, (usize, &str)> = BTreeMap::new();
+    let mut columns = Vec::with_capacity(properties);
     for (name, v) in bt
         .iter()
         .filter(|(k, _)| *k != "extensions" && *k != "extras")
@@ -236,6 +272,19 @@ fn batch_rows(
                     .checked_mul(n)
                     .ok_or_else(|| err("too many values".into()))?;
                 let flat = binary_values(bin, offset as usize, component, count).map_err(err)?;
+                let start = offset as usize;
+                let end = start + flat.len() * component_size(component).unwrap_or(1);
+                // The ranges so far are disjoint: only the last one starting before `end` can reach past `start`.
+                if let Some((_, (_, other))) = ranges
+                    .range(..end)
+                    .next_back()
+                    .filter(|(_, (e, _))| *e > start)
+                {
+                    return Err(err(format!(
+                        "its bytes {start}..{end} of the binary body share bytes with property {other:?}'s"
+                    )));
+                }
+                ranges.insert(start, (end, name.as_str()));
                 let integer = !matches!(component, "FLOAT" | "DOUBLE");
                 flat.chunks_exact(n)
                     .map(|c| match c {
@@ -251,11 +300,9 @@ fn batch_rows(
                 )))
             }
         };
-        for (row, value) in rows.iter_mut().zip(values) {
-            row.insert(name.clone(), value);
-        }
+        columns.push((name.clone(), values));
     }
-    Ok(rows)
+    Ok(columns)
 }
 
 fn json_value(v: &serde_json::Value) -> PropValue {
@@ -307,13 +354,22 @@ pub(crate) mod tests {
         bt_bin: &[u8],
         glb: &[u8],
     ) -> Vec<u8> {
-        let pad = |mut v: Vec<u8>, with: u8| {
-            v.resize(v.len().next_multiple_of(8), with);
+        // As 3D Tiles 1.0 lays them out: each binary body and the glb start on an 8-byte boundary of the file (the
+        // JSON after the 28-byte header padded with spaces, the bodies with zeros).
+        let pad_to = |mut v: Vec<u8>, at: usize, with: u8| {
+            v.resize((at + v.len()).next_multiple_of(8) - at, with);
             v
         };
-        let ft = pad(ft.to_string().into_bytes(), b' ');
-        let bt = bt.map_or(Vec::new(), |bt| pad(bt.to_string().into_bytes(), b' '));
-        let (ft_bin, bt_bin) = (pad(ft_bin.to_vec(), 0), pad(bt_bin.to_vec(), 0));
+        let ft = pad_to(ft.to_string().into_bytes(), 28, b' ');
+        let ft_bin = pad_to(ft_bin.to_vec(), 0, 0);
+        let bt = bt.map_or(Vec::new(), |bt| {
+            pad_to(
+                bt.to_string().into_bytes(),
+                28 + ft.len() + ft_bin.len(),
+                b' ',
+            )
+        });
+        let bt_bin = pad_to(bt_bin.to_vec(), 0, 0);
         let total = 28 + ft.len() + ft_bin.len() + bt.len() + bt_bin.len() + glb.len();
         let mut out = b"b3dm".to_vec();
         for v in [1, total, ft.len(), ft_bin.len(), bt.len(), bt_bin.len()] {
@@ -371,7 +427,7 @@ pub(crate) mod tests {
         assert_eq!(p.glb, &glb[..]);
         assert_eq!(p.batch_length, 2);
         assert_eq!(p.rtc_center, Some([100.0, -50.0, 7.5]));
-        let r = &p.rows;
+        let r = &p.clone().rows();
         assert_eq!(r[0]["name"], PropValue::Str("a".into()));
         assert_eq!(r[1]["name"], PropValue::Null);
         assert_eq!(r[0]["height"], PropValue::Int(12));
@@ -390,7 +446,7 @@ pub(crate) mod tests {
             &glb,
         );
         let p = parse_b3dm(&b).unwrap();
-        assert_eq!((p.rtc_center, p.rows.len()), (Some([1.0, 2.0, 3.0]), 3));
+        assert_eq!((p.rtc_center, p.rows().len()), (Some([1.0, 2.0, 3.0]), 3));
     }
 
     #[test]
@@ -456,6 +512,39 @@ pub(crate) mod tests {
             ));
             assert!(e.contains(want) && e.contains("\"h\""), "{bt}: {e}");
         }
+        // Binary properties sharing bytes (K columns decoded from N bytes), and more values than the reader holds.
+        let shared = serde_json::json!({
+            "a": {"byteOffset": 0, "componentType": "UNSIGNED_BYTE", "type": "SCALAR"},
+            "b": {"byteOffset": 0, "componentType": "UNSIGNED_BYTE", "type": "SCALAR"}
+        });
+        let e = err(&b3dm(
+            &serde_json::json!({"BATCH_LENGTH": 8}),
+            &[],
+            Some(&shared),
+            &[0; 8],
+            &glb,
+        ));
+        assert!(e.contains("share bytes") && e.contains("\"b\""), "{e}");
+        let e = err(&b3dm(
+            &serde_json::json!({"BATCH_LENGTH": 8}),
+            &[],
+            Some(&shared),
+            &[0; 16],
+            &glb,
+        ));
+        assert!(
+            e.contains("share bytes"),
+            "overlapping ranges in a larger body: {e}"
+        );
+        let wide = serde_json::json!({"a": [], "b": [], "c": []});
+        let e = err(&b3dm(
+            &serde_json::json!({"BATCH_LENGTH": 1 << 23}),
+            &[],
+            Some(&wide),
+            &[],
+            &glb,
+        ));
+        assert!(e.contains("3 properties of 8388608 features"), "{e}");
 
         let inner = b3dm(
             &serde_json::json!({"BATCH_LENGTH": 0}),

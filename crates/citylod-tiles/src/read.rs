@@ -20,6 +20,8 @@ use std::path::{Path, PathBuf};
 /// A whole tileset, tiles in pre-order (`tiles[0]` is the root).
 #[derive(Debug, Clone, PartialEq)]
 pub struct TilesetData {
+    /// `asset.generator` of the root tileset (citylod writes `citylod <version>`).
+    pub generator: Option<String>,
     /// The root tile's `transform` (column-major; identity when absent): root frame → ECEF.
     pub root_transform: [f64; 16],
     /// `tileset.geometricError` (m).
@@ -101,6 +103,19 @@ pub fn read_tileset_with(
     visit: &mut dyn FnMut(usize, &mut TileData),
 ) -> Result<TilesetData, TilesError> {
     let ts = load_json(path, "0")?;
+    // Before 3D Tiles 1.0 a tileset could say its glTF was z-up (`asset.gltfUpAxis`); as in CesiumJS, the root
+    // tileset's word holds for all its content.
+    let z_up = match ts.asset.gltf_up_axis.as_deref() {
+        None => false,
+        Some(a) if a.eq_ignore_ascii_case("y") => false,
+        Some(a) if a.eq_ignore_ascii_case("z") => true,
+        Some(a) => {
+            return Err(TilesError::Tile {
+                tile: format!("0 ({})", path.display()),
+                msg: format!("asset.gltfUpAxis is {a:?}: only Y (glTF's own) and Z are read"),
+            })
+        }
+    };
     // `tileset.json` alone has the parent "", which is the current folder.
     let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
     let folder =
@@ -133,9 +148,11 @@ pub fn read_tileset_with(
             ecef_to_root,
             root_to_ecef: root_transform,
             external: Default::default(),
+            z_up,
         },
     )?;
     Ok(TilesetData {
+        generator: ts.asset.generator.clone(),
         root_transform,
         geometric_error_m: ts.geometric_error,
         extras: ts.extras,
@@ -182,15 +199,6 @@ fn load_json(path: &Path, root_path: &str) -> Result<tj::Tileset, TilesError> {
         tile: path.display().to_string(),
         msg,
     })?;
-    if let Some(axis) = ts.asset.gltf_up_axis.as_deref().filter(|a| *a != "Y") {
-        return Err(TilesError::Tile {
-            tile: path.display().to_string(),
-            msg: format!(
-                "asset.gltfUpAxis is {axis:?}: glTF content that is not y-up (a convention from before 3D Tiles \
-                 1.0) is not read"
-            ),
-        });
-    }
     Ok(ts)
 }
 
@@ -409,6 +417,8 @@ struct Walk<'a> {
     root_to_ecef: [f64; 16],
     /// How often each external tileset (canonical path) has been followed so far.
     external: std::collections::HashMap<PathBuf, usize>,
+    /// The content's glTF is z-up (the root tileset's `asset.gltfUpAxis`).
+    z_up: bool,
 }
 
 /// Deepest tile the reader follows, counted in tiles below the root across external tilesets (an external
@@ -580,7 +590,7 @@ fn walk(
     if children.is_empty() && !files.is_empty() {
         let mut glb = GlbData::default();
         for file in &files {
-            glb.append(read_content(&read_file(file)?, file)?);
+            glb.append(content_at_depth(&read_file(file)?, file, 0, w.z_up)?);
         }
         for p in &mut glb.positions_local {
             *p = apply(&to_root, *p);
@@ -648,33 +658,53 @@ impl GlbData {
 /// Decodes a glb; positions are in the tile's frame (glTF y-up converted to z-up). `path` is only
 /// used in errors and to resolve external buffer uris.
 pub fn read_glb(bytes: &[u8], path: &Path) -> Result<GlbData, TilesError> {
-    decode_glb(bytes, path, None)
+    decode_glb(bytes, path, None, false)
 }
 
 /// Decodes tile content by its magic: glb, or the 3D Tiles 1.0 formats b3dm and cmpt ([`crate::legacy`]); i3dm,
 /// pnts and glTF JSON are refused by name. Positions in the tile's frame, as [`read_glb`].
 pub fn read_content(bytes: &[u8], path: &Path) -> Result<GlbData, TilesError> {
-    content_at_depth(bytes, path, 0)
+    content_at_depth(bytes, path, 0, false)
 }
 
-fn content_at_depth(bytes: &[u8], path: &Path, depth: usize) -> Result<GlbData, TilesError> {
+/// `z_up`: the glTF inside is z-up (a tileset's `asset.gltfUpAxis` "Z"), not y-up as glTF itself has it.
+fn content_at_depth(
+    bytes: &[u8],
+    path: &Path,
+    depth: usize,
+    z_up: bool,
+) -> Result<GlbData, TilesError> {
     let err = |msg: String| TilesError::Glb {
         path: path.to_path_buf(),
         msg,
     };
+    // JSON may open with a byte-order mark or white space.
+    let json_start = bytes
+        .strip_prefix("\u{feff}".as_bytes())
+        .unwrap_or(bytes)
+        .iter()
+        .find(|b| !b.is_ascii_whitespace());
     match bytes.get(..4).unwrap_or(bytes) {
         b"b3dm" => {
             let b = crate::legacy::parse_b3dm(bytes).map_err(|m| err(format!("b3dm: {m}")))?;
-            let mut glb = decode_glb(b.glb, path, Some(b.batch_length))?;
-            if let Some(c) = b.rtc_center {
-                for p in &mut glb.positions_local {
-                    *p = [p[0] + c[0], p[1] + c[1], p[2] + c[2]];
-                }
+            let mut glb = decode_glb(b.glb, path, Some(b.batch_length), z_up)?;
+            // Every feature is a model of the batch with at least one vertex of its own: a BATCH_LENGTH above the
+            // vertex count is a count no glb backs (and would fill memory with empty rows).
+            if b.batch_length > glb.positions_local.len() {
+                return Err(err(format!(
+                    "b3dm: its feature table's BATCH_LENGTH {} is more than the {} vertices of its glb",
+                    b.batch_length,
+                    glb.positions_local.len()
+                )));
             }
-            glb.features.extend(b.rows.into_iter().map(|values| FeatureRow {
-                class: BATCH_TABLE_CLASS.into(),
-                values,
-            }));
+            if let Some(c) = b.rtc_center {
+                translate(&mut glb.positions_local, c);
+            }
+            glb.features
+                .extend(b.rows().into_iter().map(|values| FeatureRow {
+                    class: BATCH_TABLE_CLASS.into(),
+                    values,
+                }));
             Ok(glb)
         }
         b"cmpt" => {
@@ -685,8 +715,20 @@ fn content_at_depth(bytes: &[u8], path: &Path, depth: usize) -> Result<GlbData, 
                 )));
             }
             let mut out = GlbData::default();
+            let mut cells = 0usize;
             for inner in crate::legacy::parse_cmpt(bytes).map_err(|m| err(format!("cmpt: {m}")))? {
-                out.append(content_at_depth(inner, path, depth + 1)?);
+                let tile = content_at_depth(inner, path, depth + 1, z_up)?;
+                // The limits of one glb hold for the composite as a whole.
+                cells += tile.features.iter().map(|f| f.values.len().max(1)).sum::<usize>();
+                out.append(tile);
+                if out.positions_local.len() > MAX_GLB_VERTICES
+                    || cells > crate::legacy::MAX_TABLE_CELLS
+                {
+                    return Err(err(format!(
+                        "cmpt: its tiles hold more than {MAX_GLB_VERTICES} vertices or {} property values in all",
+                        crate::legacy::MAX_TABLE_CELLS
+                    )));
+                }
             }
             Ok(out)
         }
@@ -696,10 +738,17 @@ fn content_at_depth(bytes: &[u8], path: &Path, depth: usize) -> Result<GlbData, 
         b"pnts" => Err(err(
             "point cloud (pnts) content has no surfaces; citylod reads glb, b3dm and cmpt".into(),
         )),
-        m if m.first() == Some(&b'{') => Err(err(
+        _ if json_start == Some(&b'{') => Err(err(
             "glTF JSON content (.gltf) is not read by citylod; write it as glb (e.g. gltf-pipeline -b)".into(),
         )),
-        _ => read_glb(bytes, path),
+        _ => decode_glb(bytes, path, None, z_up),
+    }
+}
+
+/// Moves every point by `c` (a relative-to-centre offset: CESIUM_RTC, a b3dm's RTC_CENTER).
+fn translate(points: &mut [[f64; 3]], c: [f64; 3]) {
+    for p in points {
+        *p = [p[0] + c[0], p[1] + c[1], p[2] + c[2]];
     }
 }
 
@@ -711,6 +760,7 @@ fn decode_glb(
     bytes: &[u8],
     path: &Path,
     batch_length: Option<usize>,
+    z_up: bool,
 ) -> Result<GlbData, TilesError> {
     let err = |msg: String| TilesError::Glb {
         path: path.to_path_buf(),
@@ -727,6 +777,7 @@ fn decode_glb(
         bin,
         base,
         batch_length,
+        z_up,
     }
     .decode()
     .map_err(err)
@@ -737,6 +788,8 @@ struct Decoder<'a> {
     bin: &'a [u8],
     base: PathBuf,
     batch_length: Option<usize>,
+    /// The glTF is z-up (`asset.gltfUpAxis` "Z" in its tileset), so positions are not turned from y-up.
+    z_up: bool,
 }
 
 impl Decoder<'_> {
@@ -769,8 +822,17 @@ impl Decoder<'_> {
                     .classes
                     .get(&table.class)
                     .ok_or_else(|| format!("class {} not in schema", table.class))?;
-                if table.count > MAX_ELEMENTS {
-                    return Err(format!("property table of {} rows", table.count));
+                if table.count > MAX_ELEMENTS
+                    || table.count.saturating_mul(class.properties.len().max(1))
+                        > crate::legacy::MAX_TABLE_CELLS
+                {
+                    return Err(format!(
+                        "property table of {} rows of {} properties: more than the {} values citylod's reader \
+                         holds",
+                        table.count,
+                        class.properties.len(),
+                        crate::legacy::MAX_TABLE_CELLS
+                    ));
                 }
                 let mut rows = vec![std::collections::BTreeMap::new(); table.count];
                 for (name, col) in &table.properties {
@@ -845,11 +907,18 @@ impl Decoder<'_> {
             if !c.iter().all(|v| v.is_finite()) {
                 return Err(format!("CESIUM_RTC centre {c:?} is not a finite point"));
             }
-            for p in &mut out.positions_local {
-                *p = [p[0] + c[0], p[1] + c[1], p[2] + c[2]];
-            }
+            translate(&mut out.positions_local, c);
         }
         Ok(out)
+    }
+
+    /// glTF's y-up axes turned to the tile's z-up ones (x stays, −z is north, y is up); z-up glTF as it is.
+    fn to_z_up(&self, g: [f64; 3]) -> [f64; 3] {
+        if self.z_up {
+            g
+        } else {
+            [g[0], -g[2], g[1]]
+        }
     }
 
     fn node(
@@ -913,7 +982,7 @@ impl Decoder<'_> {
                     Some(&a) if out.normals_local.len() == out.positions_local.len() => {
                         for n in get(a)?.chunks_exact(3) {
                             let g = transform_normal(&nm, [n[0], n[1], n[2]]);
-                            out.normals_local.push([g[0], -g[2], g[1]]);
+                            out.normals_local.push(self.to_z_up(g));
                         }
                     }
                     // A primitive without normals after one with: drop them all (mixed content).
@@ -931,7 +1000,7 @@ impl Decoder<'_> {
                             "mesh {mi}: a vertex at {p:?} lies at {g:?} after its node's transform, not a finite point"
                         ));
                     }
-                    out.positions_local.push([g[0], -g[2], g[1]]);
+                    out.positions_local.push(self.to_z_up(g));
                 }
                 let n_vertices = pos.len() / 3;
                 if !out.normals_local.is_empty()
@@ -1557,8 +1626,11 @@ const POSITION_TYPES: &[(u32, bool)] = &[
     (gj::UNSIGNED_SHORT, true),
 ];
 const NORMAL_TYPES: &[(u32, bool)] = &[(gj::FLOAT, false), (gj::BYTE, true), (gj::SHORT, true)];
-/// `_BATCHID`: unsigned integers (3D Tiles 1.0 b3dm) or floats holding them (what many exporters wrote).
+/// `_BATCHID`: unsigned integers (3D Tiles 1.0 b3dm), or signed ones and floats holding them (what some exporters
+/// wrote; a value outside the batch is no feature).
 const BATCH_ID_TYPES: &[(u32, bool)] = &[
+    (gj::BYTE, false),
+    (gj::SHORT, false),
     (gj::UNSIGNED_BYTE, false),
     (gj::UNSIGNED_SHORT, false),
     (gj::UNSIGNED_INT, false),
@@ -2574,6 +2646,16 @@ mod volume_and_contents_tests {
         let c = back.tiles[0].content.as_ref().unwrap();
         assert_eq!(c.features.len(), 1);
         assert_eq!(c.feature_ids.iter().filter(|&&f| f == u32::MAX).count(), 3);
+        // A BATCH_LENGTH no glb backs (one feature per vertex at most) is refused before its rows are made.
+        let inflated = b3dm(&json!({"BATCH_LENGTH": 1_000_000}), &[], None, &[], &glb);
+        std::fs::write(dir.path().join("a.b3dm"), &inflated).unwrap();
+        let e = read_tileset(&write_tileset(dir.path(), root.clone()))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("BATCH_LENGTH 1000000 is more than the 6 vertices"),
+            "{e}"
+        );
         let broken = b3dm(
             &json!({"BATCH_LENGTH": 1}),
             &[],
@@ -2596,6 +2678,7 @@ mod volume_and_contents_tests {
             (b"i3dm\x01\0\0\0".to_vec(), "i3dm"),
             (b"pnts\x01\0\0\0".to_vec(), "pnts"),
             (br#"{"asset": {"version": "2.0"}}"#.to_vec(), ".gltf"),
+            (b"\xef\xbb\xbf \n{\"asset\": {}}".to_vec(), ".gltf"),
             (b"XXXX\x01\0\0\0".to_vec(), "not a glb"),
         ] {
             std::fs::write(dir.path().join("c.bin"), &bytes).unwrap();
@@ -2606,16 +2689,26 @@ mod volume_and_contents_tests {
                 .to_string();
             assert!(e.contains(want) && e.contains("c.bin"), "{want}: {e}");
         }
+        // asset.gltfUpAxis of the root tileset: Y (glTF's own) turns content to z-up, Z takes it as it is, X is
+        // refused.
+        std::fs::write(dir.path().join("a.glb"), glb_of(&["a"])).unwrap();
         let p = dir.path().join("tileset.json");
-        let ts = json!({"asset": {"version": "1.0", "gltfUpAxis": "Z"}, "geometricError": 1,
-            "root": {"boundingVolume": bx, "geometricError": 0}});
-        std::fs::write(&p, ts.to_string()).unwrap();
-        let e = read_tileset(&p).unwrap_err().to_string();
-        assert!(e.contains("gltfUpAxis is \"Z\""), "{e}");
-        let ts = json!({"asset": {"version": "1.0", "gltfUpAxis": "Y"}, "geometricError": 1,
-            "root": {"boundingVolume": bx, "geometricError": 0}});
-        std::fs::write(&p, ts.to_string()).unwrap();
-        read_tileset(&p).unwrap();
+        let positions = |axis: &str| {
+            let ts = json!({"asset": {"version": "1.0", "gltfUpAxis": axis}, "geometricError": 1,
+                "root": {"boundingVolume": bx, "geometricError": 0, "content": {"uri": "a.glb"}}});
+            std::fs::write(&p, ts.to_string()).unwrap();
+            read_tileset(&p).map(|t| t.tiles[0].content.clone().unwrap().positions_local)
+        };
+        // glb_of's triangle has a corner at (0, 4, 2) east-north-up, written y-up as (0, 2, −4).
+        let near = |a: [f64; 3], b: [f64; 3]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 0.01);
+        for axis in ["Y", "y"] {
+            let v = positions(axis).unwrap();
+            assert!(v.iter().any(|&p| near(p, [0.0, 4.0, 2.0])), "{axis}: {v:?}");
+        }
+        let v = positions("Z").unwrap();
+        assert!(v.iter().any(|&p| near(p, [0.0, 2.0, -4.0])), "Z: {v:?}");
+        let e = positions("X").unwrap_err().to_string();
+        assert!(e.contains("gltfUpAxis is \"X\""), "{e}");
     }
 
     /// A binary `.subtree`: header, JSON padded to 8 bytes, binary chunk.

@@ -245,8 +245,13 @@ impl BuildingTable {
             let rare: serde_json::Map<String, serde_json::Value> = b
                 .attributes
                 .iter()
-                // A null is no value, in a column or here (GDAL's nulls for keys a feature lacks would fill every row).
-                .filter(|(k, v)| self.folded.contains(k.as_str()) && !matches!(v, AttrValue::Null))
+                // Null and the empty text are no value, in a column or here (GDAL's nulls and shapefiles' empty
+                // strings for keys a feature lacks would fill every row).
+                .filter(|(k, v)| {
+                    self.folded.contains(k.as_str())
+                        && !matches!(v, AttrValue::Null)
+                        && !matches!(v, AttrValue::String(s) if s.is_empty())
+                })
                 .map(|(k, v)| (k.clone(), serde_json::to_value(v).unwrap_or_default()))
                 .collect();
             values.push(if rare.is_empty() {
@@ -698,11 +703,8 @@ mod tests {
             folded,
             serde_json::json!({"rare": 1.5, "rare:text": "a \"b\""})
         );
-        // No null in the object; the empty text is a value of its own and kept.
-        assert_eq!(
-            row(2).last(),
-            Some(&PropValue::Str(r#"{"rare:text":""}"#.into()))
-        );
+        // Neither null nor empty text in the object: nothing is left of it.
+        assert_eq!(row(2).last(), Some(&PropValue::Null));
         assert_eq!(row(2).len(), t.class.properties.len());
 
         // 300 attributes every building has: the first 256 by name get columns.
