@@ -17,7 +17,7 @@ pub enum TilesError {
         #[source]
         source: serde_json::Error,
     },
-    #[error("{path}: invalid glb: {msg}")]
+    #[error("{path}: invalid content: {msg}")]
     Glb { path: PathBuf, msg: String },
     #[error("schema: {0}")]
     Schema(String),

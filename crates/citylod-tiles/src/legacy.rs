@@ -105,8 +105,9 @@ pub(crate) fn parse_b3dm(b: &[u8]) -> Result<Batched<'_>, String> {
         serde_json::from_slice(ft_json).map_err(|e| format!("feature table JSON: {e}"))?;
     let batch_length = match ft.get("BATCH_LENGTH") {
         Some(v) => table_value(v, ft_bin, "UNSIGNED_INT", 1)
-            .ok()
-            .and_then(|x| x.first().copied())
+            .map_err(|e| format!("feature table BATCH_LENGTH: {e}"))?
+            .first()
+            .copied()
             .filter(|x| x.fract() == 0.0 && *x >= 0.0 && *x <= MAX_BATCH_LENGTH as f64)
             .ok_or_else(|| {
                 format!(
@@ -156,14 +157,19 @@ fn table_value(
         serde_json::Value::Array(a) if a.len() == count => {
             Ok(a.iter().map(|x| x.as_f64().unwrap_or(f64::NAN)).collect())
         }
-        serde_json::Value::Object(o) => {
-            let offset = o
-                .get("byteOffset")
-                .and_then(serde_json::Value::as_u64)
-                .ok_or("a binary reference without byteOffset")?;
-            binary_values(bin, offset as usize, component, count)
-        }
+        serde_json::Value::Object(o) => binary_values(bin, byte_offset(o)?, component, count),
         other => Err(format!("{other} is not {count} number(s)")),
+    }
+}
+
+/// The `byteOffset` of a binary reference: a non-negative integer.
+fn byte_offset(o: &serde_json::Map<String, serde_json::Value>) -> Result<usize, String> {
+    match o.get("byteOffset") {
+        None => Err("a binary reference without byteOffset".into()),
+        Some(v) => v
+            .as_u64()
+            .map(|x| x as usize)
+            .ok_or_else(|| format!("byteOffset {v} is not a non-negative integer")),
     }
 }
 
@@ -253,20 +259,27 @@ fn batch_columns(
                 a.iter().map(json_value).collect()
             }
             serde_json::Value::Object(o) => {
-                let offset = o
-                    .get("byteOffset")
-                    .and_then(serde_json::Value::as_u64)
-                    .ok_or_else(|| err("a binary reference without byteOffset".into()))?;
+                let offset = byte_offset(o).map_err(err)? as u64;
                 let component = o
                     .get("componentType")
                     .and_then(serde_json::Value::as_str)
-                    .ok_or_else(|| err("a binary reference without componentType".into()))?;
+                    .ok_or_else(|| {
+                        err(format!(
+                            "componentType {} is not a name such as \"FLOAT\"",
+                            o.get("componentType").unwrap_or(&serde_json::Value::Null)
+                        ))
+                    })?;
                 let n = match o.get("type").and_then(serde_json::Value::as_str) {
                     Some("SCALAR") => 1,
                     Some("VEC2") => 2,
                     Some("VEC3") => 3,
                     Some("VEC4") => 4,
-                    t => return Err(err(format!("type {t:?}"))),
+                    _ => {
+                        return Err(err(format!(
+                            "type {} is not SCALAR, VEC2, VEC3 or VEC4",
+                            o.get("type").unwrap_or(&serde_json::Value::Null)
+                        )))
+                    }
                 };
                 let count = batch_length
                     .checked_mul(n)
@@ -328,9 +341,14 @@ pub(crate) fn parse_cmpt(b: &[u8]) -> Result<Vec<&[u8]>, String> {
     for k in 0..count {
         let len = u32_at(b, pos + 8)
             .map_err(|_| format!("inner tile {k} of {count}: truncated at byte {pos}"))?;
+        if len < 12 {
+            return Err(format!(
+                "inner tile {k} of {count} at byte {pos} claims {len} bytes, less than a tile's header"
+            ));
+        }
         let end = pos
             .checked_add(len)
-            .filter(|&e| e <= total && len >= 12)
+            .filter(|&e| e <= total)
             .ok_or_else(|| {
                 format!(
                     "inner tile {k} of {count} at byte {pos} claims {len} bytes, past the composite's {total}"
@@ -338,6 +356,14 @@ pub(crate) fn parse_cmpt(b: &[u8]) -> Result<Vec<&[u8]>, String> {
             })?;
         tiles.push(&b[pos..end]);
         pos = end;
+    }
+    // Inner tiles are 8-byte aligned, so up to 7 bytes of padding may follow the last; more is a tile the header
+    // does not count.
+    if total - pos >= 8 {
+        return Err(format!(
+            "{} bytes follow its {count} inner tile(s): tilesLength is short of the tiles it holds",
+            total - pos
+        ));
     }
     Ok(tiles)
 }
@@ -560,6 +586,15 @@ pub(crate) mod tests {
         assert!(parse_cmpt(&lying)
             .unwrap_err()
             .contains("inner tile 2 of 3"));
+        // A tile count short of the tiles the composite holds.
+        let mut short_count = c.clone();
+        short_count[12..16].copy_from_slice(&1u32.to_le_bytes());
+        let e = parse_cmpt(&short_count).unwrap_err();
+        assert!(e.contains("follow its 1 inner tile"), "{e}");
+        let mut tiny_inner = c.clone();
+        tiny_inner[16 + 8..16 + 12].copy_from_slice(&4u32.to_le_bytes());
+        let e = parse_cmpt(&tiny_inner).unwrap_err();
+        assert!(e.contains("less than a tile's header"), "{e}");
         let mut long_inner = c.clone();
         long_inner[16 + 8..16 + 12].copy_from_slice(&100_000u32.to_le_bytes());
         assert!(parse_cmpt(&long_inner)

@@ -687,7 +687,13 @@ fn content_at_depth(
     match bytes.get(..4).unwrap_or(bytes) {
         b"b3dm" => {
             let b = crate::legacy::parse_b3dm(bytes).map_err(|m| err(format!("b3dm: {m}")))?;
-            let mut glb = decode_glb(b.glb, path, Some(b.batch_length), z_up)?;
+            let mut glb = decode_glb(b.glb, path, Some(b.batch_length), z_up).map_err(|e| match e {
+                TilesError::Glb { path, msg } => TilesError::Glb {
+                    path,
+                    msg: format!("b3dm: its glb: {msg}"),
+                },
+                e => e,
+            })?;
             // Every feature is a model of the batch with at least one vertex of its own: a BATCH_LENGTH above the
             // vertex count is a count no glb backs (and would fill memory with empty rows).
             if b.batch_length > glb.positions_local.len() {
@@ -1077,16 +1083,20 @@ impl Decoder<'_> {
                         (Some(len), Some(&a)) => {
                             self.expect_kind(a, "_BATCHID", "SCALAR", BATCH_ID_TYPES)?;
                             let offset = out.features.len() as u32;
+                            // 3D Tiles 1.0: every _BATCHID is a feature of the batch, 0 ≤ id < BATCH_LENGTH.
                             get(a)?
                                 .iter()
                                 .map(|&f| {
                                     if f >= 0.0 && f < len as f64 && f.fract() == 0.0 {
-                                        f as u32 + offset
+                                        Ok(f as u32 + offset)
                                     } else {
-                                        u32::MAX
+                                        Err(format!(
+                                            "mesh {mi}: a vertex's _BATCHID {f} is not a feature of the batch \
+                                             (0 to BATCH_LENGTH {len} − 1)"
+                                        ))
                                     }
                                 })
-                                .collect()
+                                .collect::<Result<_, _>>()?
                         }
                         _ => vec![u32::MAX; n_vertices],
                     },
@@ -2639,13 +2649,19 @@ mod volume_and_contents_tests {
         let ids: std::collections::BTreeSet<u32> = c.feature_ids.iter().copied().collect();
         assert_eq!(ids.into_iter().collect::<Vec<_>>(), vec![0, 1, 2, 3]);
 
-        // A _BATCHID past BATCH_LENGTH is no feature; a b3dm whose glb is broken names the file.
+        // A _BATCHID past BATCH_LENGTH is no feature of the batch: the file is broken (3D Tiles 1.0 asks every id
+        // to be one), and a b3dm whose glb is broken names the file.
         let short = b3dm(&json!({"BATCH_LENGTH": 1}), &[], None, &[], &glb);
         std::fs::write(dir.path().join("a.b3dm"), &short).unwrap();
-        let back = read_tileset(&write_tileset(dir.path(), root.clone())).unwrap();
-        let c = back.tiles[0].content.as_ref().unwrap();
-        assert_eq!(c.features.len(), 1);
-        assert_eq!(c.feature_ids.iter().filter(|&&f| f == u32::MAX).count(), 3);
+        let e = read_tileset(&write_tileset(dir.path(), root.clone()))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("a.b3dm")
+                && e.contains("its glb")
+                && e.contains("_BATCHID 1 is not a feature"),
+            "{e}"
+        );
         // A BATCH_LENGTH no glb backs (one feature per vertex at most) is refused before its rows are made.
         let inflated = b3dm(&json!({"BATCH_LENGTH": 1_000_000}), &[], None, &[], &glb);
         std::fs::write(dir.path().join("a.b3dm"), &inflated).unwrap();
