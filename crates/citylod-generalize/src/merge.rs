@@ -1253,13 +1253,9 @@ pub(crate) mod tests {
 
     /// Up to `n` Boston footprints nearest the data's centre, in local ENU metres; `None` without data.
     pub(crate) fn boston_sample(n: usize) -> Option<Vec<Footprint>> {
-        let path = citylod_testdata::shared_data("boston/boston_buildings.geojson")?;
-        Some(read_boston_sample(&path, n).unwrap_or_else(|| {
-            panic!(
-                "{}: present but not readable as the test expects",
-                path.display()
-            )
-        }))
+        citylod_testdata::read_shared_data("boston/boston_buildings.geojson", |p| {
+            read_boston_sample(p, n)
+        })
     }
 
     fn read_boston_sample(path: &std::path::Path, n: usize) -> Option<Vec<Footprint>> {

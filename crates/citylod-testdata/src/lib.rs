@@ -43,6 +43,22 @@ pub fn shared_data(rel: &str) -> Option<PathBuf> {
     }
 }
 
+/// `../shared/data/<rel>` as `read` makes it: `None` when `../shared/data` is not beside this clone (as
+/// [`shared_data`]).
+///
+/// # Panics
+/// When the folder is there but the file is not, or `read` cannot make of it what the test expects (`None`): a test
+/// must not pass on data it never read.
+pub fn read_shared_data<T>(rel: &str, read: impl FnOnce(&Path) -> Option<T>) -> Option<T> {
+    let path = shared_data(rel)?;
+    Some(read(&path).unwrap_or_else(|| {
+        panic!(
+            "{}: present but not readable as the test expects",
+            path.display()
+        )
+    }))
+}
+
 /// splitmix64: a tiny seeded generator for generated test and benchmark inputs (the bench's synthetic city, the
 /// hostile files of the end-to-end tests): the same seed gives the same sequence everywhere.
 pub struct SplitMix64(pub u64);

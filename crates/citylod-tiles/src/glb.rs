@@ -36,6 +36,12 @@ impl BinBuilder {
     }
 }
 
+/// The little-endian u32 at byte `i` of `b`; `None` past its end (the headers of glb and the 3D Tiles 1.0 formats).
+pub(crate) fn le_u32(b: &[u8], i: usize) -> Option<u32> {
+    b.get(i..i.checked_add(4)?)
+        .map(|s| u32::from_le_bytes([s[0], s[1], s[2], s[3]]))
+}
+
 /// Assembles a glb from its JSON text and binary chunk (which may be empty: then no BIN chunk).
 pub(crate) fn write_glb(json: &[u8], bin: &[u8]) -> Vec<u8> {
     // The JSON data starts at byte 20 of the file; it ends on an 8-byte boundary, so its padded length is 4
@@ -63,11 +69,7 @@ pub(crate) fn write_glb(json: &[u8], bin: &[u8]) -> Vec<u8> {
 
 /// Splits a glb into its JSON chunk and BIN chunk (empty when absent).
 pub(crate) fn parse_glb(b: &[u8]) -> Result<(&[u8], &[u8]), String> {
-    let u32_at = |i: usize| -> Result<u32, String> {
-        b.get(i..i + 4)
-            .map(|s| u32::from_le_bytes(s.try_into().unwrap()))
-            .ok_or_else(|| "truncated".to_string())
-    };
+    let u32_at = |i: usize| le_u32(b, i).ok_or_else(|| "truncated".to_string());
     if u32_at(0)? != MAGIC {
         return Err("not a glb (bad magic)".into());
     }

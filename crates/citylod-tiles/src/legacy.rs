@@ -45,8 +45,8 @@ const MAX_BATCH_LENGTH: usize = 1 << 24;
 pub(crate) const MAX_COMPOSITE_DEPTH: usize = 8;
 
 fn u32_at(b: &[u8], i: usize) -> Result<usize, String> {
-    b.get(i..i + 4)
-        .map(|s| u32::from_le_bytes(s.try_into().unwrap()) as usize)
+    crate::glb::le_u32(b, i)
+        .map(|v| v as usize)
         .ok_or_else(|| "truncated header".to_string())
 }
 

@@ -7,8 +7,6 @@ use citylod_model::{Building, BuildingId, Footprint, HeightSource, LocalFrame};
 use geo_types::{Coord, LineString, MultiPolygon, Polygon};
 use serde_json::Value;
 
-pub use citylod_testdata::shared_data as data_path;
-
 /// Closes the ring, drops repeated points, orients it (exterior CCW, holes CW); `None` if < 3 points.
 fn ring(pts: impl Iterator<Item = (f64, f64)>, exterior: bool) -> Option<LineString<f64>> {
     let mut v: Vec<Coord<f64>> = Vec::new();
@@ -56,13 +54,7 @@ fn building(i: usize, source_id: String, footprint: Footprint, height_m: f64) ->
 /// Reads a GeoJSON FeatureCollection of (Multi)Polygons in lon/lat into buildings in a local frame
 /// centred on the mean vertex. Features without a usable polygon are skipped (counted in the result).
 pub fn load_geojson(rel: &str) -> Option<(Vec<Building>, usize)> {
-    let path = data_path(rel)?;
-    Some(read_geojson(&path).unwrap_or_else(|| {
-        panic!(
-            "{}: present but not readable as the test expects",
-            path.display()
-        )
-    }))
+    citylod_testdata::read_shared_data(rel, read_geojson)
 }
 
 fn read_geojson(path: &std::path::Path) -> Option<(Vec<Building>, usize)> {
@@ -141,13 +133,7 @@ fn read_geojson(path: &std::path::Path) -> Option<(Vec<Building>, usize)> {
 /// Reads the LoD0 footprints of the Buildings of a CityJSONSeq file (metric CRS), centred on the
 /// mean vertex; height = `b3_h_dak_70p − b3_h_maaiveld` (10 m when missing).
 pub fn load_cityjsonseq(rel: &str) -> Option<Vec<Building>> {
-    let path = data_path(rel)?;
-    Some(read_cityjsonseq(&path).unwrap_or_else(|| {
-        panic!(
-            "{}: present but not readable as the test expects",
-            path.display()
-        )
-    }))
+    citylod_testdata::read_shared_data(rel, read_cityjsonseq)
 }
 
 fn read_cityjsonseq(path: &std::path::Path) -> Option<Vec<Building>> {

@@ -15,8 +15,6 @@ pub struct TestBuilding {
     pub mesh: Mesh3d,
 }
 
-pub use citylod_testdata::shared_data as data_path;
-
 /// Accumulates one building's surfaces, merging identical integer vertices.
 struct MeshBuilder {
     index: BTreeMap<[i64; 3], u32>,
@@ -137,13 +135,7 @@ fn int_vertex(v: &Value) -> Option<[i64; 3]> {
 
 /// Delft 3DBAG buildings at LoD `lod` ("1.2", "1.3" or "2.2"), origin at the tile's translate.
 pub fn load_delft(lod: &str) -> Option<Vec<TestBuilding>> {
-    let path = data_path("delft-3dbag/delft.city.jsonl")?;
-    Some(read_delft(&path, lod).unwrap_or_else(|| {
-        panic!(
-            "{}: present but not readable as the test expects",
-            path.display()
-        )
-    }))
+    citylod_testdata::read_shared_data("delft-3dbag/delft.city.jsonl", |p| read_delft(p, lod))
 }
 
 fn read_delft(path: &std::path::Path, lod: &str) -> Option<Vec<TestBuilding>> {
@@ -191,13 +183,7 @@ fn read_delft(path: &std::path::Path, lod: &str) -> Option<Vec<TestBuilding>> {
 
 /// Den Haag LoD2 buildings (each Building with its BuildingParts), origin at the file's translate.
 pub fn load_denhaag() -> Option<Vec<TestBuilding>> {
-    let path = data_path("denhaag-lod2/DenHaag_01.json")?;
-    Some(read_denhaag(&path).unwrap_or_else(|| {
-        panic!(
-            "{}: present but not readable as the test expects",
-            path.display()
-        )
-    }))
+    citylod_testdata::read_shared_data("denhaag-lod2/DenHaag_01.json", read_denhaag)
 }
 
 fn read_denhaag(path: &std::path::Path) -> Option<Vec<TestBuilding>> {
