@@ -606,6 +606,60 @@ fn the_checker_reading_tile_by_tile_keeps_what_a_whole_read_gives() {
     assert_eq!(streamed, expected);
 }
 
+/// `inspect --json` gives the table's figures as JSON valid against schemas/inspect.schema.json: every building
+/// once in the last depth, every content byte counted, and the same rows the table prints.
+#[test]
+fn inspect_json_matches_the_table_and_the_files() {
+    let dir = nyc();
+    let o = citylod(&["inspect", dir.to_str().unwrap(), "--json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let errors = schema_errors("inspect.schema.json", &report);
+    assert!(errors.is_empty(), "{}", errors.join("\n"));
+    let depths = report["depths"].as_array().unwrap();
+    assert_eq!(depths.last().unwrap()["features"], 1416);
+    assert_eq!(depths.last().unwrap()["geometric_error_m"]["max"], 0.0);
+    // Content bytes: every glb of the tileset, once.
+    let glb_bytes: u64 = tree_bytes(dir)
+        .iter()
+        .filter(|(rel, _)| rel.ends_with(".glb"))
+        .map(|(_, b)| b.len() as u64)
+        .sum();
+    assert_eq!(report["total"]["bytes"], glb_bytes);
+    let sum = |key: &str| depths.iter().map(|d| d[key].as_u64().unwrap()).sum::<u64>();
+    for key in ["tiles", "features", "triangles", "bytes"] {
+        assert_eq!(report["total"][key], sum(key), "{key}");
+    }
+    // The table: one row per depth with the same tiles, features, triangles and bytes.
+    let o = citylod(&["inspect", dir.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&o.stdout).to_string();
+    let rows: Vec<Vec<u64>> = text
+        .lines()
+        .skip(1)
+        .map(|l| {
+            l.split_whitespace()
+                .take(6)
+                .map(|x| x.parse().unwrap())
+                .collect()
+        })
+        .collect();
+    assert_eq!(rows.len(), depths.len());
+    for (row, d) in rows.iter().zip(depths) {
+        let json: Vec<u64> = [
+            "depth",
+            "tiles",
+            "tiles_with_content",
+            "features",
+            "triangles",
+            "bytes",
+        ]
+        .iter()
+        .map(|k| d[*k].as_u64().unwrap())
+        .collect();
+        assert_eq!(row, &json);
+    }
+}
+
 /// The 8 corners of a `box` (centre, three half-axes), in its frame.
 fn box_corners(b: &[f64]) -> Vec<[f64; 3]> {
     (0..8)

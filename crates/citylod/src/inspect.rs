@@ -1,4 +1,5 @@
-//! `citylod inspect DIR`: per tree depth, the tiles, features, triangles, bytes and the spread of geometricError.
+//! `citylod inspect DIR`: per tree depth, the tiles, features, triangles, bytes and the spread of geometricError, as
+//! a table or (`--json`) as JSON for scripts (schemas/inspect.schema.json).
 
 use anyhow::{Context, Result};
 use clap::Args;
@@ -10,6 +11,10 @@ pub struct InspectArgs {
     /// Tileset folder (holding tileset.json) or the tileset.json itself.
     #[arg(value_name = "TILESET")]
     pub tileset: PathBuf,
+
+    /// Print JSON (schemas/inspect.schema.json) instead of the table: the same figures per depth, and their totals.
+    #[arg(long)]
+    pub json: bool,
 }
 
 pub fn run(args: InspectArgs) -> Result<ExitCode> {
@@ -49,17 +54,56 @@ pub fn run(args: InspectArgs) -> Result<ExitCode> {
         }
         stack.extend(tile.children.iter().map(|&c| (c, depth + 1)));
     }
+    for r in &mut rows {
+        r.errors.sort_by(f64::total_cmp);
+    }
+    // Every depth has a tile, so its errors are never empty.
+    let spread = |r: &Row| {
+        (
+            r.errors[0],
+            r.errors[r.errors.len() / 2],
+            r.errors[r.errors.len() - 1],
+        )
+    };
+    if args.json {
+        let depths: Vec<serde_json::Value> = rows
+            .iter()
+            .enumerate()
+            .map(|(d, r)| {
+                let (lo, med, hi) = spread(r);
+                serde_json::json!({
+                    "depth": d,
+                    "tiles": r.tiles,
+                    "tiles_with_content": r.with_content,
+                    "features": r.features,
+                    "triangles": r.triangles,
+                    "bytes": r.bytes,
+                    "geometric_error_m": {"min": lo, "median": med, "max": hi},
+                })
+            })
+            .collect();
+        let sum = |f: &dyn Fn(&Row) -> u64| rows.iter().map(f).sum::<u64>();
+        let report = serde_json::json!({
+            "tileset": path.display().to_string(),
+            "geometric_error_m": ts.geometric_error_m,
+            "depths": depths,
+            "total": {
+                "tiles": sum(&|r| r.tiles as u64),
+                "tiles_with_content": sum(&|r| r.with_content as u64),
+                "features": sum(&|r| r.features),
+                "triangles": sum(&|r| r.triangles),
+                "bytes": sum(&|r| r.bytes),
+            },
+        });
+        println!("{}", serde_json::to_string_pretty(&report)?);
+        return Ok(ExitCode::SUCCESS);
+    }
     println!(
         "{:>5} {:>7} {:>8} {:>9} {:>11} {:>11}  geometricError min / median / max (m)",
         "depth", "tiles", "content", "features", "triangles", "bytes"
     );
-    for (d, r) in rows.iter_mut().enumerate() {
-        r.errors.sort_by(f64::total_cmp);
-        let (lo, med, hi) = (
-            r.errors[0],
-            r.errors[r.errors.len() / 2],
-            r.errors[r.errors.len() - 1],
-        );
+    for (d, r) in rows.iter().enumerate() {
+        let (lo, med, hi) = spread(r);
         println!(
             "{d:>5} {:>7} {:>8} {:>9} {:>11} {:>11}  {lo:.2} / {med:.2} / {hi:.2}",
             r.tiles, r.with_content, r.features, r.triangles, r.bytes
