@@ -161,6 +161,7 @@ pub enum InputFormat {
     GeoJson,
     CityJson,
     CityJsonSeq,
+    Shapefile,
 }
 
 /// What happened to one input file.
