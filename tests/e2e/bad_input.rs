@@ -210,67 +210,6 @@ fn unreadable_inputs_exit_2_with_a_clear_message() {
     );
 }
 
-/// A shapefile builds like any input: footprints and heights from its .dbf, the CRS from its .prj (here an OGC WKT
-/// naming EPSG:26986, Massachusetts State Plane in metres), and the report names the format.
-#[test]
-fn a_shapefile_builds_with_its_prj_and_dbf() {
-    use shapefile::dbase::{FieldValue, Record, TableWriterBuilder};
-    use shapefile::{Point, Polygon, PolygonRing};
-    let d = scratch_dir("shapefile");
-    let shp = d.join("blocks.shp");
-    let table = TableWriterBuilder::new()
-        .add_character_field("name".try_into().unwrap(), 20)
-        .add_numeric_field("HEIGHT".try_into().unwrap(), 10, 1);
-    let mut w = shapefile::Writer::from_path(&shp, table).unwrap();
-    // Three 20 m squares 30 m apart near Boston's State House, clockwise as shapefiles have them.
-    for k in 0..3 {
-        let (x, y) = (236_000.0 + 30.0 * k as f64, 900_000.0);
-        let ring = vec![
-            Point::new(x, y),
-            Point::new(x, y + 20.0),
-            Point::new(x + 20.0, y + 20.0),
-            Point::new(x + 20.0, y),
-            Point::new(x, y),
-        ];
-        let mut r = Record::default();
-        r.insert(
-            "name".into(),
-            FieldValue::Character(Some(format!("block {k}"))),
-        );
-        r.insert("HEIGHT".into(), FieldValue::Numeric(Some(12.5 + k as f64)));
-        w.write_shape_and_record(&Polygon::with_rings(vec![PolygonRing::Outer(ring)]), &r)
-            .unwrap();
-    }
-    drop(w);
-    std::fs::write(
-        d.join("blocks.prj"),
-        r#"PROJCS["NAD83 / Massachusetts Mainland",GEOGCS["NAD83",DATUM["North_American_Datum_1983",SPHEROID["GRS 1980",6378137,298.257222101]],PRIMEM["Greenwich",0],UNIT["degree",0.0174532925199433]],PROJECTION["Lambert_Conformal_Conic_2SP"],UNIT["metre",1],AUTHORITY["EPSG","26986"]]"#,
-    )
-    .unwrap();
-    let out = d.join("tiles");
-    let report = build(&[&shp], &out, &["--height-attr", "HEIGHT"]);
-    let errors = schema_errors("build-report.schema.json", &report);
-    assert!(errors.is_empty(), "{}", errors.join("\n"));
-    let file = &report["ingest"]["files"][0];
-    assert_eq!(
-        (file["format"].as_str(), file["crs"].as_str()),
-        (Some("shapefile"), Some("EPSG:26986"))
-    );
-    assert_eq!(report["counts"]["buildings_written"], 3);
-    assert_eq!(report["ingest"]["height_sources"]["named_attribute"], 3);
-    // Outer rings run clockwise in a shapefile: that is its rule, not a ring to repair.
-    assert_eq!(report["ingest"]["rings_reoriented"], 0);
-    // The frame's origin is the squares' centre, in Boston (EPSG:26986 read, not taken as lon/lat).
-    let (lon, lat) = (
-        report["frame"]["origin_lon_deg"].as_f64().unwrap(),
-        report["frame"]["origin_lat_deg"].as_f64().unwrap(),
-    );
-    assert!(
-        (lon + 71.06).abs() < 0.05 && (lat - 42.36).abs() < 0.05,
-        "{lon}, {lat}"
-    );
-}
-
 #[test]
 fn failed_build_leaves_existing_output_untouched() {
     let d = scratch_dir("atomic");

@@ -37,7 +37,6 @@ mod model3d;
 mod place;
 mod repair;
 mod report;
-mod shp;
 mod streets;
 mod template;
 mod valid;
@@ -425,27 +424,6 @@ fn load(
     opts: &IngestOptions,
     model_target: Option<lod::Target>,
 ) -> Result<LoadedFile, IngestError> {
-    if path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("shp"))
-    {
-        let doc = shp::read(path).map_err(|detail| IngestError::InvalidShapefile {
-            path: path.into(),
-            detail,
-        })?;
-        let crs = match (&opts.crs, doc.declared_crs) {
-            (None, None) => return Err(IngestError::MissingPrj { path: path.into() }),
-            (c, declared) => settle_crs(path, c, declared, InputFormat::Shapefile)?,
-        };
-        return Ok(LoadedFile {
-            path: path.into(),
-            format: InputFormat::Shapefile,
-            crs,
-            version: None,
-            non_building_objects: 0,
-            features: doc.features,
-        });
-    }
     let text = read_text(path)?;
     let file_name = path
         .file_name()
@@ -548,26 +526,7 @@ fn load(
         }
         Some(_) => return Err(unknown("the top-level JSON value is not an object".into())),
     };
-    let crs = settle_crs(path, &opts.crs, declared, format)?;
-    Ok(LoadedFile {
-        path: path.into(),
-        format,
-        crs,
-        version,
-        non_building_objects,
-        features,
-    })
-}
-
-/// The CRS of a file: `--crs` when given, else what the file declares, else WGS84 lon/lat for GeoJSON (RFC 7946);
-/// an error for a declaration that names no usable CRS or a CityJSON file that declares none.
-fn settle_crs(
-    path: &Path,
-    given: &Option<String>,
-    declared: Option<DeclaredCrs>,
-    format: InputFormat,
-) -> Result<Crs, IngestError> {
-    Ok(match (given, &declared) {
+    let crs = match (&opts.crs, &declared) {
         (Some(c), _) => Crs::parse(c).map_err(|e| IngestError::UnknownCrs {
             origin: "--crs".into(),
             crs: c.clone(),
@@ -589,6 +548,14 @@ fn settle_crs(
         }
         (None, None) if format == InputFormat::GeoJson => Crs::wgs84(),
         (None, None) => return Err(IngestError::MissingCrs { path: path.into() }),
+    };
+    Ok(LoadedFile {
+        path: path.into(),
+        format,
+        crs,
+        version,
+        non_building_objects,
+        features,
     })
 }
 

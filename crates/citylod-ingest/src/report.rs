@@ -161,7 +161,6 @@ pub enum InputFormat {
     GeoJson,
     CityJson,
     CityJsonSeq,
-    Shapefile,
 }
 
 /// What happened to one input file.

@@ -18,13 +18,12 @@ use crate::shown;
 // A negative number is a value (`--storey-height -1` is refused by its range check, naming the flag).
 #[command(allow_negative_numbers = true)]
 pub struct BuildArgs {
-    /// Input files: GeoJSON (.geojson, .json), Esri Shapefile (.shp, with its .dbf; CRS from its .prj),
-    /// CityJSON (.city.json, .json) or CityJSONSeq (.city.jsonl, .jsonl).
+    /// Input files: GeoJSON (.geojson, .json), CityJSON (.city.json, .json) or CityJSONSeq (.city.jsonl, .jsonl).
     #[arg(required = true, value_name = "INPUT", help_heading = "Input")]
     pub inputs: Vec<PathBuf>,
 
-    /// CRS of the input coordinates, e.g. EPSG:28992. Default: WGS84 lon/lat for GeoJSON (RFC 7946), the .prj for a
-    /// Shapefile, the file's `referenceSystem` for CityJSON.
+    /// CRS of the input coordinates, e.g. EPSG:28992. Default: WGS84 lon/lat for GeoJSON (RFC 7946), the file's
+    /// `referenceSystem` for CityJSON.
     #[arg(long, value_name = "EPSG:CODE", help_heading = "Input")]
     pub crs: Option<String>,
 
