@@ -16,21 +16,30 @@ pub(crate) struct Batched<'a> {
     pub batch_length: usize,
     /// The feature table's `RTC_CENTER`: positions are relative to it (tile frame, z up).
     pub rtc_center: Option<[f64; 3]>,
-    /// The batch table's properties: name and one value per feature (rows are built by the caller once it has
-    /// checked the glb backs `batch_length` features).
-    pub columns: Vec<(String, Vec<PropValue>)>,
+    /// The batch table's JSON and binary body, decoded by [`Batched::rows`] once the caller has checked that the glb
+    /// backs `batch_length` features (a small file may declare millions).
+    pub table_json: &'a [u8],
+    pub table_bin: &'a [u8],
 }
 
 impl Batched<'_> {
+    /// The batch table's properties: name and one value per feature.
+    pub fn columns(&self) -> Result<Vec<(String, Vec<PropValue>)>, String> {
+        if self.table_json.iter().all(u8::is_ascii_whitespace) {
+            return Ok(Vec::new());
+        }
+        batch_columns(self.table_json, self.table_bin, self.batch_length)
+    }
+
     /// The rows of the batch table, one per feature, each with every property.
-    pub fn rows(self) -> Vec<BTreeMap<String, PropValue>> {
+    pub fn rows(&self) -> Result<Vec<BTreeMap<String, PropValue>>, String> {
         let mut rows = vec![BTreeMap::new(); self.batch_length];
-        for (name, values) in self.columns {
+        for (name, values) in self.columns()? {
             for (row, v) in rows.iter_mut().zip(values) {
                 row.insert(name.clone(), v);
             }
         }
-        rows
+        Ok(rows)
     }
 }
 
@@ -131,16 +140,12 @@ pub(crate) fn parse_b3dm(b: &[u8]) -> Result<Batched<'_>, String> {
             }
         }
     };
-    let columns = if bt_json.iter().all(u8::is_ascii_whitespace) {
-        Vec::new()
-    } else {
-        batch_columns(bt_json, bt_bin, batch_length)?
-    };
     Ok(Batched {
         glb: &b[glb_start..],
         batch_length,
         rtc_center,
-        columns,
+        table_json: bt_json,
+        table_bin: bt_bin,
     })
 }
 
@@ -453,7 +458,7 @@ pub(crate) mod tests {
         assert_eq!(p.glb, &glb[..]);
         assert_eq!(p.batch_length, 2);
         assert_eq!(p.rtc_center, Some([100.0, -50.0, 7.5]));
-        let r = &p.clone().rows();
+        let r = &p.rows().unwrap();
         assert_eq!(r[0]["name"], PropValue::Str("a".into()));
         assert_eq!(r[1]["name"], PropValue::Null);
         assert_eq!(r[0]["height"], PropValue::Int(12));
@@ -472,7 +477,10 @@ pub(crate) mod tests {
             &glb,
         );
         let p = parse_b3dm(&b).unwrap();
-        assert_eq!((p.rtc_center, p.rows().len()), (Some([1.0, 2.0, 3.0]), 3));
+        assert_eq!(
+            (p.rtc_center, p.rows().unwrap().len()),
+            (Some([1.0, 2.0, 3.0]), 3)
+        );
     }
 
     #[test]
@@ -485,7 +493,7 @@ pub(crate) mod tests {
             &[],
             &glb,
         );
-        let err = |b: &[u8]| parse_b3dm(b).unwrap_err();
+        let err = |b: &[u8]| parse_b3dm(b).and_then(|p| p.rows().map(drop)).unwrap_err();
         assert!(err(&ok[..20]).contains("truncated"), "{}", err(&ok[..20]));
         let mut v0 = ok.clone();
         v0[4] = 0;

@@ -706,8 +706,9 @@ fn content_at_depth(
             if let Some(c) = b.rtc_center {
                 translate(&mut glb.positions_local, c);
             }
+            let rows = b.rows().map_err(|m| err(format!("b3dm: {m}")))?;
             glb.features
-                .extend(b.rows().into_iter().map(|values| FeatureRow {
+                .extend(rows.into_iter().map(|values| FeatureRow {
                     class: BATCH_TABLE_CLASS.into(),
                     values,
                 }));
