@@ -803,6 +803,40 @@ fn edit_glb_json(glb: &[u8], edit: impl FnOnce(&mut Value)) -> Vec<u8> {
     out
 }
 
+/// Applies `edit` to the JSON chunk of every glb under `dir`; returns how many there were.
+fn edit_every_glb(dir: &Path, edit: impl Fn(&mut Value)) -> usize {
+    let mut glbs = 0;
+    for (rel, bytes) in tree_bytes(dir) {
+        if rel.ends_with(".glb") {
+            std::fs::write(dir.join(&rel), edit_glb_json(&bytes, &edit)).unwrap();
+            glbs += 1;
+        }
+    }
+    glbs
+}
+
+/// Removes a glb's metadata (JSON chunk only): EXT_structural_metadata and its primitives' EXT_mesh_features, and
+/// both from the extension lists.
+fn strip_metadata(g: &mut Value) {
+    for mesh in g["meshes"].as_array_mut().unwrap() {
+        for prim in mesh["primitives"].as_array_mut().unwrap() {
+            prim.as_object_mut().unwrap().remove("extensions");
+        }
+    }
+    g["extensions"]
+        .as_object_mut()
+        .unwrap()
+        .remove("EXT_structural_metadata");
+    for list in ["extensionsUsed", "extensionsRequired"] {
+        if let Some(l) = g[list].as_array_mut() {
+            l.retain(|x| {
+                let x = x.as_str().unwrap();
+                x != "EXT_mesh_features" && x != "EXT_structural_metadata"
+            });
+        }
+    }
+}
+
 /// A third-party tileset (no `extras.citylod`, no citylod `asset.generator`) whose features have identities of their own is checked by its tree,
 /// volumes and pictures, and says that coverage by identity was not checked; the same content in a tileset citylod
 /// says it wrote is a finding at every tile (its features lost the identity every citylod tileset carries).
@@ -833,27 +867,19 @@ fn third_party_features_are_not_held_to_citylods_identity() {
                 ts["asset"].as_object_mut().unwrap().remove("generator");
             }
         });
-        let mut glbs = 0;
-        for (rel, bytes) in tree_bytes(&dir) {
-            if !rel.ends_with(".glb") {
-                continue;
+        let glbs = edit_every_glb(&dir, |g| {
+            let meta = &mut g["extensions"]["EXT_structural_metadata"];
+            for class in meta["schema"]["classes"]
+                .as_object_mut()
+                .unwrap()
+                .values_mut()
+            {
+                rename_keys(class["properties"].as_object_mut().unwrap(), &renamed);
             }
-            let edited = edit_glb_json(&bytes, |g| {
-                let meta = &mut g["extensions"]["EXT_structural_metadata"];
-                for class in meta["schema"]["classes"]
-                    .as_object_mut()
-                    .unwrap()
-                    .values_mut()
-                {
-                    rename_keys(class["properties"].as_object_mut().unwrap(), &renamed);
-                }
-                for table in meta["propertyTables"].as_array_mut().unwrap() {
-                    rename_keys(table["properties"].as_object_mut().unwrap(), &renamed);
-                }
-            });
-            std::fs::write(dir.join(&rel), edited).unwrap();
-            glbs += 1;
-        }
+            for table in meta["propertyTables"].as_array_mut().unwrap() {
+                rename_keys(table["properties"].as_object_mut().unwrap(), &renamed);
+            }
+        });
         assert!(glbs > 3, "{glbs} glbs");
         dir
     };
@@ -871,22 +897,7 @@ fn third_party_features_are_not_held_to_citylods_identity() {
     // citylod's tileset with every glb's metadata removed: no feature left to hold, and every triangle is one no
     // building stands for.
     let bare = damaged("bare", |_| {});
-    for (rel, bytes) in tree_bytes(&bare) {
-        if rel.ends_with(".glb") {
-            let edited = edit_glb_json(&bytes, |g| {
-                g["extensions"]
-                    .as_object_mut()
-                    .unwrap()
-                    .remove("EXT_structural_metadata");
-                for mesh in g["meshes"].as_array_mut().unwrap() {
-                    for prim in mesh["primitives"].as_array_mut().unwrap() {
-                        prim.as_object_mut().unwrap().remove("extensions");
-                    }
-                }
-            });
-            std::fs::write(bare.join(&rel), edited).unwrap();
-        }
-    }
+    assert!(edit_every_glb(&bare, strip_metadata) > 3);
     let out = scratch_dir("bare-out");
     let (code, report) = check(&bare, &out, &["--views", "2"]);
     assert_eq!(code, 1, "a citylod tileset without features must fail");
@@ -936,21 +947,9 @@ fn as_b3dm(glb: &[u8], path: &Path) -> Vec<u8> {
                 let attrs = prim["attributes"].as_object_mut().unwrap();
                 let ids = attrs.remove("_FEATURE_ID_0").unwrap();
                 attrs.insert("_BATCHID".into(), ids);
-                prim.as_object_mut().unwrap().remove("extensions");
             }
         }
-        g["extensions"]
-            .as_object_mut()
-            .unwrap()
-            .remove("EXT_structural_metadata");
-        for list in ["extensionsUsed", "extensionsRequired"] {
-            if let Some(l) = g[list].as_array_mut() {
-                l.retain(|x| {
-                    !x.as_str().unwrap().starts_with("EXT_mesh_features")
-                        && !x.as_str().unwrap().starts_with("EXT_structural_metadata")
-                });
-            }
-        }
+        strip_metadata(g);
     });
     let padded = |v: Value, at: usize| {
         let mut t = serde_json::to_vec(&v).unwrap();

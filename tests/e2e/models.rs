@@ -189,30 +189,35 @@ fn delft_lod22_tileset_has_the_model_chain_and_passes_check() {
     assert_same_files(&out, &serial, "RAYON_NUM_THREADS=1");
 }
 
-/// `--lod` at a level no building has (Delft's solids are LoD 1.2 and up) writes prisms, and says so on the
-/// console as well as in the report (found by fuzzing: 1,115 prisms were announced as "0 repaired, 0 skipped").
-#[test]
-fn a_lod_no_building_has_says_how_many_prisms_were_written() {
-    let Some(input) = shared_data("delft-3dbag/delft.city.jsonl") else {
-        return;
-    };
-    let out = e2e_dir("delft-lod11");
+/// Delft built with `--lod <lod>` into `e2e/<name>`: the console's text and the build report; `None` without data.
+fn delft_at_lod(lod: &str, name: &str) -> Option<(String, serde_json::Value)> {
+    let input = shared_data("delft-3dbag/delft.city.jsonl")?;
+    let out = e2e_dir(name);
     let o = citylod(&[
         "build",
         input.to_str().unwrap(),
         "--lod",
-        "1.1",
+        lod,
         "--out",
         out.to_str().unwrap(),
     ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let e = String::from_utf8_lossy(&o.stderr);
+    let e = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(o.status.success(), "{e}");
+    Some((e, read_json(&out.join("build-report.json"))))
+}
+
+/// `--lod` at a level no building has (Delft's solids are LoD 1.2 and up) writes prisms, and says so on the
+/// console as well as in the report (found by fuzzing: 1,115 prisms were announced as "0 repaired, 0 skipped").
+#[test]
+fn a_lod_no_building_has_says_how_many_prisms_were_written() {
+    let Some((e, report)) = delft_at_lod("1.1", "delft-lod11") else {
+        return;
+    };
     assert!(
         e.contains("3D models: 0 of 1115 buildings; 1115 without one are prisms"),
         "{e}"
     );
     assert!(e.contains("1115 × model_missing"), "{e}");
-    let report = read_json(&out.join("build-report.json"));
     assert_eq!(
         report["ingest"]["mesh_issues_by_reason"]["model_missing"],
         1115
@@ -223,25 +228,13 @@ fn a_lod_no_building_has_says_how_many_prisms_were_written() {
 /// that quietly gave LoD 1.3 models looked like what was asked).
 #[test]
 fn a_lod_the_buildings_lack_says_which_lod_was_read_instead() {
-    let Some(input) = shared_data("delft-3dbag/delft.city.jsonl") else {
+    let Some((e, report)) = delft_at_lod("2.1", "delft-lod21") else {
         return;
     };
-    let out = e2e_dir("delft-lod21");
-    let o = citylod(&[
-        "build",
-        input.to_str().unwrap(),
-        "--lod",
-        "2.1",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let e = String::from_utf8_lossy(&o.stderr);
     assert!(
         e.contains("3D models: 1115 of 1115 buildings (1115 at LoD 1.3); 1115 had no LoD 2.1 and use their highest below it"),
         "{e}"
     );
-    let report = read_json(&out.join("build-report.json"));
     assert_eq!(report["ingest"]["mesh_lod_fallbacks"], 1115);
     assert_eq!(report["ingest"]["mesh_lods"]["1.3"], 1115);
 }

@@ -4,6 +4,7 @@
 //! Instanced models (`i3dm`) and point clouds (`pnts`) are named and refused: citylod draws surfaces of buildings.
 //! Layouts: 3D Tiles 1.0, "Batched 3D Model" and "Composite" (a 28- and a 16-byte header, little-endian u32s).
 
+use crate::read::MAX_TABLE_CELLS;
 use crate::spec::PropValue;
 use std::collections::BTreeMap;
 
@@ -23,18 +24,15 @@ pub(crate) struct Batched<'a> {
 }
 
 impl Batched<'_> {
-    /// The batch table's properties: name and one value per feature.
-    pub fn columns(&self) -> Result<Vec<(String, Vec<PropValue>)>, String> {
-        if self.table_json.iter().all(u8::is_ascii_whitespace) {
-            return Ok(Vec::new());
-        }
-        batch_columns(self.table_json, self.table_bin, self.batch_length)
-    }
-
     /// The rows of the batch table, one per feature, each with every property.
     pub fn rows(&self) -> Result<Vec<BTreeMap<String, PropValue>>, String> {
+        let columns = if self.table_json.iter().all(u8::is_ascii_whitespace) {
+            Vec::new()
+        } else {
+            batch_columns(self.table_json, self.table_bin, self.batch_length)?
+        };
         let mut rows = vec![BTreeMap::new(); self.batch_length];
-        for (name, values) in self.columns()? {
+        for (name, values) in columns {
             for (row, v) in rows.iter_mut().zip(values) {
                 row.insert(name.clone(), v);
             }
@@ -43,11 +41,7 @@ impl Batched<'_> {
     }
 }
 
-/// Most values one content's property tables may hold in all (rows × properties, across a composite's tiles):
-/// each becomes a decoded value in memory, while properties may share their bytes.
-pub(crate) const MAX_TABLE_CELLS: usize = 1 << 24;
-
-/// Most features one batch table may declare: each row is allocated before its values are read.
+/// Most features one batch table may declare (the glb must also have a vertex for each).
 const MAX_BATCH_LENGTH: usize = 1 << 24;
 
 /// Most composite tiles nested in one another.

@@ -81,6 +81,10 @@ const MAX_ELEMENTS: usize = 1 << 28;
 /// Most vertices one glb may draw in all: nodes sharing a mesh repeat it at no cost in the file.
 const MAX_GLB_VERTICES: usize = 1 << 24;
 
+/// Most values one content's property tables (or a b3dm's batch table) may hold in all, rows × properties, a
+/// composite's tiles together: each becomes a decoded value in memory, while properties may share their bytes.
+pub(crate) const MAX_TABLE_CELLS: usize = 1 << 24;
+
 /// Most elements of a sparse accessor without a buffer view (whose zeros no bytes of the file back).
 const MAX_ZERO_BASE_ELEMENTS: usize = 1 << 22;
 const MAX_VIEW_BYTES: usize = 1 << 31;
@@ -661,12 +665,8 @@ pub fn read_glb(bytes: &[u8], path: &Path) -> Result<GlbData, TilesError> {
     decode_glb(bytes, path, None, false)
 }
 
-/// Decodes tile content by its magic: glb, or the 3D Tiles 1.0 formats b3dm and cmpt ([`crate::legacy`]); i3dm,
-/// pnts and glTF JSON are refused by name. Positions in the tile's frame, as [`read_glb`].
-pub fn read_content(bytes: &[u8], path: &Path) -> Result<GlbData, TilesError> {
-    content_at_depth(bytes, path, 0, false)
-}
-
+/// Decodes tile content by its magic: glb, or the 3D Tiles 1.0 formats b3dm and cmpt ([`crate::legacy`]), `depth`
+/// composites deep; i3dm, pnts and glTF JSON are refused by name. Positions in the tile's frame, as [`read_glb`].
 /// `z_up`: the glTF inside is z-up (a tileset's `asset.gltfUpAxis` "Z"), not y-up as glTF itself has it.
 fn content_at_depth(
     bytes: &[u8],
@@ -729,11 +729,11 @@ fn content_at_depth(
                 cells += tile.features.iter().map(|f| f.values.len().max(1)).sum::<usize>();
                 out.append(tile);
                 if out.positions_local.len() > MAX_GLB_VERTICES
-                    || cells > crate::legacy::MAX_TABLE_CELLS
+                    || cells > MAX_TABLE_CELLS
                 {
                     return Err(err(format!(
                         "cmpt: its tiles hold more than {MAX_GLB_VERTICES} vertices or {} property values in all",
-                        crate::legacy::MAX_TABLE_CELLS
+                        MAX_TABLE_CELLS
                     )));
                 }
             }
@@ -830,15 +830,14 @@ impl Decoder<'_> {
                     .get(&table.class)
                     .ok_or_else(|| format!("class {} not in schema", table.class))?;
                 if table.count > MAX_ELEMENTS
-                    || table.count.saturating_mul(class.properties.len().max(1))
-                        > crate::legacy::MAX_TABLE_CELLS
+                    || table.count.saturating_mul(class.properties.len().max(1)) > MAX_TABLE_CELLS
                 {
                     return Err(format!(
                         "property table of {} rows of {} properties: more than the {} values citylod's reader \
                          holds",
                         table.count,
                         class.properties.len(),
-                        crate::legacy::MAX_TABLE_CELLS
+                        MAX_TABLE_CELLS
                     ));
                 }
                 let mut rows = vec![std::collections::BTreeMap::new(); table.count];

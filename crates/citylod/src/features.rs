@@ -77,22 +77,16 @@ impl BuildingTable {
         let mut kinds: BTreeMap<&str, Option<PropertyKind>> = BTreeMap::new();
         // Buildings with a value (not null) per attribute.
         let mut present: BTreeMap<&str, usize> = BTreeMap::new();
-        // Buildings that hold a value of the attribute: not null, not the empty string (GDAL writes every key on every
-        // feature, null where it has none, so counting keys would never fold anything).
+        // Buildings that hold a value of the attribute ([`is_value`]).
         let mut held: BTreeMap<&str, usize> = BTreeMap::new();
         // Attributes some building has as the empty string.
         let mut empty: BTreeSet<&str> = BTreeSet::new();
         for b in buildings {
             for (k, v) in &b.attributes {
-                let no_value = match v {
-                    AttrValue::String(s) if s.is_empty() => {
-                        empty.insert(k.as_str());
-                        true
-                    }
-                    AttrValue::Null => true,
-                    _ => false,
-                };
-                *held.entry(k.as_str()).or_default() += usize::from(!no_value);
+                if matches!(v, AttrValue::String(s) if s.is_empty()) {
+                    empty.insert(k.as_str());
+                }
+                *held.entry(k.as_str()).or_default() += usize::from(is_value(v));
                 let seen = kinds.entry(k.as_str()).or_insert(None);
                 let this = match v {
                     AttrValue::Null => continue,
@@ -245,13 +239,7 @@ impl BuildingTable {
             let rare: serde_json::Map<String, serde_json::Value> = b
                 .attributes
                 .iter()
-                // Null and the empty text are no value, in a column or here (GDAL's nulls and shapefiles' empty
-                // strings for keys a feature lacks would fill every row).
-                .filter(|(k, v)| {
-                    self.folded.contains(k.as_str())
-                        && !matches!(v, AttrValue::Null)
-                        && !matches!(v, AttrValue::String(s) if s.is_empty())
-                })
+                .filter(|(k, v)| self.folded.contains(k.as_str()) && is_value(v))
                 .map(|(k, v)| (k.clone(), serde_json::to_value(v).unwrap_or_default()))
                 .collect();
             values.push(if rare.is_empty() {
@@ -267,6 +255,13 @@ impl BuildingTable {
             max_rounding_m: 0.0,
         }
     }
+}
+
+/// Whether an attribute value is one: null and the empty text are no value, in a column (its noData) or in
+/// `other_attributes` (GDAL writes every key on every feature, null or empty where it has none, so counting keys
+/// would fold nothing and the folded object would repeat every key in every row).
+fn is_value(v: &AttrValue) -> bool {
+    !matches!(v, AttrValue::Null) && !matches!(v, AttrValue::String(s) if s.is_empty())
 }
 
 /// Properties of the `cluster` class: a block of buildings at some level of the hierarchy (a single building
