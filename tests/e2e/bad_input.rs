@@ -210,6 +210,68 @@ fn unreadable_inputs_exit_2_with_a_clear_message() {
     );
 }
 
+/// A shapefile builds like any input: footprints and heights from its .dbf, the CRS from its .prj (here an OGC WKT
+/// naming EPSG:26986, Massachusetts State Plane in metres), and the report names the format; a record the .dbf marks
+/// deleted is listed as skipped, and the table's code page, named by nothing, is said in the report.
+#[test]
+fn a_shapefile_builds_with_its_prj_and_dbf() {
+    use citylod_testdata::shapefile::{num, write, Field, Shape, Table};
+    let d = scratch_dir("shapefile");
+    let mut table = Table::new(vec![
+        Field::new("name", b'C', 20, 0),
+        Field::new("HEIGHT", b'N', 10, 1),
+    ]);
+    // Four 20 m squares 30 m apart near Boston's State House, clockwise as shapefiles have them; the third deleted.
+    let mut shapes = Vec::new();
+    for k in 0..4 {
+        let (x, y) = (236_000.0 + 30.0 * k as f64, 900_000.0);
+        shapes.push(Shape::Polygon(vec![vec![
+            [x, y],
+            [x, y + 20.0],
+            [x + 20.0, y + 20.0],
+            [x + 20.0, y],
+            [x, y],
+        ]]));
+        // "Café k" in Windows-1252.
+        let name = [&b"Caf\xe9 "[..], k.to_string().as_bytes()].concat();
+        let cells = [name, num(format!("{:.1}", 12.5 + k as f64))];
+        if k == 2 {
+            table.push_deleted(cells);
+        } else {
+            table.push(cells);
+        }
+    }
+    let prj = r#"PROJCS["NAD83 / Massachusetts Mainland",GEOGCS["NAD83",DATUM["North_American_Datum_1983",SPHEROID["GRS 1980",6378137,298.257222101]],PRIMEM["Greenwich",0],UNIT["degree",0.0174532925199433]],PROJECTION["Lambert_Conformal_Conic_2SP"],UNIT["metre",1],AUTHORITY["EPSG","26986"]]"#;
+    let shp = write(&d, "blocks", &shapes, &table, Some(prj), None);
+    let out = d.join("tiles");
+    let report = build(&[&shp], &out, &["--height-attr", "HEIGHT"]);
+    let errors = schema_errors("build-report.schema.json", &report);
+    assert!(errors.is_empty(), "{}", errors.join("\n"));
+    let file = &report["ingest"]["files"][0];
+    assert_eq!(
+        (file["format"].as_str(), file["crs"].as_str()),
+        (Some("shapefile"), Some("EPSG:26986"))
+    );
+    assert!(
+        file["notes"][0].as_str().unwrap().contains("Windows-1252"),
+        "{file}"
+    );
+    assert_eq!(report["counts"]["buildings_written"], 3);
+    assert_eq!(report["ingest"]["height_sources"]["named_attribute"], 3);
+    assert_eq!(report["ingest"]["skipped_by_reason"]["deleted_record"], 1);
+    // Outer rings run clockwise in a shapefile: that is its rule, not a ring to repair.
+    assert_eq!(report["ingest"]["rings_reoriented"], 0);
+    // The frame's origin is the squares' centre, in Boston (EPSG:26986 read, not taken as lon/lat).
+    let (lon, lat) = (
+        report["frame"]["origin_lon_deg"].as_f64().unwrap(),
+        report["frame"]["origin_lat_deg"].as_f64().unwrap(),
+    );
+    assert!(
+        (lon + 71.06).abs() < 0.05 && (lat - 42.36).abs() < 0.05,
+        "{lon}, {lat}"
+    );
+}
+
 #[test]
 fn failed_build_leaves_existing_output_untouched() {
     let d = scratch_dir("atomic");

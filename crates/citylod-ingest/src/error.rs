@@ -46,6 +46,13 @@ pub enum IngestError {
     /// An ingest option out of its range (e.g. a non-positive default height).
     #[error("option {name}: {detail}")]
     InvalidOption { name: &'static str, detail: String },
+    /// A shapefile that cannot be read as one (no `.dbf`, not a shapefile, cut short, `.shp` and `.dbf` of
+    /// different lengths).
+    #[error("{path}: invalid shapefile: {detail}")]
+    InvalidShapefile { path: PathBuf, detail: String },
+    /// A shapefile without a `.prj`, and no CRS was given by the user.
+    #[error("{path}: no .prj beside it names its CRS; pass one with --crs, e.g. --crs EPSG:26986")]
+    MissingPrj { path: PathBuf },
     /// A CityJSON file that declares no `referenceSystem`, and no CRS was given by the user.
     #[error("{path}: the file declares no CRS (no metadata.referenceSystem); pass one with --crs, e.g. --crs EPSG:28992")]
     MissingCrs { path: PathBuf },

@@ -37,6 +37,7 @@ mod model3d;
 mod place;
 mod repair;
 mod report;
+mod shp;
 mod streets;
 mod template;
 mod valid;
@@ -114,6 +115,8 @@ struct LoadedFile {
     version: Option<String>,
     non_building_objects: usize,
     features: Vec<RawFeature>,
+    /// What concerns the file as a whole, for its report.
+    notes: Vec<String>,
 }
 
 /// A feature ready for placement: its footprint in its own plane and its heights.
@@ -237,6 +240,7 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
             buildings_written: 0,
             skipped: 0,
             non_building_objects: file.non_building_objects,
+            notes: file.notes.clone(),
         };
         for (raw, placed) in file.features.iter_mut().zip(placed) {
             let issue = |reason: IssueReason, detail: &str| FeatureIssue {
@@ -424,6 +428,37 @@ fn load(
     opts: &IngestOptions,
     model_target: Option<lod::Target>,
 ) -> Result<LoadedFile, IngestError> {
+    let extension = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    if extension.as_deref() == Some("shp") {
+        let doc = shp::read(path).map_err(|detail| IngestError::InvalidShapefile {
+            path: path.into(),
+            detail,
+        })?;
+        let crs = match (&opts.crs, doc.declared_crs) {
+            (None, None) => return Err(IngestError::MissingPrj { path: path.into() }),
+            (given, declared) => settle_crs(path, given, declared, InputFormat::Shapefile)?,
+        };
+        return Ok(LoadedFile {
+            path: path.into(),
+            format: InputFormat::Shapefile,
+            crs,
+            version: None,
+            non_building_objects: 0,
+            features: doc.features,
+            notes: doc.notes,
+        });
+    }
+    if let Some((_, what)) = shp::SIDECARS
+        .iter()
+        .find(|(e, _)| extension.as_deref() == Some(*e))
+    {
+        return Err(IngestError::UnknownFormat {
+            path: path.into(),
+            detail: format!("this is a shapefile's {what}; give its .shp as the input"),
+        });
+    }
     let text = read_text(path)?;
     let file_name = path
         .file_name()
@@ -526,7 +561,27 @@ fn load(
         }
         Some(_) => return Err(unknown("the top-level JSON value is not an object".into())),
     };
-    let crs = match (&opts.crs, &declared) {
+    let crs = settle_crs(path, &opts.crs, declared, format)?;
+    Ok(LoadedFile {
+        path: path.into(),
+        format,
+        crs,
+        version,
+        non_building_objects,
+        features,
+        notes: Vec::new(),
+    })
+}
+
+/// The CRS of a file: `--crs` when given, else what the file declares, else WGS84 lon/lat for GeoJSON (RFC 7946);
+/// an error for a declaration that names no usable CRS, or for a CityJSON file that declares none.
+fn settle_crs(
+    path: &Path,
+    given: &Option<String>,
+    declared: Option<DeclaredCrs>,
+    format: InputFormat,
+) -> Result<Crs, IngestError> {
+    Ok(match (given, &declared) {
         (Some(c), _) => Crs::parse(c).map_err(|e| IngestError::UnknownCrs {
             origin: "--crs".into(),
             crs: c.clone(),
@@ -548,14 +603,6 @@ fn load(
         }
         (None, None) if format == InputFormat::GeoJson => Crs::wgs84(),
         (None, None) => return Err(IngestError::MissingCrs { path: path.into() }),
-    };
-    Ok(LoadedFile {
-        path: path.into(),
-        format,
-        crs,
-        version,
-        non_building_objects,
-        features,
     })
 }
 

@@ -39,6 +39,9 @@ pub enum IssueReason {
     /// The same id, footprint and heights as a building read before (a file given twice, overlapping
     /// extracts): written once. The detail names the attributes whose values differ (the first's are written).
     Duplicate,
+    /// A Shapefile record its `.dbf` marks deleted (`*`): the shape and its attributes are not read, as GIS tools
+    /// do not show them.
+    DeletedRecord,
     // --- repairs ---
     /// A GeoJSON ring whose last point did not repeat the first was closed.
     RingClosed,
@@ -75,7 +78,9 @@ pub enum IssueReason {
     /// skip the buildings of a CityJSONSeq line with this reason, the line and the key named.
     DuplicateKey,
     /// A GeoJSON property whose value JSON text holds but a JSON reader cannot decode (a `\u`
-    /// escape of a lone UTF-16 surrogate, which is no character) was kept as its JSON text.
+    /// escape of a lone UTF-16 surrogate, which is no character) was kept as its JSON text. Also a Shapefile `.dbf`
+    /// cell that does not read as its field's type (a number `1,5`, a date `2011-02-30`, a logical `X`), kept as its
+    /// text, or text with bytes its code page does not define, kept with U+FFFD in their place.
     UndecodableValueKeptAsText,
     /// A GeoJSON property key with a `\u` escape of a lone UTF-16 surrogate: the property is kept under the key's
     /// text with that escape written out (`caf\ud800`).
@@ -119,6 +124,7 @@ impl IssueReason {
             RepairFailed => "repair_failed",
             MeshFailed => "mesh_failed",
             Duplicate => "duplicate",
+            DeletedRecord => "deleted_record",
             RingClosed => "ring_closed",
             RepeatedPointsRemoved => "repeated_points_removed",
             DegenerateHoleDropped => "degenerate_hole_dropped",
@@ -161,6 +167,7 @@ pub enum InputFormat {
     GeoJson,
     CityJson,
     CityJsonSeq,
+    Shapefile,
 }
 
 /// What happened to one input file.
@@ -177,6 +184,9 @@ pub struct FileReport {
     pub skipped: usize,
     /// CityJSON city objects that are not buildings (e.g. TINRelief), ignored.
     pub non_building_objects: usize,
+    /// What concerns the file as a whole (a Shapefile's code page assumed for its text, fields not read); absent when there is nothing to say.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
 }
 
 /// Everything the ingest stage did, for the build report.

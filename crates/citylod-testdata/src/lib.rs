@@ -5,6 +5,8 @@
 
 use std::path::{Path, PathBuf};
 
+pub mod shapefile;
+
 /// The folder holding the real data sets (it may not exist).
 pub fn shared_data_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data")

@@ -18,12 +18,13 @@ use crate::shown;
 // A negative number is a value (`--storey-height -1` is refused by its range check, naming the flag).
 #[command(allow_negative_numbers = true)]
 pub struct BuildArgs {
-    /// Input files: GeoJSON (.geojson, .json), CityJSON (.city.json, .json) or CityJSONSeq (.city.jsonl, .jsonl).
+    /// Input files: GeoJSON (.geojson, .json), Esri Shapefile (.shp, read with the .dbf beside it), CityJSON
+    /// (.city.json, .json) or CityJSONSeq (.city.jsonl, .jsonl).
     #[arg(required = true, value_name = "INPUT", help_heading = "Input")]
     pub inputs: Vec<PathBuf>,
 
-    /// CRS of the input coordinates, e.g. EPSG:28992. Default: WGS84 lon/lat for GeoJSON (RFC 7946), the file's
-    /// `referenceSystem` for CityJSON.
+    /// CRS of the input coordinates, e.g. EPSG:28992. Default: WGS84 lon/lat for GeoJSON (RFC 7946), the .prj's
+    /// EPSG code for a Shapefile, the file's `referenceSystem` for CityJSON.
     #[arg(long, value_name = "EPSG:CODE", help_heading = "Input")]
     pub crs: Option<String>,
 
@@ -834,6 +835,12 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         for (reason, n) in &r.skipped_by_reason {
             eprintln!("  skipped {n:>6} × {reason}");
         }
+        // What concerns a file as a whole (a shapefile's code page assumed, fields not read).
+        for f in &r.files {
+            for note in &f.notes {
+                eprintln!("  {}: {note}", f.path);
+            }
+        }
         // Buildings left without a model are prisms: say how many, or `--lod` may seem to have done nothing.
         if args.lod.is_some() {
             let with = lod.model_summary.as_ref().map_or(0, |m| m.buildings);
@@ -1101,6 +1108,7 @@ mod tests {
             buildings_written,
             skipped: 0,
             non_building_objects: 0,
+            notes: Vec::new(),
         };
         // A file whose features were all skipped holds no building index.
         let files = [file("a", 2), file("empty", 0), file("b", 3)];

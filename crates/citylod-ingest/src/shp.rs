@@ -1,0 +1,1027 @@
+//! Esri Shapefile input: the `.shp` geometry and the `.dbf` attribute table beside it, read by this module's own
+//! parser (the Esri Shapefile Technical Description of 1998 and the dBase III table layout), with the code page from
+//! a `.cpg` or the table's language driver byte and the CRS from a `.prj`.
+//!
+//! Nothing is dropped without a word: a shape that cannot become a footprint (a null shape, a line, a record whose
+//! counts do not fit its length) is a skipped feature with the reason; a record the `.dbf` marks deleted is skipped
+//! as `deleted_record`; a cell that does not read as its field's type is kept as its text and reported; a `.shp` and
+//! a `.dbf` of different lengths, or either cut short, refuse the file.
+//!
+//! Rings: a shapefile's outer rings run clockwise and its holes counter-clockwise, in any order. As GDAL does, every
+//! clockwise ring is an outer ring, and a counter-clockwise one a hole of the smallest outer ring holding it (so an
+//! island in a courtyard is a polygon of its own); a counter-clockwise ring no outer ring holds is an outer ring
+//! wound the wrong way (repaired and counted later as any misoriented ring).
+
+use crate::crs::DeclaredCrs;
+use crate::feature::{RawFeature, RawPolygon};
+use crate::report::IssueReason;
+use citylod_model::{AttrValue, Attributes};
+use std::path::{Path, PathBuf};
+
+/// What a shapefile holds: its features, the CRS its `.prj` declares (`None` without a `.prj`), and what the user
+/// should know about the file as a whole (the code page assumed, fields not read).
+pub(crate) struct ShapefileDoc {
+    pub features: Vec<RawFeature>,
+    pub declared_crs: Option<DeclaredCrs>,
+    pub notes: Vec<String>,
+}
+
+/// The extensions of a shapefile's other files, each with what it is, for refusing one given as the input.
+pub(crate) const SIDECARS: [(&str, &str); 7] = [
+    ("dbf", "attribute table"),
+    ("shx", "shape index"),
+    ("prj", "CRS definition"),
+    ("cpg", "code page"),
+    ("sbn", "spatial index"),
+    ("sbx", "spatial index"),
+    ("qix", "spatial index"),
+];
+
+/// Reads `path` (a `.shp`) with its `.dbf`, `.prj` and `.cpg`. Errors name what is wrong with the file as a whole;
+/// one unusable record is a skipped feature.
+pub(crate) fn read(path: &Path) -> Result<ShapefileDoc, String> {
+    let read = |p: &Path| std::fs::read(p).map_err(|e| format!("{}: {e}", p.display()));
+    let shp = read(path)?;
+    let shapes = shapes(&shp).map_err(|e| format!("the .shp {e}"))?;
+    let dbf_path = sidecar(path, "dbf").ok_or_else(|| {
+        "its attribute table (a .dbf of the same name beside it) is missing; a shapefile is read with its .dbf"
+            .to_string()
+    })?;
+    let cpg = match sidecar(path, "cpg") {
+        Some(p) => Some(String::from_utf8_lossy(&read(&p)?).into_owned()),
+        None => None,
+    };
+    let dbf_bytes = read(&dbf_path)?;
+    let table = Table::parse(&dbf_bytes, cpg.as_deref()).map_err(|e| format!("the .dbf {e}"))?;
+    if table.count != shapes.len() {
+        return Err(format!(
+            "the .shp holds {} shape(s) and its .dbf {} record(s): they pair one to one, so one of the two is cut \
+             short or belongs to another file",
+            shapes.len(),
+            table.count
+        ));
+    }
+    let file_name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let notes = table.notes.clone();
+    let mut features = Vec::with_capacity(shapes.len());
+    for (index, shape) in shapes.into_iter().enumerate() {
+        let (attributes, repairs, deleted) = table.record(index);
+        let mut out = RawFeature {
+            source_id: source_id(&attributes, &file_name, index),
+            attributes,
+            repairs,
+            ..Default::default()
+        };
+        if deleted {
+            out.skip = Some((
+                IssueReason::DeletedRecord,
+                format!("record {} is marked deleted in the .dbf", index + 1),
+            ));
+        } else {
+            match shape {
+                Ok((polygons, repairs)) => {
+                    out.polygons = polygons;
+                    out.repairs.extend(repairs);
+                }
+                Err(skip) => out.skip = Some(skip),
+            }
+        }
+        features.push(out);
+    }
+    let declared_crs = match sidecar(path, "prj") {
+        Some(p) => Some(declared_crs(&String::from_utf8_lossy(&read(&p)?))),
+        None => None,
+    };
+    Ok(ShapefileDoc {
+        features,
+        declared_crs,
+        notes,
+    })
+}
+
+/// The file beside `shp` with the same name and extension `ext`, the extension in any case (`.DBF` beside `.SHP`);
+/// the name in another case only when there is no exact match.
+fn sidecar(shp: &Path, ext: &str) -> Option<PathBuf> {
+    let stem = shp.file_stem()?.to_string_lossy().into_owned();
+    let dir = match shp.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let mut candidates: Vec<(bool, PathBuf)> = std::fs::read_dir(&dir)
+        .ok()?
+        .filter_map(|e| e.ok())
+        .map(|e| e.path())
+        .filter(|p| p.is_file())
+        .filter_map(|p| {
+            let e = p.extension()?.to_string_lossy().into_owned();
+            let s = p.file_stem()?.to_string_lossy().into_owned();
+            (e.eq_ignore_ascii_case(ext) && s.eq_ignore_ascii_case(&stem)).then_some((s != stem, p))
+        })
+        .collect();
+    candidates.sort();
+    candidates.into_iter().next().map(|(_, p)| p)
+}
+
+// --- the .shp ---
+
+/// A record's footprint polygons (open rings in the OGC's winding) with the repairs made, or why it has none.
+type ShapeResult = Result<(Vec<RawPolygon>, Vec<(IssueReason, String)>), (IssueReason, String)>;
+
+fn be_i32(b: &[u8], at: usize) -> Option<i32> {
+    Some(i32::from_be_bytes(b.get(at..at + 4)?.try_into().ok()?))
+}
+
+fn le_i32(b: &[u8], at: usize) -> Option<i32> {
+    Some(i32::from_le_bytes(b.get(at..at + 4)?.try_into().ok()?))
+}
+
+fn le_f64(b: &[u8], at: usize) -> Option<f64> {
+    Some(f64::from_le_bytes(b.get(at..at + 8)?.try_into().ok()?))
+}
+
+/// Every record of a `.shp`, in order. Errors are for the file as a whole (not a shapefile, cut short); a record's
+/// own trouble is its skip reason.
+fn shapes(b: &[u8]) -> Result<Vec<ShapeResult>, String> {
+    const HEADER: usize = 100;
+    if b.len() < HEADER || be_i32(b, 0) != Some(9994) {
+        return Err(format!(
+            "is not a shapefile: it does not start with the 100-byte header whose first four bytes hold 9994 \
+             ({} bytes in all)",
+            b.len()
+        ));
+    }
+    let declared = be_i32(b, 24).unwrap_or(0) as i64 * 2;
+    if declared > b.len() as i64 {
+        return Err(format!(
+            "is cut short: its header gives {declared} bytes, the file has {}",
+            b.len()
+        ));
+    }
+    // Bytes after the length the header gives are not records (some writers pad); records before it must fit.
+    let end = (declared.max(HEADER as i64)) as usize;
+    let mut out = Vec::new();
+    let mut at = HEADER;
+    while at < end {
+        let n = out.len() + 1;
+        let words = be_i32(b, at + 4).filter(|_| at + 8 <= end).ok_or_else(|| {
+            format!(
+                "is cut short: record {n}'s 8-byte header starts {} bytes before the end",
+                end - at
+            )
+        })?;
+        let len = usize::try_from(words)
+            .ok()
+            .and_then(|w| w.checked_mul(2))
+            .filter(|l| at + 8 + l <= end)
+            .ok_or_else(|| {
+                format!(
+                    "is cut short or broken: record {n} gives a content of {words} 16-bit words, and {} bytes are \
+                     left",
+                    end - at - 8
+                )
+            })?;
+        out.push(shape(&b[at + 8..at + 8 + len]));
+        at += 8 + len;
+    }
+    Ok(out)
+}
+
+/// The name of a shape type, for skip reasons.
+fn type_name(t: i32) -> Option<&'static str> {
+    Some(match t {
+        0 => "null",
+        1 => "Point",
+        3 => "PolyLine",
+        5 => "Polygon",
+        8 => "MultiPoint",
+        11 => "PointZ",
+        13 => "PolyLineZ",
+        15 => "PolygonZ",
+        18 => "MultiPointZ",
+        21 => "PointM",
+        23 => "PolyLineM",
+        25 => "PolygonM",
+        28 => "MultiPointM",
+        31 => "MultiPatch",
+        _ => return None,
+    })
+}
+
+/// One record's content (from its shape type on).
+fn shape(c: &[u8]) -> ShapeResult {
+    let malformed = |d: String| Err((IssueReason::MalformedGeometry, d));
+    let Some(t) = le_i32(c, 0) else {
+        return malformed(format!(
+            "a record of {} bytes, too short for a shape type",
+            c.len()
+        ));
+    };
+    match (t, type_name(t)) {
+        (0, _) => Err((IssueReason::NoGeometry, "null shape".into())),
+        (5 | 15 | 25, _) => polygon(c),
+        (31, _) => Err((
+            IssueReason::UnsupportedGeometry,
+            "MultiPatch shape (3D surfaces), not a polygon footprint".into(),
+        )),
+        (_, Some(name)) => Err((
+            IssueReason::UnsupportedGeometry,
+            format!("{name} shape, not a polygon"),
+        )),
+        (_, None) => malformed(format!("unknown shape type {t}")),
+    }
+}
+
+/// A Polygon, PolygonZ or PolygonM record (Z and M values are not read: a footprint is flat).
+fn polygon(c: &[u8]) -> ShapeResult {
+    let malformed = |d: String| Err((IssueReason::MalformedGeometry, d));
+    let (Some(parts), Some(points)) = (le_i32(c, 36), le_i32(c, 40)) else {
+        return malformed(format!(
+            "a polygon record of {} bytes, too short for its counts",
+            c.len()
+        ));
+    };
+    if parts < 0 || points < 0 {
+        return malformed(format!("a polygon of {parts} parts and {points} points"));
+    }
+    let need = 44 + 4 * parts as u64 + 16 * points as u64;
+    if need > c.len() as u64 {
+        return malformed(format!(
+            "a polygon of {parts} parts and {points} points needs {need} bytes, its record holds {}",
+            c.len()
+        ));
+    }
+    if parts == 0 || points == 0 {
+        return Err((IssueReason::EmptyGeometry, "polygon without rings".into()));
+    }
+    let (parts, points) = (parts as usize, points as usize);
+    let starts: Vec<usize> = (0..parts)
+        .map(|k| le_i32(c, 44 + 4 * k).unwrap_or(-1) as i64 as usize)
+        .collect();
+    let valid = starts[0] == 0
+        && starts.windows(2).all(|w| w[0] < w[1])
+        && starts.last().is_some_and(|&s| s < points);
+    if !valid {
+        let shown: Vec<String> = starts
+            .iter()
+            .take(8)
+            .map(|s| (*s as i64).to_string())
+            .collect();
+        return malformed(format!(
+            "ring starts {} are not increasing from 0 below its {points} points",
+            shown.join(", ")
+        ));
+    }
+    let xy = 44 + 4 * parts;
+    let point = |i: usize| -> [f64; 2] {
+        let at = xy + 16 * i;
+        [
+            le_f64(c, at).unwrap_or(f64::NAN),
+            le_f64(c, at + 8).unwrap_or(f64::NAN),
+        ]
+    };
+    let mut repairs = Vec::new();
+    let mut rings = Vec::with_capacity(parts);
+    for k in 0..parts {
+        let end = starts.get(k + 1).copied().unwrap_or(points);
+        let mut r: Vec<[f64; 2]> = (starts[k]..end).map(point).collect();
+        if r.len() > 1 && r.first() == r.last() {
+            r.pop();
+        } else if r.len() >= 3 {
+            repairs.push((
+                IssueReason::RingClosed,
+                format!("ring {} was not closed; closed it", k + 1),
+            ));
+        }
+        rings.push(r);
+    }
+    Ok((organize(rings), repairs))
+}
+
+/// Twice the signed area of an open ring: positive when it runs counter-clockwise (x east, y north).
+fn signed_area2(r: &[[f64; 2]]) -> f64 {
+    let n = r.len();
+    (0..n)
+        .map(|i| {
+            let (a, b) = (r[i], r[(i + 1) % n]);
+            a[0] * b[1] - b[0] * a[1]
+        })
+        .sum()
+}
+
+/// The bounding box of a ring: [min x, min y, max x, max y].
+fn bbox(r: &[[f64; 2]]) -> [f64; 4] {
+    r.iter().fold(
+        [
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        ],
+        |b, p| {
+            [
+                b[0].min(p[0]),
+                b[1].min(p[1]),
+                b[2].max(p[0]),
+                b[3].max(p[1]),
+            ]
+        },
+    )
+}
+
+/// Where `p` lies against the open ring `r`: `Some(true)` inside, `Some(false)` outside, `None` on its boundary.
+fn locate(p: [f64; 2], r: &[[f64; 2]]) -> Option<bool> {
+    let n = r.len();
+    let mut inside = false;
+    for i in 0..n {
+        let (a, b) = (r[i], r[(i + 1) % n]);
+        let cross = (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]);
+        if cross == 0.0
+            && p[0] >= a[0].min(b[0])
+            && p[0] <= a[0].max(b[0])
+            && p[1] >= a[1].min(b[1])
+            && p[1] <= a[1].max(b[1])
+        {
+            return None;
+        }
+        if (a[1] > p[1]) != (b[1] > p[1]) {
+            let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
+            if p[0] < x {
+                inside = !inside;
+            }
+        }
+    }
+    Some(inside)
+}
+
+/// Whether ring `inner` lies inside ring `outer`: its first point not on `outer`'s boundary decides (rings of one
+/// valid polygon do not cross); a ring all on the boundary counts as inside.
+fn holds(outer: &[[f64; 2]], outer_box: [f64; 4], inner: &[[f64; 2]], inner_box: [f64; 4]) -> bool {
+    let boxed = inner_box[0] >= outer_box[0]
+        && inner_box[1] >= outer_box[1]
+        && inner_box[2] <= outer_box[2]
+        && inner_box[3] <= outer_box[3];
+    boxed && inner.iter().find_map(|&p| locate(p, outer)).unwrap_or(true)
+}
+
+/// Polygons from a record's rings in a shapefile's winding: clockwise rings are outer rings, each counter-clockwise
+/// ring joins the smallest outer ring holding it, or is an outer ring (wound the wrong way) when none does. Rings
+/// come out reversed, in the OGC's winding (outer counter-clockwise), so only a ring wound against the shapefile's
+/// rule is later reoriented and counted.
+fn organize(rings: Vec<Vec<[f64; 2]>>) -> Vec<RawPolygon> {
+    let area: Vec<f64> = rings.iter().map(|r| signed_area2(r)).collect();
+    let boxes: Vec<[f64; 4]> = rings.iter().map(|r| bbox(r)).collect();
+    // A ring without area (or with non-finite points) is an outer ring: ingest's checks then say what is wrong.
+    let is_hole = |k: usize| area[k] > 0.0;
+    let mut owner: Vec<Option<usize>> = vec![None; rings.len()];
+    for h in (0..rings.len()).filter(|&k| is_hole(k)) {
+        owner[h] = (0..rings.len())
+            .filter(|&o| !is_hole(o) && holds(&rings[o], boxes[o], &rings[h], boxes[h]))
+            .min_by(|&a, &b| area[a].abs().total_cmp(&area[b].abs()).then(a.cmp(&b)));
+    }
+    let mut index_of = vec![usize::MAX; rings.len()];
+    let mut polygons: Vec<RawPolygon> = Vec::new();
+    for k in 0..rings.len() {
+        if owner[k].is_none() {
+            index_of[k] = polygons.len();
+            polygons.push(Vec::new());
+        }
+    }
+    for (k, mut r) in rings.into_iter().enumerate() {
+        r.reverse();
+        let p = match owner[k] {
+            Some(o) => index_of[o],
+            None => index_of[k],
+        };
+        if owner[k].is_none() {
+            polygons[p].insert(0, r);
+        } else {
+            polygons[p].push(r);
+        }
+    }
+    polygons
+}
+
+// --- the .dbf ---
+
+/// How a table's text is decoded.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Codec {
+    Utf8,
+    /// ISO-8859-1: each byte is the code point of the same number.
+    Latin1,
+    Other(&'static encoding_rs::Encoding),
+    /// A DOS code page citylod has no table for: ASCII read, other bytes replaced and reported.
+    AsciiOnly(u16),
+}
+
+impl Codec {
+    /// A `.cpg`'s text (`UTF-8`, `1252`, `ISO-8859-1`, `LATIN1`, `windows-1251`, `936`, …).
+    fn from_cpg(text: &str) -> Option<Codec> {
+        let t = text.trim().trim_start_matches('\u{feff}').trim();
+        let key: String = t
+            .chars()
+            .filter(|c| c.is_ascii_alphanumeric())
+            .collect::<String>()
+            .to_ascii_uppercase();
+        match key.as_str() {
+            "UTF8" | "65001" => return Some(Codec::Utf8),
+            "LATIN1" | "88591" | "ISO88591" | "28591" => return Some(Codec::Latin1),
+            "437" | "CP437" | "IBM437" => return Some(Codec::AsciiOnly(437)),
+            "850" | "CP850" | "IBM850" => return Some(Codec::AsciiOnly(850)),
+            "852" | "CP852" | "IBM852" => return Some(Codec::AsciiOnly(852)),
+            "865" | "CP865" | "IBM865" => return Some(Codec::AsciiOnly(865)),
+            _ => {}
+        }
+        // A bare Windows or ISO number: 1250–1258, 874, 932, 936, 949, 950, 866, 8859-n (885915, 28592).
+        let digits = key.trim_start_matches("CP").trim_start_matches("ANSI");
+        if digits.bytes().all(|b| b.is_ascii_digit()) && !digits.is_empty() {
+            if let Some(n) = digits
+                .strip_prefix("8859")
+                .or_else(|| digits.strip_prefix("2859"))
+            {
+                return encoding_rs::Encoding::for_label(format!("iso-8859-{n}").as_bytes())
+                    .map(Codec::Other);
+            }
+            return Codec::from_code_page(digits.parse().ok()?);
+        }
+        encoding_rs::Encoding::for_label(t.as_bytes()).map(|e| {
+            if e == encoding_rs::UTF_8 {
+                Codec::Utf8
+            } else {
+                Codec::Other(e)
+            }
+        })
+    }
+
+    fn from_code_page(n: u32) -> Option<Codec> {
+        let label = match n {
+            65001 => return Some(Codec::Utf8),
+            437 | 850 | 852 | 865 => return Some(Codec::AsciiOnly(n as u16)),
+            866 => "ibm866",
+            874 => "windows-874",
+            932 => "shift_jis",
+            936 => "gbk",
+            949 => "euc-kr",
+            950 => "big5",
+            1250..=1258 => {
+                return encoding_rs::Encoding::for_label(format!("windows-{n}").as_bytes())
+                    .map(Codec::Other)
+            }
+            _ => return None,
+        };
+        encoding_rs::Encoding::for_label(label.as_bytes()).map(Codec::Other)
+    }
+
+    /// The code page a dBase language driver id (byte 29 of the header) names; `None` for 0 (none) or one unknown.
+    fn from_ldid(id: u8) -> Option<Codec> {
+        let page = match id {
+            0x01 => 437,
+            0x02 => 850,
+            0x03 | 0x57 | 0x58 | 0x59 => 1252,
+            0x64 => 852,
+            0x65 => 866,
+            0x66 => 865,
+            0x78 | 0x4F => 950,
+            0x79 | 0x4E => 949,
+            0x7A | 0x4D => 936,
+            0x7B | 0x13 => 932,
+            0x7C | 0x50 => 874,
+            0x7D => 1255,
+            0x7E => 1256,
+            0x87 | 0xC8 => 1250,
+            0xC9 => 1251,
+            0xCA => 1254,
+            0xCB => 1253,
+            0xCC => 1257,
+            _ => return None,
+        };
+        Codec::from_code_page(page)
+    }
+
+    fn name(self) -> String {
+        match self {
+            Codec::Utf8 => "UTF-8".into(),
+            Codec::Latin1 => "ISO-8859-1".into(),
+            Codec::Other(e) => e.name().into(),
+            Codec::AsciiOnly(n) => format!("code page {n} (ASCII only)"),
+        }
+    }
+
+    /// The text of `b`, and whether some bytes could not be decoded (replaced by U+FFFD).
+    fn decode(self, b: &[u8]) -> (String, bool) {
+        match self {
+            Codec::Utf8 => match std::str::from_utf8(b) {
+                Ok(s) => (s.to_string(), false),
+                Err(_) => (String::from_utf8_lossy(b).into_owned(), true),
+            },
+            Codec::Latin1 => (b.iter().map(|&c| c as char).collect(), false),
+            Codec::Other(e) => {
+                let (s, had_errors) = e.decode_without_bom_handling(b);
+                (s.into_owned(), had_errors)
+            }
+            Codec::AsciiOnly(_) => {
+                let s: String = b
+                    .iter()
+                    .map(|&c| if c.is_ascii() { c as char } else { '\u{fffd}' })
+                    .collect();
+                (s, !b.is_ascii())
+            }
+        }
+    }
+}
+
+/// A field of a dBase table.
+struct Field {
+    name: String,
+    kind: u8,
+    offset: usize,
+    len: usize,
+    decimals: u8,
+}
+
+/// A dBase table as shapefiles carry it (dBase III / IV and Visual FoxPro headers: 32-byte field descriptors).
+struct Table<'a> {
+    bytes: &'a [u8],
+    fields: Vec<Field>,
+    first: usize,
+    record_len: usize,
+    count: usize,
+    codec: Codec,
+    notes: Vec<String>,
+}
+
+impl<'a> Table<'a> {
+    fn parse(b: &'a [u8], cpg: Option<&str>) -> Result<Table<'a>, String> {
+        if b.len() < 32 {
+            return Err(format!(
+                "is cut short: {} bytes, less than a dBase header",
+                b.len()
+            ));
+        }
+        if b[0] & 0x07 == 0x04 {
+            return Err(format!(
+                "is a dBase 7 table (version byte {:#04x}); shapefiles carry dBase III or IV tables",
+                b[0]
+            ));
+        }
+        let count = u32::from_le_bytes(b[4..8].try_into().expect("4 bytes")) as usize;
+        let header_len = u16::from_le_bytes([b[8], b[9]]) as usize;
+        let record_len = u16::from_le_bytes([b[10], b[11]]) as usize;
+        if header_len < 33 || header_len > b.len() {
+            return Err(format!(
+                "is broken: its header length {header_len} is not within its {} bytes",
+                b.len()
+            ));
+        }
+        let mut notes = Vec::new();
+        let codec = match cpg {
+            Some(text) => Codec::from_cpg(text).ok_or_else(|| {
+                format!(
+                    "is in the code page its .cpg names, {:?}, which citylod cannot decode (it reads UTF-8, \
+                     Windows 874 and 1250–1258, ISO-8859-x, IBM 866, Shift_JIS, GBK, Big5, EUC-KR and KOI8)",
+                    text.trim()
+                )
+            })?,
+            None => match Codec::from_ldid(b[29]) {
+                Some(c) => c,
+                // No code page named: UTF-8 when every byte of the table's text reads as UTF-8, else Windows-1252
+                // (what Esri's tools write); the report says which.
+                None => {
+                    let text = &b[header_len.min(b.len())..];
+                    if std::str::from_utf8(text).is_ok() {
+                        Codec::Utf8
+                    } else {
+                        let c = Codec::Other(encoding_rs::WINDOWS_1252);
+                        notes.push(
+                            "no .cpg and no code page in the .dbf: its text is not UTF-8, read as Windows-1252"
+                                .to_string(),
+                        );
+                        c
+                    }
+                }
+            },
+        };
+        if let Codec::AsciiOnly(n) = codec {
+            notes.push(format!(
+                "text in code page {n}: citylod reads its ASCII characters and reports the others as \
+                 replaced (convert the .dbf to UTF-8 and write a .cpg saying UTF-8 to keep them)"
+            ));
+        }
+        let mut fields: Vec<Field> = Vec::new();
+        let mut offset = 1;
+        let mut at = 32;
+        while at + 32 <= header_len && b[at] != 0x0D {
+            let d = &b[at..at + 32];
+            let raw_name = &d[..11];
+            let raw_name = &raw_name[..raw_name.iter().position(|&c| c == 0).unwrap_or(11)];
+            let mut name = codec.decode(raw_name).0.trim().to_string();
+            if name.is_empty() {
+                name = format!("field_{}", fields.len() + 1);
+            }
+            if fields.iter().any(|f| f.name == name) {
+                let renamed = (2..)
+                    .map(|k| format!("{name}_{k}"))
+                    .find(|n| fields.iter().all(|f| &f.name != n))
+                    .expect("some suffix is free");
+                notes.push(format!(
+                    "field {name} is named twice; the second is read as {renamed}"
+                ));
+                name = renamed;
+            }
+            let len = d[16] as usize;
+            fields.push(Field {
+                name,
+                kind: d[11],
+                offset,
+                len,
+                decimals: d[17],
+            });
+            offset += len;
+            at += 32;
+        }
+        if offset > record_len {
+            return Err(format!(
+                "is broken: its fields take {offset} bytes a record, its header gives {record_len}"
+            ));
+        }
+        let whole = (b.len() - header_len).checked_div(record_len).unwrap_or(0);
+        if count > 0 && whole < count {
+            return Err(format!(
+                "is cut short: its header gives {count} records of {record_len} bytes, the file holds {whole}"
+            ));
+        }
+        fields.retain(|f| {
+            let kind = f.kind as char;
+            let read = matches!(kind, 'C' | 'N' | 'F' | 'L' | 'D' | 'I' | 'O');
+            if !read {
+                let what = match kind {
+                    'M' | 'G' | 'P' | 'B' => {
+                        " (its values are kept in a memo file, not in the .dbf)"
+                    }
+                    _ => "",
+                };
+                notes.push(format!(
+                    "field {} of type {:?} is not read{what}; its values are left out",
+                    f.name, kind
+                ));
+            }
+            read
+        });
+        Ok(Table {
+            bytes: b,
+            fields,
+            first: header_len,
+            record_len,
+            count,
+            codec,
+            notes,
+        })
+    }
+
+    /// Record `i` (0-based): its attributes, the repairs reading them took, and whether it is marked deleted.
+    fn record(&self, i: usize) -> (Attributes, Vec<(IssueReason, String)>, bool) {
+        let start = self.first + i * self.record_len;
+        let rec = &self.bytes[start..start + self.record_len];
+        let mut repairs = Vec::new();
+        let attributes = self
+            .fields
+            .iter()
+            .map(|f| {
+                let cell = &rec[f.offset..f.offset + f.len];
+                let (value, trouble) = self.value(f, cell);
+                if let Some(t) = trouble {
+                    repairs.push((
+                        IssueReason::UndecodableValueKeptAsText,
+                        format!("field {}: {t}", f.name),
+                    ));
+                }
+                (f.name.clone(), value)
+            })
+            .collect();
+        (attributes, repairs, rec.first() == Some(&b'*'))
+    }
+
+    /// A cell's value, and what went wrong reading it (then the value is its text, or null for no text).
+    fn value(&self, f: &Field, cell: &[u8]) -> (AttrValue, Option<String>) {
+        let text = || {
+            let (s, replaced) = self.codec.decode(cell);
+            (s.trim_end_matches([' ', '\0']).to_string(), replaced)
+        };
+        let as_text = |t: String, why: String| {
+            let v = if t.is_empty() {
+                AttrValue::Null
+            } else {
+                AttrValue::String(t)
+            };
+            (v, Some(why))
+        };
+        match f.kind {
+            b'C' => {
+                let (t, replaced) = text();
+                let v = if t.is_empty() {
+                    AttrValue::Null
+                } else {
+                    AttrValue::String(t)
+                };
+                let trouble = replaced.then(|| {
+                    format!(
+                        "bytes not in {} replaced by U+FFFD (a .cpg naming the file's code page would read them)",
+                        self.codec.name()
+                    )
+                });
+                (v, trouble)
+            }
+            b'N' | b'F' => {
+                let t = text().0.trim().to_string();
+                // Blank, or '*' in every place (the writer's mark for a number too wide for the field): no value.
+                if t.is_empty() || t.bytes().all(|c| c == b'*') {
+                    return (AttrValue::Null, None);
+                }
+                if f.kind == b'N' && f.decimals == 0 {
+                    if let Ok(i) = t.parse::<i64>() {
+                        return (AttrValue::Int(i), None);
+                    }
+                }
+                match t.parse::<f64>() {
+                    Ok(x)
+                        if x.is_finite() && t.bytes().all(|c| b"+-.0123456789eE".contains(&c)) =>
+                    {
+                        (AttrValue::Float(x), None)
+                    }
+                    _ => as_text(t.clone(), format!("{t:?} is not a number; kept as text")),
+                }
+            }
+            b'L' => {
+                let t = text().0.trim().to_string();
+                match t.as_str() {
+                    "T" | "t" | "Y" | "y" => (AttrValue::Bool(true), None),
+                    "F" | "f" | "N" | "n" => (AttrValue::Bool(false), None),
+                    "" | "?" => (AttrValue::Null, None),
+                    _ => as_text(
+                        t.clone(),
+                        format!("{t:?} is not a logical value; kept as text"),
+                    ),
+                }
+            }
+            b'D' => {
+                let t = text().0.trim().to_string();
+                if t.is_empty() || t == "00000000" {
+                    return (AttrValue::Null, None);
+                }
+                let n = |r: std::ops::Range<usize>| t.get(r).and_then(|s| s.parse::<u32>().ok());
+                match (
+                    t.len() == 8 && t.bytes().all(|c| c.is_ascii_digit()),
+                    n(0..4),
+                    n(4..6),
+                    n(6..8),
+                ) {
+                    (true, Some(y), Some(m @ 1..=12), Some(d @ 1..=31)) => {
+                        (AttrValue::String(format!("{y:04}-{m:02}-{d:02}")), None)
+                    }
+                    _ => as_text(
+                        t.clone(),
+                        format!("{t:?} is not a date YYYYMMDD; kept as text"),
+                    ),
+                }
+            }
+            b'I' => match cell.try_into().map(i32::from_le_bytes) {
+                Ok(i) => (AttrValue::Int(i as i64), None),
+                Err(_) => (
+                    AttrValue::Null,
+                    Some(format!("an integer field {} bytes wide", cell.len())),
+                ),
+            },
+            b'O' => match cell.try_into().map(f64::from_le_bytes) {
+                Ok(x) if x.is_finite() => (AttrValue::Float(x), None),
+                Ok(x) => (AttrValue::Null, Some(format!("{x} is not a finite number"))),
+                Err(_) => (
+                    AttrValue::Null,
+                    Some(format!("a double field {} bytes wide", cell.len())),
+                ),
+            },
+            _ => (AttrValue::Null, None),
+        }
+    }
+}
+
+/// The building's id as for GeoJSON properties: `id`, else `@id`, else OSM's `osm_type/osm_id`, else `FILE#INDEX`
+/// (the record's 0-based position).
+fn source_id(a: &Attributes, file_name: &str, index: usize) -> String {
+    let text = |k: &str| match a.get(k) {
+        Some(AttrValue::String(s)) if !s.is_empty() => Some(s.clone()),
+        Some(AttrValue::Int(i)) => Some(i.to_string()),
+        _ => None,
+    };
+    text("id")
+        .or_else(|| text("@id"))
+        .or_else(|| Some(format!("{}/{}", text("osm_type")?, text("osm_id")?)))
+        .unwrap_or_else(|| format!("{file_name}#{index}"))
+}
+
+// --- the .prj ---
+
+/// The CRS a `.prj` (OGC or Esri WKT, or WKT2) declares: the EPSG code of its outermost `AUTHORITY` / `ID` when it
+/// has one, WGS 84 lon/lat for a geographic CRS whose datum is WGS 84, else not understood (the user gives `--crs`).
+fn declared_crs(wkt: &str) -> DeclaredCrs {
+    let wkt = wkt.trim().trim_start_matches('\u{feff}').trim();
+    // The outermost node's authority is its last child: `AUTHORITY["EPSG","26986"]]` or `ID["EPSG",26986]]` at
+    // the very end.
+    let code = ["AUTHORITY[", "ID["].iter().find_map(|tag| {
+        let at = wkt.rfind(tag)?;
+        let rest = &wkt[at + tag.len()..];
+        let close = rest.find(']')?;
+        if rest[close + 1..].trim() != "]" {
+            return None;
+        }
+        let mut parts = rest[..close].split(',').map(|s| s.trim().trim_matches('"'));
+        let (authority, code) = (parts.next()?, parts.next()?);
+        (authority.eq_ignore_ascii_case("EPSG")
+            && !code.is_empty()
+            && code.bytes().all(|b| b.is_ascii_digit()))
+        .then(|| format!("EPSG:{code}"))
+    });
+    if let Some(code) = code {
+        return DeclaredCrs::Name(code);
+    }
+    let upper = wkt.to_ascii_uppercase();
+    let geographic = ["GEOGCS[", "GEOGCRS[", "GEODCRS["]
+        .iter()
+        .any(|t| upper.starts_with(t));
+    // The datum's own name, not any text that mentions WGS 84 (a `TOWGS84[…]` shift names another datum).
+    let datum = upper.find("DATUM[").and_then(|at| {
+        let rest = upper[at + 6..].trim_start().strip_prefix('"')?;
+        Some(rest[..rest.find('"')?].to_string())
+    });
+    let datum_key: Option<String> =
+        datum.map(|d| d.chars().filter(|c| c.is_ascii_alphanumeric()).collect());
+    let wgs84 = matches!(
+        datum_key.as_deref(),
+        Some("DWGS1984" | "WGS1984" | "WGS84" | "WORLDGEODETICSYSTEM1984")
+    );
+    if geographic && wgs84 {
+        return DeclaredCrs::Name("EPSG:4326".into());
+    }
+    DeclaredCrs::NotUnderstood {
+        member: ".prj",
+        detail: format!(
+            "it names no EPSG code ({})",
+            wkt.chars().take(100).collect::<String>()
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn prj_files_name_their_epsg_code_or_ask_for_one() {
+        let name = |w: &str| match declared_crs(w) {
+            DeclaredCrs::Name(n) => n,
+            DeclaredCrs::NotUnderstood { member, .. } => format!("? {member}"),
+        };
+        let ogc = r#"PROJCS["NAD83 / Massachusetts Mainland",GEOGCS["NAD83",DATUM["North_American_Datum_1983",SPHEROID["GRS 1980",6378137,298.257222101,AUTHORITY["EPSG","7019"]],AUTHORITY["EPSG","6269"]],PRIMEM["Greenwich",0],UNIT["degree",0.0174532925199433],AUTHORITY["EPSG","4269"]],PROJECTION["Lambert_Conformal_Conic_2SP"],UNIT["metre",1],AUTHORITY["EPSG","26986"]]"#;
+        assert_eq!(name(ogc), "EPSG:26986");
+        // Esri's WKT has no authority: the datum's own code deep inside is not the CRS's.
+        let esri = r#"PROJCS["NAD_1983_StatePlane_Massachusetts_Mainland_FIPS_2001",GEOGCS["GCS_North_American_1983",DATUM["D_North_American_1983",SPHEROID["GRS_1980",6378137.0,298.257222101]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]],PROJECTION["Lambert_Conformal_Conic"],UNIT["Meter",1.0]]"#;
+        assert_eq!(name(esri), "? .prj");
+        let nested_only =
+            r#"PROJCS["x",GEOGCS["NAD83",AUTHORITY["EPSG","4269"]],UNIT["Meter",1.0]]"#;
+        assert_eq!(name(nested_only), "? .prj");
+        let wgs84 = "\u{feff}GEOGCS[\"GCS_WGS_1984\",DATUM[\"D_WGS_1984\",SPHEROID[\"WGS_1984\",6378137.0,298.257223563]],PRIMEM[\"Greenwich\",0.0],UNIT[\"Degree\",0.0174532925199433]]\n";
+        assert_eq!(name(wgs84), "EPSG:4326");
+        // Another datum with a shift to WGS 84 is not WGS 84.
+        let towgs = r#"GEOGCS["Amersfoort",DATUM["Amersfoort",SPHEROID["Bessel 1841",6377397.155,299.1528128],TOWGS84[565.2369,50.0087,465.658,-0.406857,0.350733,-1.87035,4.0812]],PRIMEM["Greenwich",0],UNIT["degree",0.0174532925199433]]"#;
+        assert_eq!(name(towgs), "? .prj");
+        let wkt2 = r#"PROJCRS["Amersfoort / RD New",BASEGEOGCRS["Amersfoort",DATUM["Amersfoort",ELLIPSOID["Bessel 1841",6377397.155,299.1528128]]],CONVERSION["RD New",METHOD["Oblique Stereographic"]],CS[Cartesian,2],ID["EPSG",28992]]"#;
+        assert_eq!(name(wkt2), "EPSG:28992");
+    }
+
+    fn square(x0: f64, y0: f64, s: f64) -> Vec<[f64; 2]> {
+        // Clockwise, as a shapefile's outer ring.
+        vec![[x0, y0], [x0, y0 + s], [x0 + s, y0 + s], [x0 + s, y0]]
+    }
+
+    fn ccw(mut r: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
+        r.reverse();
+        r
+    }
+
+    fn rev(mut r: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
+        r.reverse();
+        r
+    }
+
+    #[test]
+    fn holes_join_the_smallest_outer_ring_holding_them_and_lone_holes_are_outlines() {
+        // A courtyard block with an island building in its courtyard, the island's own hole, and a separate
+        // square; rings in a scrambled order.
+        let block = square(0.0, 0.0, 100.0);
+        let court = ccw(square(20.0, 20.0, 60.0));
+        let island = square(40.0, 40.0, 20.0);
+        let island_hole = ccw(square(45.0, 45.0, 5.0));
+        let other = square(200.0, 0.0, 10.0);
+        let p = organize(vec![
+            island_hole.clone(),
+            court.clone(),
+            other.clone(),
+            block.clone(),
+            island.clone(),
+        ]);
+        assert_eq!(
+            p,
+            vec![
+                vec![rev(other.clone())],
+                vec![rev(block.clone()), rev(court.clone())],
+                vec![rev(island.clone()), rev(island_hole.clone())],
+            ]
+        );
+        // Every outer ring comes out counter-clockwise, every hole clockwise (the OGC's winding).
+        for poly in &p {
+            assert!(signed_area2(&poly[0]) > 0.0);
+            assert!(poly[1..].iter().all(|h| signed_area2(h) < 0.0));
+        }
+        // A counter-clockwise ring no outer ring holds is an outline of its own, not dropped; it stays wound the
+        // wrong way for the repair to count.
+        let p = organize(vec![square(0.0, 0.0, 10.0), ccw(square(50.0, 0.0, 10.0))]);
+        assert_eq!(p.len(), 2);
+        assert!(signed_area2(&p[1][0]) < 0.0);
+        // A hole touching its outer ring's boundary (sharing a corner) still joins it.
+        let p = organize(vec![square(0.0, 0.0, 10.0), ccw(square(0.0, 0.0, 5.0))]);
+        assert_eq!(p.len(), 1);
+        assert_eq!(p[0].len(), 2);
+    }
+
+    #[test]
+    fn code_pages_from_cpg_files_and_language_driver_bytes() {
+        assert_eq!(Codec::from_cpg("UTF-8\n"), Some(Codec::Utf8));
+        assert_eq!(Codec::from_cpg("65001"), Some(Codec::Utf8));
+        assert_eq!(Codec::from_cpg("LATIN1"), Some(Codec::Latin1));
+        assert_eq!(Codec::from_cpg("ISO-8859-1"), Some(Codec::Latin1));
+        assert_eq!(Codec::from_cpg("ISO 88591"), Some(Codec::Latin1));
+        assert_eq!(
+            Codec::from_cpg("1252"),
+            Some(Codec::Other(encoding_rs::WINDOWS_1252))
+        );
+        assert_eq!(
+            Codec::from_cpg("ANSI 1251"),
+            Some(Codec::Other(encoding_rs::WINDOWS_1251))
+        );
+        assert_eq!(
+            Codec::from_cpg("88592"),
+            Some(Codec::Other(encoding_rs::ISO_8859_2))
+        );
+        assert_eq!(
+            Codec::from_cpg("885915"),
+            Some(Codec::Other(encoding_rs::ISO_8859_15))
+        );
+        assert_eq!(Codec::from_cpg("936"), Some(Codec::Other(encoding_rs::GBK)));
+        assert_eq!(
+            Codec::from_cpg("shift_jis"),
+            Some(Codec::Other(encoding_rs::SHIFT_JIS))
+        );
+        assert_eq!(Codec::from_cpg("850"), Some(Codec::AsciiOnly(850)));
+        assert_eq!(Codec::from_cpg("EBCDIC"), None);
+        assert_eq!(
+            Codec::from_ldid(0x57),
+            Some(Codec::Other(encoding_rs::WINDOWS_1252))
+        );
+        assert_eq!(
+            Codec::from_ldid(0xC9),
+            Some(Codec::Other(encoding_rs::WINDOWS_1251))
+        );
+        assert_eq!(Codec::from_ldid(0), None);
+        // Latin-1 differs from Windows-1252 in 0x80–0x9F; both read é.
+        assert_eq!(Codec::Latin1.decode(b"caf\xe9 \x80").0, "café \u{80}");
+        assert_eq!(
+            Codec::Other(encoding_rs::WINDOWS_1252)
+                .decode(b"caf\xe9 \x80")
+                .0,
+            "café €"
+        );
+        assert_eq!(
+            Codec::AsciiOnly(850).decode(b"caf\x82"),
+            ("caf\u{fffd}".to_string(), true)
+        );
+        assert_eq!(
+            Codec::Utf8.decode(b"caf\xc3\xa9"),
+            ("café".to_string(), false)
+        );
+        assert!(Codec::Utf8.decode(b"caf\xe9").1);
+    }
+
+    #[test]
+    fn source_ids_follow_the_geojson_rule() {
+        let a: Attributes = [
+            ("osm_type".to_string(), AttrValue::String("way".into())),
+            ("osm_id".to_string(), AttrValue::Int(5)),
+        ]
+        .into_iter()
+        .collect();
+        assert_eq!(source_id(&a, "f.shp", 3), "way/5");
+        assert_eq!(source_id(&Attributes::default(), "f.shp", 3), "f.shp#3");
+    }
+}

@@ -1,0 +1,636 @@
+//! Shapefile input. On real data: the bundled Lower East Side written as a shapefile (outer rings clockwise, holes
+//! counter-clockwise, a dBase table, a `.prj`) ingests into the same buildings as the same features written as
+//! GeoJSON. On byte-level fixtures (`citylod_testdata::shapefile` writes exactly the bytes a test chooses): every
+//! way a shapefile can lose or garble a building silently — deleted records, tables of another length, cells that do
+//! not read as their type, rings wound against the rule, islands in courtyards, code pages, sidecar names — is an
+//! error, a skip with its reason, or a repair in the report.
+
+use citylod_ingest::{ingest, IngestError, IngestOptions, Ingested};
+use citylod_model::AttrValue;
+use citylod_testdata::shapefile::{num, text, write, Field, Shape, Table};
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+const WGS84_PRJ: &str = r#"GEOGCS["GCS_WGS_1984",DATUM["D_WGS_1984",SPHEROID["WGS_1984",6378137.0,298.257223563]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]]"#;
+
+fn nyc() -> Value {
+    let p =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/nyc-les/les_buildings.geojson");
+    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+}
+
+fn twice_area(r: &[[f64; 2]]) -> f64 {
+    (0..r.len())
+        .map(|i| {
+            let (a, b) = (r[i], r[(i + 1) % r.len()]);
+            a[0] * b[1] - b[0] * a[1]
+        })
+        .sum()
+}
+
+/// A ring wound clockwise (`cw`) or counter-clockwise, its closing point kept.
+fn wound(mut r: Vec<[f64; 2]>, cw: bool) -> Vec<[f64; 2]> {
+    if (twice_area(&r) < 0.0) != cw {
+        r.reverse();
+    }
+    r
+}
+
+/// Writes the NYC features as `dir/les.shp` (+ .shx, .dbf, .prj) and as `dir/les.geojson` with the same attributes.
+fn write_both(dir: &Path) -> (PathBuf, PathBuf) {
+    let doc = nyc();
+    let mut table = Table::new(vec![
+        Field::new("osm_type", b'C', 10, 0),
+        Field::new("osm_id", b'N', 20, 0),
+        Field::new("height", b'C', 20, 0),
+    ]);
+    let (mut shapes, mut geojson) = (Vec::new(), Vec::new());
+    for f in doc["features"].as_array().unwrap() {
+        let g = &f["geometry"];
+        let polygons: Vec<&Value> = match g["type"].as_str() {
+            Some("Polygon") => vec![&g["coordinates"]],
+            Some("MultiPolygon") => g["coordinates"].as_array().unwrap().iter().collect(),
+            _ => continue,
+        };
+        let mut rings = Vec::new();
+        for p in &polygons {
+            for (k, r) in p.as_array().unwrap().iter().enumerate() {
+                let points: Vec<[f64; 2]> = r
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|c| [c[0].as_f64().unwrap(), c[1].as_f64().unwrap()])
+                    .collect();
+                rings.push(wound(points, k == 0));
+            }
+        }
+        shapes.push(Shape::Polygon(rings));
+        let props = &f["properties"];
+        let cell = |v: &Value| match v {
+            Value::String(s) => text(s),
+            Value::Number(n) => num(n),
+            _ => Vec::new(),
+        };
+        table.push([
+            cell(&props["osm_type"]),
+            cell(&props["osm_id"]),
+            cell(&props["height"]),
+        ]);
+        geojson.push(serde_json::json!({
+            "type": "Feature",
+            "properties": {"osm_type": props["osm_type"], "osm_id": props["osm_id"], "height": props["height"]},
+            "geometry": g,
+        }));
+    }
+    let shp = write(dir, "les", &shapes, &table, Some(WGS84_PRJ), None);
+    let json = dir.join("les.geojson");
+    let fc = serde_json::json!({"type": "FeatureCollection", "features": geojson});
+    std::fs::write(&json, fc.to_string()).unwrap();
+    (shp, json)
+}
+
+#[test]
+fn a_shapefile_ingests_into_the_buildings_its_geojson_gives() {
+    let dir = tempfile::tempdir().unwrap();
+    let (shp, json) = write_both(dir.path());
+    let from_shp = ingest(&[shp], &IngestOptions::default()).unwrap();
+    let from_json = ingest(&[json], &IngestOptions::default()).unwrap();
+    assert!(
+        from_json.buildings.len() > 1300,
+        "{}",
+        from_json.buildings.len()
+    );
+    assert_eq!(from_shp.buildings.len(), from_json.buildings.len());
+    assert_eq!(
+        from_shp.report.skipped.len(),
+        from_json.report.skipped.len()
+    );
+    assert_eq!(from_shp.frame, from_json.frame);
+    let file = &from_shp.report.files[0];
+    assert_eq!(
+        (
+            serde_json::to_value(file.format).unwrap(),
+            file.crs.as_str()
+        ),
+        (Value::from("shapefile"), "EPSG:4326")
+    );
+    // Rings wound as a shapefile's rule says are not repairs; the text is ASCII, so no code page is assumed.
+    assert_eq!(from_shp.report.rings_reoriented, 0);
+    assert!(file.notes.is_empty(), "{:?}", file.notes);
+    for (a, b) in from_shp.buildings.iter().zip(&from_json.buildings) {
+        assert_eq!(a.source_id, b.source_id);
+        assert!(
+            a.source_id.starts_with("way/") || a.source_id.starts_with("relation/"),
+            "{}",
+            a.source_id
+        );
+        assert_eq!(a.attributes, b.attributes, "{}", a.source_id);
+        assert_eq!(
+            (a.height_m, a.base_z_m),
+            (b.height_m, b.base_z_m),
+            "{}",
+            a.source_id
+        );
+        // The same outline, holes and all.
+        assert_eq!(a.footprint.0.len(), b.footprint.0.len(), "{}", a.source_id);
+        let holes = |x: &citylod_model::Building| {
+            x.footprint
+                .0
+                .iter()
+                .map(|p| p.interiors().len())
+                .sum::<usize>()
+        };
+        assert_eq!(holes(a), holes(b), "{}", a.source_id);
+        let (aa, ab) = (a.area_m2(), b.area_m2());
+        assert!(
+            (aa - ab).abs() <= 1e-9 * ab.max(1.0),
+            "{}: {aa} m² against {ab} m²",
+            a.source_id
+        );
+    }
+    // The Lower East Side has buildings with courtyards: the comparison saw holes.
+    assert!(from_shp.buildings.iter().any(|b| b
+        .footprint
+        .0
+        .iter()
+        .any(|p| !p.interiors().is_empty())));
+}
+
+/// A 10 m square (clockwise, closed) at `x` metres east of a point in Manhattan, in lon/lat.
+fn square_at(x: f64, size: f64) -> Vec<[f64; 2]> {
+    let (lon0, lat0) = (-73.99, 40.72);
+    let (dlon, dlat) = (1.0 / 84_300.0, 1.0 / 111_000.0);
+    let p = |e: f64, n: f64| [lon0 + e * dlon, lat0 + n * dlat];
+    vec![
+        p(x, 0.0),
+        p(x, size),
+        p(x + size, size),
+        p(x + size, 0.0),
+        p(x, 0.0),
+    ]
+}
+
+fn ccw(mut r: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
+    r.reverse();
+    r
+}
+
+fn ids(r: &Ingested) -> Vec<String> {
+    r.buildings.iter().map(|b| b.source_id.clone()).collect()
+}
+
+fn skips(r: &Ingested) -> Vec<(String, String)> {
+    r.report
+        .skipped
+        .iter()
+        .map(|s| (s.feature_id.clone(), s.reason.as_str().to_string()))
+        .collect()
+}
+
+fn repairs(r: &Ingested) -> Vec<(String, String, String)> {
+    r.report
+        .repaired
+        .iter()
+        .map(|s| {
+            (
+                s.feature_id.clone(),
+                s.reason.as_str().to_string(),
+                s.detail.clone(),
+            )
+        })
+        .collect()
+}
+
+fn id_table() -> Table {
+    Table::new(vec![
+        Field::new("id", b'C', 8, 0),
+        Field::new("HEIGHT", b'N', 8, 2),
+    ])
+}
+
+#[test]
+fn deleted_records_are_skipped_without_shifting_the_attributes_after_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut t = id_table();
+    t.push([text("a"), num("12.00")]);
+    t.push_deleted([text("b"), num("15.00")]);
+    t.push([text("c"), num("18.50")]);
+    let shapes: Vec<Shape> = (0..3)
+        .map(|k| Shape::Polygon(vec![square_at(20.0 * k as f64, 10.0)]))
+        .collect();
+    let shp = write(dir.path(), "d", &shapes, &t, Some(WGS84_PRJ), None);
+    let opts = IngestOptions {
+        height_attr: Some("HEIGHT".into()),
+        ..Default::default()
+    };
+    let r = ingest(&[shp], &opts).unwrap();
+    assert_eq!(ids(&r), ["a", "c"]);
+    assert_eq!(skips(&r), [("b".to_string(), "deleted_record".to_string())]);
+    // The third shape keeps the third record's height (18.5 m), not the deleted one's.
+    assert_eq!(r.buildings[1].height_m, 18.5);
+    assert_eq!(r.buildings[1].attributes["HEIGHT"], AttrValue::Float(18.5));
+    let west = |k: usize| {
+        r.buildings[k].footprint.0[0]
+            .exterior()
+            .0
+            .iter()
+            .map(|c| c.x)
+            .fold(f64::INFINITY, f64::min)
+    };
+    let gap = west(1) - west(0);
+    assert!((gap - 40.0).abs() < 0.5, "{gap}");
+}
+
+#[test]
+fn a_dbf_and_a_shp_of_different_lengths_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut t = id_table();
+    t.push([text("a"), num("12")]);
+    let shapes = vec![
+        Shape::Polygon(vec![square_at(0.0, 10.0)]),
+        Shape::Polygon(vec![square_at(20.0, 10.0)]),
+    ];
+    let shp = write(dir.path(), "n", &shapes, &t, Some(WGS84_PRJ), None);
+    let e = ingest(std::slice::from_ref(&shp), &IngestOptions::default()).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("holds 2 shape(s) and its .dbf 1 record(s)"),
+        "{e}"
+    );
+    // A .dbf whose header counts more records than its bytes hold.
+    t.push([text("b"), num("12")]);
+    write(dir.path(), "n", &shapes, &t, Some(WGS84_PRJ), None);
+    let dbf = dir.path().join("n.dbf");
+    let bytes = std::fs::read(&dbf).unwrap();
+    std::fs::write(&dbf, &bytes[..bytes.len() - 10]).unwrap();
+    let e = ingest(std::slice::from_ref(&shp), &IngestOptions::default()).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("gives 2 records of 17 bytes, the file holds 1"),
+        "{e}"
+    );
+    // A .shp cut inside its second record.
+    write(dir.path(), "n", &shapes, &t, Some(WGS84_PRJ), None);
+    let bytes = std::fs::read(&shp).unwrap();
+    std::fs::write(&shp, &bytes[..bytes.len() - 20]).unwrap();
+    let e = ingest(std::slice::from_ref(&shp), &IngestOptions::default()).unwrap_err();
+    assert!(matches!(e, IngestError::InvalidShapefile { .. }), "{e}");
+    assert!(e.to_string().contains("cut short"), "{e}");
+}
+
+#[test]
+fn cells_that_do_not_read_as_their_type_are_kept_as_text_and_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut t = Table::new(vec![
+        Field::new("id", b'C', 4, 0),
+        Field::new("levels", b'N', 6, 0),
+        Field::new("ratio", b'F', 19, 11),
+        Field::new("built", b'D', 8, 0),
+        Field::new("listed", b'L', 1, 0),
+        Field::new("area", b'N', 8, 2),
+    ]);
+    t.push([
+        text("ok"),
+        num(4),
+        num("1.23456789012"),
+        text("20110307"),
+        text("T"),
+        num("12.00"),
+    ]);
+    // A null date as many writers write it, a blank number and a '?' logical: no values, nothing to report.
+    t.push([
+        text("null"),
+        text(""),
+        text(""),
+        text("00000000"),
+        text("?"),
+        num("******"),
+    ]);
+    // A decimal comma, a date that is none, a logical that is none.
+    t.push([
+        text("bad"),
+        num("1,5"),
+        num("2.5"),
+        text("20111345"),
+        text("X"),
+        num("7"),
+    ]);
+    let shapes: Vec<Shape> = (0..3)
+        .map(|k| Shape::Polygon(vec![square_at(20.0 * k as f64, 10.0)]))
+        .collect();
+    let shp = write(dir.path(), "c", &shapes, &t, Some(WGS84_PRJ), None);
+    let r = ingest(&[shp], &IngestOptions::default()).unwrap();
+    assert_eq!(ids(&r), ["ok", "null", "bad"]);
+    let a = |k: usize, name: &str| r.buildings[k].attributes[name].clone();
+    assert_eq!(a(0, "levels"), AttrValue::Int(4));
+    // An F field is read as a double from its text (a 32-bit float would give 1.2345679).
+    assert_eq!(a(0, "ratio"), AttrValue::Float(1.234_567_890_12));
+    assert_eq!(a(0, "built"), AttrValue::String("2011-03-07".into()));
+    assert_eq!(a(0, "listed"), AttrValue::Bool(true));
+    // A field with decimals is a number with decimals, whole or not.
+    assert_eq!(a(0, "area"), AttrValue::Float(12.0));
+    for f in ["levels", "ratio", "built", "listed", "area"] {
+        assert_eq!(a(1, f), AttrValue::Null, "{f}");
+    }
+    assert_eq!(a(2, "levels"), AttrValue::String("1,5".into()));
+    assert_eq!(a(2, "built"), AttrValue::String("20111345".into()));
+    assert_eq!(a(2, "listed"), AttrValue::String("X".into()));
+    let rep: Vec<(String, String)> = repairs(&r)
+        .into_iter()
+        .filter(|(_, reason, _)| reason == "undecodable_value_kept_as_text")
+        .map(|(id, _, detail)| (id, detail.split(':').next().unwrap().to_string()))
+        .collect();
+    assert_eq!(
+        rep,
+        [
+            ("bad".to_string(), "field levels".to_string()),
+            ("bad".to_string(), "field built".to_string()),
+            ("bad".to_string(), "field listed".to_string()),
+        ]
+    );
+}
+
+#[test]
+fn rings_are_grouped_by_containment_whatever_their_order_and_winding() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut t = Table::new(vec![Field::new("id", b'C', 12, 0)]);
+    // A 60 m block with a 40 m courtyard holding a 10 m island, rings listed island first.
+    let block = square_at(0.0, 60.0);
+    let court = {
+        let r = square_at(10.0, 40.0);
+        let lift = |p: [f64; 2]| [p[0], p[1] + 10.0 / 111_000.0];
+        ccw(r.into_iter().map(lift).collect())
+    };
+    let island = {
+        let r = square_at(25.0, 10.0);
+        r.into_iter()
+            .map(|p| [p[0], p[1] + 25.0 / 111_000.0])
+            .collect::<Vec<_>>()
+    };
+    t.push([text("courtyard")]);
+    // An outline wound counter-clockwise (against the rule) with nothing around it: kept, and counted as reoriented.
+    t.push([text("backwards")]);
+    let shapes = vec![
+        Shape::Polygon(vec![island.clone(), court.clone(), block.clone()]),
+        Shape::Polygon(vec![ccw(square_at(100.0, 10.0))]),
+    ];
+    let shp = write(dir.path(), "r", &shapes, &t, Some(WGS84_PRJ), None);
+    let r = ingest(&[shp], &IngestOptions::default()).unwrap();
+    assert_eq!(ids(&r), ["courtyard", "backwards"]);
+    let fp = &r.buildings[0].footprint;
+    // The block with its courtyard, and the island as a polygon of its own.
+    assert_eq!(fp.0.len(), 2, "{fp:?}");
+    let mut holes: Vec<usize> = fp.0.iter().map(|p| p.interiors().len()).collect();
+    holes.sort();
+    assert_eq!(holes, [0, 1]);
+    // Block less courtyard plus island: 36 − 16 + 1 of the lone 10 m square's area.
+    let (area, unit) = (r.buildings[0].area_m2(), r.buildings[1].area_m2());
+    assert!((unit - 100.0).abs() < 1.0, "{unit}");
+    assert!((area / unit - 21.0).abs() < 0.01, "{area} {unit}");
+    assert_eq!(r.report.rings_reoriented, 1);
+}
+
+#[test]
+fn shapes_that_are_no_footprint_are_skipped_with_their_type() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut t = Table::new(vec![Field::new("id", b'C', 8, 0)]);
+    for id in [
+        "null", "point", "line", "patch", "counts", "zpoly", "mpoly", "open",
+    ] {
+        t.push([text(id)]);
+    }
+    let z: Vec<[f64; 3]> = square_at(0.0, 10.0)
+        .into_iter()
+        .map(|p| [p[0], p[1], 7.0])
+        .collect();
+    let mut open = square_at(60.0, 10.0);
+    open.pop();
+    // A polygon record claiming a million points in a few bytes.
+    let mut counts = Vec::new();
+    counts.extend_from_slice(&[0u8; 32]);
+    counts.extend_from_slice(&1i32.to_le_bytes());
+    counts.extend_from_slice(&1_000_000i32.to_le_bytes());
+    counts.extend_from_slice(&0i32.to_le_bytes());
+    let shapes = vec![
+        Shape::Null,
+        Shape::Point(square_at(0.0, 1.0)[0]),
+        Shape::PolyLine(vec![square_at(0.0, 10.0)]),
+        Shape::Raw {
+            shape_type: 31,
+            content: vec![0; 40],
+        },
+        Shape::Raw {
+            shape_type: 5,
+            content: counts,
+        },
+        Shape::PolygonZ(vec![z]),
+        Shape::PolygonM(vec![square_at(30.0, 10.0)]),
+        Shape::Polygon(vec![open]),
+    ];
+    let shp = write(dir.path(), "s", &shapes, &t, Some(WGS84_PRJ), None);
+    let r = ingest(&[shp], &IngestOptions::default()).unwrap();
+    assert_eq!(ids(&r), ["zpoly", "mpoly", "open"]);
+    let s = skips(&r);
+    let reason = |id: &str| s.iter().find(|(i, _)| i == id).map(|(_, r)| r.as_str());
+    assert_eq!(reason("null"), Some("no_geometry"));
+    assert_eq!(reason("point"), Some("unsupported_geometry"));
+    assert_eq!(reason("line"), Some("unsupported_geometry"));
+    assert_eq!(reason("patch"), Some("unsupported_geometry"));
+    assert_eq!(reason("counts"), Some("malformed_geometry"));
+    let detail = |id: &str| {
+        r.report
+            .skipped
+            .iter()
+            .find(|x| x.feature_id == id)
+            .unwrap()
+            .detail
+            .clone()
+    };
+    assert!(detail("line").contains("PolyLine"), "{}", detail("line"));
+    assert!(
+        detail("patch").contains("MultiPatch"),
+        "{}",
+        detail("patch")
+    );
+    assert!(
+        detail("counts").contains("1000000 points"),
+        "{}",
+        detail("counts")
+    );
+    assert!(repairs(&r)
+        .iter()
+        .any(|(id, reason, _)| id == "open" && reason == "ring_closed"));
+}
+
+#[test]
+fn text_is_decoded_in_the_code_page_the_files_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let one = vec![Shape::Polygon(vec![square_at(0.0, 10.0)])];
+    let name = |r: &Ingested| r.buildings[0].attributes["name"].clone();
+    let with = |bytes: &[u8], ldid: u8, cpg: Option<&str>| {
+        let mut t = Table::new(vec![Field::new("name", b'C', 16, 0)]);
+        t.ldid = ldid;
+        t.push([bytes]);
+        let stem = format!("t{}", std::fs::read_dir(dir.path()).unwrap().count());
+        let shp = write(dir.path(), &stem, &one, &t, Some(WGS84_PRJ), cpg);
+        ingest(&[shp], &IngestOptions::default())
+    };
+    // Windows-1252 with nothing naming it: not UTF-8, so read as Windows-1252, and the report says so.
+    let r = with(b"Caf\xe9 \x80", 0, None).unwrap();
+    assert_eq!(name(&r), AttrValue::String("Café €".into()));
+    assert!(
+        r.report.files[0].notes[0].contains("Windows-1252"),
+        "{:?}",
+        r.report.files[0].notes
+    );
+    // UTF-8 with nothing naming it.
+    let r = with("Café".as_bytes(), 0, None).unwrap();
+    assert_eq!(name(&r), AttrValue::String("Café".into()));
+    assert!(r.report.files[0].notes.is_empty());
+    // A .cpg LATIN1 (which GDAL writes) and one naming Windows-1251; the language driver byte of Windows-1251.
+    assert_eq!(
+        name(&with(b"Caf\xe9", 0, Some("LATIN1")).unwrap()),
+        AttrValue::String("Café".into())
+    );
+    let moscow = "\u{41c}\u{43e}\u{441}\u{43a}\u{432}\u{430}";
+    assert_eq!(
+        name(&with(b"\xcc\xee\xf1\xea\xe2\xe0", 0, Some("1251")).unwrap()),
+        AttrValue::String(moscow.into())
+    );
+    assert_eq!(
+        name(&with(b"\xcc\xee\xf1\xea\xe2\xe0", 0xC9, None).unwrap()),
+        AttrValue::String(moscow.into())
+    );
+    // A .cpg saying UTF-8 over bytes that are not: kept with U+FFFD, and reported.
+    let r = with(b"Caf\xe9", 0, Some("UTF-8")).unwrap();
+    assert_eq!(name(&r), AttrValue::String("Caf\u{fffd}".into()));
+    assert!(repairs(&r)
+        .iter()
+        .any(|(_, reason, d)| reason == "undecodable_value_kept_as_text" && d.contains("U+FFFD")));
+    // A code page citylod cannot read.
+    let e = with(b"abc", 0, Some("EBCDIC-US")).unwrap_err();
+    assert!(e.to_string().contains("EBCDIC-US"), "{e}");
+}
+
+#[test]
+fn sidecars_are_found_in_any_case_and_refused_as_inputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut t = id_table();
+    t.push([text("a"), num("9")]);
+    let one = vec![Shape::Polygon(vec![square_at(0.0, 10.0)])];
+    write(dir.path(), "bld", &one, &t, Some(WGS84_PRJ), None);
+    for ext in ["shp", "shx", "dbf", "prj"] {
+        std::fs::rename(
+            dir.path().join(format!("bld.{ext}")),
+            dir.path().join(format!("BLD.{}", ext.to_uppercase())),
+        )
+        .unwrap();
+    }
+    let r = ingest(&[dir.path().join("BLD.SHP")], &IngestOptions::default()).unwrap();
+    assert_eq!(
+        (ids(&r), r.report.files[0].crs.as_str()),
+        (vec!["a".to_string()], "EPSG:4326")
+    );
+    let e = ingest(&[dir.path().join("BLD.DBF")], &IngestOptions::default()).unwrap_err();
+    assert!(
+        e.to_string().contains("attribute table; give its .shp"),
+        "{e}"
+    );
+}
+
+#[test]
+fn missing_or_unreadable_companions_say_what_to_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let (shp, _) = write_both(dir.path());
+    let opts = IngestOptions::default();
+    // An Esri .prj without an EPSG code: the user gives the CRS.
+    let esri = r#"PROJCS["NAD_1983_StatePlane_New_York_Long_Island_FIPS_3104_Feet",GEOGCS["GCS_North_American_1983",DATUM["D_North_American_1983",SPHEROID["GRS_1980",6378137.0,298.257222101]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]],PROJECTION["Lambert_Conformal_Conic"],UNIT["Foot_US",0.3048006096012192]]"#;
+    std::fs::write(dir.path().join("les.prj"), esri).unwrap();
+    let e = ingest(std::slice::from_ref(&shp), &opts).unwrap_err();
+    assert!(
+        matches!(e, IngestError::CrsNotUnderstood { member: ".prj", .. }),
+        "{e}"
+    );
+    assert!(e.to_string().contains("--crs"), "{e}");
+    // --crs overrides the .prj (here the true one, WGS84).
+    let with_crs = IngestOptions {
+        crs: Some("EPSG:4326".into()),
+        ..Default::default()
+    };
+    assert!(
+        ingest(std::slice::from_ref(&shp), &with_crs)
+            .unwrap()
+            .buildings
+            .len()
+            > 1300
+    );
+    // No .prj at all.
+    std::fs::remove_file(dir.path().join("les.prj")).unwrap();
+    let e = ingest(std::slice::from_ref(&shp), &opts).unwrap_err();
+    assert!(matches!(e, IngestError::MissingPrj { .. }), "{e}");
+    // No .dbf: the attribute table is half of a shapefile.
+    std::fs::remove_file(dir.path().join("les.dbf")).unwrap();
+    let e = ingest(std::slice::from_ref(&shp), &with_crs).unwrap_err();
+    assert!(e.to_string().contains(".dbf"), "{e}");
+    // A .shp that is not one.
+    let bad = dir.path().join("bad.shp");
+    std::fs::write(&bad, b"not a shapefile at all, just text").unwrap();
+    let e = ingest(&[bad], &with_crs).unwrap_err();
+    assert!(matches!(e, IngestError::InvalidShapefile { .. }), "{e}");
+}
+
+/// Every truncation and many corruptions of a small shapefile: an error or buildings, never a panic.
+#[test]
+fn broken_bytes_give_errors_or_skips_not_panics() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut t = Table::new(vec![
+        Field::new("id", b'C', 6, 0),
+        Field::new("n", b'N', 5, 0),
+        Field::new("d", b'D', 8, 0),
+    ]);
+    t.push([text("a"), num(3), text("20200101")]);
+    t.push([text("b"), num(4), text("20200102")]);
+    let block = square_at(0.0, 60.0);
+    let shapes = vec![
+        Shape::Polygon(vec![block, ccw(square_at(20.0, 10.0))]),
+        Shape::PolygonZ(vec![square_at(80.0, 10.0)
+            .into_iter()
+            .map(|p| [p[0], p[1], 1.0])
+            .collect()]),
+    ];
+    let shp = write(dir.path(), "f", &shapes, &t, Some(WGS84_PRJ), None);
+    let (shp_bytes, dbf_bytes) = (
+        std::fs::read(&shp).unwrap(),
+        std::fs::read(dir.path().join("f.dbf")).unwrap(),
+    );
+    let opts = IngestOptions::default();
+    let mut outcomes = [0usize; 2];
+    let mut run = |s: &[u8], d: &[u8]| {
+        std::fs::write(&shp, s).unwrap();
+        std::fs::write(dir.path().join("f.dbf"), d).unwrap();
+        outcomes[ingest(std::slice::from_ref(&shp), &opts).is_ok() as usize] += 1;
+    };
+    for cut in 0..shp_bytes.len() {
+        run(&shp_bytes[..cut], &dbf_bytes);
+    }
+    for cut in 0..dbf_bytes.len() {
+        run(&shp_bytes, &dbf_bytes[..cut]);
+    }
+    // Each byte set to 0x00, 0x7f and 0xff in turn.
+    for at in 0..shp_bytes.len().max(dbf_bytes.len()) {
+        for v in [0x00, 0x7f, 0xff] {
+            if at < shp_bytes.len() {
+                let mut s = shp_bytes.clone();
+                s[at] = v;
+                run(&s, &dbf_bytes);
+            }
+            if at < dbf_bytes.len() {
+                let mut d = dbf_bytes.clone();
+                d[at] = v;
+                run(&shp_bytes, &d);
+            }
+        }
+    }
+    // Both outcomes happen: most corruptions of point bytes still read, truncations are refused.
+    assert!(outcomes[0] > 100 && outcomes[1] > 100, "{outcomes:?}");
+}
