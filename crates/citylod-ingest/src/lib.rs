@@ -35,6 +35,7 @@ mod height;
 mod lod;
 mod model3d;
 mod place;
+mod prj;
 mod repair;
 mod report;
 mod shp;

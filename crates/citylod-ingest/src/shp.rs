@@ -1,6 +1,6 @@
 //! Esri Shapefile input: the `.shp` geometry and the `.dbf` attribute table beside it, read by this module's own
 //! parser (the Esri Shapefile Technical Description of 1998 and the dBase III table layout), with the code page from
-//! a `.cpg` or the table's language driver byte and the CRS from a `.prj`.
+//! a `.cpg` or the table's language driver byte and the CRS from a `.prj` (see `prj`).
 //!
 //! Nothing is dropped without a word: a shape that cannot become a footprint (a null shape, a line, a record whose
 //! counts do not fit its length) is a skipped feature with the reason; a record the `.dbf` marks deleted is skipped
@@ -65,7 +65,7 @@ pub(crate) fn read(path: &Path) -> Result<ShapefileDoc, String> {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let notes = table.notes.clone();
+    let mut notes = table.notes.clone();
     let mut features = Vec::with_capacity(shapes.len());
     for (index, shape) in shapes.into_iter().enumerate() {
         let (attributes, repairs, deleted) = table.record(index);
@@ -92,7 +92,11 @@ pub(crate) fn read(path: &Path) -> Result<ShapefileDoc, String> {
         features.push(out);
     }
     let declared_crs = match sidecar(path, "prj") {
-        Some(p) => Some(declared_crs(&String::from_utf8_lossy(&read(&p)?))),
+        Some(p) => {
+            let (crs, note) = crate::prj::declared_crs(&String::from_utf8_lossy(&read(&p)?));
+            notes.extend(note);
+            Some(crs)
+        }
         None => None,
     };
     Ok(ShapefileDoc {
@@ -821,84 +825,9 @@ fn source_id(a: &Attributes, file_name: &str, index: usize) -> String {
         .unwrap_or_else(|| format!("{file_name}#{index}"))
 }
 
-// --- the .prj ---
-
-/// The CRS a `.prj` (OGC or Esri WKT, or WKT2) declares: the EPSG code of its outermost `AUTHORITY` / `ID` when it
-/// has one, WGS 84 lon/lat for a geographic CRS whose datum is WGS 84, else not understood (the user gives `--crs`).
-fn declared_crs(wkt: &str) -> DeclaredCrs {
-    let wkt = wkt.trim().trim_start_matches('\u{feff}').trim();
-    // The outermost node's authority is its last child: `AUTHORITY["EPSG","26986"]]` or `ID["EPSG",26986]]` at
-    // the very end.
-    let code = ["AUTHORITY[", "ID["].iter().find_map(|tag| {
-        let at = wkt.rfind(tag)?;
-        let rest = &wkt[at + tag.len()..];
-        let close = rest.find(']')?;
-        if rest[close + 1..].trim() != "]" {
-            return None;
-        }
-        let mut parts = rest[..close].split(',').map(|s| s.trim().trim_matches('"'));
-        let (authority, code) = (parts.next()?, parts.next()?);
-        (authority.eq_ignore_ascii_case("EPSG")
-            && !code.is_empty()
-            && code.bytes().all(|b| b.is_ascii_digit()))
-        .then(|| format!("EPSG:{code}"))
-    });
-    if let Some(code) = code {
-        return DeclaredCrs::Name(code);
-    }
-    let upper = wkt.to_ascii_uppercase();
-    let geographic = ["GEOGCS[", "GEOGCRS[", "GEODCRS["]
-        .iter()
-        .any(|t| upper.starts_with(t));
-    // The datum's own name, not any text that mentions WGS 84 (a `TOWGS84[…]` shift names another datum).
-    let datum = upper.find("DATUM[").and_then(|at| {
-        let rest = upper[at + 6..].trim_start().strip_prefix('"')?;
-        Some(rest[..rest.find('"')?].to_string())
-    });
-    let datum_key: Option<String> =
-        datum.map(|d| d.chars().filter(|c| c.is_ascii_alphanumeric()).collect());
-    let wgs84 = matches!(
-        datum_key.as_deref(),
-        Some("DWGS1984" | "WGS1984" | "WGS84" | "WORLDGEODETICSYSTEM1984")
-    );
-    if geographic && wgs84 {
-        return DeclaredCrs::Name("EPSG:4326".into());
-    }
-    DeclaredCrs::NotUnderstood {
-        member: ".prj",
-        detail: format!(
-            "it names no EPSG code ({})",
-            wkt.chars().take(100).collect::<String>()
-        ),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn prj_files_name_their_epsg_code_or_ask_for_one() {
-        let name = |w: &str| match declared_crs(w) {
-            DeclaredCrs::Name(n) => n,
-            DeclaredCrs::NotUnderstood { member, .. } => format!("? {member}"),
-        };
-        let ogc = r#"PROJCS["NAD83 / Massachusetts Mainland",GEOGCS["NAD83",DATUM["North_American_Datum_1983",SPHEROID["GRS 1980",6378137,298.257222101,AUTHORITY["EPSG","7019"]],AUTHORITY["EPSG","6269"]],PRIMEM["Greenwich",0],UNIT["degree",0.0174532925199433],AUTHORITY["EPSG","4269"]],PROJECTION["Lambert_Conformal_Conic_2SP"],UNIT["metre",1],AUTHORITY["EPSG","26986"]]"#;
-        assert_eq!(name(ogc), "EPSG:26986");
-        // Esri's WKT has no authority: the datum's own code deep inside is not the CRS's.
-        let esri = r#"PROJCS["NAD_1983_StatePlane_Massachusetts_Mainland_FIPS_2001",GEOGCS["GCS_North_American_1983",DATUM["D_North_American_1983",SPHEROID["GRS_1980",6378137.0,298.257222101]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]],PROJECTION["Lambert_Conformal_Conic"],UNIT["Meter",1.0]]"#;
-        assert_eq!(name(esri), "? .prj");
-        let nested_only =
-            r#"PROJCS["x",GEOGCS["NAD83",AUTHORITY["EPSG","4269"]],UNIT["Meter",1.0]]"#;
-        assert_eq!(name(nested_only), "? .prj");
-        let wgs84 = "\u{feff}GEOGCS[\"GCS_WGS_1984\",DATUM[\"D_WGS_1984\",SPHEROID[\"WGS_1984\",6378137.0,298.257223563]],PRIMEM[\"Greenwich\",0.0],UNIT[\"Degree\",0.0174532925199433]]\n";
-        assert_eq!(name(wgs84), "EPSG:4326");
-        // Another datum with a shift to WGS 84 is not WGS 84.
-        let towgs = r#"GEOGCS["Amersfoort",DATUM["Amersfoort",SPHEROID["Bessel 1841",6377397.155,299.1528128],TOWGS84[565.2369,50.0087,465.658,-0.406857,0.350733,-1.87035,4.0812]],PRIMEM["Greenwich",0],UNIT["degree",0.0174532925199433]]"#;
-        assert_eq!(name(towgs), "? .prj");
-        let wkt2 = r#"PROJCRS["Amersfoort / RD New",BASEGEOGCRS["Amersfoort",DATUM["Amersfoort",ELLIPSOID["Bessel 1841",6377397.155,299.1528128]]],CONVERSION["RD New",METHOD["Oblique Stereographic"]],CS[Cartesian,2],ID["EPSG",28992]]"#;
-        assert_eq!(name(wkt2), "EPSG:28992");
-    }
 
     fn square(x0: f64, y0: f64, s: f64) -> Vec<[f64; 2]> {
         // Clockwise, as a shapefile's outer ring.

@@ -543,8 +543,8 @@ fn missing_or_unreadable_companions_say_what_to_do() {
     let dir = tempfile::tempdir().unwrap();
     let (shp, _) = write_both(dir.path());
     let opts = IngestOptions::default();
-    // An Esri .prj without an EPSG code: the user gives the CRS.
-    let esri = r#"PROJCS["NAD_1983_StatePlane_New_York_Long_Island_FIPS_3104_Feet",GEOGCS["GCS_North_American_1983",DATUM["D_North_American_1983",SPHEROID["GRS_1980",6378137.0,298.257222101]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]],PROJECTION["Lambert_Conformal_Conic"],UNIT["Foot_US",0.3048006096012192]]"#;
+    // A .prj without an EPSG code in a projection citylod does not identify: the user gives the CRS.
+    let esri = r#"PROJCS["NAD_1983_Polyconic",GEOGCS["GCS_North_American_1983",DATUM["D_North_American_1983",SPHEROID["GRS_1980",6378137.0,298.257222101]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]],PROJECTION["Polyconic"],PARAMETER["False_Easting",0.0],PARAMETER["False_Northing",0.0],PARAMETER["Central_Meridian",-74.0],PARAMETER["Latitude_Of_Origin",40.0],UNIT["Meter",1.0]]"#;
     std::fs::write(dir.path().join("les.prj"), esri).unwrap();
     let e = ingest(std::slice::from_ref(&shp), &opts).unwrap_err();
     assert!(
@@ -633,4 +633,61 @@ fn broken_bytes_give_errors_or_skips_not_panics() {
     }
     // Both outcomes happen: most corruptions of point bytes still read, truncations are refused.
     assert!(outcomes[0] > 100 && outcomes[1] > 100, "{outcomes:?}");
+}
+
+/// An Esri .prj, as ArcGIS writes it, names no EPSG code: it is identified by its projection, parameters, unit and
+/// ellipsoid, and the report says so. Here New York's Long Island State Plane in US feet (EPSG:2263).
+#[test]
+fn an_esri_prj_without_a_code_is_identified() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut t = id_table();
+    t.push([text("a"), num("10.00")]);
+    // A 30 × 30 ft square at 985,000 ft east, 200,000 ft north: the Lower East Side.
+    let (x, y) = (985_000.0, 200_000.0);
+    let ring = vec![
+        [x, y],
+        [x, y + 30.0],
+        [x + 30.0, y + 30.0],
+        [x + 30.0, y],
+        [x, y],
+    ];
+    let esri = r#"PROJCS["NAD_1983_StatePlane_New_York_Long_Island_FIPS_3104_Feet",GEOGCS["GCS_North_American_1983",DATUM["D_North_American_1983",SPHEROID["GRS_1980",6378137.0,298.257222101]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]],PROJECTION["Lambert_Conformal_Conic"],PARAMETER["False_Easting",984250.0],PARAMETER["False_Northing",0.0],PARAMETER["Central_Meridian",-74.0],PARAMETER["Standard_Parallel_1",40.66666666666666],PARAMETER["Standard_Parallel_2",41.03333333333333],PARAMETER["Latitude_Of_Origin",40.16666666666666],UNIT["Foot_US",0.3048006096012192]]"#;
+    let shp = write(
+        dir.path(),
+        "ny",
+        &[Shape::Polygon(vec![ring])],
+        &t,
+        Some(esri),
+        None,
+    );
+    let r = ingest(std::slice::from_ref(&shp), &IngestOptions::default()).unwrap();
+    let file = &r.report.files[0];
+    assert_eq!(file.crs, "EPSG:2263");
+    assert!(
+        file.notes
+            .iter()
+            .any(|n| n.contains("EPSG:2263") && n.contains("identified")),
+        "{:?}",
+        file.notes
+    );
+    // The same as naming the CRS: the square is ~83.6 m² (900 ft²) in Manhattan.
+    let named = ingest(
+        &[shp],
+        &IngestOptions {
+            crs: Some("EPSG:2263".into()),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(r.frame, named.frame);
+    let f = &r.frame;
+    assert!(
+        (f.origin_lon_deg + 73.99).abs() < 0.02 && (f.origin_lat_deg - 40.72).abs() < 0.02,
+        "{f:?}"
+    );
+    assert!(
+        (r.buildings[0].area_m2() - 83.6).abs() < 0.5,
+        "{}",
+        r.buildings[0].area_m2()
+    );
 }

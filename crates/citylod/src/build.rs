@@ -24,7 +24,7 @@ pub struct BuildArgs {
     pub inputs: Vec<PathBuf>,
 
     /// CRS of the input coordinates, e.g. EPSG:28992. Default: WGS84 lon/lat for GeoJSON (RFC 7946), the .prj's
-    /// EPSG code for a Shapefile, the file's `referenceSystem` for CityJSON.
+    /// CRS for a Shapefile (its EPSG code, or the EPSG CRS matching an Esri .prj's parameters), the file's `referenceSystem` for CityJSON.
     #[arg(long, value_name = "EPSG:CODE", help_heading = "Input")]
     pub crs: Option<String>,
 
@@ -640,6 +640,18 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
                 why += &format!(
                     "\n  hint: the footprints have almost no area in {crs}'s units; are the coordinates longitude/\
                      latitude degrees? then leave --crs out (GeoJSON is lon/lat by RFC 7946)"
+                );
+            } else if let Some(f) = ingested
+                .report
+                .files
+                .iter()
+                .find(|f| f.crs.starts_with("EPSG:") && f.crs != "EPSG:4326")
+            {
+                // The file declared (or its .prj was identified as) a projected CRS its coordinates do not fit.
+                why += &format!(
+                    "\n  hint: the footprints have almost no area in {} (the CRS {} declares); are the coordinates \
+                     longitude/latitude degrees? then give --crs EPSG:4326",
+                    f.crs, f.path
                 );
             }
         }
