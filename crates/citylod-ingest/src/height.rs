@@ -22,6 +22,11 @@ pub const KNOWN_HEIGHT_ATTRS: &[&str] = &[
     "Height",
     "HEIGHT",
     "bldg_height",
+    // The same names as shapefile writers cut them to 10 characters (a GeoJSON converted with ogr2ogr).
+    "building_h",
+    "measuredHe",
+    "measured_h",
+    "bldg_heigh",
 ];
 
 /// Storey-count attributes tried when no storey attribute is named.
@@ -31,6 +36,11 @@ pub const DEFAULT_STOREY_ATTRS: &[&str] = &[
     "building:levels",
     "b3_bouwlagen",
     "num_floors",
+    "STORIES",
+    "NUM_FLOORS",
+    // Cut to 10 characters by shapefile writers.
+    "building_l",
+    "b3_bouwlag",
 ];
 
 /// 3DBAG ground height and roof height (70th percentile) attributes.

@@ -216,9 +216,15 @@ fn geographic(g: &Node) -> Option<([f64; 2], String)> {
     let sph = datum
         .child("SPHEROID")
         .or_else(|| datum.child("ELLIPSOID"))?;
-    // A prime meridian other than Greenwich shifts every longitude: not compared, so not identified.
+    // A prime meridian other than Greenwich shifts every longitude, an angular unit other than the degree (grads)
+    // scales them: not compared, so not identified.
     if let Some(pm) = g.child("PRIMEM") {
         if pm.number(1)? != 0.0 {
+            return None;
+        }
+    }
+    if let Some(unit) = g.child("UNIT").or_else(|| g.child("ANGLEUNIT")) {
+        if (unit.number(1)? - std::f64::consts::PI / 180.0).abs() > 1e-12 {
             return None;
         }
     }
@@ -433,7 +439,18 @@ pub(crate) fn declared_crs(wkt: &str) -> (DeclaredCrs, Option<String>) {
         .child("DATUM")
         .map(|d| datum_key(d.name()))
         .is_some_and(|d| matches!(d.as_str(), "WGS1984" | "WGS84" | "WORLDGEODETICSYSTEM1984"));
-    if geographic_key && wgs84_datum {
+    // In degrees from Greenwich: another angular unit (grads) or prime meridian (Paris) would misplace every point.
+    let degrees = root
+        .children()
+        .filter(|c| c.key == "UNIT" || c.key == "ANGLEUNIT")
+        .last()
+        .and_then(|u| u.number(1))
+        .is_none_or(|f| (f - std::f64::consts::PI / 180.0).abs() < 1e-12);
+    let greenwich = root
+        .child("PRIMEM")
+        .and_then(|p| p.number(1))
+        .is_none_or(|x| x == 0.0);
+    if geographic_key && wgs84_datum && degrees && greenwich {
         return (DeclaredCrs::Name("EPSG:4326".into()), None);
     }
     // Esri's Web Mercator has a projection of its own name.
@@ -556,6 +573,8 @@ mod tests {
         assert_eq!(name(ogc), "EPSG:26986");
         let wkt2 = r#"PROJCRS["Amersfoort / RD New",BASEGEOGCRS["Amersfoort",DATUM["Amersfoort",ELLIPSOID["Bessel 1841",6377397.155,299.1528128]]],CONVERSION["RD New",METHOD["Oblique Stereographic"]],CS[Cartesian,2],AXIS["easting (X)",east],AXIS["northing (Y)",north],ID["EPSG",28992]]"#;
         assert_eq!(name(wkt2), "EPSG:28992");
+        let grads = r#"GEOGCS["GCS_WGS_1984",DATUM["D_WGS_1984",SPHEROID["WGS_1984",6378137.0,298.257223563]],PRIMEM["Greenwich",0.0],UNIT["Grad",0.01570796326794897]]"#;
+        assert!(name(grads).starts_with("? .prj"));
         let wgs84 = "\u{feff}GEOGCS[\"GCS_WGS_1984\",DATUM[\"D_WGS_1984\",SPHEROID[\"WGS_1984\",6378137.0,298.257223563]],PRIMEM[\"Greenwich\",0.0],UNIT[\"Degree\",0.0174532925199433]]\n";
         assert_eq!(name(wgs84), "EPSG:4326");
         // A nested authority is not the CRS's.

@@ -42,7 +42,7 @@ pub(crate) const SIDECARS: [(&str, &str); 7] = [
 pub(crate) fn read(path: &Path) -> Result<ShapefileDoc, String> {
     let read = |p: &Path| std::fs::read(p).map_err(|e| format!("{}: {e}", p.display()));
     let shp = read(path)?;
-    let shapes = shapes(&shp).map_err(|e| format!("the .shp {e}"))?;
+    let (shapes, layout_note) = shapes(&shp).map_err(|e| format!("the .shp {e}"))?;
     let dbf_path = sidecar(path, "dbf").ok_or_else(|| {
         "its attribute table (a .dbf of the same name beside it) is missing; a shapefile is read with its .dbf"
             .to_string()
@@ -65,7 +65,10 @@ pub(crate) fn read(path: &Path) -> Result<ShapefileDoc, String> {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let mut notes = table.notes.clone();
+    let mut notes: Vec<String> = layout_note
+        .into_iter()
+        .chain(table.notes.iter().cloned())
+        .collect();
     let mut features = Vec::with_capacity(shapes.len());
     for (index, shape) in shapes.into_iter().enumerate() {
         let (attributes, repairs, deleted) = table.record(index);
@@ -75,10 +78,12 @@ pub(crate) fn read(path: &Path) -> Result<ShapefileDoc, String> {
             repairs,
             ..Default::default()
         };
+        // Records are counted from 1 (the .shp numbers them so); GDAL's feature ids (FID) from 0.
+        let record = format!("record {} (FID {index})", index + 1);
         if deleted {
             out.skip = Some((
                 IssueReason::DeletedRecord,
-                format!("record {} is marked deleted in the .dbf", index + 1),
+                format!("{record} is marked deleted in the .dbf"),
             ));
         } else {
             match shape {
@@ -86,14 +91,21 @@ pub(crate) fn read(path: &Path) -> Result<ShapefileDoc, String> {
                     out.polygons = polygons;
                     out.repairs.extend(repairs);
                 }
-                Err(skip) => out.skip = Some(skip),
+                Err((reason, detail)) => out.skip = Some((reason, format!("{record}: {detail}"))),
             }
         }
         features.push(out);
     }
     let declared_crs = match sidecar(path, "prj") {
         Some(p) => {
-            let (crs, note) = crate::prj::declared_crs(&String::from_utf8_lossy(&read(&p)?));
+            let bytes = read(&p)?;
+            // A .prj written as UTF-16 (some Windows tools) is read as such; any other as UTF-8.
+            let text = match bytes.get(..2) {
+                Some([0xFF, 0xFE]) => encoding_rs::UTF_16LE.decode_with_bom_removal(&bytes).0,
+                Some([0xFE, 0xFF]) => encoding_rs::UTF_16BE.decode_with_bom_removal(&bytes).0,
+                _ => String::from_utf8_lossy(&bytes),
+            };
+            let (crs, note) = crate::prj::declared_crs(&text);
             notes.extend(note);
             Some(crs)
         }
@@ -146,9 +158,14 @@ fn le_f64(b: &[u8], at: usize) -> Option<f64> {
     Some(f64::from_le_bytes(b.get(at..at + 8)?.try_into().ok()?))
 }
 
-/// Every record of a `.shp`, in order. Errors are for the file as a whole (not a shapefile, cut short); a record's
-/// own trouble is its skip reason.
-fn shapes(b: &[u8]) -> Result<Vec<ShapeResult>, String> {
+/// Every record of a `.shp`, in order, and a note when the header's length disagrees with the records. Errors are
+/// for the file as a whole (not a shapefile, cut short); a record's own trouble is its skip reason.
+///
+/// The header's file length is not trusted alone (writers leave it stale): records are read to the end of the file.
+/// Past the length the header gives, only whole records numbered in sequence count (a stale header after an
+/// append); anything else there ends the records (padding), and non-zero bytes left are said in the note. A record
+/// cut short before that length is an error.
+fn shapes(b: &[u8]) -> Result<(Vec<ShapeResult>, Option<String>), String> {
     const HEADER: usize = 100;
     if b.len() < HEADER || be_i32(b, 0) != Some(9994) {
         return Err(format!(
@@ -157,40 +174,49 @@ fn shapes(b: &[u8]) -> Result<Vec<ShapeResult>, String> {
             b.len()
         ));
     }
-    let declared = be_i32(b, 24).unwrap_or(0) as i64 * 2;
-    if declared > b.len() as i64 {
-        return Err(format!(
-            "is cut short: its header gives {declared} bytes, the file has {}",
-            b.len()
-        ));
-    }
-    // Bytes after the length the header gives are not records (some writers pad); records before it must fit.
-    let end = (declared.max(HEADER as i64)) as usize;
+    let declared = (be_i32(b, 24).unwrap_or(0).max(0) as usize)
+        .saturating_mul(2)
+        .max(HEADER);
     let mut out = Vec::new();
     let mut at = HEADER;
-    while at < end {
+    while at < b.len() {
         let n = out.len() + 1;
-        let words = be_i32(b, at + 4).filter(|_| at + 8 <= end).ok_or_else(|| {
-            format!(
-                "is cut short: record {n}'s 8-byte header starts {} bytes before the end",
-                end - at
-            )
-        })?;
-        let len = usize::try_from(words)
-            .ok()
+        let len = be_i32(b, at + 4)
+            .filter(|_| at + 8 <= b.len())
+            .and_then(|w| usize::try_from(w).ok())
             .and_then(|w| w.checked_mul(2))
-            .filter(|l| at + 8 + l <= end)
-            .ok_or_else(|| {
-                format!(
-                    "is cut short or broken: record {n} gives a content of {words} 16-bit words, and {} bytes are \
-                     left",
-                    end - at - 8
-                )
-            })?;
-        out.push(shape(&b[at + 8..at + 8 + len]));
-        at += 8 + len;
+            .filter(|l| at + 8 + l <= b.len());
+        let in_sequence = be_i32(b, at) == i32::try_from(n).ok();
+        match len {
+            Some(len) if at < declared || (in_sequence && len >= 4) => {
+                out.push(shape(&b[at + 8..at + 8 + len]));
+                at += 8 + len;
+            }
+            _ if at < declared => {
+                return Err(format!(
+                    "is cut short: record {n} starts {} bytes before the end of the file and does not fit in them \
+                     (its header gives the file {declared} bytes, it has {})",
+                    b.len() - at,
+                    b.len()
+                ))
+            }
+            _ => break,
+        }
     }
-    Ok(out)
+    let note = if at < b.len() && b[at..].iter().any(|&c| c != 0) {
+        Some(format!(
+            "the .shp's last {} bytes, after its records, are not records and were not read",
+            b.len() - at
+        ))
+    } else if at != declared {
+        Some(format!(
+            "the .shp's header gives it {declared} bytes; its {} records take {at}, all read",
+            out.len()
+        ))
+    } else {
+        None
+    };
+    Ok((out, note))
 }
 
 /// The name of a shape type, for skip reasons.
@@ -374,9 +400,34 @@ fn holds(outer: &[[f64; 2]], outer_box: [f64; 4], inner: &[[f64; 2]], inner_box:
 /// ring joins the smallest outer ring holding it, or is an outer ring (wound the wrong way) when none does. Rings
 /// come out reversed, in the OGC's winding (outer counter-clockwise), so only a ring wound against the shapefile's
 /// rule is later reoriented and counted.
+///
+/// A record whose every ring is wound against the rule (outer rings counter-clockwise, holes clockwise, as GeoJSON
+/// has them — some writers copy rings as they come) is read with the winding the other way round, so that its
+/// courtyards stay courtyards; its rings are then all counted as reoriented. Told by nesting depth (an outer ring
+/// is held by an even number of the record's rings), for records of up to `NESTING_CHECKED` rings.
 fn organize(rings: Vec<Vec<[f64; 2]>>) -> Vec<RawPolygon> {
-    let area: Vec<f64> = rings.iter().map(|r| signed_area2(r)).collect();
+    const NESTING_CHECKED: usize = 512;
+    let mut area: Vec<f64> = rings.iter().map(|r| signed_area2(r)).collect();
     let boxes: Vec<[f64; 4]> = rings.iter().map(|r| bbox(r)).collect();
+    let n = rings.len();
+    if (2..=NESTING_CHECKED).contains(&n) {
+        let depth: Vec<usize> = (0..n)
+            .map(|k| {
+                (0..n)
+                    .filter(|&o| {
+                        o != k
+                            && area[o].abs() > area[k].abs()
+                            && holds(&rings[o], boxes[o], &rings[k], boxes[k])
+                    })
+                    .count()
+            })
+            .collect();
+        let wound_against = (0..n).all(|k| depth[k].is_multiple_of(2) == (area[k] > 0.0));
+        if wound_against && area.iter().any(|a| *a < 0.0) {
+            area.iter_mut().for_each(|a| *a = -*a);
+        }
+    }
+    let area = area;
     // A ring without area (or with non-finite points) is an outer ring: ingest's checks then say what is wrong.
     let is_hole = |k: usize| area[k] > 0.0;
     let mut owner: Vec<Option<usize>> = vec![None; rings.len()];
@@ -463,7 +514,7 @@ impl Codec {
     fn from_code_page(n: u32) -> Option<Codec> {
         let label = match n {
             65001 => return Some(Codec::Utf8),
-            437 | 850 | 852 | 865 => return Some(Codec::AsciiOnly(n as u16)),
+            437 | 737 | 850 | 852 | 857 | 861 | 865 => return Some(Codec::AsciiOnly(n as u16)),
             866 => "ibm866",
             874 => "windows-874",
             932 => "shift_jis",
@@ -484,9 +535,12 @@ impl Codec {
         let page = match id {
             0x01 => 437,
             0x02 => 850,
+            0x26 | 0x65 => 866,
+            0x64 | 0x87 => 852,
+            0x67 => 861,
+            0x6A | 0x86 => 737,
+            0x6B | 0x88 => 857,
             0x03 | 0x57 | 0x58 | 0x59 => 1252,
-            0x64 => 852,
-            0x65 => 866,
             0x66 => 865,
             0x78 | 0x4F => 950,
             0x79 | 0x4E => 949,
@@ -495,7 +549,7 @@ impl Codec {
             0x7C | 0x50 => 874,
             0x7D => 1255,
             0x7E => 1256,
-            0x87 | 0xC8 => 1250,
+            0xC8 => 1250,
             0xC9 => 1251,
             0xCA => 1254,
             0xCB => 1253,
@@ -581,30 +635,123 @@ impl<'a> Table<'a> {
             ));
         }
         let mut notes = Vec::new();
-        let codec = match cpg {
-            Some(text) => Codec::from_cpg(text).ok_or_else(|| {
+        // The field descriptors, names still as bytes (their code page is settled below).
+        let mut raw: Vec<(Vec<u8>, u8, usize, u8)> = Vec::new();
+        let mut offset = 1;
+        let mut at = 32;
+        while at + 32 <= header_len && b[at] != 0x0D {
+            let d = &b[at..at + 32];
+            let name = &d[..11];
+            let name = name[..name.iter().position(|&c| c == 0).unwrap_or(11)].to_vec();
+            // A text field wider than 255 bytes keeps its high byte where numbers keep their decimals (FoxPro,
+            // shapelib).
+            let (len, decimals) = match d[11] {
+                b'C' => (d[16] as usize + 256 * d[17] as usize, 0),
+                _ => (d[16] as usize, d[17]),
+            };
+            raw.push((name, d[11], offset, decimals));
+            offset += len;
+            at += 32;
+        }
+        let widths: Vec<usize> = raw
+            .iter()
+            .map(|r| r.2)
+            .chain([offset])
+            .collect::<Vec<_>>()
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .collect();
+        if offset > record_len {
+            return Err(format!(
+                "is broken: its fields take {offset} bytes a record, its header gives {record_len}"
+            ));
+        }
+        if offset < record_len {
+            notes.push(format!(
+                "the .dbf's records are {record_len} bytes and its fields take {offset}: the last {} bytes of each \
+                 record belong to no field and were not read",
+                record_len - offset
+            ));
+        }
+        let whole = (b.len() - header_len).checked_div(record_len).unwrap_or(0);
+        if count > 0 && whole < count {
+            return Err(format!(
+                "is cut short: its header gives {count} records of {record_len} bytes, the file holds {whole}"
+            ));
+        }
+        // The table's text, for telling UTF-8 from a single-byte code page: field names and text cells.
+        let text_bytes = || {
+            let mut t: Vec<u8> = raw.iter().flat_map(|r| r.0.iter().copied()).collect();
+            for i in 0..count {
+                let rec = &b[header_len + i * record_len..header_len + (i + 1) * record_len];
+                for (r, w) in raw.iter().zip(&widths) {
+                    if r.1 == b'C' {
+                        t.extend_from_slice(&rec[r.2..r.2 + w]);
+                    }
+                }
+            }
+            t
+        };
+        let sniffed = || {
+            let t = text_bytes();
+            match std::str::from_utf8(&t) {
+                Ok(_) => (Codec::Utf8, None),
+                Err(_) => (
+                    Codec::Other(encoding_rs::WINDOWS_1252),
+                    Some("its text is not UTF-8, read as Windows-1252".to_string()),
+                ),
+            }
+        };
+        let cpg = cpg
+            .map(|t| t.trim().trim_start_matches('\u{feff}').trim())
+            .filter(|t| !t.is_empty());
+        let codec = match cpg.map(|t| (t, t.to_ascii_uppercase())) {
+            // The writer's own system code pages, which the file does not name.
+            Some((_, u)) if u == "OEM" => Codec::AsciiOnly(437),
+            Some((t, u)) if u == "SYSTEM" || u == "ANSI" => {
+                let (c, why) = sniffed();
+                notes.push(format!(
+                    "the .cpg says {t:?} (the writer's system code page, not named): {}",
+                    why.unwrap_or_else(|| "its text reads as UTF-8".into())
+                ));
+                c
+            }
+            Some((t, _)) => Codec::from_cpg(t).ok_or_else(|| {
                 format!(
-                    "is in the code page its .cpg names, {:?}, which citylod cannot decode (it reads UTF-8, \
-                     Windows 874 and 1250–1258, ISO-8859-x, IBM 866, Shift_JIS, GBK, Big5, EUC-KR and KOI8)",
-                    text.trim()
+                    "is in the code page its .cpg names, {t:?}, which citylod cannot decode (it reads UTF-8, Windows \
+                     874 and 1250–1258, ISO-8859-x, IBM 866, Shift_JIS, GBK, Big5, EUC-KR and KOI8; write one of \
+                     these in the .cpg, or convert the .dbf)"
                 )
             })?,
             None => match Codec::from_ldid(b[29]) {
-                Some(c) => c,
-                // No code page named: UTF-8 when every byte of the table's text reads as UTF-8, else Windows-1252
-                // (what Esri's tools write); the report says which.
-                None => {
-                    let text = &b[header_len.min(b.len())..];
-                    if std::str::from_utf8(text).is_ok() {
-                        Codec::Utf8
-                    } else {
-                        let c = Codec::Other(encoding_rs::WINDOWS_1252);
-                        notes.push(
-                            "no .cpg and no code page in the .dbf: its text is not UTF-8, read as Windows-1252"
-                                .to_string(),
-                        );
-                        c
+                Some(c) => {
+                    // A code-page byte kept from an older file while the text was written as UTF-8 (the .cpg
+                    // lost): said, not guessed over.
+                    let t = text_bytes();
+                    if c != Codec::Utf8 && !t.is_ascii() && std::str::from_utf8(&t).is_ok() {
+                        notes.push(format!(
+                            "the .dbf's header names {} but its text reads as UTF-8; read as {} (a .cpg saying \
+                             UTF-8 would read it as UTF-8)",
+                            c.name(),
+                            c.name()
+                        ));
                     }
+                    c
+                }
+                // No code page named: UTF-8 when the table's text reads as UTF-8, else Windows-1252 (what Esri's
+                // tools write); the report says which.
+                None => {
+                    let (c, why) = sniffed();
+                    let named = match b[29] {
+                        0 => "no .cpg and no code page in the .dbf".to_string(),
+                        id => format!("no .cpg, and a code-page byte {id:#04x} citylod does not know"),
+                    };
+                    if let Some(why) = why {
+                        notes.push(format!("{named}: {why}"));
+                    } else if b[29] != 0 {
+                        notes.push(format!("{named}: its text reads as UTF-8"));
+                    }
+                    c
                 }
             },
         };
@@ -615,13 +762,15 @@ impl<'a> Table<'a> {
             ));
         }
         let mut fields: Vec<Field> = Vec::new();
-        let mut offset = 1;
-        let mut at = 32;
-        while at + 32 <= header_len && b[at] != 0x0D {
-            let d = &b[at..at + 32];
-            let raw_name = &d[..11];
-            let raw_name = &raw_name[..raw_name.iter().position(|&c| c == 0).unwrap_or(11)];
-            let mut name = codec.decode(raw_name).0.trim().to_string();
+        for ((raw_name, kind, offset, decimals), len) in raw.into_iter().zip(widths) {
+            let (name, replaced) = codec.decode(&raw_name);
+            let mut name = name.trim().to_string();
+            if replaced {
+                notes.push(format!(
+                    "field name {name:?} has bytes not in {}, replaced by U+FFFD",
+                    codec.name()
+                ));
+            }
             if name.is_empty() {
                 name = format!("field_{}", fields.len() + 1);
             }
@@ -635,27 +784,13 @@ impl<'a> Table<'a> {
                 ));
                 name = renamed;
             }
-            let len = d[16] as usize;
             fields.push(Field {
                 name,
-                kind: d[11],
+                kind,
                 offset,
                 len,
-                decimals: d[17],
+                decimals,
             });
-            offset += len;
-            at += 32;
-        }
-        if offset > record_len {
-            return Err(format!(
-                "is broken: its fields take {offset} bytes a record, its header gives {record_len}"
-            ));
-        }
-        let whole = (b.len() - header_len).checked_div(record_len).unwrap_or(0);
-        if count > 0 && whole < count {
-            return Err(format!(
-                "is cut short: its header gives {count} records of {record_len} bytes, the file holds {whole}"
-            ));
         }
         fields.retain(|f| {
             let kind = f.kind as char;
@@ -711,6 +846,8 @@ impl<'a> Table<'a> {
     /// A cell's value, and what went wrong reading it (then the value is its text, or null for no text).
     fn value(&self, f: &Field, cell: &[u8]) -> (AttrValue, Option<String>) {
         let text = || {
+            // Text ends at a NUL, as dBase readers take it (writers leave bytes of older values after one).
+            let cell = &cell[..cell.iter().position(|&c| c == 0).unwrap_or(cell.len())];
             let (s, replaced) = self.codec.decode(cell);
             (s.trim_end_matches([' ', '\0']).to_string(), replaced)
         };
@@ -748,6 +885,14 @@ impl<'a> Table<'a> {
                     if let Ok(i) = t.parse::<i64>() {
                         return (AttrValue::Int(i), None);
                     }
+                    // A whole number beyond 64 bits (an identifier, most likely): its digits kept exactly.
+                    let digits = t.strip_prefix(['+', '-']).unwrap_or(&t);
+                    if !digits.is_empty() && digits.bytes().all(|c| c.is_ascii_digit()) {
+                        return as_text(
+                            t.clone(),
+                            format!("{t} is beyond a 64-bit integer; kept as text"),
+                        );
+                    }
                 }
                 match t.parse::<f64>() {
                     Ok(x)
@@ -776,13 +921,23 @@ impl<'a> Table<'a> {
                     return (AttrValue::Null, None);
                 }
                 let n = |r: std::ops::Range<usize>| t.get(r).and_then(|s| s.parse::<u32>().ok());
+                let days = |y: u32, m: u32| match m {
+                    2 if y.is_multiple_of(4)
+                        && (!y.is_multiple_of(100) || y.is_multiple_of(400)) =>
+                    {
+                        29
+                    }
+                    2 => 28,
+                    4 | 6 | 9 | 11 => 30,
+                    _ => 31,
+                };
                 match (
                     t.len() == 8 && t.bytes().all(|c| c.is_ascii_digit()),
                     n(0..4),
                     n(4..6),
                     n(6..8),
                 ) {
-                    (true, Some(y), Some(m @ 1..=12), Some(d @ 1..=31)) => {
+                    (true, Some(y), Some(m @ 1..=12), Some(d)) if d >= 1 && d <= days(y, m) => {
                         (AttrValue::String(format!("{y:04}-{m:02}-{d:02}")), None)
                     }
                     _ => as_text(
@@ -882,6 +1037,21 @@ mod tests {
         let p = organize(vec![square(0.0, 0.0, 10.0), ccw(square(0.0, 0.0, 5.0))]);
         assert_eq!(p.len(), 1);
         assert_eq!(p[0].len(), 2);
+    }
+
+    #[test]
+    fn a_record_wound_all_the_other_way_keeps_its_courtyard() {
+        // GeoJSON's winding in a shapefile: the outer ring counter-clockwise, its courtyard clockwise.
+        let block = ccw(square(0.0, 0.0, 100.0));
+        let court = square(20.0, 20.0, 60.0);
+        let p = organize(vec![block.clone(), court.clone()]);
+        assert_eq!(p.len(), 1);
+        assert_eq!(p[0], vec![rev(block), rev(court)]);
+        // Both rings come out wound against the OGC's rule, for the repair to turn and count them.
+        assert!(signed_area2(&p[0][0]) < 0.0 && signed_area2(&p[0][1]) > 0.0);
+        // A lone counter-clockwise ring beside a clockwise one is not a reversed record.
+        let p = organize(vec![square(0.0, 0.0, 10.0), ccw(square(50.0, 0.0, 10.0))]);
+        assert_eq!(p.len(), 2);
     }
 
     #[test]

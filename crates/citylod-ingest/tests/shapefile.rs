@@ -691,3 +691,175 @@ fn an_esri_prj_without_a_code_is_identified() {
         r.buildings[0].area_m2()
     );
 }
+
+/// What a review of real writers' files found: text fields over 255 bytes (FoxPro and shapelib keep the high byte of
+/// the width in the decimals byte), bytes after a NUL, whole numbers beyond 64 bits, 30 February, field names in a
+/// code page nothing names, `.cpg` files saying `SYSTEM` or nothing, a stale `.shp` header length, rings wound as
+/// GeoJSON winds them, a UTF-16 `.prj`.
+#[test]
+fn what_real_writers_leave_in_their_files_is_read_or_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let one = vec![Shape::Polygon(vec![square_at(0.0, 10.0)])];
+    // A 300-byte text field, then a height: by hand, since the widths do not fit the writer's byte.
+    let wide = {
+        let mut d = vec![0x03, 126, 1, 1];
+        d.extend_from_slice(&1u32.to_le_bytes());
+        d.extend_from_slice(&(32u16 + 64 + 1).to_le_bytes());
+        d.extend_from_slice(&(1u16 + 300 + 6).to_le_bytes());
+        d.extend_from_slice(&[0; 20]);
+        let field = |name: &[u8], kind: u8, len: u8, dec: u8| {
+            let mut f = name.to_vec();
+            f.resize(11, 0);
+            f.push(kind);
+            f.extend_from_slice(&[0; 4]);
+            f.extend_from_slice(&[len, dec]);
+            f.extend_from_slice(&[0; 14]);
+            f
+        };
+        d.extend(field(b"note", b'C', 44, 1));
+        d.extend(field(b"HEIGHT", b'N', 6, 1));
+        d.push(0x0D);
+        d.push(b' ');
+        let mut note = b"long".to_vec();
+        note.resize(300, b' ');
+        d.extend(note);
+        d.extend_from_slice(b"  22.5");
+        d.push(0x1A);
+        d
+    };
+    let mut t = id_table();
+    t.push([text("x"), num("1")]);
+    let shp = write(dir.path(), "wide", &one, &t, Some(WGS84_PRJ), None);
+    std::fs::write(dir.path().join("wide.dbf"), wide).unwrap();
+    let opts = IngestOptions {
+        height_attr: Some("HEIGHT".into()),
+        ..Default::default()
+    };
+    let r = ingest(std::slice::from_ref(&shp), &opts).unwrap();
+    assert_eq!(
+        r.buildings[0].attributes["note"],
+        AttrValue::String("long".into())
+    );
+    assert_eq!(r.buildings[0].height_m, 22.5);
+
+    // Cells: text after a NUL, a 20-digit identifier, a date that does not exist.
+    let mut t = Table::new(vec![
+        Field::new("id", b'C', 12, 0),
+        Field::new("big", b'N', 20, 0),
+        Field::new("day", b'D', 8, 0),
+    ]);
+    t.push([
+        b"abc\0\0old".to_vec(),
+        num("12345678901234567891"),
+        text("20110230"),
+    ]);
+    let shp = write(dir.path(), "cells", &one, &t, Some(WGS84_PRJ), None);
+    let r = ingest(&[shp], &IngestOptions::default()).unwrap();
+    let a = &r.buildings[0].attributes;
+    assert_eq!(r.buildings[0].source_id, "abc");
+    assert_eq!(a["big"], AttrValue::String("12345678901234567891".into()));
+    assert_eq!(a["day"], AttrValue::String("20110230".into()));
+    assert_eq!(repairs(&r).len(), 2, "{:?}", repairs(&r));
+
+    // A field name in Windows-1252 (HÖHE), nothing naming the code page, the values all ASCII.
+    let mut t = Table::new(vec![Field::new("HxHE", b'N', 6, 1)]);
+    t.push([num("12.0")]);
+    let shp = write(dir.path(), "names", &one, &t, Some(WGS84_PRJ), None);
+    let dbf = dir.path().join("names.dbf");
+    let mut bytes = std::fs::read(&dbf).unwrap();
+    assert_eq!(bytes[32 + 1], b'x');
+    bytes[32 + 1] = 0xD6;
+    std::fs::write(&dbf, bytes).unwrap();
+    let r = ingest(std::slice::from_ref(&shp), &IngestOptions::default()).unwrap();
+    assert_eq!(
+        r.buildings[0].attributes["H\u{d6}HE"],
+        AttrValue::Float(12.0)
+    );
+    assert!(r.report.files[0].notes[0].contains("Windows-1252"));
+    // .cpg files saying nothing, or the writer's system code page: read as with no .cpg, and said.
+    for (cpg, said) in [("", false), ("SYSTEM", true)] {
+        let shp = write(
+            dir.path(),
+            "cpg",
+            &one[..1],
+            &{
+                let mut t1 = Table::new(vec![Field::new("name", b'C', 8, 0)]);
+                t1.push([b"Caf\xe9".to_vec()]);
+                t1
+            },
+            Some(WGS84_PRJ),
+            Some(cpg),
+        );
+        let r = ingest(&[shp], &IngestOptions::default()).unwrap();
+        assert_eq!(
+            r.buildings[0].attributes["name"],
+            AttrValue::String("Café".into()),
+            "{cpg:?}"
+        );
+        assert_eq!(
+            r.report.files[0].notes.iter().any(|n| n.contains("SYSTEM")),
+            said,
+            "{cpg:?}"
+        );
+    }
+
+    // A .shp header giving fewer bytes than its records take (a stale header after an append): all read, and said.
+    let mut t = id_table();
+    t.push([text("a"), num("1")]);
+    t.push([text("b"), num("1")]);
+    let two = vec![
+        Shape::Polygon(vec![square_at(0.0, 10.0)]),
+        Shape::Polygon(vec![square_at(20.0, 10.0)]),
+    ];
+    let shp = write(dir.path(), "stale", &two, &t, Some(WGS84_PRJ), None);
+    let mut bytes = std::fs::read(&shp).unwrap();
+    let first_end = 100 + 8 + 2 * u32::from_be_bytes(bytes[104..108].try_into().unwrap()) as usize;
+    bytes[24..28].copy_from_slice(&((first_end / 2) as u32).to_be_bytes());
+    std::fs::write(&shp, &bytes).unwrap();
+    let r = ingest(std::slice::from_ref(&shp), &IngestOptions::default()).unwrap();
+    assert_eq!(ids(&r), ["a", "b"]);
+    assert!(
+        r.report.files[0]
+            .notes
+            .iter()
+            .any(|n| n.contains("header gives")),
+        "{:?}",
+        r.report.files[0].notes
+    );
+    // Zero bytes of padding after the length the header gives are not records.
+    let words = (bytes.len() / 2) as u32;
+    bytes[24..28].copy_from_slice(&words.to_be_bytes());
+    bytes.extend_from_slice(&[0; 64]);
+    std::fs::write(&shp, &bytes).unwrap();
+    assert_eq!(
+        ids(&ingest(std::slice::from_ref(&shp), &IngestOptions::default()).unwrap()),
+        ["a", "b"]
+    );
+
+    // GeoJSON's winding copied into a shapefile: the courtyard stays a courtyard.
+    let mut t = Table::new(vec![Field::new("id", b'C', 8, 0)]);
+    t.push([text("court")]);
+    let inner: Vec<[f64; 2]> = square_at(10.0, 20.0)
+        .into_iter()
+        .map(|p| [p[0], p[1] + 10.0 / 111_000.0])
+        .collect();
+    let rings = vec![ccw(square_at(0.0, 40.0)), inner];
+    let utf16: Vec<u8> = [0xFF, 0xFE]
+        .into_iter()
+        .chain(WGS84_PRJ.encode_utf16().flat_map(|u| u.to_le_bytes()))
+        .collect();
+    let shp = write(
+        dir.path(),
+        "geojsonwound",
+        &[Shape::Polygon(rings)],
+        &t,
+        None,
+        None,
+    );
+    std::fs::write(dir.path().join("geojsonwound.prj"), utf16).unwrap();
+    let r = ingest(&[shp], &IngestOptions::default()).unwrap();
+    assert_eq!(r.report.files[0].crs, "EPSG:4326");
+    assert_eq!(r.buildings[0].footprint.0.len(), 1);
+    assert_eq!(r.buildings[0].footprint.0[0].interiors().len(), 1);
+    assert_eq!(r.report.rings_reoriented, 2);
+}
