@@ -410,7 +410,7 @@ pub(crate) fn declared_crs(wkt: &str) -> (DeclaredCrs, Option<String>) {
         (
             DeclaredCrs::NotUnderstood {
                 member: ".prj",
-                detail: format!("{why} ({})", wkt.chars().take(100).collect::<String>()),
+                detail: format!("{why} ({:?})", wkt.chars().take(100).collect::<String>()),
             },
             None,
         )

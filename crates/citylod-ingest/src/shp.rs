@@ -387,13 +387,21 @@ fn locate(p: [f64; 2], r: &[[f64; 2]]) -> Option<bool> {
 }
 
 /// Whether ring `inner` lies inside ring `outer`: its first point not on `outer`'s boundary decides (rings of one
-/// valid polygon do not cross); a ring all on the boundary counts as inside.
+/// valid polygon do not cross); a ring all on the boundary counts as inside. At most `TRIED` points, spread over the
+/// ring, are tried (a hole tracing its outer ring would otherwise cost the square of their points).
 fn holds(outer: &[[f64; 2]], outer_box: [f64; 4], inner: &[[f64; 2]], inner_box: [f64; 4]) -> bool {
     let boxed = inner_box[0] >= outer_box[0]
         && inner_box[1] >= outer_box[1]
         && inner_box[2] <= outer_box[2]
         && inner_box[3] <= outer_box[3];
-    boxed && inner.iter().find_map(|&p| locate(p, outer)).unwrap_or(true)
+    const TRIED: usize = 16;
+    let step = inner.len().div_ceil(TRIED).max(1);
+    boxed
+        && inner
+            .iter()
+            .step_by(step)
+            .find_map(|&p| locate(p, outer))
+            .unwrap_or(true)
 }
 
 /// Polygons from a record's rings in a shapefile's winding: clockwise rings are outer rings, each counter-clockwise
@@ -502,13 +510,24 @@ impl Codec {
             }
             return Codec::from_code_page(digits.parse().ok()?);
         }
-        encoding_rs::Encoding::for_label(t.as_bytes()).map(|e| {
-            if e == encoding_rs::UTF_8 {
-                Codec::Utf8
-            } else {
-                Codec::Other(e)
-            }
-        })
+        // Labels encoding_rs maps to its replacement decoder (ISO-2022-KR, HZ) or to UTF-16 name no code page a
+        // dBase table can be in.
+        encoding_rs::Encoding::for_label(t.as_bytes())
+            .filter(|e| {
+                ![
+                    encoding_rs::REPLACEMENT,
+                    encoding_rs::UTF_16LE,
+                    encoding_rs::UTF_16BE,
+                ]
+                .contains(e)
+            })
+            .map(|e| {
+                if e == encoding_rs::UTF_8 {
+                    Codec::Utf8
+                } else {
+                    Codec::Other(e)
+                }
+            })
     }
 
     fn from_code_page(n: u32) -> Option<Codec> {
@@ -717,8 +736,9 @@ impl<'a> Table<'a> {
                 c
             }
             Some((t, _)) => Codec::from_cpg(t).ok_or_else(|| {
+                let shown: String = t.chars().take(40).collect();
                 format!(
-                    "is in the code page its .cpg names, {t:?}, which citylod cannot decode (it reads UTF-8, Windows \
+                    "is in the code page its .cpg names, {shown:?}, which citylod cannot decode (it reads UTF-8, Windows \
                      874 and 1250–1258, ISO-8859-x, IBM 866, Shift_JIS, GBK, Big5, EUC-KR and KOI8; write one of \
                      these in the .cpg, or convert the .dbf)"
                 )
@@ -762,6 +782,9 @@ impl<'a> Table<'a> {
             ));
         }
         let mut fields: Vec<Field> = Vec::new();
+        let mut taken = std::collections::HashSet::new();
+        let mut copies: std::collections::HashMap<String, usize> = std::collections::HashMap::new();
+        let mut renamed_fields = Vec::new();
         for ((raw_name, kind, offset, decimals), len) in raw.into_iter().zip(widths) {
             let (name, replaced) = codec.decode(&raw_name);
             let mut name = name.trim().to_string();
@@ -774,16 +797,19 @@ impl<'a> Table<'a> {
             if name.is_empty() {
                 name = format!("field_{}", fields.len() + 1);
             }
-            if fields.iter().any(|f| f.name == name) {
-                let renamed = (2..)
-                    .map(|k| format!("{name}_{k}"))
-                    .find(|n| fields.iter().all(|f| &f.name != n))
-                    .expect("some suffix is free");
-                notes.push(format!(
-                    "field {name} is named twice; the second is read as {renamed}"
-                ));
+            if taken.contains(&name) {
+                let copy = copies.entry(name.clone()).or_insert(1);
+                let renamed = loop {
+                    *copy += 1;
+                    let n = format!("{name}_{copy}");
+                    if !taken.contains(&n) {
+                        break n;
+                    }
+                };
+                renamed_fields.push(format!("{name} → {renamed}"));
                 name = renamed;
             }
+            taken.insert(name.clone());
             fields.push(Field {
                 name,
                 kind,
@@ -791,6 +817,12 @@ impl<'a> Table<'a> {
                 len,
                 decimals,
             });
+        }
+        if !renamed_fields.is_empty() {
+            notes.push(format!(
+                "field names given more than once, the later ones renamed: {}",
+                crate::geojson::listing(&renamed_fields)
+            ));
         }
         fields.retain(|f| {
             let kind = f.kind as char;
@@ -1084,6 +1116,8 @@ mod tests {
         );
         assert_eq!(Codec::from_cpg("850"), Some(Codec::AsciiOnly(850)));
         assert_eq!(Codec::from_cpg("EBCDIC"), None);
+        assert_eq!(Codec::from_cpg("iso-2022-kr"), None);
+        assert_eq!(Codec::from_cpg("utf-16"), None);
         assert_eq!(
             Codec::from_ldid(0x57),
             Some(Codec::Other(encoding_rs::WINDOWS_1252))

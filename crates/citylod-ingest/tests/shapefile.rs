@@ -863,3 +863,31 @@ fn what_real_writers_leave_in_their_files_is_read_or_reported() {
     assert_eq!(r.buildings[0].footprint.0[0].interiors().len(), 1);
     assert_eq!(r.report.rings_reoriented, 2);
 }
+
+/// Field names given more than once are all kept, the later ones renamed, in one note.
+#[test]
+fn repeated_field_names_are_renamed_in_one_note() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut t = Table::new((0..300).map(|_| Field::new("A", b'N', 3, 0)).collect());
+    t.push((0..300).map(num));
+    let shp = write(
+        dir.path(),
+        "dup",
+        &[Shape::Polygon(vec![square_at(0.0, 10.0)])],
+        &t,
+        Some(WGS84_PRJ),
+        None,
+    );
+    let r = ingest(&[shp], &IngestOptions::default()).unwrap();
+    let a = &r.buildings[0].attributes;
+    assert_eq!(
+        (a["A"].clone(), a["A_2"].clone(), a["A_300"].clone()),
+        (AttrValue::Int(0), AttrValue::Int(1), AttrValue::Int(299))
+    );
+    let notes = &r.report.files[0].notes;
+    assert_eq!(notes.len(), 1, "{notes:?}");
+    assert!(
+        notes[0].contains("A → A_2") && notes[0].contains("and 289 more"),
+        "{notes:?}"
+    );
+}
