@@ -270,6 +270,21 @@ fn a_shapefile_builds_with_its_prj_and_dbf() {
         (lon + 71.06).abs() < 0.05 && (lat - 42.36).abs() < 0.05,
         "{lon}, {lat}"
     );
+    // Ids from a field: a misspelt name is a usage error naming the fields there are.
+    let o = citylod(&[
+        "build",
+        shp.to_str().unwrap(),
+        "--out",
+        d.join("tiles2").to_str().unwrap(),
+        "--id-attr",
+        "NAME",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("\"NAME\"") && err.contains("HEIGHT, name"),
+        "{err}"
+    );
 }
 
 #[test]

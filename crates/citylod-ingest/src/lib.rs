@@ -53,7 +53,7 @@ pub use repair::{check_footprint, MIN_AREA_M2};
 pub use report::{FeatureIssue, FileReport, IngestReport, InputFormat, IssueReason};
 pub use streets::{read_streets, Streets, StreetsReport};
 
-use citylod_model::{Building, BuildingId, LocalFrame};
+use citylod_model::{AttrValue, Building, BuildingId, LocalFrame};
 use crs::DeclaredCrs;
 use feature::RawFeature;
 use geo_types::{Coord, MultiPolygon};
@@ -83,6 +83,10 @@ pub struct IngestOptions {
     /// with its BuildingParts merged in; GeoJSON input is unaffected. Default `None`: footprints only.
     /// Footprints and heights are the same either way.
     pub lod: Option<LodChoice>,
+    /// Attribute holding each building's id (`Building::source_id`), for every input format. A feature without a
+    /// value there keeps the id the format's own rule gives it, reported as `id_attribute_missing`; an error when
+    /// no feature has a value there (a misspelt name). Default `None`: the format's rule.
+    pub id_attr: Option<String>,
 }
 
 impl Default for IngestOptions {
@@ -94,6 +98,7 @@ impl Default for IngestOptions {
             storey_height_m: 3.0,
             default_height_m: 10.0,
             lod: None,
+            id_attr: None,
         }
     }
 }
@@ -174,6 +179,9 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
         .par_iter()
         .map(|p| load(p, opts, model_target))
         .collect::<Result<_, _>>()?;
+    if let Some(name) = &opts.id_attr {
+        ids_from_attribute(&mut files, name)?;
+    }
 
     let outcomes: Vec<Vec<Result<Prepared, Skip>>> = files
         .iter()
@@ -421,6 +429,59 @@ pub(crate) fn read_text(path: &Path) -> Result<String, IngestError> {
         text.drain(..'\u{feff}'.len_utf8());
     }
     Ok(text)
+}
+
+/// Sets every feature's source id from attribute `name` (`--id-attr`); a feature without a value there keeps its
+/// own id, reported. An error when no feature of any file has a value there.
+fn ids_from_attribute(files: &mut [LoadedFile], name: &str) -> Result<(), IngestError> {
+    let text = |v: &AttrValue| match v {
+        AttrValue::String(s) if !s.trim().is_empty() => Some(s.clone()),
+        AttrValue::Int(i) => Some(i.to_string()),
+        // A whole number stored as a double (a dBase N field with decimals, a JSON 1001234.0): its digits.
+        AttrValue::Float(x)
+            if x.is_finite() && x.fract() == 0.0 && x.abs() < 9.007_199_254_740_992e15 =>
+        {
+            Some(format!("{}", *x as i64))
+        }
+        AttrValue::Float(x) if x.is_finite() => Some(x.to_string()),
+        _ => None,
+    };
+    let mut found = 0usize;
+    for f in files.iter_mut() {
+        for raw in &mut f.features {
+            match raw.attributes.get(name).and_then(text) {
+                Some(id) => {
+                    raw.source_id = id;
+                    found += 1;
+                }
+                None => raw.repairs.push((
+                    IssueReason::IdAttributeMissing,
+                    format!(
+                        "no value in {name}; the id {} is the format's own",
+                        raw.source_id
+                    ),
+                )),
+            }
+        }
+    }
+    let total: usize = files.iter().map(|f| f.features.len()).sum();
+    if found == 0 && total > 0 {
+        let mut seen: Vec<String> = files
+            .iter()
+            .flat_map(|f| f.features.iter().take(100))
+            .flat_map(|r| r.attributes.iter().map(|(k, _)| k.clone()))
+            .collect();
+        seen.sort();
+        seen.dedup();
+        return Err(IngestError::InvalidOption {
+            name: "id_attr",
+            detail: format!(
+                "no feature has a value in {name:?} (attributes found: {})",
+                geojson::listing(&seen)
+            ),
+        });
+    }
+    Ok(())
 }
 
 /// Reads, detects and parses one file, and settles its CRS.

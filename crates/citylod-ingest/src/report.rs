@@ -90,6 +90,9 @@ pub enum IssueReason {
     /// heights is used (its ground, its top for the height rule, its 3D model, which is listed as `model_invalid`).
     /// Without such an attribute the building is skipped (`coordinate_out_of_range`).
     GeometryHeightsIgnored,
+    /// `--id-attr` names an attribute this feature has no value in: its id is the one its format's own rule gives
+    /// (a GeoJSON `id`, a CityJSON object's key, `FILE#INDEX`).
+    IdAttributeMissing,
     // --- 3D models (building written, listed in `mesh_issues`) ---
     /// No Solid or surface geometry at the asked LoD or below: no mesh. When only one part lacks
     /// it, the mesh is built from the other parts.
@@ -140,6 +143,7 @@ impl IssueReason {
             UndecodableValueKeptAsText => "undecodable_value_kept_as_text",
             UndecodableKeyKeptAsText => "undecodable_key_kept_as_text",
             GeometryHeightsIgnored => "geometry_heights_ignored",
+            IdAttributeMissing => "id_attribute_missing",
             ModelMissing => "model_missing",
             ModelInvalid => "model_invalid",
             ModelSurfaceDropped => "model_surface_dropped",

@@ -891,3 +891,49 @@ fn repeated_field_names_are_renamed_in_one_note() {
         "{notes:?}"
     );
 }
+
+/// `--id-attr` takes each building's id from a field (NYC's BIN here; whole numbers stored with decimals as their
+/// digits); a record without a value keeps the default id, reported; a name no feature has is an error naming the
+/// fields there are. The same for GeoJSON, on the bundled Lower East Side (its `osm_id`).
+#[test]
+fn ids_come_from_the_attribute_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut t = Table::new(vec![
+        Field::new("BIN", b'N', 12, 1),
+        Field::new("name", b'C', 8, 0),
+    ]);
+    t.push([num("1001234.0"), text("a")]);
+    t.push([text(""), text("b")]);
+    t.push([num("1001236.0"), text("c")]);
+    let shapes: Vec<Shape> = (0..3)
+        .map(|k| Shape::Polygon(vec![square_at(20.0 * k as f64, 10.0)]))
+        .collect();
+    let shp = write(dir.path(), "bin", &shapes, &t, Some(WGS84_PRJ), None);
+    let opts = |name: &str| IngestOptions {
+        id_attr: Some(name.into()),
+        ..Default::default()
+    };
+    let r = ingest(std::slice::from_ref(&shp), &opts("BIN")).unwrap();
+    assert_eq!(ids(&r), ["1001234", "bin.shp#1", "1001236"]);
+    assert_eq!(
+        repairs(&r)
+            .iter()
+            .map(|(id, reason, _)| (id.as_str(), reason.as_str()))
+            .collect::<Vec<_>>(),
+        [("bin.shp#1", "id_attribute_missing")]
+    );
+    let e = ingest(std::slice::from_ref(&shp), &opts("BINN")).unwrap_err();
+    assert!(
+        e.to_string().contains("\"BINN\"") && e.to_string().contains("BIN, name"),
+        "{e}"
+    );
+    // GeoJSON: the Lower East Side's OSM ids, without their type.
+    let les =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/nyc-les/les_buildings.geojson");
+    let by_default = ingest(std::slice::from_ref(&les), &IngestOptions::default()).unwrap();
+    let by_osm_id = ingest(&[les], &opts("osm_id")).unwrap();
+    assert_eq!(by_default.buildings.len(), by_osm_id.buildings.len());
+    for (a, b) in by_default.buildings.iter().zip(&by_osm_id.buildings) {
+        assert_eq!(a.source_id.split('/').nth(1), Some(b.source_id.as_str()));
+    }
+}

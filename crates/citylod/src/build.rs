@@ -28,6 +28,12 @@ pub struct BuildArgs {
     #[arg(long, value_name = "EPSG:CODE", help_heading = "Input")]
     pub crs: Option<String>,
 
+    /// Attribute holding each building's id (for every format; e.g. BIN, BLDG_ID). Default: GeoJSON's `id` (or
+    /// `id`, `@id`, OSM's type/id in its properties), a CityJSON object's key, a Shapefile's `id` field, else
+    /// FILE#INDEX. Features without a value there keep that default id, listed as repairs.
+    #[arg(long, value_name = "NAME", help_heading = "Input")]
+    pub id_attr: Option<String>,
+
     /// Attribute holding the building height above ground, in metres (strings such as "28 m" are accepted).
     /// Default: the first of height, building:height, measuredHeight, … that a feature has.
     #[arg(long, value_name = "NAME", help_heading = "Input")]
@@ -566,6 +572,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
     let opts = IngestOptions {
         crs: args.crs.clone(),
         height_attr: args.height_attr.clone(),
+        id_attr: args.id_attr.clone(),
         storey_attr: args.storey_attr.clone(),
         storey_height_m: args.storey_height,
         default_height_m: args.default_height,
