@@ -380,21 +380,32 @@ pub(crate) fn multipolygon_is_valid(mp: &MultiPolygon) -> bool {
             return valid;
         }
     }
+    all_pairs_meet_at_points_only(mp, &boxes, &tree)
+}
+
+/// Whether parts `p` and `q` (each valid) neither overlap nor share a line: geo's `relate`, or [`Sides`] for large
+/// ones.
+fn pair_meets_at_points_only(p: &Polygon, q: &Polygon) -> bool {
+    if vertex_count(p).saturating_mul(vertex_count(q)) > RELATE_MAX_WORK {
+        let (pq, qp) = (Sides::of(p, q), Sides::of(q, p));
+        return !(pq.crosses_or_shares || pq.inside || qp.inside);
+    }
+    let m = p.relate(q);
+    m.get(CoordPos::Inside, CoordPos::Inside) != Dimensions::TwoDimensional
+        && m.get(CoordPos::OnBoundary, CoordPos::OnBoundary) != Dimensions::OneDimensional
+}
+
+/// Every pair of parts whose boxes meet, related.
+fn all_pairs_meet_at_points_only(
+    mp: &MultiPolygon,
+    boxes: &[GeomWithData<Rectangle<[f64; 2]>, usize>],
+    tree: &RTree<GeomWithData<Rectangle<[f64; 2]>, usize>>,
+) -> bool {
     boxes.iter().all(|b| {
         let p = &mp.0[b.data];
         tree.locate_in_envelope_intersecting(&b.geom().envelope())
             .filter(|o| o.data > b.data)
-            .all(|o| {
-                let q = &mp.0[o.data];
-                if vertex_count(p).saturating_mul(vertex_count(q)) > RELATE_MAX_WORK {
-                    let (pq, qp) = (Sides::of(p, q), Sides::of(q, p));
-                    return !(pq.crosses_or_shares || pq.inside || qp.inside);
-                }
-                let m = p.relate(q);
-                m.get(CoordPos::Inside, CoordPos::Inside) != Dimensions::TwoDimensional
-                    && m.get(CoordPos::OnBoundary, CoordPos::OnBoundary)
-                        != Dimensions::OneDimensional
-            })
+            .all(|o| pair_meets_at_points_only(p, &mp.0[o.data]))
     })
 }
 
@@ -427,6 +438,9 @@ fn parts_meet_at_points_only(mp: &MultiPolygon) -> Option<bool> {
             })
             .collect::<Vec<_>>(),
     );
+    // Parts whose boundaries touch at a point: a ray's parity cannot tell whether they overlap there (a square and a
+    // triangle through two of its corners), so these pairs are related as a pair.
+    let mut touching: Vec<(usize, usize)> = Vec::new();
     for (i, &(s, k)) in segments.iter().enumerate() {
         let env = AABB::from_corners([s.start.x, s.start.y], [s.end.x, s.end.y]);
         for g in tree.locate_in_envelope_intersecting(&env) {
@@ -450,7 +464,22 @@ fn parts_meet_at_points_only(mp: &MultiPolygon) -> Option<bool> {
                     return Some(false);
                 }
             }
+            let touch = (o1 == 0.0 && on_box(a, t.start, t.end))
+                || (o2 == 0.0 && on_box(b, t.start, t.end))
+                || (o3 == 0.0 && on_box(t.start, a, b))
+                || (o4 == 0.0 && on_box(t.end, a, b));
+            if touch {
+                touching.push((k.min(q), k.max(q)));
+            }
         }
+    }
+    touching.sort_unstable();
+    touching.dedup();
+    if !touching
+        .iter()
+        .all(|&(k, q)| pair_meets_at_points_only(&mp.0[k], &mp.0[q]))
+    {
+        return Some(false);
     }
     let on_other = |m: Coord, k: usize| {
         let at = AABB::from_point([m.x, m.y]);
@@ -688,6 +717,21 @@ mod tests {
             );
             assert_eq!(parts_meet_at_points_only(&mp), Some(want));
         }
+        // Two parts overlapping while their boundaries meet only at vertices (a square and a triangle through two of
+        // its corners), among the annuli.
+        let mut parts = nested(None).0;
+        parts.push(Polygon::new(
+            ring(&[(400.0, 0.0), (402.0, 0.0), (402.0, 2.0), (400.0, 2.0)]),
+            vec![],
+        ));
+        parts.push(Polygon::new(
+            ring(&[(402.0, 0.0), (403.0, 3.0), (400.0, 2.0)]),
+            vec![],
+        ));
+        let mp = MultiPolygon(parts);
+        assert!(!mp.is_valid());
+        assert_eq!(parts_meet_at_points_only(&mp), Some(false));
+        assert!(!multipolygon_is_valid(&mp));
         // A diamond in the innermost hole touching it at four points, and a small square inside a band.
         let mut parts = nested(None).0;
         parts.push(Polygon::new(diamond(1), vec![]));
