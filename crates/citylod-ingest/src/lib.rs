@@ -474,7 +474,7 @@ fn ids_from_attribute(files: &mut [LoadedFile], name: &str) -> Result<(), Ingest
         seen.sort();
         seen.dedup();
         return Err(IngestError::InvalidOption {
-            name: "id_attr",
+            name: "--id-attr",
             detail: format!(
                 "no feature has a value in {name:?} (attributes found: {})",
                 geojson::listing(&seen)

@@ -170,10 +170,12 @@ fn datum_key(name: &str) -> String {
         "ETRS1989" => "EUROPEANTERRESTRIALREFERENCESYSTEM1989",
         "GDA1994" => "GEOCENTRICOFAUSTRALIA1994",
         "GDA2020" => "GEOCENTRICOFAUSTRALIA2020",
-        "NORTHAMERICAN1983HARN" => "NAD83HIGHACCURACYREFERENCENETWORK",
-        "NORTHAMERICAN1983CSRS" => "NAD83CANADIANSPATIALREFERENCESYSTEM",
-        "NORTHAMERICAN1983NSRS2007" => "NAD83NATIONALSPATIALREFERENCESYSTEM2007",
-        "NORTHAMERICAN19832011" => "NAD83NATIONALSPATIALREFERENCESYSTEM2011",
+        "NORTHAMERICAN1983HARN" | "NAD1983HARN" => "NAD83HIGHACCURACYREFERENCENETWORK",
+        "NORTHAMERICAN1983CSRS" | "NAD1983CSRS" => "NAD83CANADIANSPATIALREFERENCESYSTEM",
+        "NORTHAMERICAN1983NSRS2007" | "NAD1983NSRS2007" => {
+            "NAD83NATIONALSPATIALREFERENCESYSTEM2007"
+        }
+        "NORTHAMERICAN19832011" | "NAD19832011" => "NAD83NATIONALSPATIALREFERENCESYSTEM2011",
         _ => return k,
     };
     spelled.to_string()
@@ -266,11 +268,22 @@ fn projected(n: &Node) -> Option<Projected> {
                     Family::LambertConic2,
                     vec![a.min(b), a.max(b), lat0, lon0, fe, fn_],
                 ),
-                // One standard parallel: it is the latitude of origin, with a scale there.
-                (sp1, _) => (
-                    Family::LambertConic1,
-                    vec![sp1.copied().unwrap_or(lat0), lon0, k, fe, fn_],
-                ),
+                // One standard parallel at the latitude of origin, with a scale there (EPSG's 1SP; an Esri .prj
+                // may give the parallel, the origin or both).
+                (sp1, _)
+                    if sp1.is_none_or(|&a| !p.contains_key("lat0") || (a - lat0).abs() <= 1e-9) =>
+                {
+                    (
+                        Family::LambertConic1,
+                        vec![sp1.copied().unwrap_or(lat0), lon0, k, fe, fn_],
+                    )
+                }
+                // Two equal standard parallels away from the origin: a tangent cone whose origin is elsewhere,
+                // compared as a 2SP with equal parallels.
+                (sp1, _) => {
+                    let a = sp1.copied().unwrap_or(lat0);
+                    (Family::LambertConic2, vec![a, a, lat0, lon0, fe, fn_])
+                }
             }
         }
         "DOUBLESTEREOGRAPHIC" | "OBLIQUESTEREOGRAPHIC" => {
@@ -300,13 +313,14 @@ fn projected(n: &Node) -> Option<Projected> {
 
 /// Whether two projected CRSs put every point in the same place (within a millimetre).
 fn same_projection(a: &Projected, b: &Projected) -> bool {
-    // Angles and scales to 1e-8 (an angle of 1e-8° is ~1 mm), false eastings and northings (over 1 km) to 1 mm.
+    // Angles and scales to 1e-6 (an angle of 1e-6° is ~0.1 m; .prj files written with six decimals differ from the
+    // table by that much), false eastings and northings (over 1 km) to 1 mm.
     let close = |x: f64, y: f64| {
         (x - y).abs()
             <= if x.abs().max(y.abs()) > 1e3 {
                 1e-3
             } else {
-                1e-8
+                1e-6
             }
     };
     a.family == b.family
@@ -320,8 +334,43 @@ fn same_ellipsoid(a: [f64; 2], b: [f64; 2]) -> bool {
     (a[0] - b[0]).abs() <= 1e-3 && (a[1] - b[1]).abs() <= 1e-6
 }
 
+/// Whether two proj4 strings stand for one transformation: the same keys, numbers equal within a millimetre or
+/// 1e-8 (`+x_0=800000` and `+x_0=800000.0000101601`), other values equal, after [`transform_key`].
+fn same_transform(a: &str, b: &str) -> bool {
+    let (a, b) = (transform_key(a), transform_key(b));
+    let split = |s: &str| -> Vec<(String, String)> {
+        s.split_whitespace()
+            .map(|t| match t.split_once('=') {
+                Some((k, v)) => (k.to_string(), v.to_string()),
+                None => (t.to_string(), String::new()),
+            })
+            .collect()
+    };
+    let (a, b) = (split(&a), split(&b));
+    let close = |x: f64, y: f64| {
+        (x - y).abs()
+            <= if x.abs().max(y.abs()) > 1e3 {
+                1e-3
+            } else {
+                1e-8
+            }
+    };
+    let nums = |v: &str| {
+        v.split(',')
+            .map(str::parse::<f64>)
+            .collect::<Result<Vec<_>, _>>()
+    };
+    a.len() == b.len()
+        && a.iter().zip(&b).all(|((ka, va), (kb, vb))| {
+            ka == kb
+                && (va == vb
+                    || matches!((nums(va), nums(vb)), (Ok(x), Ok(y)) if x.len() == y.len()
+                        && x.iter().zip(&y).all(|(x, y)| close(*x, *y))))
+        })
+}
+
 /// The transformation a proj4 string stands for, with the spellings of one datum made alike
-/// (`+datum=NAD83` is `+ellps=GRS80 +towgs84=0,0,0`).
+/// (`+datum=NAD83` is `+ellps=GRS80 +towgs84=0,0,0`; no datum shift at all is a zero shift), sorted by key.
 fn transform_key(proj4: &str) -> String {
     let mut tokens: Vec<String> = Vec::new();
     for t in proj4.split_whitespace() {
@@ -344,6 +393,17 @@ fn transform_key(proj4: &str) -> String {
             }
             t => tokens.push(t.to_string()),
         }
+    }
+    // An ellipsoid with no shift and no grid: proj4rs applies none, as for a zero shift.
+    let shifted = tokens.iter().any(|t| {
+        t.starts_with("+towgs84=") || t.starts_with("+nadgrids=") || t.starts_with("+datum=")
+    });
+    if !shifted
+        && tokens
+            .iter()
+            .any(|t| t.starts_with("+ellps=") || t.starts_with("+a="))
+    {
+        tokens.push("+towgs84=0,0,0".to_string());
     }
     tokens.sort();
     tokens.join(" ")
@@ -463,7 +523,19 @@ pub(crate) fn declared_crs(wkt: &str) -> (DeclaredCrs, Option<String>) {
             .children()
             .filter(|c| c.key == "PARAMETER")
             .all(|c| c.number(1) == Some(0.0));
-        return if all_zero {
+        let metres = root
+            .children()
+            .filter(|c| c.key == "UNIT")
+            .last()
+            .and_then(|u| u.number(1))
+            == Some(1.0);
+        let wgs84 = root
+            .child("GEOGCS")
+            .and_then(geographic)
+            .is_some_and(|(e, d)| {
+                same_ellipsoid(e, [6_378_137.0, 298.257_223_563]) && d == "WGS1984"
+            });
+        return if all_zero && metres && wgs84 {
             (
                 DeclaredCrs::Name("EPSG:3857".into()),
                 Some("CRS EPSG:3857 (WGS 84 / Pseudo-Mercator) identified from the .prj's projection".into()),
@@ -499,7 +571,7 @@ pub(crate) fn declared_crs(wkt: &str) -> (DeclaredCrs, Option<String>) {
         found.iter().filter(|d| def_datum(d) == datum).collect();
     let one_transform = |defs: &[&crs_definitions::Def]| {
         defs.windows(2)
-            .all(|w| transform_key(w[0].proj4) == transform_key(w[1].proj4))
+            .all(|w| same_transform(w[0].proj4, w[1].proj4))
     };
     let all: Vec<&crs_definitions::Def> = found.iter().collect();
     // Among codes that transform alike, the label: the datum's name, then the most words shared with the .prj's
@@ -512,6 +584,7 @@ pub(crate) fn declared_crs(wkt: &str) -> (DeclaredCrs, Option<String>) {
                 let theirs = words(&def_name(d));
                 let shared = theirs.iter().filter(|w| own.contains(w)).count() as i64;
                 (
+                    !def_name(d).contains("deprecated"),
                     def_datum(d) == datum,
                     2 * shared - theirs.len() as i64,
                     std::cmp::Reverse(d.code),
@@ -611,6 +684,22 @@ mod tests {
         assert_eq!(name(web), "EPSG:3857");
         let nad83 = r#"GEOGCS["GCS_North_American_1983",DATUM["D_North_American_1983",SPHEROID["GRS_1980",6378137.0,298.257222101]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]]"#;
         assert_eq!(name(nad83), "EPSG:4269");
+    }
+
+    #[test]
+    fn esri_prj_files_a_review_found_misread() {
+        // NAD83(2011), as ArcGIS names its datum.
+        let nyli_2011 = r#"PROJCS["NAD_1983_2011_StatePlane_New_York_Long_Isl_FIPS_3104_Ft_US",GEOGCS["GCS_NAD_1983_2011",DATUM["D_NAD_1983_2011",SPHEROID["GRS_1980",6378137.0,298.257222101]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]],PROJECTION["Lambert_Conformal_Conic"],PARAMETER["False_Easting",984250.0],PARAMETER["False_Northing",0.0],PARAMETER["Central_Meridian",-74.0],PARAMETER["Standard_Parallel_1",40.66666666666666],PARAMETER["Standard_Parallel_2",41.03333333333333],PARAMETER["Latitude_Of_Origin",40.16666666666666],UNIT["Foot_US",0.3048006096012192]]"#;
+        assert_eq!(name(nyli_2011), "EPSG:6539");
+        // Its metre twin differs from a deprecated code by 10 µm of false easting: one transformation.
+        let mn = r#"PROJCS["NAD_1983_StatePlane_Minnesota_North_FIPS_2201",GEOGCS["GCS_North_American_1983",DATUM["D_North_American_1983",SPHEROID["GRS_1980",6378137.0,298.257222101]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]],PROJECTION["Lambert_Conformal_Conic"],PARAMETER["False_Easting",800000.0],PARAMETER["False_Northing",100000.0],PARAMETER["Central_Meridian",-93.1],PARAMETER["Standard_Parallel_1",47.03333333333333],PARAMETER["Standard_Parallel_2",48.63333333333333],PARAMETER["Latitude_Of_Origin",46.5],UNIT["Meter",1.0]]"#;
+        assert_eq!(name(mn), "EPSG:26991");
+        // Two equal standard parallels away from the latitude of origin are not a 1SP at the parallel (166 km off).
+        let lcc39 = r#"PROJCS["custom_lcc_origin_39",GEOGCS["GCS_North_American_1983",DATUM["D_North_American_1983",SPHEROID["GRS_1980",6378137.0,298.257222101]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]],PROJECTION["Lambert_Conformal_Conic"],PARAMETER["False_Easting",500000.0],PARAMETER["False_Northing",0.0],PARAMETER["Central_Meridian",-84.25],PARAMETER["Standard_Parallel_1",37.96666666666667],PARAMETER["Standard_Parallel_2",37.96666666666667],PARAMETER["Latitude_Of_Origin",39.0],UNIT["Meter",1.0]]"#;
+        assert!(name(lcc39).starts_with("? .prj"), "{}", name(lcc39));
+        // Esri's Web Mercator in feet is not EPSG:3857.
+        let feet = r#"PROJCS["WGS_1984_Web_Mercator_Auxiliary_Sphere",GEOGCS["GCS_WGS_1984",DATUM["D_WGS_1984",SPHEROID["WGS_1984",6378137.0,298.257223563]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]],PROJECTION["Mercator_Auxiliary_Sphere"],PARAMETER["False_Easting",0.0],PARAMETER["False_Northing",0.0],PARAMETER["Central_Meridian",0.0],PARAMETER["Standard_Parallel_1",0.0],PARAMETER["Auxiliary_Sphere_Type",0.0],UNIT["Foot_US",0.3048006096012192]]"#;
+        assert!(name(feet).starts_with("? .prj"), "{}", name(feet));
     }
 
     #[test]
