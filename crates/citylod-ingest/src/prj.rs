@@ -311,23 +311,29 @@ fn projected(n: &Node) -> Option<Projected> {
     })
 }
 
-/// Whether two projected CRSs put every point in the same place (within a millimetre).
+/// Whether two projected CRSs put every point in the same place (within about 0.1 m).
 fn same_projection(a: &Projected, b: &Projected) -> bool {
     // Angles and scales to 1e-6 (an angle of 1e-6° is ~0.1 m; .prj files written with six decimals differ from the
     // table by that much), false eastings and northings (over 1 km) to 1 mm.
-    let close = |x: f64, y: f64| {
-        (x - y).abs()
-            <= if x.abs().max(y.abs()) > 1e3 {
-                1e-3
-            } else {
-                1e-6
-            }
-    };
     a.family == b.family
         && a.params.len() == b.params.len()
-        && a.params.iter().zip(&b.params).all(|(x, y)| close(*x, *y))
+        && a.params
+            .iter()
+            .zip(&b.params)
+            .all(|(x, y)| close(*x, *y, 1e-6))
         && (a.unit_m - b.unit_m).abs() <= 1e-9 * a.unit_m
         && same_ellipsoid(a.ellipsoid, b.ellipsoid)
+}
+
+/// Whether two parameters agree: within 1 mm for values over 1 km (false eastings and northings in metres), else
+/// within `small` (angles in degrees, scales).
+fn close(x: f64, y: f64, small: f64) -> bool {
+    (x - y).abs()
+        <= if x.abs().max(y.abs()) > 1e3 {
+            1e-3
+        } else {
+            small
+        }
 }
 
 fn same_ellipsoid(a: [f64; 2], b: [f64; 2]) -> bool {
@@ -347,14 +353,6 @@ fn same_transform(a: &str, b: &str) -> bool {
             .collect()
     };
     let (a, b) = (split(&a), split(&b));
-    let close = |x: f64, y: f64| {
-        (x - y).abs()
-            <= if x.abs().max(y.abs()) > 1e3 {
-                1e-3
-            } else {
-                1e-8
-            }
-    };
     let nums = |v: &str| {
         v.split(',')
             .map(str::parse::<f64>)
@@ -365,7 +363,7 @@ fn same_transform(a: &str, b: &str) -> bool {
             ka == kb
                 && (va == vb
                     || matches!((nums(va), nums(vb)), (Ok(x), Ok(y)) if x.len() == y.len()
-                        && x.iter().zip(&y).all(|(x, y)| close(*x, *y))))
+                        && x.iter().zip(&y).all(|(x, y)| close(*x, *y, 1e-8))))
         })
 }
 

@@ -15,6 +15,7 @@
 use crate::crs::DeclaredCrs;
 use crate::feature::{RawFeature, RawPolygon};
 use crate::report::IssueReason;
+use citylod_mesh::signed_area2;
 use citylod_model::{AttrValue, Attributes};
 use std::path::{Path, PathBuf};
 
@@ -328,17 +329,6 @@ fn polygon(c: &[u8]) -> ShapeResult {
         rings.push(r);
     }
     Ok((organize(rings), repairs))
-}
-
-/// Twice the signed area of an open ring: positive when it runs counter-clockwise (x east, y north).
-fn signed_area2(r: &[[f64; 2]]) -> f64 {
-    let n = r.len();
-    (0..n)
-        .map(|i| {
-            let (a, b) = (r[i], r[(i + 1) % n]);
-            a[0] * b[1] - b[0] * a[1]
-        })
-        .sum()
 }
 
 /// The bounding box of a ring: [min x, min y, max x, max y].
@@ -1021,11 +1011,6 @@ mod tests {
         vec![[x0, y0], [x0, y0 + s], [x0 + s, y0 + s], [x0 + s, y0]]
     }
 
-    fn ccw(mut r: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
-        r.reverse();
-        r
-    }
-
     fn rev(mut r: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
         r.reverse();
         r
@@ -1036,9 +1021,9 @@ mod tests {
         // A courtyard block with an island building in its courtyard, the island's own hole, and a separate
         // square; rings in a scrambled order.
         let block = square(0.0, 0.0, 100.0);
-        let court = ccw(square(20.0, 20.0, 60.0));
+        let court = rev(square(20.0, 20.0, 60.0));
         let island = square(40.0, 40.0, 20.0);
-        let island_hole = ccw(square(45.0, 45.0, 5.0));
+        let island_hole = rev(square(45.0, 45.0, 5.0));
         let other = square(200.0, 0.0, 10.0);
         let p = organize(vec![
             island_hole.clone(),
@@ -1062,11 +1047,11 @@ mod tests {
         }
         // A counter-clockwise ring no outer ring holds is an outline of its own, not dropped; it stays wound the
         // wrong way for the repair to count.
-        let p = organize(vec![square(0.0, 0.0, 10.0), ccw(square(50.0, 0.0, 10.0))]);
+        let p = organize(vec![square(0.0, 0.0, 10.0), rev(square(50.0, 0.0, 10.0))]);
         assert_eq!(p.len(), 2);
         assert!(signed_area2(&p[1][0]) < 0.0);
         // A hole touching its outer ring's boundary (sharing a corner) still joins it.
-        let p = organize(vec![square(0.0, 0.0, 10.0), ccw(square(0.0, 0.0, 5.0))]);
+        let p = organize(vec![square(0.0, 0.0, 10.0), rev(square(0.0, 0.0, 5.0))]);
         assert_eq!(p.len(), 1);
         assert_eq!(p[0].len(), 2);
     }
@@ -1074,7 +1059,7 @@ mod tests {
     #[test]
     fn a_record_wound_all_the_other_way_keeps_its_courtyard() {
         // GeoJSON's winding in a shapefile: the outer ring counter-clockwise, its courtyard clockwise.
-        let block = ccw(square(0.0, 0.0, 100.0));
+        let block = rev(square(0.0, 0.0, 100.0));
         let court = square(20.0, 20.0, 60.0);
         let p = organize(vec![block.clone(), court.clone()]);
         assert_eq!(p.len(), 1);
@@ -1082,7 +1067,7 @@ mod tests {
         // Both rings come out wound against the OGC's rule, for the repair to turn and count them.
         assert!(signed_area2(&p[0][0]) < 0.0 && signed_area2(&p[0][1]) > 0.0);
         // A lone counter-clockwise ring beside a clockwise one is not a reversed record.
-        let p = organize(vec![square(0.0, 0.0, 10.0), ccw(square(50.0, 0.0, 10.0))]);
+        let p = organize(vec![square(0.0, 0.0, 10.0), rev(square(50.0, 0.0, 10.0))]);
         assert_eq!(p.len(), 2);
     }
 

@@ -20,6 +20,40 @@ const DIRECT_VERTICES: usize = 256;
 /// every other (a square with 20,000 small holes took 15–20 s).
 const DIRECT_HOLES: usize = 64;
 
+/// Box-indexed items: a segment or a polygon by its position in the slice it was built from.
+type Boxes = RTree<GeomWithData<Rectangle<[f64; 2]>, usize>>;
+
+/// An R-tree of segments' boxes, each item the segment's position in `lines`.
+fn segment_tree<'a>(lines: impl Iterator<Item = &'a Line>) -> Boxes {
+    RTree::bulk_load(
+        lines
+            .enumerate()
+            .map(|(i, l)| {
+                GeomWithData::new(
+                    Rectangle::from_corners([l.start.x, l.start.y], [l.end.x, l.end.y]),
+                    i,
+                )
+            })
+            .collect(),
+    )
+}
+
+/// The bounding boxes of polygons, each item the polygon's position in `polygons` (an empty polygon has none).
+fn polygon_boxes(polygons: &[Polygon]) -> Vec<GeomWithData<Rectangle<[f64; 2]>, usize>> {
+    polygons
+        .iter()
+        .enumerate()
+        .filter_map(|(i, p)| {
+            p.bounding_rect().map(|r| {
+                GeomWithData::new(
+                    Rectangle::from_corners([r.min().x, r.min().y], [r.max().x, r.max().y]),
+                    i,
+                )
+            })
+        })
+        .collect()
+}
+
 /// Whether two segments `i` ≠ `j` of a ring count as a self-intersection: they meet, and not only because one
 /// ends where the other starts (geo's rule, symmetric in `i` and `j`).
 fn crossing(a: &Line, b: &Line) -> bool {
@@ -53,17 +87,7 @@ fn meetings_up_to<'a>(
         .enumerate()
         .flat_map(|(r, ring)| ring.lines().map(move |l| (r, l)))
         .collect();
-    let boxes: Vec<GeomWithData<Rectangle<[f64; 2]>, usize>> = lines
-        .iter()
-        .enumerate()
-        .map(|(i, (_, l))| {
-            GeomWithData::new(
-                Rectangle::from_corners([l.start.x, l.start.y], [l.end.x, l.end.y]),
-                i,
-            )
-        })
-        .collect();
-    let tree = RTree::bulk_load(boxes);
+    let tree = segment_tree(lines.iter().map(|(_, l)| l));
     let (mut count, mut tested) = (0, 0usize);
     for (i, (ra, a)) in lines.iter().enumerate() {
         let env = AABB::from_corners([a.start.x, a.start.y], [a.end.x, a.end.y]);
@@ -131,18 +155,7 @@ pub(crate) fn polygon_is_valid(p: &Polygon) -> bool {
     // The shell's segments indexed once for all its holes, and the holes' boxes, so that only holes whose boxes meet
     // are compared (every pair of 20,000 holes is 2·10⁸ relations).
     let shell_index = Boundary::of(&shell);
-    let hole_boxes: Vec<GeomWithData<Rectangle<[f64; 2]>, usize>> = holes
-        .iter()
-        .enumerate()
-        .filter_map(|(i, h)| {
-            h.bounding_rect().map(|r| {
-                GeomWithData::new(
-                    Rectangle::from_corners([r.min().x, r.min().y], [r.max().x, r.max().y]),
-                    i,
-                )
-            })
-        })
-        .collect();
+    let hole_boxes = polygon_boxes(&holes);
     let hole_tree = RTree::bulk_load(hole_boxes.clone());
     for (k, h) in holes.iter().enumerate() {
         if vertex_count(&shell).saturating_mul(vertex_count(h)) > RELATE_MAX_WORK
@@ -161,9 +174,11 @@ pub(crate) fn polygon_is_valid(p: &Polygon) -> bool {
                 return false;
             }
         }
-        let Some(k_box) = hole_boxes.iter().find(|b| b.data == k) else {
+        // Boxes are in the holes' order (a hole without one, empty, is skipped).
+        let Ok(at) = hole_boxes.binary_search_by_key(&k, |b| b.data) else {
             continue;
         };
+        let k_box = &hole_boxes[at];
         let mut near: Vec<usize> = hole_tree
             .locate_in_envelope_intersecting(&k_box.geom().envelope())
             .map(|b| b.data)
@@ -225,7 +240,7 @@ struct Sides {
 /// A polygon's boundary segments with an R-tree over them, for locating points and cutting other boundaries.
 struct Boundary {
     lines: Vec<Line>,
-    tree: RTree<GeomWithData<Rectangle<[f64; 2]>, usize>>,
+    tree: Boxes,
 }
 
 impl Boundary {
@@ -235,18 +250,7 @@ impl Boundary {
             .flat_map(|r| r.lines())
             .filter(|l| l.start != l.end)
             .collect();
-        let tree = RTree::bulk_load(
-            lines
-                .iter()
-                .enumerate()
-                .map(|(i, l)| {
-                    GeomWithData::new(
-                        Rectangle::from_corners([l.start.x, l.start.y], [l.end.x, l.end.y]),
-                        i,
-                    )
-                })
-                .collect::<Vec<_>>(),
-        );
+        let tree = segment_tree(lines.iter());
         Boundary { lines, tree }
     }
 }
@@ -322,7 +326,7 @@ fn on_box(c: Coord, a: Coord, b: Coord) -> bool {
 fn locate(
     m: Coord,
     lines: &[Line],
-    tree: &RTree<GeomWithData<Rectangle<[f64; 2]>, usize>>,
+    tree: &Boxes,
 ) -> Option<bool> {
     let ray = AABB::from_corners([m.x, m.y], [f64::MAX, m.y]);
     let mut inside = false;
@@ -351,18 +355,7 @@ pub(crate) fn multipolygon_is_valid(mp: &MultiPolygon) -> bool {
     if !mp.0.iter().all(polygon_is_valid) {
         return false;
     }
-    let boxes: Vec<GeomWithData<Rectangle<[f64; 2]>, usize>> =
-        mp.0.iter()
-            .enumerate()
-            .filter_map(|(i, p)| {
-                p.bounding_rect().map(|r| {
-                    GeomWithData::new(
-                        Rectangle::from_corners([r.min().x, r.min().y], [r.max().x, r.max().y]),
-                        i,
-                    )
-                })
-            })
-            .collect();
+    let boxes = polygon_boxes(&mp.0);
     let tree = RTree::bulk_load(boxes.clone());
     // Parts nested in one another's holes all have meeting boxes: past this many pairs, one pass over every segment
     // instead (4,000 concentric rings were 8·10⁶ relations, 16 s).
@@ -399,7 +392,7 @@ fn pair_meets_at_points_only(p: &Polygon, q: &Polygon) -> bool {
 fn all_pairs_meet_at_points_only(
     mp: &MultiPolygon,
     boxes: &[GeomWithData<Rectangle<[f64; 2]>, usize>],
-    tree: &RTree<GeomWithData<Rectangle<[f64; 2]>, usize>>,
+    tree: &Boxes,
 ) -> bool {
     boxes.iter().all(|b| {
         let p = &mp.0[b.data];
@@ -426,18 +419,7 @@ fn parts_meet_at_points_only(mp: &MultiPolygon) -> Option<bool> {
                     .map(move |l| (l, k))
             })
             .collect();
-    let tree = RTree::bulk_load(
-        segments
-            .iter()
-            .enumerate()
-            .map(|(i, (l, _))| {
-                GeomWithData::new(
-                    Rectangle::from_corners([l.start.x, l.start.y], [l.end.x, l.end.y]),
-                    i,
-                )
-            })
-            .collect::<Vec<_>>(),
-    );
+    let tree = segment_tree(segments.iter().map(|(l, _)| l));
     // Parts whose boundaries touch at a point: a ray's parity cannot tell whether they overlap there (a square and a
     // triangle through two of its corners), so these pairs are related as a pair.
     let mut touching: Vec<(usize, usize)> = Vec::new();

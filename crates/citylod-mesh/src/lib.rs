@@ -18,3 +18,4 @@ pub mod simplify;
 pub mod topology;
 
 pub use extrude::{extrude, MeshError};
+pub use ring::signed_area2;
