@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs what `make test` and `make demo` need, idempotently:
 #   - Debian packages chromium (browser tests), mesa-vulkan-drivers and libvulkan1 (lavapipe for the wgpu
-#     renderer) with apt-get, as root, only when one is missing (apt-get update only then);
+#     renderer) and libsqlite3-dev (the SQLite library GeoPackage input is read with) with apt-get, as root, only when one is missing (apt-get update only then);
 #   - the JavaScript tools with `npm ci`, only when node_modules is missing or older than package-lock.json.
 # Exits non-zero with a message saying what could not be installed.
 set -euo pipefail
@@ -15,7 +15,7 @@ die() {
 }
 
 # --- Debian packages ---------------------------------------------------------------------------------
-apt_packages=(chromium mesa-vulkan-drivers libvulkan1)
+apt_packages=(chromium mesa-vulkan-drivers libvulkan1 libsqlite3-dev)
 missing=()
 for pkg in "${apt_packages[@]}"; do
   if ! dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q '^install ok installed$'; then

@@ -288,6 +288,56 @@ fn a_shapefile_builds_with_its_prj_and_dbf() {
 }
 
 #[test]
+fn a_geopackage_builds_from_the_layer_named() {
+    // GDAL's GeoPackage of 203 Lower East Side buildings in EPSG:2263, beside 20 roads in a second layer.
+    let gpkg = repo_root().join("crates/citylod-ingest/tests/geopackage/les_gdal.gpkg");
+    let d = scratch_dir("geopackage");
+    let o = citylod(&[
+        "build",
+        gpkg.to_str().unwrap(),
+        "--out",
+        d.join("refused").to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--layer") && err.contains("buildings (MULTIPOLYGON), roads (LINESTRING)"),
+        "{err}"
+    );
+    assert!(!d.join("refused").exists());
+    let out = d.join("tiles");
+    let report = build(&[&gpkg], &out, &["--layer", "buildings"]);
+    let errors = schema_errors("build-report.schema.json", &report);
+    assert!(errors.is_empty(), "{}", errors.join("\n"));
+    let file = &report["ingest"]["files"][0];
+    assert_eq!(
+        (
+            file["format"].as_str(),
+            file["crs"].as_str(),
+            file["features_read"].as_u64()
+        ),
+        (Some("geo_package"), Some("EPSG:2263"), Some(203))
+    );
+    assert_eq!(
+        file["notes"][0].as_str(),
+        Some("layer \"buildings\" read, of 2 feature tables (buildings, roads)")
+    );
+    let written = report["counts"]["buildings_written"].as_u64().unwrap();
+    let skipped = report["counts"]["skipped"].as_u64().unwrap();
+    assert!(written > 190, "{written}");
+    assert_eq!(written + skipped, 203);
+    // In Manhattan: the feet of EPSG:2263 read as such.
+    let (lon, lat) = (
+        report["frame"]["origin_lon_deg"].as_f64().unwrap(),
+        report["frame"]["origin_lat_deg"].as_f64().unwrap(),
+    );
+    assert!(
+        (lon + 73.99).abs() < 0.02 && (lat - 40.72).abs() < 0.02,
+        "{lon}, {lat}"
+    );
+}
+
+#[test]
 fn failed_build_leaves_existing_output_untouched() {
     let d = scratch_dir("atomic");
     let out = d.join("tiles");

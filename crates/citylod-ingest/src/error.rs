@@ -53,6 +53,14 @@ pub enum IngestError {
     /// A shapefile without a `.prj`, and no CRS was given by the user.
     #[error("{path}: no .prj beside it names its CRS; pass one with --crs, e.g. --crs EPSG:26986")]
     MissingPrj { path: PathBuf },
+    /// A GeoPackage that cannot be read as one (not SQLite, no GeoPackage tables, several feature tables and no
+    /// `--layer`, a layer that is not there).
+    #[error("{path}: invalid GeoPackage: {detail}")]
+    InvalidGeoPackage { path: PathBuf, detail: String },
+    /// A GeoPackage layer whose spatial reference system is the undefined one (srs_id -1 or 0), and no CRS was given
+    /// by the user.
+    #[error("{path}: the layer's spatial reference system is undefined (srs_id -1 or 0); pass its CRS with --crs, e.g. --crs EPSG:28992")]
+    GeoPackageWithoutCrs { path: PathBuf },
     /// A CityJSON file that declares no `referenceSystem`, and no CRS was given by the user.
     #[error("{path}: the file declares no CRS (no metadata.referenceSystem); pass one with --crs, e.g. --crs EPSG:28992")]
     MissingCrs { path: PathBuf },

@@ -1,4 +1,4 @@
-//! The ingest stage (DESIGN.md §2): read building files (GeoJSON, CityJSON, CityJSONSeq), convert
+//! The ingest stage (DESIGN.md §2): read building files (GeoJSON, Shapefile, GeoPackage, CityJSON, CityJSONSeq), convert
 //! their CRS to WGS84 and then to one local east-north-up frame, resolve heights, repair or skip
 //! every feature, and report each skip and repair. Never panics on bad data: a broken feature is
 //! skipped with a reason, a broken file is an [`IngestError`]. With [`IngestOptions::lod`], CityJSON
@@ -31,6 +31,7 @@ mod error;
 mod feature;
 mod geoid;
 mod geojson;
+mod gpkg;
 mod height;
 mod lod;
 mod model3d;
@@ -87,6 +88,9 @@ pub struct IngestOptions {
     /// value there keeps the id the format's own rule gives it, reported as `id_attribute_missing`; an error when
     /// no feature has a value there (a misspelt name). Default `None`: the format's rule.
     pub id_attr: Option<String>,
+    /// The feature table to read from each GeoPackage (`--layer`). Default `None`: a GeoPackage's only feature
+    /// table; one with several is an error listing them. An error when no input is a GeoPackage.
+    pub layer: Option<String>,
 }
 
 impl Default for IngestOptions {
@@ -99,6 +103,7 @@ impl Default for IngestOptions {
             default_height_m: 10.0,
             lod: None,
             id_attr: None,
+            layer: None,
         }
     }
 }
@@ -168,6 +173,16 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
             name: "lod",
             detail,
         })?;
+    if let Some(layer) = &opts.layer {
+        if !paths.iter().any(|p| gpkg::is_geopackage_name(p)) {
+            return Err(IngestError::InvalidOption {
+                name: "--layer",
+                detail: format!(
+                    "{layer:?} names a GeoPackage feature table, and none of the inputs is a GeoPackage (.gpkg)"
+                ),
+            });
+        }
+    }
     if let Some(c) = &opts.crs {
         Crs::parse(c).map_err(|e| IngestError::UnknownCrs {
             origin: "--crs".into(),
@@ -519,6 +534,38 @@ fn load(
         return Err(IngestError::UnknownFormat {
             path: path.into(),
             detail: format!("this is a shapefile's {what}; give its .shp as the input"),
+        });
+    }
+    if gpkg::is_geopackage_name(path) {
+        let doc = gpkg::read(path, opts.layer.as_deref()).map_err(|detail| {
+            IngestError::InvalidGeoPackage {
+                path: path.into(),
+                detail,
+            }
+        })?;
+        let crs = match (&opts.crs, doc.declared_crs) {
+            (None, None) => return Err(IngestError::GeoPackageWithoutCrs { path: path.into() }),
+            (given, declared) => settle_crs(path, given, declared, InputFormat::GeoPackage)?,
+        };
+        return Ok(LoadedFile {
+            path: path.into(),
+            format: InputFormat::GeoPackage,
+            crs,
+            version: None,
+            non_building_objects: 0,
+            features: doc.features,
+            notes: doc.notes,
+        });
+    }
+    if let Some((_, what)) = gpkg::SIDECARS
+        .iter()
+        .find(|(e, _)| extension.as_deref() == Some(*e))
+    {
+        return Err(IngestError::UnknownFormat {
+            path: path.into(),
+            detail: format!(
+                "this is SQLite's {what} beside a GeoPackage; give the .gpkg as the input"
+            ),
         });
     }
     let text = read_text(path)?;

@@ -172,6 +172,7 @@ pub enum InputFormat {
     CityJson,
     CityJsonSeq,
     Shapefile,
+    GeoPackage,
 }
 
 /// What happened to one input file.

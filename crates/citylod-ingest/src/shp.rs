@@ -988,9 +988,9 @@ impl<'a> Table<'a> {
     }
 }
 
-/// The building's id as for GeoJSON properties: `id`, else `@id`, else OSM's `osm_type/osm_id`, else `FILE#INDEX`
-/// (the record's 0-based position).
-fn source_id(a: &Attributes, file_name: &str, index: usize) -> String {
+/// The building's id as for GeoJSON properties: `id`, else `@id`, else OSM's `osm_type/osm_id`, else `FILE#N` (a
+/// shapefile record's 0-based position, a GeoPackage row's FID).
+pub(crate) fn source_id(a: &Attributes, file_name: &str, n: impl std::fmt::Display) -> String {
     let text = |k: &str| match a.get(k) {
         Some(AttrValue::String(s)) if !s.is_empty() => Some(s.clone()),
         Some(AttrValue::Int(i)) => Some(i.to_string()),
@@ -999,7 +999,7 @@ fn source_id(a: &Attributes, file_name: &str, index: usize) -> String {
     text("id")
         .or_else(|| text("@id"))
         .or_else(|| Some(format!("{}/{}", text("osm_type")?, text("osm_id")?)))
-        .unwrap_or_else(|| format!("{file_name}#{index}"))
+        .unwrap_or_else(|| format!("{file_name}#{n}"))
 }
 
 #[cfg(test)]

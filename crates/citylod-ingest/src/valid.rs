@@ -323,11 +323,7 @@ fn on_box(c: Coord, a: Coord, b: Coord) -> bool {
 /// `Some(true)` when `m` is in the interior of the polygon whose boundary segments are `lines`,
 /// `Some(false)` outside, `None` on the boundary: the parity of the segments a ray towards +x crosses
 /// (half-open in y, exact orientations).
-fn locate(
-    m: Coord,
-    lines: &[Line],
-    tree: &Boxes,
-) -> Option<bool> {
+fn locate(m: Coord, lines: &[Line], tree: &Boxes) -> Option<bool> {
     let ray = AABB::from_corners([m.x, m.y], [f64::MAX, m.y]);
     let mut inside = false;
     for g in tree.locate_in_envelope_intersecting(&ray) {

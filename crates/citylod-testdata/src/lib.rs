@@ -5,6 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
+pub mod geopackage;
 pub mod shapefile;
 
 /// The folder holding the real data sets (it may not exist).

@@ -18,13 +18,14 @@ use crate::shown;
 // A negative number is a value (`--storey-height -1` is refused by its range check, naming the flag).
 #[command(allow_negative_numbers = true)]
 pub struct BuildArgs {
-    /// Input files: GeoJSON (.geojson, .json), Esri Shapefile (.shp, read with the .dbf beside it), CityJSON
-    /// (.city.json, .json) or CityJSONSeq (.city.jsonl, .jsonl).
+    /// Input files: GeoJSON (.geojson, .json), Esri Shapefile (.shp, read with the .dbf beside it), GeoPackage
+    /// (.gpkg, one feature table: see --layer), CityJSON (.city.json, .json) or CityJSONSeq (.city.jsonl, .jsonl).
     #[arg(required = true, value_name = "INPUT", help_heading = "Input")]
     pub inputs: Vec<PathBuf>,
 
     /// CRS of the input coordinates, e.g. EPSG:28992. Default: WGS84 lon/lat for GeoJSON (RFC 7946), the .prj's
-    /// CRS for a Shapefile (its EPSG code, or the EPSG CRS matching an Esri .prj's parameters), the file's `referenceSystem` for CityJSON.
+    /// CRS for a Shapefile (its EPSG code, or the EPSG CRS matching an Esri .prj's parameters), the layer's spatial
+    /// reference system for a GeoPackage, the file's `referenceSystem` for CityJSON.
     #[arg(long, value_name = "EPSG:CODE", help_heading = "Input")]
     pub crs: Option<String>,
 
@@ -33,6 +34,11 @@ pub struct BuildArgs {
     /// FILE#INDEX. Features without a value there keep that default id, listed as repairs.
     #[arg(long, value_name = "NAME", help_heading = "Input")]
     pub id_attr: Option<String>,
+
+    /// The feature table to read from a GeoPackage (e.g. lod12_2d of a 3DBAG download). Default: its only feature
+    /// table; a GeoPackage holding several is refused with their names. Its rows' default id is FILE#FID.
+    #[arg(long, value_name = "TABLE", help_heading = "Input")]
+    pub layer: Option<String>,
 
     /// Attribute holding the building height above ground, in metres (strings such as "28 m" are accepted).
     /// Default: the first of height, building:height, measuredHeight, … that a feature has.
@@ -573,6 +579,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         crs: args.crs.clone(),
         height_attr: args.height_attr.clone(),
         id_attr: args.id_attr.clone(),
+        layer: args.layer.clone(),
         storey_attr: args.storey_attr.clone(),
         storey_height_m: args.storey_height,
         default_height_m: args.default_height,

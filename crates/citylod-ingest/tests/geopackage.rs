@@ -1,0 +1,723 @@
+//! GeoPackage input. On real data written by an independent writer: GDAL's GeoPackage of 200 Lower East Side
+//! buildings in EPSG:2263 (feet, a Lambert conic on NAD83) ingests into the buildings the same features give as
+//! GeoJSON. On fixtures written by `citylod_testdata::geopackage` (exactly the tables and geometry bytes a test
+//! chooses): every encoding of a footprint GeoPackage allows reads alike, and every way a row can fail to be a
+//! building — null, empty, not polygonal, cut short, standing on edge — is a skip with its reason and FID, every odd
+//! cell a value or a repair, every file-level problem an error saying what to do.
+
+use citylod_ingest::{ingest, IngestError, IngestOptions, Ingested};
+use citylod_model::{AttrValue, Attributes};
+use citylod_testdata::geopackage::{blob, write, Envelope, Layer, Row, Srs, Wkb};
+use rusqlite::types::Value as Sql;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+fn gdal_fixture() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/geopackage/les_gdal.gpkg")
+}
+
+fn with_layer(layer: &str) -> IngestOptions {
+    IngestOptions {
+        layer: Some(layer.into()),
+        ..Default::default()
+    }
+}
+
+fn without_nulls(a: &Attributes) -> Attributes {
+    a.iter()
+        .filter(|(_, v)| **v != AttrValue::Null)
+        .map(|(k, v)| (k.clone(), v.clone()))
+        .collect()
+}
+
+#[test]
+fn a_geopackage_written_by_gdal_ingests_into_the_buildings_its_geojson_gives() {
+    let path = gdal_fixture();
+    let from_gpkg = ingest(std::slice::from_ref(&path), &with_layer("buildings")).unwrap();
+    // The same features as GeoJSON (the fixture holds every seventh of the bundled file, in its order).
+    let all: Value = serde_json::from_str(
+        &std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../../examples/nyc-les/les_buildings.geojson"),
+        )
+        .unwrap(),
+    )
+    .unwrap();
+    let first: Vec<Value> = all["features"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .step_by(7)
+        .cloned()
+        .collect();
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("every7th.geojson");
+    std::fs::write(
+        &json,
+        serde_json::json!({"type": "FeatureCollection", "features": first}).to_string(),
+    )
+    .unwrap();
+    let from_json = ingest(&[json], &IngestOptions::default()).unwrap();
+
+    assert!(
+        from_json.buildings.len() > 150,
+        "{}",
+        from_json.buildings.len()
+    );
+    assert_eq!(from_gpkg.buildings.len(), from_json.buildings.len());
+    assert_eq!(
+        from_gpkg.report.skipped.len(),
+        from_json.report.skipped.len()
+    );
+    let file = &from_gpkg.report.files[0];
+    assert_eq!(
+        (
+            serde_json::to_value(file.format).unwrap(),
+            file.crs.as_str(),
+            file.features_read
+        ),
+        (Value::from("geo_package"), "EPSG:2263", 203)
+    );
+    assert_eq!(
+        file.notes,
+        vec!["layer \"buildings\" read, of 2 feature tables (buildings, roads)".to_string()]
+    );
+    // Feet on NAD83 back to WGS 84 degrees: the frames agree to a millimetre (1e-8° ≈ 1 mm).
+    assert!((from_gpkg.frame.origin_lon_deg - from_json.frame.origin_lon_deg).abs() < 1e-8);
+    assert!((from_gpkg.frame.origin_lat_deg - from_json.frame.origin_lat_deg).abs() < 1e-8);
+    let mut holes = 0;
+    for (a, b) in from_gpkg.buildings.iter().zip(&from_json.buildings) {
+        assert_eq!(a.source_id, b.source_id);
+        assert!(
+            a.source_id.starts_with("way/") || a.source_id.starts_with("relation/"),
+            "{}",
+            a.source_id
+        );
+        // GDAL writes a column for every property, NULL where a feature has none; osm_id as an integer.
+        assert_eq!(
+            without_nulls(&a.attributes),
+            b.attributes,
+            "{}",
+            a.source_id
+        );
+        assert_eq!(a.height_m, b.height_m, "{}", a.source_id);
+        assert!((a.base_z_m - b.base_z_m).abs() < 1e-6, "{}", a.source_id);
+        assert_eq!(a.footprint.0.len(), b.footprint.0.len(), "{}", a.source_id);
+        let h = |x: &citylod_model::Building| {
+            x.footprint
+                .0
+                .iter()
+                .map(|p| p.interiors().len())
+                .sum::<usize>()
+        };
+        assert_eq!(h(a), h(b), "{}", a.source_id);
+        holes += h(a);
+        let (aa, ab) = (a.area_m2(), b.area_m2());
+        assert!(
+            (aa - ab).abs() <= 1e-6 * ab + 1e-4,
+            "{}: {aa} m² against {ab} m²",
+            a.source_id
+        );
+    }
+    assert!(holes > 0, "the comparison saw courtyards");
+}
+
+#[test]
+fn a_geopackage_of_several_layers_is_read_by_the_layer_named() {
+    let path = gdal_fixture();
+    let e = ingest(std::slice::from_ref(&path), &IngestOptions::default()).unwrap_err();
+    assert!(matches!(e, IngestError::InvalidGeoPackage { .. }), "{e}");
+    let text = e.to_string();
+    assert!(
+        text.contains("--layer") && text.contains("buildings (MULTIPOLYGON), roads (LINESTRING)"),
+        "{text}"
+    );
+    let e = ingest(std::slice::from_ref(&path), &with_layer("building")).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("no feature table \"building\" (its feature tables: buildings (MULTIPOLYGON), roads (LINESTRING))"),
+        "{e}"
+    );
+    // The roads are lines: every one skipped, by its FID, none lost without a word.
+    let roads = ingest(std::slice::from_ref(&path), &with_layer("roads")).unwrap();
+    assert!(roads.buildings.is_empty());
+    assert_eq!(roads.report.skipped.len(), 20);
+    let s = &roads.report.skipped[0];
+    assert_eq!(s.reason.as_str(), "unsupported_geometry");
+    assert_eq!(s.feature_id, "les_gdal.gpkg#1");
+    assert_eq!(s.detail, "FID 1: LineString geometry is not a footprint");
+    // --layer without a GeoPackage among the inputs is a usage error, not ignored.
+    let geojson =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/nyc-les/les_buildings.geojson");
+    let e = ingest(&[geojson], &with_layer("buildings")).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            IngestError::InvalidOption {
+                name: "--layer",
+                ..
+            }
+        ),
+        "{e}"
+    );
+}
+
+/// A 10 m square at `x` metres east of a point in Manhattan, in lon/lat, closed, counter-clockwise.
+fn square(x: f64, size: f64) -> Vec<[f64; 2]> {
+    let (lon0, lat0) = (-73.99, 40.72);
+    let (dlon, dlat) = (1.0 / 84_300.0, 1.0 / 111_000.0);
+    let p = |e: f64, n: f64| [lon0 + e * dlon, lat0 + n * dlat];
+    vec![
+        p(x, 0.0),
+        p(x + size, 0.0),
+        p(x + size, size),
+        p(x, size),
+        p(x, 0.0),
+    ]
+}
+
+fn with_z(r: &[[f64; 2]], z: f64) -> Vec<[f64; 3]> {
+    r.iter().map(|p| [p[0], p[1], z]).collect()
+}
+
+fn layer(rows: Vec<Row>, columns: Vec<(&str, &str)>) -> Layer {
+    Layer {
+        table: "buildings".into(),
+        geometry_column: "geom".into(),
+        geometry_type: "GEOMETRY".into(),
+        srs_id: 4326,
+        columns: columns
+            .into_iter()
+            .map(|(n, t)| (n.to_string(), t.to_string()))
+            .collect(),
+        rows,
+    }
+}
+
+fn row(fid: i64, geometry: Option<Vec<u8>>) -> Row {
+    Row {
+        fid,
+        geometry,
+        values: vec![],
+    }
+}
+
+fn one_layer(dir: &Path, name: &str, l: Layer) -> PathBuf {
+    let p = dir.join(name);
+    write(&p, &[], &[l]);
+    p
+}
+
+fn skips(r: &Ingested) -> Vec<(String, String, String)> {
+    r.report
+        .skipped
+        .iter()
+        .map(|s| {
+            (
+                s.feature_id.clone(),
+                s.reason.as_str().to_string(),
+                s.detail.clone(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn every_encoding_of_a_footprint_reads_alike() {
+    let le = Wkb::default();
+    let be = Wkb {
+        little_endian: false,
+        ..Wkb::default()
+    };
+    let ewkb = Wkb {
+        ewkb_z: true,
+        ..Wkb::default()
+    };
+    let sq = |i: usize| square(20.0 * i as f64, 10.0);
+    let mut srid_flagged = vec![1u8];
+    srid_flagged.extend((3u32 | 0x2000_0000).to_le_bytes());
+    srid_flagged.extend(4326u32.to_le_bytes());
+    srid_flagged.extend(&le.polygon(&[sq(9)])[5..]);
+    let mut open = sq(10);
+    open.pop();
+    let variants: Vec<Vec<u8>> = vec![
+        blob(4326, Envelope::None, false, &le.polygon(&[sq(0)])),
+        blob(4326, Envelope::Xy, false, &be.polygon(&[sq(1)])),
+        blob(
+            4326,
+            Envelope::Xyz,
+            false,
+            &le.polygon_z(&[with_z(&sq(2), 5.0)]),
+        ),
+        blob(
+            4326,
+            Envelope::Xym,
+            false,
+            &ewkb.polygon_z(&[with_z(&sq(3), 5.0)]),
+        ),
+        blob(
+            4326,
+            Envelope::Xyzm,
+            false,
+            &le.multipolygon(&[vec![sq(4)]]),
+        ),
+        blob(
+            4326,
+            Envelope::Xy,
+            false,
+            &be.multipolygon_z(&[vec![with_z(&sq(5), 0.0)]]),
+        ),
+        blob(
+            4326,
+            Envelope::Xy,
+            false,
+            &le.collection(&[le.point([0.0, 0.0]), be.polygon(&[sq(6)])]),
+        ),
+        blob(
+            4326,
+            Envelope::Xy,
+            false,
+            &le.collection(&[
+                le.collection(&[le.line(&[[0.0, 0.0], [1.0, 1.0]])]),
+                le.polygon(&[sq(7)]),
+            ]),
+        ),
+        // A sloped roof face in Z is still a plan outline.
+        blob(
+            4326,
+            Envelope::None,
+            false,
+            &le.polygon_z(&[sq(8)
+                .iter()
+                .enumerate()
+                .map(|(k, p)| [p[0], p[1], k as f64])
+                .collect()]),
+        ),
+        blob(4326, Envelope::None, false, &srid_flagged),
+        blob(4326, Envelope::None, false, &le.polygon(&[open])),
+    ];
+    let n = variants.len();
+    let rows = variants
+        .into_iter()
+        .enumerate()
+        .map(|(i, b)| row(i as i64 + 1, Some(b)))
+        .collect();
+    let dir = tempfile::tempdir().unwrap();
+    let p = one_layer(dir.path(), "variants.gpkg", layer(rows, vec![]));
+    let r = ingest(&[p], &IngestOptions::default()).unwrap();
+    assert_eq!(skips(&r), vec![]);
+    assert_eq!(r.buildings.len(), n);
+    for b in &r.buildings {
+        assert!(
+            (b.area_m2() - 100.0).abs() < 0.5,
+            "{}: {} m²",
+            b.source_id,
+            b.area_m2()
+        );
+    }
+    let mut repairs: Vec<(String, String)> = r
+        .report
+        .repaired
+        .iter()
+        .map(|s| (s.feature_id.clone(), s.reason.as_str().to_string()))
+        .collect();
+    repairs.sort();
+    assert_eq!(
+        repairs,
+        vec![
+            ("variants.gpkg#11".to_string(), "ring_closed".to_string()),
+            (
+                "variants.gpkg#7".to_string(),
+                "non_polygon_member_dropped".to_string()
+            ),
+            (
+                "variants.gpkg#8".to_string(),
+                "non_polygon_member_dropped".to_string()
+            ),
+        ]
+    );
+    let dropped = r
+        .report
+        .repaired
+        .iter()
+        .find(|s| s.feature_id == "variants.gpkg#8")
+        .unwrap();
+    assert_eq!(
+        dropped.detail,
+        "1 GeometryCollection member(s) not polygonal, dropped: member 0/0 (LineString)"
+    );
+}
+
+#[test]
+fn rows_that_are_no_footprint_are_skipped_with_their_reason_and_fid() {
+    let le = Wkb::default();
+    let good = le.polygon(&[square(0.0, 10.0)]);
+    let mut nan = square(20.0, 10.0);
+    nan[2][0] = f64::NAN;
+    // Four walls of a 10 m box standing on its outline, and its roof: a 3D surface model.
+    let s = square(40.0, 10.0);
+    let mut surfaces: Vec<Vec<Vec<[f64; 3]>>> = (0..4)
+        .map(|k| {
+            vec![vec![
+                [s[k][0], s[k][1], 0.0],
+                [s[k + 1][0], s[k + 1][1], 0.0],
+                [s[k + 1][0], s[k + 1][1], 9.0],
+                [s[k][0], s[k][1], 9.0],
+                [s[k][0], s[k][1], 0.0],
+            ]]
+        })
+        .collect();
+    surfaces.push(vec![with_z(&s, 9.0)]);
+    let mut cut = blob(4326, Envelope::Xy, false, &good);
+    cut.truncate(cut.len() - 5);
+    let rows = vec![
+        row(1, None),
+        row(2, Some(blob(4326, Envelope::Xy, true, &[]))),
+        row(
+            3,
+            Some(blob(4326, Envelope::None, false, &le.point([1.0, 2.0]))),
+        ),
+        row(4, Some(cut)),
+        row(
+            5,
+            Some(blob(4326, Envelope::None, false, &le.polygon(&[nan]))),
+        ),
+        row(
+            6,
+            Some(blob(
+                4326,
+                Envelope::None,
+                false,
+                &le.multipolygon_z(&surfaces),
+            )),
+        ),
+        row(7, Some(good[..].to_vec())),
+        row(
+            8,
+            Some({
+                let mut b = blob(4326, Envelope::None, false, &good);
+                b[3] |= 0b0010_0000;
+                b
+            }),
+        ),
+        row(9, Some(blob(4326, Envelope::None, false, &le.polygon(&[])))),
+        row(10, Some(blob(4326, Envelope::Xy, false, &good))),
+    ];
+    let dir = tempfile::tempdir().unwrap();
+    let p = one_layer(dir.path(), "bad.gpkg", layer(rows, vec![]));
+    let r = ingest(&[p], &IngestOptions::default()).unwrap();
+    assert_eq!(r.buildings.len(), 1);
+    assert_eq!(r.buildings[0].source_id, "bad.gpkg#10");
+    let got: Vec<(String, String)> = skips(&r)
+        .into_iter()
+        .map(|(id, reason, detail)| (id, format!("{reason}: {detail}")))
+        .collect();
+    let want = [
+        ("bad.gpkg#1", "no_geometry: FID 1: geometry is null"),
+        ("bad.gpkg#2", "empty_geometry: FID 2: an empty geometry"),
+        ("bad.gpkg#3", "unsupported_geometry: FID 3: Point geometry is not a footprint"),
+        ("bad.gpkg#4", "malformed_geometry: FID 4: a ring said to hold 5 points, more than the rest of its 88-byte WKB"),
+        ("bad.gpkg#5", &*format!("non_finite_coordinate: FID 5: a vertex (NaN, {}) that is not a finite number", square(20.0, 10.0)[2][1])),
+        ("bad.gpkg#6", "unsupported_geometry: FID 6: 4 of its 5 polygons stand on edge (the walls of a 3D surface model), not a footprint; read a layer of 2D footprints, or the model as CityJSON"),
+        ("bad.gpkg#7", "malformed_geometry: FID 7: the geometry blob does not start with a GeoPackage header ('GP')"),
+        ("bad.gpkg#8", "unsupported_geometry: FID 8: a GeoPackage extended geometry type (not a standard WKB geometry)"),
+        ("bad.gpkg#9", "empty_geometry: FID 9: polygonal geometry without coordinates"),
+    ];
+    assert_eq!(
+        got,
+        want.iter()
+            .map(|(a, b)| (a.to_string(), b.to_string()))
+            .collect::<Vec<_>>()
+    );
+}
+
+#[test]
+fn cells_become_typed_attributes_and_odd_ones_are_reported() {
+    let le = Wkb::default();
+    let g = |i: usize| {
+        Some(blob(
+            4326,
+            Envelope::Xy,
+            false,
+            &le.polygon(&[square(20.0 * i as f64, 10.0)]),
+        ))
+    };
+    let cols = vec![
+        ("name", "TEXT"),
+        ("height", "REAL"),
+        ("levels", "INTEGER"),
+        ("is_monument", "BOOLEAN"),
+        ("photo", "BLOB"),
+        ("built", "DATE"),
+    ];
+    let rows = vec![
+        Row {
+            fid: 5,
+            geometry: g(0),
+            values: vec![
+                Sql::Text("Essex Market".into()),
+                Sql::Real(21.5),
+                Sql::Integer(4),
+                Sql::Integer(1),
+                Sql::Blob(vec![1, 2, 3]),
+                Sql::Text("1940-01-10".into()),
+            ],
+        },
+        Row {
+            fid: 7,
+            geometry: g(1),
+            values: vec![
+                Sql::Blob(vec![0xCA, 0xFE]),
+                Sql::Null,
+                Sql::Null,
+                Sql::Integer(0),
+                Sql::Null,
+                Sql::Null,
+            ],
+        },
+    ];
+    let dir = tempfile::tempdir().unwrap();
+    let p = one_layer(dir.path(), "cells.gpkg", layer(rows, cols));
+    // A text cell that is not UTF-8 (SQLite stores what it is given).
+    let db = rusqlite::Connection::open(&p).unwrap();
+    db.execute(
+        "UPDATE buildings SET built = CAST(x'4d61727a20c3' AS TEXT) WHERE fid = 7",
+        [],
+    )
+    .unwrap();
+    drop(db);
+    let r = ingest(&[p], &IngestOptions::default()).unwrap();
+    assert_eq!(r.buildings.len(), 2);
+    let a = &r.buildings[0].attributes;
+    assert_eq!(r.buildings[0].source_id, "cells.gpkg#5");
+    assert_eq!(a["name"], AttrValue::String("Essex Market".into()));
+    assert_eq!(a["height"], AttrValue::Float(21.5));
+    assert_eq!(a["levels"], AttrValue::Int(4));
+    assert_eq!(a["is_monument"], AttrValue::Bool(true));
+    assert_eq!(a["built"], AttrValue::String("1940-01-10".into()));
+    assert!(a.get("photo").is_none() && a.get("fid").is_none() && a.get("geom").is_none());
+    assert_eq!(r.buildings[0].height_m, 21.5);
+    let b = &r.buildings[1].attributes;
+    assert_eq!(b["name"], AttrValue::String("cafe".into()));
+    assert_eq!(b["is_monument"], AttrValue::Bool(false));
+    assert_eq!(b["built"], AttrValue::String("Marz \u{FFFD}".into()));
+    let details: Vec<String> = r
+        .report
+        .repaired
+        .iter()
+        .filter(|s| s.reason.as_str() == "undecodable_value_kept_as_text")
+        .map(|s| format!("{}: {}", s.feature_id, s.detail))
+        .collect();
+    assert_eq!(
+        details,
+        vec![
+            "cells.gpkg#7: column \"name\": a blob of 2 bytes, kept as hexadecimal text",
+            "cells.gpkg#7: column \"built\": text that is not UTF-8, kept with its undecodable bytes replaced",
+        ]
+    );
+    assert_eq!(
+        r.report.files[0].notes,
+        vec!["BLOB column(s) not read as attributes: photo".to_string()]
+    );
+}
+
+/// The Esri WKT ArcGIS writes for EPSG:2263, without its code.
+const ESRI_2263: &str = r#"PROJCS["NAD_1983_StatePlane_New_York_Long_Island_FIPS_3104_Feet",GEOGCS["GCS_North_American_1983",DATUM["D_North_American_1983",SPHEROID["GRS_1980",6378137.0,298.257222101]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]],PROJECTION["Lambert_Conformal_Conic"],PARAMETER["False_Easting",984250.0],PARAMETER["False_Northing",0.0],PARAMETER["Central_Meridian",-74.0],PARAMETER["Standard_Parallel_1",40.66666666666666],PARAMETER["Standard_Parallel_2",41.03333333333333],PARAMETER["Latitude_Of_Origin",40.16666666666666],UNIT["Foot_US",0.3048006096012192]]"#;
+
+#[test]
+fn the_layers_crs_comes_from_its_spatial_reference_system() {
+    let le = Wkb::default();
+    // 100 ft squares near the Lower East Side in EPSG:2263.
+    let ft = |x: f64| {
+        let (x0, y0) = (987_000.0 + x, 201_000.0);
+        vec![
+            [x0, y0],
+            [x0 + 100.0, y0],
+            [x0 + 100.0, y0 + 100.0],
+            [x0, y0 + 100.0],
+            [x0, y0],
+        ]
+    };
+    let rows = |srs: i32| {
+        vec![
+            row(
+                1,
+                Some(blob(srs, Envelope::Xy, false, &le.polygon(&[ft(0.0)]))),
+            ),
+            row(
+                2,
+                Some(blob(srs, Envelope::Xy, false, &le.polygon(&[ft(200.0)]))),
+            ),
+        ]
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let ft2_in_m2 = (100.0 * 0.3048006096012192f64).powi(2);
+    // A custom srs_id whose definition is an Esri WKT without a code: matched against the EPSG table.
+    let p = dir.path().join("esri.gpkg");
+    let srs = Srs {
+        srs_id: 100_000,
+        organization: "NONE".into(),
+        organization_coordsys_id: 0,
+        definition: ESRI_2263.into(),
+    };
+    let mut l = layer(rows(100_000), vec![]);
+    l.srs_id = 100_000;
+    write(&p, &[srs], &[l]);
+    let r = ingest(&[p], &IngestOptions::default()).unwrap();
+    assert_eq!(r.report.files[0].crs, "EPSG:2263");
+    assert_eq!(r.buildings.len(), 2);
+    assert!(
+        (r.buildings[0].area_m2() - ft2_in_m2).abs() < 0.01,
+        "{}",
+        r.buildings[0].area_m2()
+    );
+
+    // By EPSG code.
+    let p = dir.path().join("epsg.gpkg");
+    let mut l = layer(rows(2263), vec![]);
+    l.srs_id = 2263;
+    write(&p, &[Srs::epsg(2263)], &[l]);
+    let r = ingest(&[p], &IngestOptions::default()).unwrap();
+    assert_eq!(r.report.files[0].crs, "EPSG:2263");
+
+    // The undefined systems leave the CRS to --crs.
+    let p = dir.path().join("undefined.gpkg");
+    let mut l = layer(rows(-1), vec![]);
+    l.srs_id = -1;
+    write(&p, &[], &[l]);
+    let e = ingest(std::slice::from_ref(&p), &IngestOptions::default()).unwrap_err();
+    assert!(matches!(e, IngestError::GeoPackageWithoutCrs { .. }), "{e}");
+    assert!(e.to_string().contains("--crs"), "{e}");
+    let r = ingest(
+        &[p],
+        &IngestOptions {
+            crs: Some("EPSG:2263".into()),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert!((r.buildings[1].area_m2() - ft2_in_m2).abs() < 0.01);
+
+    // An srs_id the table does not list.
+    let p = dir.path().join("unlisted.gpkg");
+    let mut l = layer(rows(31_337), vec![]);
+    l.srs_id = 31_337;
+    write(&p, &[], &[l]);
+    let e = ingest(&[p], &IngestOptions::default()).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            IngestError::CrsNotUnderstood {
+                member: "gpkg_spatial_ref_sys",
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert!(e.to_string().contains("srs_id 31337"), "{e}");
+}
+
+#[test]
+fn files_that_are_not_geopackages_say_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let err = |p: &Path| {
+        ingest(&[p.to_path_buf()], &IngestOptions::default())
+            .unwrap_err()
+            .to_string()
+    };
+    let text = dir.path().join("text.gpkg");
+    std::fs::write(&text, "{\"type\": \"FeatureCollection\"}").unwrap();
+    assert!(
+        err(&text).contains("not an SQLite database"),
+        "{}",
+        err(&text)
+    );
+    let empty = dir.path().join("empty.gpkg");
+    std::fs::write(&empty, "").unwrap();
+    assert!(err(&empty).contains("not an SQLite database"));
+    let plain = dir.path().join("plain.gpkg");
+    rusqlite::Connection::open(&plain)
+        .unwrap()
+        .execute_batch("CREATE TABLE t (a INTEGER);")
+        .unwrap();
+    assert!(
+        err(&plain)
+            .contains("an SQLite database but not a GeoPackage: it has no gpkg_contents table"),
+        "{}",
+        err(&plain)
+    );
+    // A GeoPackage of tiles or attributes only.
+    let none = dir.path().join("none.gpkg");
+    write(&none, &[], &[]);
+    assert!(
+        err(&none).contains("without feature tables"),
+        "{}",
+        err(&none)
+    );
+    let wal = dir.path().join("city.gpkg-wal");
+    std::fs::write(&wal, [0u8; 32]).unwrap();
+    assert!(
+        err(&wal).contains("write-ahead log beside a GeoPackage; give the .gpkg as the input"),
+        "{}",
+        err(&wal)
+    );
+}
+
+#[test]
+fn broken_bytes_give_errors_or_skips_not_panics() {
+    // Every cut of a geometry blob, as rows of one table: each row a building or a skip, never a panic.
+    let le = Wkb::default();
+    let whole = blob(
+        4326,
+        Envelope::Xy,
+        false,
+        &le.collection(&[
+            le.point([0.0, 0.0]),
+            le.multipolygon(&[
+                vec![square(0.0, 10.0), square(2.0, 3.0)],
+                vec![square(30.0, 5.0)],
+            ]),
+        ]),
+    );
+    let cuts: Vec<Row> = (0..whole.len())
+        .map(|n| row(n as i64 + 1, Some(whole[..n].to_vec())))
+        .collect();
+    let dir = tempfile::tempdir().unwrap();
+    let p = one_layer(dir.path(), "cuts.gpkg", layer(cuts, vec![]));
+    let r = ingest(&[p], &IngestOptions::default()).unwrap();
+    assert!(r.buildings.is_empty());
+    assert_eq!(r.report.skipped.len(), whole.len());
+    // Every byte flipped: a building, a skip, or (a coordinate thrown across the globe) the file refused as too
+    // wide for one frame.
+    let flips: Vec<Row> = (0..whole.len())
+        .map(|i| {
+            let mut b = whole.clone();
+            b[i] ^= 0xFF;
+            row(i as i64 + 1, Some(b))
+        })
+        .collect();
+    let p = one_layer(dir.path(), "flips.gpkg", layer(flips, vec![]));
+    match ingest(&[p], &IngestOptions::default()) {
+        Ok(r) => assert_eq!(r.buildings.len() + r.report.skipped.len(), whole.len()),
+        Err(e) => assert!(matches!(e, IngestError::TooWide { .. }), "{e}"),
+    }
+
+    // The database file itself cut and garbled: an error naming the file, or buildings, never a panic.
+    let bytes = std::fs::read(gdal_fixture()).unwrap();
+    let broken = dir.path().join("broken.gpkg");
+    let step = bytes.len() / 97;
+    for k in 0..97 {
+        let mut b = bytes.clone();
+        if k % 2 == 0 {
+            b.truncate(k * step);
+        } else {
+            for x in &mut b[k * step..(k * step + 512).min(bytes.len())] {
+                *x = x.wrapping_mul(31).wrapping_add(7);
+            }
+        }
+        std::fs::write(&broken, &b).unwrap();
+        if let Err(e) = ingest(std::slice::from_ref(&broken), &with_layer("buildings")) {
+            assert!(e.to_string().contains("broken.gpkg"), "{e}");
+        }
+    }
+}
