@@ -585,7 +585,7 @@ fn polygon3(s: &Surface, vertices: &[[f64; 3]]) -> Result<Polygon3, String> {
 }
 
 /// Newell normal's vertical share: 1 for a horizontal ring, 0 for a vertical one.
-fn horizontality(ring: &[[f64; 3]]) -> f64 {
+pub(crate) fn horizontality(ring: &[[f64; 3]]) -> f64 {
     let mut n = [0.0; 3];
     for (i, a) in ring.iter().enumerate() {
         let b = ring[(i + 1) % ring.len()];

@@ -117,6 +117,14 @@ impl Crs {
         matches!(self.kind, Kind::Wgs84)
     }
 
+    /// True when the source coordinates are degrees of longitude and latitude (on any datum).
+    pub(crate) fn is_lon_lat(&self) -> bool {
+        match &self.kind {
+            Kind::Wgs84 => true,
+            Kind::Proj { src_is_latlong, .. } => *src_is_latlong,
+        }
+    }
+
     /// Source (x, y) → WGS84 (lon°, lat°). Geographic sources are in degrees (x = lon). The datum
     /// shift is computed at height 0: its horizontal effect for building heights is far below 1 mm.
     pub fn to_lon_lat(&self, x: f64, y: f64) -> Result<(f64, f64), CoordError> {

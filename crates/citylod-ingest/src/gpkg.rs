@@ -8,22 +8,32 @@
 //! a skipped feature with the reason and its feature id (FID: the table's integer primary key, as GDAL and QGIS show
 //! it).
 
+use crate::cityjson::horizontality;
 use crate::crs::DeclaredCrs;
 use crate::feature::{RawFeature, RawPolygon};
+use crate::model3d::{RawModel, RawSurface};
 use crate::report::IssueReason;
 use citylod_mesh::signed_area2;
+use citylod_model::SurfaceKind;
 use citylod_model::{AttrValue, Attributes};
 use rusqlite::types::ValueRef;
 use rusqlite::{Connection, OpenFlags};
+use std::collections::HashMap;
 use std::path::Path;
 
 /// What a GeoPackage layer holds: its features, the CRS declared for its geometry column (`None` when that is the
 /// undefined one), the layer read and what the user should know about the file as a whole.
 pub(crate) struct GeoPackageDoc {
     pub features: Vec<RawFeature>,
+    /// The faces of the rows holding 3D surface models, by feature index: their footprints wait for the CRS (see
+    /// [`stand`]).
+    pub surfaces: Vec<Surfaces>,
     pub declared_crs: Option<DeclaredCrs>,
     pub notes: Vec<String>,
 }
+
+/// The faces of a row holding a 3D surface model: the feature's index, its FID, the faces.
+pub(crate) type Surfaces = (usize, i64, Vec<Face>);
 
 /// The files SQLite keeps beside a database in WAL mode, each with what it is, for refusing one given as the input.
 pub(crate) const SIDECARS: [(&str, &str); 3] = [
@@ -99,9 +109,10 @@ pub(crate) fn read(path: &Path, layer: Option<&str>) -> Result<GeoPackageDoc, St
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let features = rows(&db, chosen, &file_name, &mut notes)?;
+    let (features, surfaces) = rows(&db, chosen, &file_name, &mut notes)?;
     Ok(GeoPackageDoc {
         features,
+        surfaces,
         declared_crs,
         notes,
     })
@@ -226,7 +237,7 @@ fn rows(
     layer: &Layer,
     file_name: &str,
     notes: &mut Vec<String>,
-) -> Result<Vec<RawFeature>, String> {
+) -> Result<(Vec<RawFeature>, Vec<Surfaces>), String> {
     let sql = |e: rusqlite::Error| format!("SQLite cannot read table {:?}: {e}", layer.table);
     let mut info = db
         .prepare(&format!("PRAGMA table_info({})", quoted(&layer.table)))
@@ -297,6 +308,7 @@ fn rows(
         .map_err(sql)?;
     let mut q = st.query([]).map_err(sql)?;
     let mut features = Vec::new();
+    let mut surfaces = Vec::new();
     while let Some(row) = q.next().map_err(sql)? {
         let fid = match row.get_ref(0).map_err(sql)? {
             ValueRef::Integer(i) => i,
@@ -322,9 +334,13 @@ fn rows(
                 ));
             }
             ValueRef::Blob(b) => match geometry(b) {
-                Ok((polygons, repairs)) => {
+                Ok(Geometry::Footprint(polygons, repairs)) => {
                     out.polygons = polygons;
                     out.repairs.extend(repairs);
+                }
+                Ok(Geometry::Surfaces(faces, repairs)) => {
+                    out.repairs.extend(repairs);
+                    surfaces.push((features.len(), fid, faces));
                 }
                 Err((reason, detail)) => out.skip = Some((reason, format!("FID {fid}: {detail}"))),
             },
@@ -340,7 +356,7 @@ fn rows(
         }
         features.push(out);
     }
-    Ok(features)
+    Ok((features, surfaces))
 }
 
 fn type_name(v: ValueRef) -> &'static str {
@@ -391,8 +407,20 @@ fn value(v: ValueRef, c: &Column, repairs: &mut Vec<(IssueReason, String)>) -> A
 type Skip = (IssueReason, String);
 type Repairs = Vec<(IssueReason, String)>;
 
-/// A GeoPackage geometry blob → the footprint's polygons and the repairs made reading them.
-pub(crate) fn geometry(b: &[u8]) -> Result<(Vec<RawPolygon>, Repairs), Skip> {
+/// One face of a 3D surface model: its rings (exterior first), open, in source x, y, z.
+pub(crate) type Face = Vec<Vec<[f64; 3]>>;
+
+/// What a geometry blob holds.
+pub(crate) enum Geometry {
+    /// Plan outlines (heights, if any, not used), and the repairs made reading them.
+    Footprint(Vec<RawPolygon>, Repairs),
+    /// The faces of a 3D surface model: a PolyhedralSurface or TIN with heights, or polygons with heights of which
+    /// several stand on edge (walls).
+    Surfaces(Vec<Face>, Repairs),
+}
+
+/// A GeoPackage geometry blob → the footprint's polygons or a 3D model's faces, and the repairs made reading them.
+pub(crate) fn geometry(b: &[u8]) -> Result<Geometry, Skip> {
     let malformed = |what: String| (IssueReason::MalformedGeometry, what);
     if b.len() < 8 || &b[..2] != b"GP" {
         return Err(malformed(
@@ -448,16 +476,9 @@ pub(crate) fn geometry(b: &[u8]) -> Result<(Vec<RawPolygon>, Repairs), Skip> {
         ));
     }
     // A footprint may have one degenerate part (dropped later as any); walls come several to a building.
-    if out.on_edge >= 2 {
-        return Err((
-            IssueReason::UnsupportedGeometry,
-            format!(
-                "{} of its {} polygons stand on edge (the walls of a 3D surface model), not a footprint; read a \
-                 layer of 2D footprints, or the model as CityJSON",
-                out.on_edge,
-                out.polygons.len()
-            ),
-        ));
+    let surfaces = out.surface_type || out.on_edge >= 2;
+    if surfaces && out.faces.len() == out.polygons.len() {
+        return Ok(Geometry::Surfaces(out.faces, out.repairs));
     }
     if out.collection && !out.dropped.is_empty() {
         out.repairs.push((
@@ -469,7 +490,7 @@ pub(crate) fn geometry(b: &[u8]) -> Result<(Vec<RawPolygon>, Repairs), Skip> {
             ),
         ));
     }
-    Ok((out.polygons, out.repairs))
+    Ok(Geometry::Footprint(out.polygons, out.repairs))
 }
 
 #[derive(Default)]
@@ -481,6 +502,10 @@ struct Out {
     collection: bool,
     /// Polygons with heights whose exterior ring stands on edge (a wall of a 3D surface model).
     on_edge: usize,
+    /// The polygons with their heights, when they have them.
+    faces: Vec<Face>,
+    /// A PolyhedralSurface or TIN was read.
+    surface_type: bool,
 }
 
 /// Coordinates per point, and whether the third is a height (else a measure).
@@ -603,19 +628,23 @@ impl Wkb<'_> {
             .unwrap_or("unknown type");
         match kind {
             3 | 17 => self.polygon(le, dims, out),
-            6 => {
+            6 | 15 | 16 => {
+                // A MultiPolygon's members are Polygons, a PolyhedralSurface's too, a TIN's Triangles.
+                let member = if kind == 16 { 17 } else { 3 };
+                out.surface_type |= kind != 6;
                 let n = self.u32(le)?;
                 for i in 0..n {
-                    let (le, kind, dims) = self.header()?;
-                    if kind != 3 {
+                    let (le, k, dims) = self.header()?;
+                    if k != member {
                         return Err((
                             IssueReason::MalformedGeometry,
                             format!(
-                                "MultiPolygon member {i} is a {} (only Polygons may be members)",
+                                "{name} member {i} is a {} (only {}s may be members)",
                                 TYPE_NAMES
-                                    .get(kind as usize)
+                                    .get(k as usize)
                                     .copied()
-                                    .unwrap_or("unknown type")
+                                    .unwrap_or("unknown type"),
+                                TYPE_NAMES[member as usize]
                             ),
                         ));
                     }
@@ -688,6 +717,7 @@ impl Wkb<'_> {
     fn polygon(&mut self, le: bool, dims: Dims, out: &mut Out) -> Result<(), Skip> {
         let rings = self.u32(le)?;
         let mut polygon = Vec::new();
+        let mut face = Vec::new();
         for i in 0..rings {
             let n = self.u32(le)? as usize;
             // Every point takes 8 bytes a coordinate: a count beyond the bytes left is a broken blob, not an allocation.
@@ -701,6 +731,7 @@ impl Wkb<'_> {
                 ));
             }
             let mut ring = Vec::with_capacity(n);
+            let mut ring3 = Vec::with_capacity(if dims.z { n } else { 0 });
             let (mut z_min, mut z_max) = (f64::INFINITY, f64::NEG_INFINITY);
             for _ in 0..n {
                 let x = self.f64(le)?;
@@ -709,6 +740,7 @@ impl Wkb<'_> {
                     let z = self.f64(le)?;
                     z_min = z_min.min(z);
                     z_max = z_max.max(z);
+                    ring3.push([x, y, z]);
                 }
                 self.take(8 * (dims.n - 2 - usize::from(dims.z)))?;
                 if !(x.is_finite() && y.is_finite()) {
@@ -722,6 +754,7 @@ impl Wkb<'_> {
             let closed = ring.len() >= 2 && ring.first() == ring.last();
             if closed {
                 ring.pop();
+                ring3.pop();
             } else if ring.len() >= 3 {
                 let what = if i == 0 {
                     "exterior ring".to_string()
@@ -740,9 +773,19 @@ impl Wkb<'_> {
                     out.on_edge += 1;
                 }
             }
+            if dims.z && !z_min.is_finite() && n > 0 {
+                return Err((
+                    IssueReason::NonFiniteCoordinate,
+                    "a vertex whose height is not a finite number".into(),
+                ));
+            }
             polygon.push(ring);
+            face.push(ring3);
         }
         out.polygons.push(polygon);
+        if dims.z {
+            out.faces.push(face);
+        }
         Ok(())
     }
 }
@@ -757,6 +800,159 @@ fn extent(r: &[[f64; 2]]) -> (f64, f64) {
     }
     (hi[0] - lo[0], hi[1] - lo[1])
 }
+
+/// How a 3D surface model stands: its footprint, the faces it was taken from, the ground's and the top's heights.
+struct Standing {
+    footprint: Vec<RawPolygon>,
+    /// Indices of the faces the footprint is (the ground), empty when it is the plan of every face.
+    ground: Vec<usize>,
+    ground_z: f64,
+    top_z: f64,
+}
+
+/// Faces within this of horizontal (the z share of their unit normal) may be the ground; CityJSON's rule alike.
+const HORIZONTAL: f64 = 0.985;
+/// Faces whose normal's z share is under this are walls in a model's surface kinds (steeper than ~84°).
+const WALL: f64 = 0.1;
+
+/// Gives each row holding a 3D surface model its footprint and heights (see [`standing`]), and with `want_model` the
+/// faces as its model. `lon_lat`: x and y are degrees (the faces' slopes are judged in metres).
+pub(crate) fn stand(
+    features: &mut [RawFeature],
+    surfaces: Vec<Surfaces>,
+    lon_lat: bool,
+    want_model: bool,
+) {
+    for (i, fid, faces) in surfaces {
+        let out = &mut features[i];
+        let slopes: Vec<f64> = faces
+            .iter()
+            .map(|f| {
+                f.first()
+                    .map_or(0.0, |r| horizontality(&metric(r, lon_lat)))
+            })
+            .collect();
+        match standing(&faces, &slopes) {
+            Ok(s) => {
+                out.polygons = s.footprint;
+                out.assemble = true;
+                out.footprint_min_z = Some(s.ground_z);
+                out.top_z = Some(s.top_z);
+                if want_model {
+                    out.model = Some(Ok(model(&faces, &slopes, &s.ground)));
+                }
+            }
+            Err((reason, detail)) => {
+                out.skip = Some((reason, format!("FID {fid}: {detail}")));
+            }
+        }
+    }
+}
+
+/// A ring with x and y in metres along the ground near it when they are degrees (z is taken as metres).
+fn metric(r: &[[f64; 3]], lon_lat: bool) -> Vec<[f64; 3]> {
+    if !lon_lat {
+        return r.to_vec();
+    }
+    let lat = r.first().map_or(0.0, |p| p[1].to_radians());
+    let (kx, ky) = (111_320.0 * lat.cos(), 110_574.0);
+    r.iter().map(|p| [p[0] * kx, p[1] * ky, p[2]]).collect()
+}
+
+/// The footprint of a 3D surface model: its horizontal faces at its lowest height (within 5 cm; a floor), else the
+/// plan of every face not on edge (roofs over walls that reach the ground), pieces to be unioned. It stands on its
+/// lowest vertex and reaches its highest.
+fn standing(faces: &[Face], slopes: &[f64]) -> Result<Standing, Skip> {
+    let (ground_z, top_z) = faces
+        .iter()
+        .flat_map(|f| f.iter().flatten())
+        .map(|v| v[2])
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), z| {
+            (lo.min(z), hi.max(z))
+        });
+    let outline = |i: &usize| faces[*i].first().filter(|r| r.len() >= 3);
+    let ground: Vec<usize> = (0..faces.len())
+        .filter(|i| {
+            outline(i).is_some_and(|r| {
+                slopes[*i] > HORIZONTAL
+                    && r.iter().map(|v| v[2]).sum::<f64>() / r.len() as f64 <= ground_z + 0.05
+            })
+        })
+        .collect();
+    let from: Vec<usize> = if ground.is_empty() {
+        (0..faces.len())
+            .filter(|i| outline(i).is_some() && slopes[*i] >= WALL)
+            .collect()
+    } else {
+        ground.clone()
+    };
+    if from.is_empty() {
+        return Err((
+            IssueReason::NoFootprint,
+            "a 3D surface model of walls only: no face to take its footprint from".into(),
+        ));
+    }
+    Ok(Standing {
+        footprint: from
+            .iter()
+            .map(|&i| {
+                faces[i]
+                    .iter()
+                    .map(|r| r.iter().map(|v| [v[0], v[1]]).collect())
+                    .collect()
+            })
+            .collect(),
+        ground,
+        ground_z,
+        top_z,
+    })
+}
+
+/// The faces as a model: vertices at identical positions shared; the ground faces `Ground`, faces steeper than
+/// ~84° `Wall`, the rest `Roof`.
+fn model(faces: &[Face], slopes: &[f64], ground: &[usize]) -> RawModel {
+    let mut index: HashMap<[u64; 3], u32> = HashMap::new();
+    let mut positions_src = Vec::new();
+    let surfaces = faces
+        .iter()
+        .enumerate()
+        .map(|(i, f)| {
+            let kind = if ground.contains(&i) {
+                SurfaceKind::Ground
+            } else if slopes[i] < WALL {
+                SurfaceKind::Wall
+            } else {
+                SurfaceKind::Roof
+            };
+            let rings = f
+                .iter()
+                .map(|r| {
+                    r.iter()
+                        .map(|v| {
+                            *index
+                                .entry(v.map(|c| (c + 0.0).to_bits()))
+                                .or_insert_with(|| {
+                                    positions_src.push(*v);
+                                    (positions_src.len() - 1) as u32
+                                })
+                        })
+                        .collect()
+                })
+                .collect();
+            RawSurface { rings, kind }
+        })
+        .collect();
+    RawModel {
+        positions_src,
+        surfaces,
+        lod: MODEL_LOD.into(),
+        fell_back: false,
+        notes: Vec::new(),
+    }
+}
+
+/// What the report's `mesh_lods` counts a GeoPackage model under: its layer has no LoD of CityJSON's kind.
+pub(crate) const MODEL_LOD: &str = "GeoPackage 3D";
 
 /// A path GeoPackage input is read from: the extension `.gpkg`, in any case.
 pub(crate) fn is_geopackage_name(path: &Path) -> bool {

@@ -537,7 +537,7 @@ fn load(
         });
     }
     if gpkg::is_geopackage_name(path) {
-        let doc = gpkg::read(path, opts.layer.as_deref()).map_err(|detail| {
+        let mut doc = gpkg::read(path, opts.layer.as_deref()).map_err(|detail| {
             IngestError::InvalidGeoPackage {
                 path: path.into(),
                 detail,
@@ -547,6 +547,12 @@ fn load(
             (None, None) => return Err(IngestError::GeoPackageWithoutCrs { path: path.into() }),
             (given, declared) => settle_crs(path, given, declared, InputFormat::GeoPackage)?,
         };
+        gpkg::stand(
+            &mut doc.features,
+            doc.surfaces,
+            crs.is_lon_lat(),
+            model_target.is_some(),
+        );
         return Ok(LoadedFile {
             path: path.into(),
             format: InputFormat::GeoPackage,

@@ -354,20 +354,8 @@ fn rows_that_are_no_footprint_are_skipped_with_their_reason_and_fid() {
     let good = le.polygon(&[square(0.0, 10.0)]);
     let mut nan = square(20.0, 10.0);
     nan[2][0] = f64::NAN;
-    // Four walls of a 10 m box standing on its outline, and its roof: a 3D surface model.
-    let s = square(40.0, 10.0);
-    let mut surfaces: Vec<Vec<Vec<[f64; 3]>>> = (0..4)
-        .map(|k| {
-            vec![vec![
-                [s[k][0], s[k][1], 0.0],
-                [s[k + 1][0], s[k + 1][1], 0.0],
-                [s[k + 1][0], s[k + 1][1], 9.0],
-                [s[k][0], s[k][1], 9.0],
-                [s[k][0], s[k][1], 0.0],
-            ]]
-        })
-        .collect();
-    surfaces.push(vec![with_z(&s, 9.0)]);
+    // The four walls of a 10 m box, without roof or floor: a 3D surface model with nothing to stand on.
+    let walls = box_faces(&square(40.0, 10.0), 0.0, 9.0)[..4].to_vec();
     let mut cut = blob(4326, Envelope::Xy, false, &good);
     cut.truncate(cut.len() - 5);
     let rows = vec![
@@ -388,7 +376,7 @@ fn rows_that_are_no_footprint_are_skipped_with_their_reason_and_fid() {
                 4326,
                 Envelope::None,
                 false,
-                &le.multipolygon_z(&surfaces),
+                &le.multipolygon_z(&walls),
             )),
         ),
         row(7, Some(good[..].to_vec())),
@@ -418,7 +406,7 @@ fn rows_that_are_no_footprint_are_skipped_with_their_reason_and_fid() {
         ("bad.gpkg#3", "unsupported_geometry: FID 3: Point geometry is not a footprint"),
         ("bad.gpkg#4", "malformed_geometry: FID 4: a ring said to hold 5 points, more than the rest of its 88-byte WKB"),
         ("bad.gpkg#5", &*format!("non_finite_coordinate: FID 5: a vertex (NaN, {}) that is not a finite number", square(20.0, 10.0)[2][1])),
-        ("bad.gpkg#6", "unsupported_geometry: FID 6: 4 of its 5 polygons stand on edge (the walls of a 3D surface model), not a footprint; read a layer of 2D footprints, or the model as CityJSON"),
+        ("bad.gpkg#6", "no_footprint: FID 6: a 3D surface model of walls only: no face to take its footprint from"),
         ("bad.gpkg#7", "malformed_geometry: FID 7: the geometry blob does not start with a GeoPackage header ('GP')"),
         ("bad.gpkg#8", "unsupported_geometry: FID 8: a GeoPackage extended geometry type (not a standard WKB geometry)"),
         ("bad.gpkg#9", "empty_geometry: FID 9: polygonal geometry without coordinates"),
@@ -429,6 +417,134 @@ fn rows_that_are_no_footprint_are_skipped_with_their_reason_and_fid() {
             .map(|(a, b)| (a.to_string(), b.to_string()))
             .collect::<Vec<_>>()
     );
+}
+
+/// The faces of a box on the closed outline `s` (counter-clockwise) from `z0` to `z1`: four walls, the roof, the floor.
+fn box_faces(s: &[[f64; 2]], z0: f64, z1: f64) -> Vec<Vec<Vec<[f64; 3]>>> {
+    let mut faces: Vec<Vec<Vec<[f64; 3]>>> = (0..s.len() - 1)
+        .map(|k| {
+            vec![vec![
+                [s[k][0], s[k][1], z0],
+                [s[k + 1][0], s[k + 1][1], z0],
+                [s[k + 1][0], s[k + 1][1], z1],
+                [s[k][0], s[k][1], z1],
+                [s[k][0], s[k][1], z0],
+            ]]
+        })
+        .collect();
+    faces.push(vec![with_z(s, z1)]);
+    let mut floor = with_z(s, z0);
+    floor.reverse();
+    faces.push(vec![floor]);
+    faces
+}
+
+#[test]
+fn rows_holding_3d_surface_models_stand_on_their_lowest_faces() {
+    let le = Wkb::default();
+    let sq = |i: f64| square(20.0 * i, 10.0);
+    // Walls and roof from 0 to 9 m (no floor); a box from 1 to 9 m with its floor; the same as a TIN; an L-shaped
+    // roof of two faces, one sloped, over walls reaching 0 m (MultiPolygon Z, as a 3D layer of 3DBAG holds them).
+    let open_box = box_faces(&sq(0.0), 0.0, 9.0)[..5].to_vec();
+    let closed = box_faces(&sq(1.0), 1.0, 9.0);
+    let tri = |f: &Vec<Vec<[f64; 3]>>| -> Vec<[[f64; 3]; 3]> {
+        let r = &f[0];
+        vec![[r[0], r[1], r[2]], [r[0], r[2], r[3]]]
+    };
+    let tin: Vec<[[f64; 3]; 3]> = box_faces(&sq(2.0), 0.0, 6.0).iter().flat_map(tri).collect();
+    let a = sq(3.0);
+    let b = square(70.0, 5.0);
+    let mut roofs = box_faces(&a, 0.0, 12.0)[..4].to_vec();
+    roofs.push(vec![with_z(&a, 12.0)]);
+    roofs.push(vec![b
+        .iter()
+        .map(|p| [p[0], p[1], if p[0] > b[0][0] { 8.0 } else { 10.0 }])
+        .collect()]);
+    let rows = vec![
+        row(
+            1,
+            Some(blob(
+                4326,
+                Envelope::Xyz,
+                false,
+                &le.multipolygon_z(&open_box),
+            )),
+        ),
+        row(
+            2,
+            Some(blob(
+                4326,
+                Envelope::Xyz,
+                false,
+                &le.polyhedral_surface_z(&closed),
+            )),
+        ),
+        row(3, Some(blob(4326, Envelope::Xyz, false, &le.tin_z(&tin)))),
+        row(
+            4,
+            Some(blob(4326, Envelope::Xyz, false, &le.multipolygon_z(&roofs))),
+        ),
+    ];
+    let dir = tempfile::tempdir().unwrap();
+    let p = one_layer(dir.path(), "models.gpkg", layer(rows, vec![]));
+    let r = ingest(std::slice::from_ref(&p), &IngestOptions::default()).unwrap();
+    assert_eq!(skips(&r), vec![]);
+    let got: Vec<(f64, f64, f64)> = r
+        .buildings
+        .iter()
+        .map(|b| {
+            (
+                (b.area_m2() * 10.0).round() / 10.0,
+                b.height_m,
+                b.base_z_m - r.buildings[0].base_z_m,
+            )
+        })
+        .collect();
+    // Bases differ by the earth's curvature across the local frame (~0.1 mm here).
+    let close = |x: f64, y: f64| (x - y).abs() < 1e-3;
+    let want = [
+        (100.0, 9.0, 0.0),
+        (100.0, 8.0, 1.0),
+        (100.0, 6.0, 0.0),
+        (125.0, 12.0, 0.0),
+    ];
+    for (g, w) in got.iter().zip(want) {
+        assert!(
+            (g.0 - w.0).abs() < 0.5 && close(g.1, w.1) && close(g.2, w.2),
+            "{got:?} against {want:?}"
+        );
+    }
+    assert_eq!(got.len(), 4);
+    // Heights come from the geometry, not the default.
+    assert_eq!(
+        r.report.height_sources.get("geometry").copied(),
+        Some(4),
+        "{:?}",
+        r.report.height_sources
+    );
+    assert!(r.buildings.iter().all(|b| b.mesh.is_none()));
+
+    // With --lod, the faces are the building's model: floors ground, walls walls, the rest roofs.
+    let r = ingest(
+        &[p],
+        &IngestOptions {
+            lod: Some(citylod_ingest::LodChoice::Highest),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(r.report.buildings_with_mesh, 4);
+    assert_eq!(r.report.mesh_lods.get("GeoPackage 3D").copied(), Some(4));
+    use citylod_model::SurfaceKind::{Ground, Roof, Wall};
+    let kinds = |i: usize| {
+        let m = r.buildings[i].mesh.as_ref().unwrap();
+        [Ground, Wall, Roof].map(|k| m.surfaces.iter().filter(|s| **s == k).count())
+    };
+    // Triangles: a box's floor and roof two each, its walls eight.
+    assert_eq!(kinds(0), [0, 8, 2]);
+    assert_eq!(kinds(1), [2, 8, 2]);
+    assert_eq!(kinds(2), [2, 8, 2]);
+    assert_eq!(kinds(3)[0], 0);
 }
 
 #[test]
@@ -720,4 +836,136 @@ fn broken_bytes_give_errors_or_skips_not_panics() {
             assert!(e.to_string().contains("broken.gpkg"), "{e}");
         }
     }
+}
+
+/// Delft's 3DBAG buildings as a 3D GeoPackage layer holds them: one MultiPolygon Z per building of every LoD 2.2
+/// face of its parts, in EPSG:28992, with the building's attributes.
+fn delft_as_3d_layer(jsonl: &Path, out: &Path) -> usize {
+    let text = std::fs::read_to_string(jsonl).unwrap();
+    let mut lines = text.lines();
+    let header: Value = serde_json::from_str(lines.next().unwrap()).unwrap();
+    let t = &header["transform"];
+    let (scale, shift): (Vec<f64>, Vec<f64>) = (
+        (0..3).map(|i| t["scale"][i].as_f64().unwrap()).collect(),
+        (0..3)
+            .map(|i| t["translate"][i].as_f64().unwrap())
+            .collect(),
+    );
+    let wkb = Wkb::default();
+    let mut rows = Vec::new();
+    for line in lines {
+        let f: Value = serde_json::from_str(line).unwrap();
+        let verts: Vec<[f64; 3]> = f["vertices"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| std::array::from_fn(|i| v[i].as_f64().unwrap() * scale[i] + shift[i]))
+            .collect();
+        let id = f["id"].as_str().unwrap();
+        let building = &f["CityObjects"][id];
+        let mut faces: Vec<Vec<Vec<[f64; 3]>>> = Vec::new();
+        for child in building["children"].as_array().into_iter().flatten() {
+            let part = &f["CityObjects"][child.as_str().unwrap()];
+            for g in part["geometry"].as_array().into_iter().flatten() {
+                if g["lod"].as_str() != Some("2.2") || g["type"] != "Solid" {
+                    continue;
+                }
+                for shell in g["boundaries"].as_array().unwrap() {
+                    for surface in shell.as_array().unwrap() {
+                        faces.push(
+                            surface
+                                .as_array()
+                                .unwrap()
+                                .iter()
+                                .map(|r| {
+                                    let mut ring: Vec<[f64; 3]> = r
+                                        .as_array()
+                                        .unwrap()
+                                        .iter()
+                                        .map(|i| verts[i.as_u64().unwrap() as usize])
+                                        .collect();
+                                    ring.push(ring[0]);
+                                    ring
+                                })
+                                .collect(),
+                        );
+                    }
+                }
+            }
+        }
+        let attrs = &building["attributes"];
+        rows.push(Row {
+            fid: rows.len() as i64 + 1,
+            geometry: Some(blob(
+                28992,
+                Envelope::Xyz,
+                false,
+                &wkb.multipolygon_z(&faces),
+            )),
+            values: vec![
+                Sql::Text(id.to_string()),
+                attrs["b3_h_maaiveld"].as_f64().map_or(Sql::Null, Sql::Real),
+                attrs["b3_h_dak_70p"].as_f64().map_or(Sql::Null, Sql::Real),
+            ],
+        });
+    }
+    let n = rows.len();
+    let mut l = layer(
+        rows,
+        vec![
+            ("identificatie", "TEXT"),
+            ("b3_h_maaiveld", "REAL"),
+            ("b3_h_dak_70p", "REAL"),
+        ],
+    );
+    l.table = "lod22_3d".into();
+    l.srs_id = 28992;
+    write(out, &[Srs::epsg(28992)], &[l]);
+    n
+}
+
+#[test]
+fn delfts_buildings_as_a_3d_layer_ingest_as_their_cityjson_does() {
+    let Some(jsonl) = citylod_testdata::shared_data("delft-3dbag/delft.city.jsonl") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let gpkg = dir.path().join("delft3d.gpkg");
+    let rows = delft_as_3d_layer(&jsonl, &gpkg);
+    let opts = IngestOptions {
+        lod: Some(citylod_ingest::LodChoice::Exact("2.2".into())),
+        id_attr: Some("identificatie".into()),
+        ..Default::default()
+    };
+    let from_gpkg = ingest(&[gpkg], &opts).unwrap();
+    let from_json = ingest(&[jsonl], &opts).unwrap();
+    assert!(rows > 1000, "{rows}");
+    assert_eq!(from_gpkg.buildings.len(), rows);
+    assert_eq!(from_json.buildings.len(), rows);
+    assert_eq!(from_gpkg.report.buildings_with_mesh, rows);
+    let mut area_off = Vec::new();
+    for (a, b) in from_gpkg.buildings.iter().zip(&from_json.buildings) {
+        assert_eq!(a.source_id, b.source_id);
+        // The same 3DBAG height rule (roof − ground attributes) on both.
+        assert!((a.height_m - b.height_m).abs() < 1e-9, "{}", a.source_id);
+        // The same faces: as many triangles of each kind, give or take the ones told apart by slope instead of
+        // semantics (a few steep roof faces).
+        let (ma, mb) = (a.mesh.as_ref().unwrap(), b.mesh.as_ref().unwrap());
+        let tris = |m: &citylod_model::BuildingModel| m.mesh.triangles.len() as i64;
+        assert!(
+            (tris(ma) - tris(mb)).abs() <= 2,
+            "{}: {} / {}",
+            a.source_id,
+            tris(ma),
+            tris(mb)
+        );
+        // The footprint from the floor faces against 3DBAG's LoD0 outline.
+        area_off.push((a.area_m2() - b.area_m2()).abs() / b.area_m2());
+    }
+    area_off.sort_by(f64::total_cmp);
+    let median = area_off[area_off.len() / 2];
+    assert!(
+        median < 0.01,
+        "median relative footprint area difference {median}"
+    );
 }

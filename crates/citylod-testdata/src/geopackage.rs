@@ -255,6 +255,35 @@ impl Wkb {
         out
     }
 
+    /// A PolyhedralSurface Z (ISO type 15) of Polygon Z faces.
+    pub fn polyhedral_surface_z(&self, faces: &[Vec<Vec<[f64; 3]>>]) -> Vec<u8> {
+        let mut out = Vec::new();
+        self.header(&mut out, 15, true);
+        self.u32(&mut out, faces.len() as u32);
+        for f in faces {
+            self.polygon_into(&mut out, f, true);
+        }
+        out
+    }
+
+    /// A TIN Z (ISO type 16) of Triangle Z members (type 17), each one closed ring of four points.
+    pub fn tin_z(&self, triangles: &[[[f64; 3]; 3]]) -> Vec<u8> {
+        let mut out = Vec::new();
+        self.header(&mut out, 16, true);
+        self.u32(&mut out, triangles.len() as u32);
+        for t in triangles {
+            self.header(&mut out, 17, true);
+            self.u32(&mut out, 1);
+            self.u32(&mut out, 4);
+            for p in t.iter().chain(std::iter::once(&t[0])) {
+                for c in p {
+                    self.f64(&mut out, *c);
+                }
+            }
+        }
+        out
+    }
+
     /// A Point.
     pub fn point(&self, p: [f64; 2]) -> Vec<u8> {
         let mut out = Vec::new();

@@ -87,8 +87,9 @@ pub struct BuildArgs {
     /// prism, each with its measured error (sampled two-sided Hausdorff distance to the full model, metres).
     /// `2` means the highest 2.x a building has; a building without the LoD asked uses its highest LoD below it, one
     /// with none at or below it stays a prism (the console and the build report's `mesh_lods` and
-    /// `mesh_lod_fallbacks` say how many). Without it, buildings are prisms of their footprints. GeoJSON input
-    /// ignores it.
+    /// `mesh_lod_fallbacks` say how many). Without it, buildings are prisms of their footprints. A GeoPackage layer
+    /// of 3D surface models (PolyhedralSurface, TIN, or MultiPolygon Z with walls, as 3DBAG's 3D layers) has one
+    /// model per row: any value takes it (counted as `GeoPackage 3D`). GeoJSON and Shapefile input ignore it.
     #[arg(long, value_name = "LOD", help_heading = "3D buildings")]
     pub lod: Option<String>,
 
