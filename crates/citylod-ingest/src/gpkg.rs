@@ -8,17 +8,14 @@
 //! a skipped feature with the reason and its feature id (FID: the table's integer primary key, as GDAL and QGIS show
 //! it).
 
-use crate::cityjson::horizontality;
 use crate::crs::DeclaredCrs;
 use crate::feature::{RawFeature, RawPolygon};
-use crate::model3d::{RawModel, RawSurface};
 use crate::report::IssueReason;
+use crate::surface_model::{Face, Surfaces};
 use citylod_mesh::signed_area2;
-use citylod_model::SurfaceKind;
 use citylod_model::{AttrValue, Attributes};
 use rusqlite::types::ValueRef;
 use rusqlite::{Connection, OpenFlags};
-use std::collections::HashMap;
 use std::path::Path;
 
 /// What a GeoPackage layer holds: its features, the CRS declared for its geometry column (`None` when that is the
@@ -31,9 +28,6 @@ pub(crate) struct GeoPackageDoc {
     pub declared_crs: Option<DeclaredCrs>,
     pub notes: Vec<String>,
 }
-
-/// The faces of a row holding a 3D surface model: the feature's index, its FID, the faces.
-pub(crate) type Surfaces = (usize, i64, Vec<Face>);
 
 /// The files SQLite keeps beside a database in WAL mode, each with what it is, for refusing one given as the input.
 pub(crate) const SIDECARS: [(&str, &str); 3] = [
@@ -340,7 +334,7 @@ fn rows(
                 }
                 Ok(Geometry::Surfaces(faces, repairs)) => {
                     out.repairs.extend(repairs);
-                    surfaces.push((features.len(), fid, faces));
+                    surfaces.push((features.len(), format!("FID {fid}"), faces));
                 }
                 Err((reason, detail)) => out.skip = Some((reason, format!("FID {fid}: {detail}"))),
             },
@@ -406,9 +400,6 @@ fn value(v: ValueRef, c: &Column, repairs: &mut Vec<(IssueReason, String)>) -> A
 
 type Skip = (IssueReason, String);
 type Repairs = Vec<(IssueReason, String)>;
-
-/// One face of a 3D surface model: its rings (exterior first), open, in source x, y, z.
-pub(crate) type Face = Vec<Vec<[f64; 3]>>;
 
 /// What a geometry blob holds.
 pub(crate) enum Geometry {
@@ -800,159 +791,6 @@ fn extent(r: &[[f64; 2]]) -> (f64, f64) {
     }
     (hi[0] - lo[0], hi[1] - lo[1])
 }
-
-/// How a 3D surface model stands: its footprint, the faces it was taken from, the ground's and the top's heights.
-struct Standing {
-    footprint: Vec<RawPolygon>,
-    /// Indices of the faces the footprint is (the ground), empty when it is the plan of every face.
-    ground: Vec<usize>,
-    ground_z: f64,
-    top_z: f64,
-}
-
-/// Faces within this of horizontal (the z share of their unit normal) may be the ground; CityJSON's rule alike.
-const HORIZONTAL: f64 = 0.985;
-/// Faces whose normal's z share is under this are walls in a model's surface kinds (steeper than ~84°).
-const WALL: f64 = 0.1;
-
-/// Gives each row holding a 3D surface model its footprint and heights (see [`standing`]), and with `want_model` the
-/// faces as its model. `lon_lat`: x and y are degrees (the faces' slopes are judged in metres).
-pub(crate) fn stand(
-    features: &mut [RawFeature],
-    surfaces: Vec<Surfaces>,
-    lon_lat: bool,
-    want_model: bool,
-) {
-    for (i, fid, faces) in surfaces {
-        let out = &mut features[i];
-        let slopes: Vec<f64> = faces
-            .iter()
-            .map(|f| {
-                f.first()
-                    .map_or(0.0, |r| horizontality(&metric(r, lon_lat)))
-            })
-            .collect();
-        match standing(&faces, &slopes) {
-            Ok(s) => {
-                out.polygons = s.footprint;
-                out.assemble = true;
-                out.footprint_min_z = Some(s.ground_z);
-                out.top_z = Some(s.top_z);
-                if want_model {
-                    out.model = Some(Ok(model(&faces, &slopes, &s.ground)));
-                }
-            }
-            Err((reason, detail)) => {
-                out.skip = Some((reason, format!("FID {fid}: {detail}")));
-            }
-        }
-    }
-}
-
-/// A ring with x and y in metres along the ground near it when they are degrees (z is taken as metres).
-fn metric(r: &[[f64; 3]], lon_lat: bool) -> Vec<[f64; 3]> {
-    if !lon_lat {
-        return r.to_vec();
-    }
-    let lat = r.first().map_or(0.0, |p| p[1].to_radians());
-    let (kx, ky) = (111_320.0 * lat.cos(), 110_574.0);
-    r.iter().map(|p| [p[0] * kx, p[1] * ky, p[2]]).collect()
-}
-
-/// The footprint of a 3D surface model: its horizontal faces at its lowest height (within 5 cm; a floor), else the
-/// plan of every face not on edge (roofs over walls that reach the ground), pieces to be unioned. It stands on its
-/// lowest vertex and reaches its highest.
-fn standing(faces: &[Face], slopes: &[f64]) -> Result<Standing, Skip> {
-    let (ground_z, top_z) = faces
-        .iter()
-        .flat_map(|f| f.iter().flatten())
-        .map(|v| v[2])
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), z| {
-            (lo.min(z), hi.max(z))
-        });
-    let outline = |i: &usize| faces[*i].first().filter(|r| r.len() >= 3);
-    let ground: Vec<usize> = (0..faces.len())
-        .filter(|i| {
-            outline(i).is_some_and(|r| {
-                slopes[*i] > HORIZONTAL
-                    && r.iter().map(|v| v[2]).sum::<f64>() / r.len() as f64 <= ground_z + 0.05
-            })
-        })
-        .collect();
-    let from: Vec<usize> = if ground.is_empty() {
-        (0..faces.len())
-            .filter(|i| outline(i).is_some() && slopes[*i] >= WALL)
-            .collect()
-    } else {
-        ground.clone()
-    };
-    if from.is_empty() {
-        return Err((
-            IssueReason::NoFootprint,
-            "a 3D surface model of walls only: no face to take its footprint from".into(),
-        ));
-    }
-    Ok(Standing {
-        footprint: from
-            .iter()
-            .map(|&i| {
-                faces[i]
-                    .iter()
-                    .map(|r| r.iter().map(|v| [v[0], v[1]]).collect())
-                    .collect()
-            })
-            .collect(),
-        ground,
-        ground_z,
-        top_z,
-    })
-}
-
-/// The faces as a model: vertices at identical positions shared; the ground faces `Ground`, faces steeper than
-/// ~84° `Wall`, the rest `Roof`.
-fn model(faces: &[Face], slopes: &[f64], ground: &[usize]) -> RawModel {
-    let mut index: HashMap<[u64; 3], u32> = HashMap::new();
-    let mut positions_src = Vec::new();
-    let surfaces = faces
-        .iter()
-        .enumerate()
-        .map(|(i, f)| {
-            let kind = if ground.contains(&i) {
-                SurfaceKind::Ground
-            } else if slopes[i] < WALL {
-                SurfaceKind::Wall
-            } else {
-                SurfaceKind::Roof
-            };
-            let rings = f
-                .iter()
-                .map(|r| {
-                    r.iter()
-                        .map(|v| {
-                            *index
-                                .entry(v.map(|c| (c + 0.0).to_bits()))
-                                .or_insert_with(|| {
-                                    positions_src.push(*v);
-                                    (positions_src.len() - 1) as u32
-                                })
-                        })
-                        .collect()
-                })
-                .collect();
-            RawSurface { rings, kind }
-        })
-        .collect();
-    RawModel {
-        positions_src,
-        surfaces,
-        lod: MODEL_LOD.into(),
-        fell_back: false,
-        notes: Vec::new(),
-    }
-}
-
-/// What the report's `mesh_lods` counts a GeoPackage model under: its layer has no LoD of CityJSON's kind.
-pub(crate) const MODEL_LOD: &str = "GeoPackage 3D";
 
 /// A path GeoPackage input is read from: the extension `.gpkg`, in any case.
 pub(crate) fn is_geopackage_name(path: &Path) -> bool {

@@ -41,6 +41,7 @@ mod repair;
 mod report;
 mod shp;
 mod streets;
+mod surface_model;
 mod template;
 mod valid;
 
@@ -509,7 +510,7 @@ fn load(
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase());
     if extension.as_deref() == Some("shp") {
-        let doc = shp::read(path).map_err(|detail| IngestError::InvalidShapefile {
+        let mut doc = shp::read(path).map_err(|detail| IngestError::InvalidShapefile {
             path: path.into(),
             detail,
         })?;
@@ -517,6 +518,13 @@ fn load(
             (None, None) => return Err(IngestError::MissingPrj { path: path.into() }),
             (given, declared) => settle_crs(path, given, declared, InputFormat::Shapefile)?,
         };
+        surface_model::stand(
+            &mut doc.features,
+            doc.surfaces,
+            crs.is_lon_lat(),
+            model_target.is_some(),
+            "MultiPatch",
+        );
         return Ok(LoadedFile {
             path: path.into(),
             format: InputFormat::Shapefile,
@@ -547,11 +555,12 @@ fn load(
             (None, None) => return Err(IngestError::GeoPackageWithoutCrs { path: path.into() }),
             (given, declared) => settle_crs(path, given, declared, InputFormat::GeoPackage)?,
         };
-        gpkg::stand(
+        surface_model::stand(
             &mut doc.features,
             doc.surfaces,
             crs.is_lon_lat(),
             model_target.is_some(),
+            "GeoPackage 3D",
         );
         return Ok(LoadedFile {
             path: path.into(),

@@ -15,6 +15,7 @@
 use crate::crs::DeclaredCrs;
 use crate::feature::{RawFeature, RawPolygon};
 use crate::report::IssueReason;
+use crate::surface_model::{Face, Surfaces};
 use citylod_mesh::signed_area2;
 use citylod_model::{AttrValue, Attributes};
 use std::path::{Path, PathBuf};
@@ -23,6 +24,8 @@ use std::path::{Path, PathBuf};
 /// should know about the file as a whole (the code page assumed, fields not read).
 pub(crate) struct ShapefileDoc {
     pub features: Vec<RawFeature>,
+    /// The faces of the MultiPatch records, by feature index: their footprints wait for the CRS.
+    pub surfaces: Vec<Surfaces>,
     pub declared_crs: Option<DeclaredCrs>,
     pub notes: Vec<String>,
 }
@@ -71,6 +74,7 @@ pub(crate) fn read(path: &Path) -> Result<ShapefileDoc, String> {
         .chain(table.notes.iter().cloned())
         .collect();
     let mut features = Vec::with_capacity(shapes.len());
+    let mut surfaces = Vec::new();
     for (index, shape) in shapes.into_iter().enumerate() {
         let (attributes, repairs, deleted) = table.record(index);
         let mut out = RawFeature {
@@ -88,7 +92,8 @@ pub(crate) fn read(path: &Path) -> Result<ShapefileDoc, String> {
             ));
         } else {
             match shape {
-                Ok((polygons, repairs)) => {
+                Ok(Read::Surfaces(faces)) => surfaces.push((index, record, faces)),
+                Ok(Read::Footprint(polygons, repairs)) => {
                     out.polygons = polygons;
                     out.repairs.extend(repairs);
                 }
@@ -114,6 +119,7 @@ pub(crate) fn read(path: &Path) -> Result<ShapefileDoc, String> {
     };
     Ok(ShapefileDoc {
         features,
+        surfaces,
         declared_crs,
         notes,
     })
@@ -145,7 +151,15 @@ fn sidecar(shp: &Path, ext: &str) -> Option<PathBuf> {
 // --- the .shp ---
 
 /// A record's footprint polygons (open rings in the OGC's winding) with the repairs made, or why it has none.
-type ShapeResult = Result<(Vec<RawPolygon>, Vec<(IssueReason, String)>), (IssueReason, String)>;
+type ShapeResult = Result<Read, (IssueReason, String)>;
+
+/// What a record holds.
+enum Read {
+    /// Polygon footprints and the repairs made reading them.
+    Footprint(Vec<RawPolygon>, Vec<(IssueReason, String)>),
+    /// A MultiPatch's faces.
+    Surfaces(Vec<Face>),
+}
 
 fn be_i32(b: &[u8], at: usize) -> Option<i32> {
     Some(i32::from_be_bytes(b.get(at..at + 4)?.try_into().ok()?))
@@ -253,10 +267,7 @@ fn shape(c: &[u8]) -> ShapeResult {
     match (t, type_name(t)) {
         (0, _) => Err((IssueReason::NoGeometry, "null shape".into())),
         (5 | 15 | 25, _) => polygon(c),
-        (31, _) => Err((
-            IssueReason::UnsupportedGeometry,
-            "MultiPatch shape (3D surfaces), not a polygon footprint".into(),
-        )),
+        (31, _) => multipatch(c),
         (_, Some(name)) => Err((
             IssueReason::UnsupportedGeometry,
             format!("{name} shape, not a polygon"),
@@ -328,7 +339,139 @@ fn polygon(c: &[u8]) -> ShapeResult {
         }
         rings.push(r);
     }
-    Ok((organize(rings), repairs))
+    Ok(Read::Footprint(organize(rings), repairs))
+}
+
+/// A MultiPatch record's faces: triangle strips, fans and lists as triangles, an outer ring with the inner rings
+/// after it (or a first ring with the rings after it) as one face with holes, a ring alone as a face. Triangles
+/// without area (a strip's restarts) are left out; M values are not read.
+fn multipatch(c: &[u8]) -> ShapeResult {
+    let malformed = |d: String| Err((IssueReason::MalformedGeometry, d));
+    let (Some(parts), Some(points)) = (le_i32(c, 36), le_i32(c, 40)) else {
+        return malformed(format!(
+            "a MultiPatch record of {} bytes, too short for its counts",
+            c.len()
+        ));
+    };
+    if parts < 0 || points < 0 {
+        return malformed(format!("a MultiPatch of {parts} parts and {points} points"));
+    }
+    // Part starts and types, x, y, the z range and z: the M range and values may follow.
+    let need = 44 + 8 * parts as u64 + 24 * points as u64 + 16;
+    if need > c.len() as u64 {
+        return malformed(format!(
+            "a MultiPatch of {parts} parts and {points} points needs {need} bytes, its record holds {}",
+            c.len()
+        ));
+    }
+    if parts == 0 || points == 0 {
+        return Err((
+            IssueReason::EmptyGeometry,
+            "MultiPatch without parts".into(),
+        ));
+    }
+    let (parts, points) = (parts as usize, points as usize);
+    let int = |at: usize| le_i32(c, at).unwrap_or(-1);
+    let starts: Vec<usize> = (0..parts)
+        .map(|k| int(44 + 4 * k) as i64 as usize)
+        .collect();
+    let valid = starts[0] == 0
+        && starts.windows(2).all(|w| w[0] <= w[1])
+        && starts.last().is_some_and(|&s| s < points);
+    if !valid {
+        return malformed("part starts are not increasing from 0 below its point count".into());
+    }
+    let xy = 44 + 8 * parts;
+    let z = xy + 16 * points + 16;
+    let point = |i: usize| -> [f64; 3] {
+        let f = |at: usize| le_f64(c, at).unwrap_or(f64::NAN);
+        [f(xy + 16 * i), f(xy + 16 * i + 8), f(z + 8 * i)]
+    };
+    let mut faces: Vec<Face> = Vec::new();
+    // The face a ring part joins: an outer or first ring opens one, an inner ring or ring after it adds a hole.
+    let mut open_face: Option<i32> = None;
+    for k in 0..parts {
+        let end = starts.get(k + 1).copied().unwrap_or(points);
+        let pts: Vec<[f64; 3]> = (starts[k]..end).map(point).collect();
+        if pts.iter().flatten().any(|v| !v.is_finite()) {
+            return Err((
+                IssueReason::NonFiniteCoordinate,
+                format!("part {} has a vertex that is not a finite number", k + 1),
+            ));
+        }
+        let kind = int(44 + 4 * parts + 4 * k);
+        let triangle = |a: [f64; 3], b: [f64; 3], c: [f64; 3]| -> Option<Face> {
+            let (u, v) = (
+                [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
+                [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
+            );
+            let n = [
+                u[1] * v[2] - u[2] * v[1],
+                u[2] * v[0] - u[0] * v[2],
+                u[0] * v[1] - u[1] * v[0],
+            ];
+            (n.iter().any(|x| *x != 0.0)).then(|| vec![vec![a, b, c]])
+        };
+        match kind {
+            // Triangle strip: every three consecutive points, every other one turned to keep the winding.
+            0 => {
+                open_face = None;
+                for i in 2..pts.len() {
+                    let (a, b) = if i % 2 == 0 {
+                        (pts[i - 2], pts[i - 1])
+                    } else {
+                        (pts[i - 1], pts[i - 2])
+                    };
+                    faces.extend(triangle(a, b, pts[i]));
+                }
+            }
+            // Triangle fan about the first point.
+            1 => {
+                open_face = None;
+                for i in 2..pts.len() {
+                    faces.extend(triangle(pts[0], pts[i - 1], pts[i]));
+                }
+            }
+            // Triangles, three points each (a later addition to the format).
+            6 => {
+                open_face = None;
+                for t in pts.chunks_exact(3) {
+                    faces.extend(triangle(t[0], t[1], t[2]));
+                }
+            }
+            2..=5 => {
+                let mut ring = pts;
+                if ring.len() > 1 && ring.first() == ring.last() {
+                    ring.pop();
+                }
+                let hole_of = match kind {
+                    3 => Some(2),
+                    5 => Some(4),
+                    _ => None,
+                };
+                match (hole_of, open_face, faces.last_mut()) {
+                    (Some(h), Some(o), Some(face)) if h == o => face.push(ring),
+                    _ => {
+                        faces.push(vec![ring]);
+                        open_face = matches!(kind, 2 | 4).then_some(kind);
+                    }
+                }
+            }
+            t => {
+                return malformed(format!(
+                    "part {} is of type {t}, which MultiPatch does not define",
+                    k + 1
+                ))
+            }
+        }
+    }
+    if faces.is_empty() {
+        return Err((
+            IssueReason::EmptyGeometry,
+            "MultiPatch whose parts have no area".into(),
+        ));
+    }
+    Ok(Read::Surfaces(faces))
 }
 
 /// The bounding box of a ring: [min x, min y, max x, max y].

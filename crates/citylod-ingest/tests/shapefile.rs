@@ -435,7 +435,7 @@ fn shapes_that_are_no_footprint_are_skipped_with_their_type() {
     assert_eq!(reason("null"), Some("no_geometry"));
     assert_eq!(reason("point"), Some("unsupported_geometry"));
     assert_eq!(reason("line"), Some("unsupported_geometry"));
-    assert_eq!(reason("patch"), Some("unsupported_geometry"));
+    assert_eq!(reason("patch"), Some("malformed_geometry"));
     assert_eq!(reason("counts"), Some("malformed_geometry"));
     let detail = |id: &str| {
         r.report
@@ -935,5 +935,205 @@ fn ids_come_from_the_attribute_named() {
     assert_eq!(by_default.buildings.len(), by_osm_id.buildings.len());
     for (a, b) in by_default.buildings.iter().zip(&by_osm_id.buildings) {
         assert_eq!(a.source_id.split('/').nth(1), Some(b.source_id.as_str()));
+    }
+}
+
+/// A MultiPatch box on the closed ring `r` from `z0` to `z1`, as ArcGIS writes one: the walls one triangle strip
+/// around it, the roof a fan; with `floor`, the floor an outer ring.
+fn patch_box(r: &[[f64; 2]], z0: f64, z1: f64, floor: bool) -> Vec<(i32, Vec<[f64; 3]>)> {
+    let strip: Vec<[f64; 3]> = r
+        .iter()
+        .flat_map(|p| [[p[0], p[1], z0], [p[0], p[1], z1]])
+        .collect();
+    let roof: Vec<[f64; 3]> = r[..r.len() - 1].iter().map(|p| [p[0], p[1], z1]).collect();
+    let mut parts = vec![(0, strip), (1, roof)];
+    if floor {
+        parts.push((2, r.iter().rev().map(|p| [p[0], p[1], z0]).collect()));
+    }
+    parts
+}
+
+#[test]
+fn multipatch_records_stand_on_their_floors_or_under_their_roofs() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut t = Table::new(vec![Field::new("id", b'C', 12, 0)]);
+    for id in ["box", "floored", "courtyard", "triangles", "flat"] {
+        t.push([text(id)]);
+    }
+    // A roof with a courtyard: a first ring and a ring after it, over walls (a strip) reaching 2 m.
+    let outer = square_at(60.0, 20.0);
+    let inner: Vec<[f64; 2]> = square_at(66.0, 8.0)
+        .iter()
+        .map(|p| [p[0], p[1] + 6.0 / 111_000.0])
+        .collect();
+    let mut courtyard = patch_box(&outer, 2.0, 14.0, false);
+    courtyard.truncate(1);
+    courtyard.push((4, outer.iter().map(|p| [p[0], p[1], 14.0]).collect()));
+    courtyard.push((5, inner.iter().rev().map(|p| [p[0], p[1], 14.0]).collect()));
+    // The same box as separate triangles (part type 6): its roof's two only, over nothing.
+    let s = square_at(100.0, 10.0);
+    let tri = vec![(
+        6,
+        [s[0], s[1], s[2], s[0], s[2], s[3]]
+            .iter()
+            .map(|p| [p[0], p[1], 5.0])
+            .collect(),
+    )];
+    // A strip folded onto itself: no triangle has area.
+    let flat = vec![(
+        0,
+        vec![
+            [s[0][0], s[0][1], 0.0],
+            [s[1][0], s[1][1], 0.0],
+            [s[0][0], s[0][1], 0.0],
+        ],
+    )];
+    let shapes = vec![
+        Shape::MultiPatch(patch_box(&square_at(0.0, 10.0), 0.0, 9.0, false)),
+        Shape::MultiPatch(patch_box(&square_at(20.0, 10.0), 1.0, 9.0, true)),
+        Shape::MultiPatch(courtyard),
+        Shape::MultiPatch(tri),
+        Shape::MultiPatch(flat),
+    ];
+    let shp = write(dir.path(), "patches", &shapes, &t, Some(WGS84_PRJ), None);
+    let r = ingest(std::slice::from_ref(&shp), &IngestOptions::default()).unwrap();
+    assert_eq!(ids(&r), ["box", "floored", "courtyard", "triangles"]);
+    assert_eq!(
+        r.report
+            .skipped
+            .iter()
+            .map(|s| (s.feature_id.as_str(), s.reason.as_str(), s.detail.as_str()))
+            .collect::<Vec<_>>(),
+        [(
+            "flat",
+            "empty_geometry",
+            "record 5 (FID 4): MultiPatch whose parts have no area"
+        )]
+    );
+    let b = |id: &str| r.buildings.iter().find(|b| b.source_id == id).unwrap();
+    let area = |id: &str| b(id).area_m2();
+    assert!((area("box") - 100.0).abs() < 1.0, "{}", area("box"));
+    assert!((area("floored") - 100.0).abs() < 1.0, "{}", area("floored"));
+    assert!(
+        (area("courtyard") - 336.0).abs() < 2.0,
+        "{}",
+        area("courtyard")
+    );
+    assert_eq!(b("courtyard").footprint.0[0].interiors().len(), 1);
+    assert!(
+        (area("triangles") - 100.0).abs() < 1.0,
+        "{}",
+        area("triangles")
+    );
+    let heights: Vec<f64> = ["box", "floored", "courtyard", "triangles"]
+        .iter()
+        .map(|i| b(i).height_m)
+        .collect();
+    // The triangles alone are a roof at 5 m with nothing under it: no height from the geometry, the default.
+    assert_eq!(heights, [9.0, 8.0, 12.0, 10.0]);
+    assert_eq!(r.report.height_sources.get("geometry").copied(), Some(3));
+
+    // With --lod the patches are the buildings' models.
+    let r = ingest(
+        &[shp],
+        &IngestOptions {
+            lod: Some(citylod_ingest::LodChoice::Highest),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(
+        r.report.mesh_lods.get("MultiPatch").copied(),
+        Some(4),
+        "{:?}",
+        r.report.mesh_lods
+    );
+    use citylod_model::SurfaceKind::{Ground, Roof, Wall};
+    let kinds = |id: &str| {
+        let m = r
+            .buildings
+            .iter()
+            .find(|b| b.source_id == id)
+            .unwrap()
+            .mesh
+            .as_ref()
+            .unwrap();
+        [Ground, Wall, Roof].map(|k| m.surfaces.iter().filter(|s| **s == k).count())
+    };
+    assert_eq!(kinds("box"), [0, 8, 2]);
+    assert_eq!(kinds("floored"), [2, 8, 2]);
+}
+
+#[test]
+fn a_multipatch_shapefile_written_by_gdal_gives_the_models_of_its_cityjson() {
+    let shp = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/multipatch/delft_multipatch.shp");
+    let opts = IngestOptions {
+        lod: Some(citylod_ingest::LodChoice::Exact("2.2".into())),
+        id_attr: Some("identifica".into()),
+        ..Default::default()
+    };
+    let r = ingest(std::slice::from_ref(&shp), &opts).unwrap();
+    assert_eq!(r.buildings.len(), 12);
+    assert_eq!(r.report.files[0].crs, "EPSG:28992");
+    assert_eq!(r.report.buildings_with_mesh, 12);
+    // Heights from the faces: from the lowest vertex to the highest (sheds of under 3 m to houses of 40).
+    assert_eq!(r.report.height_sources.get("geometry").copied(), Some(12));
+    for b in &r.buildings {
+        assert!(
+            (2.0..40.0).contains(&b.height_m),
+            "{}: {}",
+            b.source_id,
+            b.height_m
+        );
+        assert!(b.source_id.starts_with("NL.IMBAG.Pand."), "{}", b.source_id);
+    }
+    // Against the CityJSON the faces came from: the same triangles and, from the floors, the LoD0 outline's area.
+    let Some(jsonl) = citylod_testdata::shared_data("delft-3dbag/delft.city.jsonl") else {
+        return;
+    };
+    let city = ingest(
+        &[jsonl],
+        &IngestOptions {
+            id_attr: None,
+            ..opts
+        },
+    )
+    .unwrap();
+    for b in &r.buildings {
+        let c = city
+            .buildings
+            .iter()
+            .find(|c| c.source_id == b.source_id)
+            .unwrap();
+        let tris =
+            |x: &citylod_model::Building| x.mesh.as_ref().unwrap().mesh.triangles.len() as i64;
+        assert!(
+            (tris(b) - tris(c)).abs() <= 2,
+            "{}: {} / {}",
+            b.source_id,
+            tris(b),
+            tris(c)
+        );
+        let (ab, ac) = (b.area_m2(), c.area_m2());
+        assert!(
+            (ab - ac).abs() <= 0.05 * ac,
+            "{}: {ab} / {ac} m²",
+            b.source_id
+        );
+        // The model's top is the building's: its highest vertex stands at the height the footprint prism reaches.
+        let top = b
+            .mesh
+            .as_ref()
+            .unwrap()
+            .mesh
+            .positions
+            .iter()
+            .map(|p| p[2])
+            .fold(f64::MIN, f64::max);
+        assert!(
+            (top - (b.base_z_m + b.height_m)).abs() < 0.01,
+            "{}: {top}",
+            b.source_id
+        );
     }
 }

@@ -21,6 +21,9 @@ pub enum Shape {
     PolygonZ(Vec<Vec<[f64; 3]>>),
     /// Shape type 25: x, y per point, then an M range + M array of zeros.
     PolygonM(Vec<Vec<[f64; 2]>>),
+    /// Shape type 31: parts of a part type (0 triangle strip, 1 fan, 2 outer ring, 3 inner ring, 4 first ring, 5 ring,
+    /// 6 triangles) and x, y, z points; writes the Z range + Z array, then an M range + M array of zeros.
+    MultiPatch(Vec<(i32, Vec<[f64; 3]>)>),
     /// Any shape type with raw content bytes after the 4-byte shape type (for malformed records). The content
     /// length in words is `(4 + content.len()) / 2` rounded down, so an odd length misaligns the file on purpose.
     Raw {
@@ -41,6 +44,7 @@ impl Shape {
             Shape::Polygon(_) => 5,
             Shape::PolygonZ(_) => 15,
             Shape::PolygonM(_) => 25,
+            Shape::MultiPatch(_) => 31,
             Shape::Raw { shape_type, .. } => *shape_type,
         }
     }
@@ -53,14 +57,20 @@ impl Shape {
                 parts.concat()
             }
             Shape::PolygonZ(parts) => parts.iter().flatten().map(|p| [p[0], p[1]]).collect(),
+            Shape::MultiPatch(parts) => parts
+                .iter()
+                .flat_map(|(_, ps)| ps)
+                .map(|p| [p[0], p[1]])
+                .collect(),
             Shape::Null | Shape::Raw { .. } => Vec::new(),
         }
     }
 
-    /// The z of every point (only `PolygonZ` has any).
+    /// The z of every point (only `PolygonZ` and `MultiPatch` have any).
     fn zs(&self) -> Vec<f64> {
         match self {
             Shape::PolygonZ(parts) => parts.iter().flatten().map(|p| p[2]).collect(),
+            Shape::MultiPatch(parts) => parts.iter().flat_map(|(_, ps)| ps).map(|p| p[2]).collect(),
             _ => Vec::new(),
         }
     }
@@ -74,6 +84,7 @@ impl Shape {
                 parts.iter().map(Vec::len).collect()
             }
             Shape::PolygonZ(parts) => parts.iter().map(Vec::len).collect(),
+            Shape::MultiPatch(parts) => parts.iter().map(|(_, ps)| ps.len()).collect(),
             Shape::Point(p) => {
                 put_f64s(&mut b, p);
                 return b;
@@ -92,11 +103,16 @@ impl Shape {
             put_i32(&mut b, start);
             start += len;
         }
+        if let Shape::MultiPatch(parts) = self {
+            for (kind, _) in parts {
+                b.extend(kind.to_le_bytes());
+            }
+        }
         xy.iter().for_each(|p| put_f64s(&mut b, p));
-        if let Shape::PolygonZ(_) = self {
+        if let Shape::PolygonZ(_) | Shape::MultiPatch(_) = self {
             put_measure(&mut b, &self.zs());
         }
-        if let Shape::PolygonZ(_) | Shape::PolygonM(_) = self {
+        if let Shape::PolygonZ(_) | Shape::PolygonM(_) | Shape::MultiPatch(_) = self {
             put_measure(&mut b, &vec![0.0; xy.len()]);
         }
         b

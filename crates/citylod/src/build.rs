@@ -89,7 +89,8 @@ pub struct BuildArgs {
     /// with none at or below it stays a prism (the console and the build report's `mesh_lods` and
     /// `mesh_lod_fallbacks` say how many). Without it, buildings are prisms of their footprints. A GeoPackage layer
     /// of 3D surface models (PolyhedralSurface, TIN, or MultiPolygon Z with walls, as 3DBAG's 3D layers) has one
-    /// model per row: any value takes it (counted as `GeoPackage 3D`). GeoJSON and Shapefile input ignore it.
+    /// model per row, a shapefile one per MultiPatch record: any value takes it (counted as `GeoPackage 3D`,
+    /// `MultiPatch`). GeoJSON and Shapefile polygons ignore it.
     #[arg(long, value_name = "LOD", help_heading = "3D buildings")]
     pub lod: Option<String>,
 
