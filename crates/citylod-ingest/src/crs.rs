@@ -125,6 +125,18 @@ impl Crs {
         }
     }
 
+    /// Metres per unit of a projected CRS's x and y (0.3048006… for US survey feet); 1 for lon/lat.
+    pub(crate) fn linear_unit_m(&self) -> f64 {
+        match &self.kind {
+            Kind::Proj {
+                src,
+                src_is_latlong: false,
+                ..
+            } => src.to_meter(),
+            _ => 1.0,
+        }
+    }
+
     /// Source (x, y) → WGS84 (lon°, lat°). Geographic sources are in degrees (x = lon). The datum
     /// shift is computed at height 0: its horizontal effect for building heights is far below 1 mm.
     pub fn to_lon_lat(&self, x: f64, y: f64) -> Result<(f64, f64), CoordError> {

@@ -518,13 +518,14 @@ fn load(
             (None, None) => return Err(IngestError::MissingPrj { path: path.into() }),
             (given, declared) => settle_crs(path, given, declared, InputFormat::Shapefile)?,
         };
-        surface_model::stand(
+        doc.notes.extend(surface_model::stand(
             &mut doc.features,
             doc.surfaces,
             crs.is_lon_lat(),
+            crs.linear_unit_m(),
             model_target.is_some(),
             "MultiPatch",
-        );
+        ));
         return Ok(LoadedFile {
             path: path.into(),
             format: InputFormat::Shapefile,
@@ -555,13 +556,14 @@ fn load(
             (None, None) => return Err(IngestError::GeoPackageWithoutCrs { path: path.into() }),
             (given, declared) => settle_crs(path, given, declared, InputFormat::GeoPackage)?,
         };
-        surface_model::stand(
+        doc.notes.extend(surface_model::stand(
             &mut doc.features,
             doc.surfaces,
             crs.is_lon_lat(),
+            crs.linear_unit_m(),
             model_target.is_some(),
             "GeoPackage 3D",
-        );
+        ));
         return Ok(LoadedFile {
             path: path.into(),
             format: InputFormat::GeoPackage,

@@ -34,15 +34,26 @@ const WALL: f64 = 0.1;
 
 /// Gives each feature holding a 3D surface model its footprint and heights (see [`standing`]), and with `want_model` the
 /// faces as its model, counted in the report's `mesh_lods` under `label` (the format's models have no LoD of
-/// CityJSON's kind). `lon_lat`: x and y are degrees (the faces' slopes are judged in metres).
+/// CityJSON's kind). `lon_lat`: x and y are degrees (the faces' slopes are judged in metres). `z_to_m`: metres per
+/// unit of z: a projected CRS's linear unit, as ArcGIS takes a z without a vertical CRS (feet in a State Plane in
+/// feet), 1 for lon/lat; a note for the file's report when z was so converted.
 pub(crate) fn stand(
     features: &mut [RawFeature],
     surfaces: Vec<Surfaces>,
     lon_lat: bool,
+    z_to_m: f64,
     want_model: bool,
     label: &str,
-) {
-    for (i, name, faces) in surfaces {
+) -> Option<String> {
+    let n = surfaces.len();
+    for (i, name, mut faces) in surfaces {
+        if z_to_m != 1.0 {
+            faces
+                .iter_mut()
+                .flatten()
+                .flatten()
+                .for_each(|v| v[2] *= z_to_m);
+        }
         let out = &mut features[i];
         let slopes: Vec<f64> = faces
             .iter()
@@ -66,6 +77,12 @@ pub(crate) fn stand(
             }
         }
     }
+    (n > 0 && z_to_m != 1.0).then(|| {
+        format!(
+            "the heights (z) of its {n} 3D surface model(s) were read in the CRS's linear unit ({z_to_m} m), as \
+             ArcGIS takes z without a vertical CRS, and converted to metres"
+        )
+    })
 }
 
 /// A ring with x and y in metres along the ground near it when they are degrees (z is taken as metres).

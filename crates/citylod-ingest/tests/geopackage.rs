@@ -969,3 +969,60 @@ fn delfts_buildings_as_a_3d_layer_ingest_as_their_cityjson_does() {
         "median relative footprint area difference {median}"
     );
 }
+
+#[test]
+fn heights_of_3d_rows_in_a_crs_in_feet_are_feet() {
+    // A 100 ft box 30 ft high in EPSG:2263 (US survey feet), without a vertical CRS: z in feet, as ArcGIS takes it.
+    let (x0, y0) = (987_000.0, 201_000.0);
+    let ring = vec![
+        [x0, y0],
+        [x0 + 100.0, y0],
+        [x0 + 100.0, y0 + 100.0],
+        [x0, y0 + 100.0],
+        [x0, y0],
+    ];
+    let faces = box_faces(&ring, 0.0, 30.0);
+    let le = Wkb::default();
+    let mut l = layer(
+        vec![row(
+            1,
+            Some(blob(
+                2263,
+                Envelope::Xyz,
+                false,
+                &le.polyhedral_surface_z(&faces),
+            )),
+        )],
+        vec![],
+    );
+    l.srs_id = 2263;
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("feet.gpkg");
+    write(&p, &[Srs::epsg(2263)], &[l]);
+    let r = ingest(
+        &[p],
+        &IngestOptions {
+            lod: Some(citylod_ingest::LodChoice::Highest),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let ft = 0.3048006096012192;
+    let b = &r.buildings[0];
+    assert!((b.height_m - 30.0 * ft).abs() < 1e-6, "{}", b.height_m);
+    let m = &b.mesh.as_ref().unwrap().mesh;
+    let (lo, hi) = m
+        .positions
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(lo, hi), p| {
+            (lo.min(p[2]), hi.max(p[2]))
+        });
+    assert!((hi - lo - 30.0 * ft).abs() < 0.01, "{lo} .. {hi}");
+    assert_eq!(
+        r.report.files[0].notes,
+        vec![format!(
+            "the heights (z) of its 1 3D surface model(s) were read in the CRS's linear unit ({ft} m), as ArcGIS \
+             takes z without a vertical CRS, and converted to metres"
+        )]
+    );
+}
