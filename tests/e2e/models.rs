@@ -4,7 +4,7 @@
 
 use crate::common::{
     assert_same_files, build, build_with_env, citylod, e2e_dir, gltf_validator, read_json,
-    schema_errors, shared_data,
+    repo_root, schema_errors, shared_data,
 };
 use citylod_tiles::read::read_tileset;
 use citylod_tiles::PropValue;
@@ -237,4 +237,27 @@ fn a_lod_the_buildings_lack_says_which_lod_was_read_instead() {
     );
     assert_eq!(report["ingest"]["mesh_lod_fallbacks"], 1115);
     assert_eq!(report["ingest"]["mesh_lods"]["1.3"], 1115);
+}
+
+#[test]
+fn a_multipatch_shapefile_builds_with_its_models() {
+    // GDAL's MultiPatch shapefile of 12 Delft buildings (every LoD 2.2 face an outer-ring part), in EPSG:28992.
+    let input = repo_root().join("crates/citylod-ingest/tests/multipatch/delft_multipatch.shp");
+    let out = e2e_dir("multipatch");
+    let report = build(&[&input], &out, &["--lod", "2.2"]);
+    let errs = schema_errors("build-report.schema.json", &report);
+    assert!(errs.is_empty(), "build report: {}", errs.join("\n"));
+    assert_eq!(report["counts"]["buildings_written"], 12);
+    assert_eq!(report["models"]["buildings"], 12, "{:#}", report["models"]);
+    assert_eq!(report["ingest"]["mesh_lods"]["MultiPatch"], 12);
+    let ts_json = read_json(&out.join("tileset.json"));
+    let errs = schema_errors("tileset.schema.json", &ts_json);
+    assert!(errs.is_empty(), "tileset.json: {}", errs.join("\n"));
+    let v = gltf_validator(&out);
+    assert_eq!(
+        v["errors"].as_u64(),
+        Some(0),
+        "glTF-Validator: {:#}",
+        v["messages"]
+    );
 }
