@@ -32,6 +32,16 @@ pub(crate) struct RawFeature {
     pub model: Option<Result<RawModel, (IssueReason, String)>>,
 }
 
+/// What a Shapefile or GeoPackage reader hands over: the features, the faces of those holding 3D surface models
+/// (their footprints wait for the CRS: `surface_model::stand`), the CRS the file declares (`None`: none, or the
+/// undefined one) and what the user should know about the file as a whole.
+pub(crate) struct VectorDoc {
+    pub features: Vec<RawFeature>,
+    pub surfaces: Vec<crate::surface_model::Surfaces>,
+    pub declared_crs: Option<crate::crs::DeclaredCrs>,
+    pub notes: Vec<String>,
+}
+
 /// JSON value → attribute value; nested objects and arrays become compact JSON text.
 pub(crate) fn attr_value(v: &serde_json::Value) -> AttrValue {
     use serde_json::Value;

@@ -9,7 +9,7 @@
 //! it).
 
 use crate::crs::DeclaredCrs;
-use crate::feature::{RawFeature, RawPolygon};
+use crate::feature::{RawFeature, RawPolygon, VectorDoc};
 use crate::report::IssueReason;
 use crate::surface_model::{Face, Surfaces};
 use citylod_mesh::signed_area2;
@@ -17,17 +17,6 @@ use citylod_model::{AttrValue, Attributes};
 use rusqlite::types::ValueRef;
 use rusqlite::{Connection, OpenFlags};
 use std::path::Path;
-
-/// What a GeoPackage layer holds: its features, the CRS declared for its geometry column (`None` when that is the
-/// undefined one), the layer read and what the user should know about the file as a whole.
-pub(crate) struct GeoPackageDoc {
-    pub features: Vec<RawFeature>,
-    /// The faces of the rows holding 3D surface models, by feature index: their footprints wait for the CRS (see
-    /// [`stand`]).
-    pub surfaces: Vec<Surfaces>,
-    pub declared_crs: Option<DeclaredCrs>,
-    pub notes: Vec<String>,
-}
 
 /// The files SQLite keeps beside a database in WAL mode, each with what it is, for refusing one given as the input.
 pub(crate) const SIDECARS: [(&str, &str); 3] = [
@@ -52,7 +41,7 @@ struct Layer {
 
 /// Reads the feature table `layer` of `path` (the only one when `layer` is `None`). Errors name what is wrong with the
 /// file as a whole; one unusable row is a skipped feature.
-pub(crate) fn read(path: &Path, layer: Option<&str>) -> Result<GeoPackageDoc, String> {
+pub(crate) fn read(path: &Path, layer: Option<&str>) -> Result<VectorDoc, String> {
     let mut head = Vec::with_capacity(16);
     std::fs::File::open(path)
         .and_then(|f| std::io::Read::read_to_end(&mut std::io::Read::take(f, 16), &mut head))
@@ -104,7 +93,7 @@ pub(crate) fn read(path: &Path, layer: Option<&str>) -> Result<GeoPackageDoc, St
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     let (features, surfaces) = rows(&db, chosen, &file_name, &mut notes)?;
-    Ok(GeoPackageDoc {
+    Ok(VectorDoc {
         features,
         surfaces,
         declared_crs,

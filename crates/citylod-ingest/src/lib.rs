@@ -500,6 +500,43 @@ fn ids_from_attribute(files: &mut [LoadedFile], name: &str) -> Result<(), Ingest
     Ok(())
 }
 
+/// A Shapefile or GeoPackage read: its CRS settled (`missing` when neither the file nor the user names one), then its
+/// 3D surface models stood on the ground in that CRS's units.
+fn vector_file(
+    path: &Path,
+    mut doc: feature::VectorDoc,
+    opts: &IngestOptions,
+    model_target: Option<lod::Target>,
+    format: InputFormat,
+    missing: IngestError,
+) -> Result<LoadedFile, IngestError> {
+    let crs = match (&opts.crs, doc.declared_crs) {
+        (None, None) => return Err(missing),
+        (given, declared) => settle_crs(path, given, declared, format)?,
+    };
+    doc.notes.extend(surface_model::stand(
+        &mut doc.features,
+        doc.surfaces,
+        crs.is_lon_lat(),
+        crs.linear_unit_m(),
+        model_target.is_some(),
+        if format == InputFormat::GeoPackage {
+            "GeoPackage 3D"
+        } else {
+            "MultiPatch"
+        },
+    ));
+    Ok(LoadedFile {
+        path: path.into(),
+        format,
+        crs,
+        version: None,
+        non_building_objects: 0,
+        features: doc.features,
+        notes: doc.notes,
+    })
+}
+
 /// Reads, detects and parses one file, and settles its CRS.
 fn load(
     path: &Path,
@@ -510,31 +547,19 @@ fn load(
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase());
     if extension.as_deref() == Some("shp") {
-        let mut doc = shp::read(path).map_err(|detail| IngestError::InvalidShapefile {
+        let doc = shp::read(path).map_err(|detail| IngestError::InvalidShapefile {
             path: path.into(),
             detail,
         })?;
-        let crs = match (&opts.crs, doc.declared_crs) {
-            (None, None) => return Err(IngestError::MissingPrj { path: path.into() }),
-            (given, declared) => settle_crs(path, given, declared, InputFormat::Shapefile)?,
-        };
-        doc.notes.extend(surface_model::stand(
-            &mut doc.features,
-            doc.surfaces,
-            crs.is_lon_lat(),
-            crs.linear_unit_m(),
-            model_target.is_some(),
-            "MultiPatch",
-        ));
-        return Ok(LoadedFile {
-            path: path.into(),
-            format: InputFormat::Shapefile,
-            crs,
-            version: None,
-            non_building_objects: 0,
-            features: doc.features,
-            notes: doc.notes,
-        });
+        let missing = IngestError::MissingPrj { path: path.into() };
+        return vector_file(
+            path,
+            doc,
+            opts,
+            model_target,
+            InputFormat::Shapefile,
+            missing,
+        );
     }
     if let Some((_, what)) = shp::SIDECARS
         .iter()
@@ -546,33 +571,21 @@ fn load(
         });
     }
     if gpkg::is_geopackage_name(path) {
-        let mut doc = gpkg::read(path, opts.layer.as_deref()).map_err(|detail| {
+        let doc = gpkg::read(path, opts.layer.as_deref()).map_err(|detail| {
             IngestError::InvalidGeoPackage {
                 path: path.into(),
                 detail,
             }
         })?;
-        let crs = match (&opts.crs, doc.declared_crs) {
-            (None, None) => return Err(IngestError::GeoPackageWithoutCrs { path: path.into() }),
-            (given, declared) => settle_crs(path, given, declared, InputFormat::GeoPackage)?,
-        };
-        doc.notes.extend(surface_model::stand(
-            &mut doc.features,
-            doc.surfaces,
-            crs.is_lon_lat(),
-            crs.linear_unit_m(),
-            model_target.is_some(),
-            "GeoPackage 3D",
-        ));
-        return Ok(LoadedFile {
-            path: path.into(),
-            format: InputFormat::GeoPackage,
-            crs,
-            version: None,
-            non_building_objects: 0,
-            features: doc.features,
-            notes: doc.notes,
-        });
+        let missing = IngestError::GeoPackageWithoutCrs { path: path.into() };
+        return vector_file(
+            path,
+            doc,
+            opts,
+            model_target,
+            InputFormat::GeoPackage,
+            missing,
+        );
     }
     if let Some((_, what)) = gpkg::SIDECARS
         .iter()

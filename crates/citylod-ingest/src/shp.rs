@@ -12,23 +12,12 @@
 //! island in a courtyard is a polygon of its own); a counter-clockwise ring no outer ring holds is an outer ring
 //! wound the wrong way (repaired and counted later as any misoriented ring).
 
-use crate::crs::DeclaredCrs;
-use crate::feature::{RawFeature, RawPolygon};
+use crate::feature::{RawFeature, RawPolygon, VectorDoc};
 use crate::report::IssueReason;
-use crate::surface_model::{Face, Surfaces};
+use crate::surface_model::Face;
 use citylod_mesh::signed_area2;
 use citylod_model::{AttrValue, Attributes};
 use std::path::{Path, PathBuf};
-
-/// What a shapefile holds: its features, the CRS its `.prj` declares (`None` without a `.prj`), and what the user
-/// should know about the file as a whole (the code page assumed, fields not read).
-pub(crate) struct ShapefileDoc {
-    pub features: Vec<RawFeature>,
-    /// The faces of the MultiPatch records, by feature index: their footprints wait for the CRS.
-    pub surfaces: Vec<Surfaces>,
-    pub declared_crs: Option<DeclaredCrs>,
-    pub notes: Vec<String>,
-}
 
 /// The extensions of a shapefile's other files, each with what it is, for refusing one given as the input.
 pub(crate) const SIDECARS: [(&str, &str); 7] = [
@@ -43,7 +32,7 @@ pub(crate) const SIDECARS: [(&str, &str); 7] = [
 
 /// Reads `path` (a `.shp`) with its `.dbf`, `.prj` and `.cpg`. Errors name what is wrong with the file as a whole;
 /// one unusable record is a skipped feature.
-pub(crate) fn read(path: &Path) -> Result<ShapefileDoc, String> {
+pub(crate) fn read(path: &Path) -> Result<VectorDoc, String> {
     let read = |p: &Path| std::fs::read(p).map_err(|e| format!("{}: {e}", p.display()));
     let shp = read(path)?;
     let (shapes, layout_note) = shapes(&shp).map_err(|e| format!("the .shp {e}"))?;
@@ -117,7 +106,7 @@ pub(crate) fn read(path: &Path) -> Result<ShapefileDoc, String> {
         }
         None => None,
     };
-    Ok(ShapefileDoc {
+    Ok(VectorDoc {
         features,
         surfaces,
         declared_crs,
