@@ -338,6 +338,67 @@ fn a_geopackage_builds_from_the_layer_named() {
 }
 
 #[test]
+fn a_geopackage_in_wal_mode_in_a_read_only_folder_is_read() {
+    // QGIS leaves the GeoPackages it edits in WAL mode; SQLite then needs to create a -shm file beside one, which a
+    // user who may not write to the folder cannot: citylod reads it as immutable, as GDAL does, and says so. Run as
+    // an unprivileged user (root writes anywhere), which needs root and setpriv; CI runs as root.
+    use std::os::unix::fs::PermissionsExt;
+    let root =
+        std::fs::metadata("/proc/self").map(|m| std::os::unix::fs::MetadataExt::uid(&m) == 0);
+    let setpriv = std::path::Path::new("/usr/bin/setpriv");
+    if !matches!(root, Ok(true)) || !setpriv.exists() {
+        eprintln!("SKIP: needs root and /usr/bin/setpriv to run citylod as another user");
+        return;
+    }
+    // Everything in a folder under the system's temp folder, the binary copied there: the other user may not reach
+    // this clone's folders.
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path().to_path_buf();
+    let bin = d.join("citylod");
+    std::fs::copy(env!("CARGO_BIN_EXE_citylod"), &bin).unwrap();
+    let data = d.join("data");
+    std::fs::create_dir_all(&data).unwrap();
+    let gpkg = data.join("edited.gpkg");
+    std::fs::copy(
+        repo_root().join("crates/citylod-ingest/tests/geopackage/les_gdal.gpkg"),
+        &gpkg,
+    )
+    .unwrap();
+    let db = rusqlite::Connection::open(&gpkg).unwrap();
+    let mode: String = db
+        .query_row("PRAGMA journal_mode = WAL", [], |r| r.get(0))
+        .unwrap();
+    assert_eq!(mode, "wal");
+    drop(db);
+    for p in [&data, &gpkg] {
+        let mode = if p.is_dir() { 0o555 } else { 0o444 };
+        std::fs::set_permissions(p, std::fs::Permissions::from_mode(mode)).unwrap();
+    }
+    std::fs::set_permissions(&d, std::fs::Permissions::from_mode(0o777)).unwrap();
+    std::fs::set_permissions(&bin, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let out = d.join("tiles");
+    let o = std::process::Command::new(setpriv)
+        .args(["--reuid=65534", "--regid=65534", "--clear-groups"])
+        .arg(env!("CARGO_BIN_EXE_citylod"))
+        .args([
+            "build",
+            gpkg.to_str().unwrap(),
+            "--layer",
+            "buildings",
+            "--out",
+            out.to_str().unwrap(),
+            "-q",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report = read_json(&out.join("build-report.json"));
+    assert!(report["counts"]["buildings_written"].as_u64().unwrap() > 190);
+    let notes = report["ingest"]["files"][0]["notes"].to_string();
+    assert!(notes.contains("read as an immutable file"), "{notes}");
+}
+
+#[test]
 fn failed_build_leaves_existing_output_untouched() {
     let d = scratch_dir("atomic");
     let out = d.join("tiles");

@@ -52,11 +52,8 @@ pub(crate) fn read(path: &Path, layer: Option<&str>) -> Result<VectorDoc, String
                 .into(),
         );
     }
-    let db = Connection::open_with_flags(
-        path,
-        OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX,
-    )
-    .map_err(|e| format!("SQLite cannot open it: {e}"))?;
+    let mut notes = Vec::new();
+    let db = open(path, &mut notes)?;
     let sql = |e: rusqlite::Error| format!("SQLite cannot read it: {e}");
     for table in [
         "gpkg_contents",
@@ -78,7 +75,6 @@ pub(crate) fn read(path: &Path, layer: Option<&str>) -> Result<VectorDoc, String
     }
     let layers = layers(&db).map_err(sql)?;
     let chosen = choose(&layers, layer)?;
-    let mut notes = Vec::new();
     if layers.len() > 1 {
         notes.push(format!(
             "layer {:?} read, of {} feature tables ({})",
@@ -99,6 +95,50 @@ pub(crate) fn read(path: &Path, layer: Option<&str>) -> Result<VectorDoc, String
         declared_crs,
         notes,
     })
+}
+
+/// Opens `path` read-only. A database in WAL mode needs its `-shm` index, which SQLite creates, or opens for writing,
+/// beside it: in a read-only folder that fails, and the file is then read as immutable (its write-ahead log not read,
+/// as GDAL does), said in `notes`.
+fn open(path: &Path, notes: &mut Vec<String>) -> Result<Connection, String> {
+    let flags = OpenFlags::SQLITE_OPEN_READ_ONLY | OpenFlags::SQLITE_OPEN_NO_MUTEX;
+    let probe = |db: &Connection| {
+        db.query_row("SELECT count(*) FROM sqlite_master", [], |r| {
+            r.get::<_, i64>(0)
+        })
+    };
+    let first = match Connection::open_with_flags(path, flags) {
+        Ok(db) => match probe(&db) {
+            Ok(_) => return Ok(db),
+            Err(e) => e,
+        },
+        Err(e) => e,
+    };
+    let uri = format!("file:{}?immutable=1", uri_path(path));
+    let db = Connection::open_with_flags(uri, flags | OpenFlags::SQLITE_OPEN_URI)
+        .ok()
+        .filter(|db| probe(db).is_ok())
+        .ok_or_else(|| format!("SQLite cannot open it: {first}"))?;
+    notes.push(format!(
+        "read as an immutable file: SQLite could not open it as usual ({first}; a database in WAL mode in a read-only \
+         folder?), so changes in a write-ahead log beside it, if any, are not seen"
+    ));
+    Ok(db)
+}
+
+/// A path as the path of an SQLite `file:` URI: bytes outside the unreserved set and `/` percent-encoded.
+fn uri_path(path: &Path) -> String {
+    let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    absolute
+        .to_string_lossy()
+        .bytes()
+        .map(|b| match b {
+            b'A'..=b'Z' | b'a'..=b'z' | b'0'..=b'9' | b'-' | b'.' | b'_' | b'~' | b'/' => {
+                (b as char).to_string()
+            }
+            _ => format!("%{b:02X}"),
+        })
+        .collect()
 }
 
 /// `"name"` with its quotes doubled, for an identifier in SQL.
@@ -134,9 +174,15 @@ fn choose<'a>(layers: &'a [Layer], asked: Option<&str>) -> Result<&'a Layer, Str
     };
     match (asked, layers) {
         (_, []) => Err("a GeoPackage without feature tables (gpkg_contents lists none with data_type 'features')".into()),
-        (Some(name), _) => layers.iter().find(|l| l.table == name).ok_or_else(|| {
-            format!("no feature table {name:?} (its feature tables: {})", list())
-        }),
+        // SQLite's names are case-insensitive: an exact match first, else the one equal but for case.
+        (Some(name), _) => layers
+            .iter()
+            .find(|l| l.table == name)
+            .or_else(|| {
+                let mut same = layers.iter().filter(|l| l.table.eq_ignore_ascii_case(name));
+                same.next().filter(|_| same.next().is_none())
+            })
+            .ok_or_else(|| format!("no feature table {name:?} (its feature tables: {})", list())),
         (None, [one]) => Ok(one),
         (None, _) => Err(format!(
             "it holds {} feature tables; name the one to read with --layer (feature tables: {})",
@@ -155,18 +201,28 @@ fn declared_crs(
     notes: &mut Vec<String>,
 ) -> rusqlite::Result<Option<DeclaredCrs>> {
     const MEMBER: &str = "gpkg_spatial_ref_sys";
-    let row: Option<(Option<String>, Option<i64>, Option<String>)> = db
+    // The CRS WKT extension's column, when the table has it: its WKT 2 is preferred to the WKT 1 `definition`.
+    let wkt2 = db
+        .prepare("SELECT definition_12_063 FROM gpkg_spatial_ref_sys LIMIT 0")
+        .is_ok();
+    // organization, organization_coordsys_id, definition, definition_12_063
+    type SrsRow = (Option<String>, Option<i64>, Option<String>, Option<String>);
+    let row: Option<SrsRow> = db
         .query_row(
-            "SELECT organization, organization_coordsys_id, definition FROM gpkg_spatial_ref_sys WHERE srs_id = ?1",
+            &format!(
+                "SELECT organization, organization_coordsys_id, definition, {} FROM gpkg_spatial_ref_sys \
+                 WHERE srs_id = ?1",
+                if wkt2 { "definition_12_063" } else { "NULL" }
+            ),
             [layer.srs_id],
-            |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?)),
+            |r| Ok((r.get(0)?, r.get(1)?, r.get(2)?, r.get(3)?)),
         )
         .map(Some)
         .or_else(|e| match e {
             rusqlite::Error::QueryReturnedNoRows => Ok(None),
             e => Err(e),
         })?;
-    let Some((organization, code, definition)) = row else {
+    let Some((organization, code, definition, definition2)) = row else {
         if layer.srs_id == -1 || layer.srs_id == 0 {
             return Ok(None);
         }
@@ -179,22 +235,40 @@ fn declared_crs(
         }));
     };
     let organization = organization.unwrap_or_default();
-    match code {
-        Some(code) if code > 0 && organization.trim().eq_ignore_ascii_case("EPSG") => {
-            return Ok(Some(DeclaredCrs::Name(format!("EPSG:{code}"))));
+    let usable = |d: Option<String>| {
+        d.map(|d| d.trim().to_string())
+            .filter(|d| !d.is_empty() && !d.eq_ignore_ascii_case("undefined"))
+    };
+    let definition = usable(definition2).or_else(|| usable(definition));
+    // An EPSG code the offline table knows; one it does not know is read from the definition, when there is one.
+    let epsg = code
+        .filter(|c| *c > 0 && organization.trim().eq_ignore_ascii_case("EPSG"))
+        .map(|c| format!("EPSG:{c}"));
+    if let Some(name) = &epsg {
+        if definition.is_none() || crate::crs::Crs::parse(name).is_ok() {
+            return Ok(Some(DeclaredCrs::Name(name.clone())));
         }
-        _ => {}
     }
-    let definition = definition.unwrap_or_default();
-    if layer.srs_id <= 0
-        || definition.trim().eq_ignore_ascii_case("undefined")
-        || definition.trim().is_empty()
-    {
-        return Ok(None);
-    }
+    let Some(definition) = definition else {
+        if layer.srs_id <= 0 {
+            return Ok(None);
+        }
+        return Ok(Some(DeclaredCrs::NotUnderstood {
+            member: MEMBER,
+            detail: format!(
+                "srs_id {} ({organization} {}) has no definition",
+                layer.srs_id,
+                code.map(|c| c.to_string()).unwrap_or_default()
+            ),
+        }));
+    };
     let (crs, note) = crate::prj::declared_crs(&definition);
-    notes.extend(note);
+    notes.extend(note.map(|n| n.replace("the .prj's", "the spatial reference system's")));
     Ok(Some(match crs {
+        // Neither the code nor the definition: the code's own error says more.
+        DeclaredCrs::NotUnderstood { .. } if epsg.is_some() => {
+            DeclaredCrs::Name(epsg.expect("checked"))
+        }
         DeclaredCrs::NotUnderstood { detail, .. } => DeclaredCrs::NotUnderstood {
             member: MEMBER,
             detail: format!(
@@ -222,8 +296,9 @@ fn rows(
     notes: &mut Vec<String>,
 ) -> Result<(Vec<RawFeature>, Vec<Surfaces>), String> {
     let sql = |e: rusqlite::Error| format!("SQLite cannot read table {:?}: {e}", layer.table);
+    // table_xinfo lists generated columns too (table_info leaves them out); hidden 1 is a virtual table's.
     let mut info = db
-        .prepare(&format!("PRAGMA table_info({})", quoted(&layer.table)))
+        .prepare(&format!("PRAGMA table_xinfo({})", quoted(&layer.table)))
         .map_err(sql)?;
     // (name, declared type, primary-key position)
     let declared: Vec<(String, String, i64)> = info
@@ -232,9 +307,12 @@ fn rows(
                 r.get(1)?,
                 r.get::<_, Option<String>>(2)?.unwrap_or_default(),
                 r.get(5)?,
+                r.get::<_, i64>(6)?,
             ))
         })
         .map_err(sql)?
+        .filter(|c| !matches!(c, Ok((_, _, _, 1))))
+        .map(|c| c.map(|(n, t, pk, _)| (n, t, pk)))
         .collect::<rusqlite::Result<_>>()
         .map_err(sql)?;
     if declared.is_empty() {
@@ -243,24 +321,41 @@ fn rows(
             layer.table
         ));
     }
-    if !declared.iter().any(|(n, _, _)| n == &layer.column) {
+    // Column names are case-insensitive in SQLite, and writers differ in the case they register.
+    let Some(geometry_column) = declared
+        .iter()
+        .find(|(n, _, _)| n == &layer.column)
+        .or_else(|| {
+            declared
+                .iter()
+                .find(|(n, _, _)| n.eq_ignore_ascii_case(&layer.column))
+        })
+        .map(|(n, _, _)| n.clone())
+    else {
         return Err(format!(
             "table {:?} has no column {:?}, which gpkg_geometry_columns names as its geometry",
             layer.table, layer.column
         ));
-    }
-    // The FID: the single INTEGER primary key a GeoPackage feature table must have; the rowid without one.
+    };
+    // The FID: the table's single integer primary key (a GeoPackage's `fid INTEGER PRIMARY KEY`), else, as GDAL
+    // takes it in a view, an integer column named fid; else the rowid. The FID is an attribute too, as QGIS shows it.
+    let integer = |t: &str| t.to_ascii_uppercase().contains("INT");
     let keys: Vec<&(String, String, i64)> = declared.iter().filter(|c| c.2 > 0).collect();
     let fid = match keys.as_slice() {
-        [k] if k.1.eq_ignore_ascii_case("INTEGER") => Some(k.0.clone()),
+        [k] if integer(&k.1) => Some(k.0.clone()),
+        [] => declared
+            .iter()
+            .find(|(n, t, _)| n.eq_ignore_ascii_case("fid") && integer(t))
+            .map(|(n, _, _)| n.clone()),
         _ => None,
     };
     let mut skipped_blobs = Vec::new();
     let columns: Vec<Column> = declared
         .iter()
-        .filter(|(n, _, _)| n != &layer.column && Some(n) != fid.as_ref())
+        .filter(|(n, _, _)| n != &geometry_column)
         .filter(|(n, t, _)| {
-            let blob = t.eq_ignore_ascii_case("BLOB");
+            // BLOB, or BLOB(max_size) as the spec allows.
+            let blob = t.to_ascii_uppercase().starts_with("BLOB");
             if blob {
                 skipped_blobs.push(n.clone());
             }
@@ -277,16 +372,43 @@ fn rows(
             crate::geojson::listing(&skipped_blobs)
         ));
     }
-    let fid_expr = fid.as_deref().map(quoted).unwrap_or_else(|| "rowid".into());
+    // The rowid by a name no column has; a view has none, and its rows are numbered as they come.
+    let view: bool = db
+        .query_row(
+            "SELECT count(*) > 0 FROM sqlite_master WHERE type = 'view' AND name = ?1",
+            [&layer.table],
+            |r| r.get(0),
+        )
+        .map_err(sql)?;
+    let rowid = ["rowid", "_rowid_", "oid"]
+        .into_iter()
+        .find(|r| !declared.iter().any(|(n, _, _)| n.eq_ignore_ascii_case(r)));
+    let fid_expr = match (&fid, rowid) {
+        (Some(f), _) => quoted(f),
+        (None, _) if view => "NULL".to_string(),
+        (None, Some(r)) => r.to_string(),
+        (None, None) => {
+            return Err(format!(
+                "table {:?} has no integer primary key and columns named rowid, _rowid_ and oid: its rows have no \
+                 feature id",
+                layer.table
+            ))
+        }
+    };
     let select: Vec<String> = std::iter::once(fid_expr.clone())
-        .chain(std::iter::once(quoted(&layer.column)))
+        .chain(std::iter::once(quoted(&geometry_column)))
         .chain(columns.iter().map(|c| quoted(&c.name)))
         .collect();
     let mut st = db
         .prepare(&format!(
-            "SELECT {} FROM {} ORDER BY {fid_expr}",
+            "SELECT {} FROM {}{}",
             select.join(", "),
-            quoted(&layer.table)
+            quoted(&layer.table),
+            if fid_expr == "NULL" {
+                String::new()
+            } else {
+                format!(" ORDER BY {fid_expr}")
+            }
         ))
         .map_err(sql)?;
     let mut q = st.query([]).map_err(sql)?;
@@ -332,7 +454,7 @@ fn rows(
                     IssueReason::MalformedGeometry,
                     format!(
                         "FID {fid}: the geometry column holds {} instead of a GeoPackage geometry blob",
-                        type_name(other)
+                        sql_type_name(other)
                     ),
                 ));
             }
@@ -342,7 +464,7 @@ fn rows(
     Ok((features, surfaces))
 }
 
-fn type_name(v: ValueRef) -> &'static str {
+fn sql_type_name(v: ValueRef) -> &'static str {
     match v {
         ValueRef::Null => "NULL",
         ValueRef::Integer(_) => "an integer",
@@ -438,6 +560,12 @@ pub(crate) fn geometry(b: &[u8]) -> Result<Geometry, Skip> {
     let mut r = Wkb { b: wkb, at: 0 };
     let mut out = Out::default();
     r.geometry(0, "", &mut out)?;
+    if out.polygons.is_empty() && out.dropped.is_empty() {
+        return Err((
+            IssueReason::EmptyGeometry,
+            "a collection without members".into(),
+        ));
+    }
     if out.polygons.is_empty() {
         let what = out
             .dropped
@@ -453,6 +581,15 @@ pub(crate) fn geometry(b: &[u8]) -> Result<Geometry, Skip> {
         return Err((
             IssueReason::EmptyGeometry,
             "polygonal geometry without coordinates".into(),
+        ));
+    }
+    if out.arcs > 0 {
+        out.repairs.push((
+            IssueReason::CurvesApproximated,
+            format!(
+                "{} circular arc(s) approximated by straight segments of at most {ARC_STEP_DEG}° of arc",
+                out.arcs
+            ),
         ));
     }
     // A footprint may have one degenerate part (dropped later as any); walls come several to a building.
@@ -486,6 +623,8 @@ struct Out {
     faces: Vec<Face>,
     /// A PolyhedralSurface or TIN was read.
     surface_type: bool,
+    /// Circular arcs approximated by straight segments.
+    arcs: usize,
 }
 
 /// Coordinates per point, and whether the third is a height (else a measure).
@@ -499,6 +638,14 @@ struct Dims {
 struct Wkb<'a> {
     b: &'a [u8],
     at: usize,
+}
+
+/// The name of a WKB geometry type (1–17).
+fn type_name(kind: u32) -> &'static str {
+    TYPE_NAMES
+        .get(kind as usize)
+        .copied()
+        .unwrap_or("unknown type")
 }
 
 const TYPE_NAMES: [&str; 18] = [
@@ -602,33 +749,30 @@ impl Wkb<'_> {
 
     fn geometry(&mut self, depth: usize, path: &str, out: &mut Out) -> Result<(), Skip> {
         let (le, kind, dims) = self.header()?;
-        let name = TYPE_NAMES
-            .get(kind as usize)
-            .copied()
-            .unwrap_or("unknown type");
+        let name = type_name(kind);
         match kind {
             3 | 17 => self.polygon(le, dims, out),
-            6 | 15 | 16 => {
-                // A MultiPolygon's members are Polygons, a PolyhedralSurface's too, a TIN's Triangles.
-                let member = if kind == 16 { 17 } else { 3 };
-                out.surface_type |= kind != 6;
+            10 => self.curve_polygon(le, dims, out),
+            6 | 12 | 15 | 16 => {
+                // A MultiPolygon's members are Polygons, a MultiSurface's Polygons or CurvePolygons, a
+                // PolyhedralSurface's Polygons, a TIN's Triangles.
+                let allowed: &[u32] = match kind {
+                    12 => &[3, 10],
+                    16 => &[17],
+                    _ => &[3],
+                };
+                out.surface_type |= kind == 15 || kind == 16;
                 let n = self.u32(le)?;
                 for i in 0..n {
                     let (le, k, dims) = self.header()?;
-                    if k != member {
-                        return Err((
-                            IssueReason::MalformedGeometry,
-                            format!(
-                                "{name} member {i} is a {} (only {}s may be members)",
-                                TYPE_NAMES
-                                    .get(k as usize)
-                                    .copied()
-                                    .unwrap_or("unknown type"),
-                                TYPE_NAMES[member as usize]
-                            ),
-                        ));
+                    if !allowed.contains(&k) {
+                        return Err(self.bad_member(name, i, k));
                     }
-                    self.polygon(le, dims, out)?;
+                    if k == 10 {
+                        self.curve_polygon(le, dims, out)?;
+                    } else {
+                        self.polygon(le, dims, out)?;
+                    }
                 }
                 Ok(())
             }
@@ -651,37 +795,47 @@ impl Wkb<'_> {
                 }
                 Ok(())
             }
+            _ if depth == 0 => {
+                out.dropped.push(format!("{name} geometry"));
+                Ok(())
+            }
             _ => {
-                if depth == 0 {
-                    out.dropped.push(format!("{name} geometry"));
-                    Ok(())
-                } else {
-                    // A member that is not polygonal is skipped over: its length is known only for simple types.
-                    self.skip_member(le, kind, dims, name)?;
-                    out.dropped.push(format!("member {path} ({name})"));
-                    Ok(())
-                }
+                // A member that is not polygonal is stepped over, and said.
+                self.skip(le, kind, dims, name)?;
+                out.dropped.push(format!("member {path} ({name})"));
+                Ok(())
             }
         }
     }
 
-    /// Steps over a Point, LineString, MultiPoint or MultiLineString member of a collection.
-    fn skip_member(&mut self, le: bool, kind: u32, dims: Dims, name: &str) -> Result<(), Skip> {
-        match kind {
+    fn bad_member(&self, of: &str, i: u32, kind: u32) -> Skip {
+        (
+            IssueReason::MalformedGeometry,
+            format!(
+                "{of} member {i} is a {}, which a {of} cannot hold",
+                type_name(kind)
+            ),
+        )
+    }
+
+    /// Steps over a point, curve or collection of them in a GeometryCollection: a Point; a LineString or
+    /// CircularString; a CompoundCurve of those; a MultiPoint of Points, a MultiLineString of LineStrings, a MultiCurve
+    /// of curves. Members are checked against what their collection may hold, so nesting ends within two levels.
+    fn skip(&mut self, le: bool, kind: u32, dims: Dims, name: &str) -> Result<(), Skip> {
+        let allowed: &[u32] = match kind {
             1 => {
                 self.take(8 * dims.n)?;
+                return Ok(());
             }
-            2 => {
+            2 | 8 => {
                 let n = self.u32(le)? as usize;
                 self.take(n.saturating_mul(8 * dims.n))?;
+                return Ok(());
             }
-            4 | 5 => {
-                let n = self.u32(le)?;
-                for _ in 0..n {
-                    let (le, kind, dims) = self.header()?;
-                    self.skip_member(le, kind, dims, name)?;
-                }
-            }
+            4 => &[1],
+            5 => &[2],
+            9 => &[2, 8],
+            11 => &[2, 8, 9],
             _ => {
                 return Err((
                     IssueReason::UnsupportedGeometry,
@@ -690,84 +844,215 @@ impl Wkb<'_> {
                     ),
                 ))
             }
+        };
+        let n = self.u32(le)?;
+        for i in 0..n {
+            let (le, k, dims) = self.header()?;
+            if !allowed.contains(&k) {
+                return Err(self.bad_member(name, i, k));
+            }
+            self.skip(le, k, dims, type_name(k))?;
         }
         Ok(())
     }
 
-    fn polygon(&mut self, le: bool, dims: Dims, out: &mut Out) -> Result<(), Skip> {
-        let rings = self.u32(le)?;
-        let mut polygon = Vec::new();
-        let mut face = Vec::new();
-        for i in 0..rings {
-            let n = self.u32(le)? as usize;
-            // Every point takes 8 bytes a coordinate: a count beyond the bytes left is a broken blob, not an allocation.
-            if n.saturating_mul(8 * dims.n) > self.b.len() - self.at {
+    /// `n` points of `dims` as x, y, z (z NaN without heights); a count beyond the bytes left is a broken blob, not
+    /// an allocation.
+    fn points(&mut self, le: bool, dims: Dims) -> Result<Vec<[f64; 3]>, Skip> {
+        let n = self.u32(le)? as usize;
+        if n.saturating_mul(8 * dims.n) > self.b.len() - self.at {
+            return Err((
+                IssueReason::MalformedGeometry,
+                format!(
+                    "a ring said to hold {n} points, more than the rest of its {}-byte WKB",
+                    self.b.len()
+                ),
+            ));
+        }
+        let mut pts = Vec::with_capacity(n);
+        for _ in 0..n {
+            let x = self.f64(le)?;
+            let y = self.f64(le)?;
+            let z = if dims.z { self.f64(le)? } else { f64::NAN };
+            self.take(8 * (dims.n - 2 - usize::from(dims.z)))?;
+            if !(x.is_finite() && y.is_finite()) {
                 return Err((
-                    IssueReason::MalformedGeometry,
-                    format!(
-                        "a ring said to hold {n} points, more than the rest of its {}-byte WKB",
-                        self.b.len()
-                    ),
+                    IssueReason::NonFiniteCoordinate,
+                    format!("a vertex ({x}, {y}) that is not a finite number"),
                 ));
             }
-            let mut ring = Vec::with_capacity(n);
-            let mut ring3 = Vec::with_capacity(if dims.z { n } else { 0 });
-            let (mut z_min, mut z_max) = (f64::INFINITY, f64::NEG_INFINITY);
-            for _ in 0..n {
-                let x = self.f64(le)?;
-                let y = self.f64(le)?;
-                if dims.z {
-                    let z = self.f64(le)?;
-                    z_min = z_min.min(z);
-                    z_max = z_max.max(z);
-                    ring3.push([x, y, z]);
-                }
-                self.take(8 * (dims.n - 2 - usize::from(dims.z)))?;
-                if !(x.is_finite() && y.is_finite()) {
-                    return Err((
-                        IssueReason::NonFiniteCoordinate,
-                        format!("a vertex ({x}, {y}) that is not a finite number"),
-                    ));
-                }
-                ring.push([x, y]);
-            }
-            let closed = ring.len() >= 2 && ring.first() == ring.last();
-            if closed {
-                ring.pop();
-                ring3.pop();
-            } else if ring.len() >= 3 {
-                let what = if i == 0 {
-                    "exterior ring".to_string()
-                } else {
-                    format!("hole {i}")
-                };
-                out.repairs.push((
-                    IssueReason::RingClosed,
-                    format!("{what} was not closed; closed it"),
-                ));
-            }
-            if i == 0 && ring.len() >= 3 && z_max > z_min {
-                let (w, h) = extent(&ring);
-                // On edge: a plan area nothing against the square of the outline's extent, while its height varies.
-                if signed_area2(&ring).abs() <= 1e-6 * w.max(h).powi(2) {
-                    out.on_edge += 1;
-                }
-            }
-            if dims.z && !z_min.is_finite() && n > 0 {
+            if dims.z && !z.is_finite() {
                 return Err((
                     IssueReason::NonFiniteCoordinate,
                     "a vertex whose height is not a finite number".into(),
                 ));
             }
+            pts.push([x, y, z]);
+        }
+        Ok(pts)
+    }
+
+    fn polygon(&mut self, le: bool, dims: Dims, out: &mut Out) -> Result<(), Skip> {
+        let rings = self.u32(le)?;
+        let mut polygon = Vec::new();
+        for _ in 0..rings {
+            polygon.push(self.points(le, dims)?);
+        }
+        out.add(polygon, dims.z);
+        Ok(())
+    }
+
+    /// A CurvePolygon: rings that are LineStrings, CircularStrings (arcs approximated) or CompoundCurves of those.
+    fn curve_polygon(&mut self, le: bool, dims: Dims, out: &mut Out) -> Result<(), Skip> {
+        let rings = self.u32(le)?;
+        let mut polygon = Vec::new();
+        for i in 0..rings {
+            let (le, k, dims) = self.header()?;
+            let ring = match k {
+                2 | 8 => self.curve(le, k, dims, out)?,
+                9 => {
+                    let n = self.u32(le)?;
+                    let mut ring: Vec<[f64; 3]> = Vec::new();
+                    for j in 0..n {
+                        let (le, k, dims) = self.header()?;
+                        if k != 2 && k != 8 {
+                            return Err(self.bad_member("CompoundCurve", j, k));
+                        }
+                        let part = self.curve(le, k, dims, out)?;
+                        // Each part starts where the one before ends.
+                        let xy = |p: Option<&[f64; 3]>| p.map(|p| [p[0], p[1]]);
+                        let skip = usize::from(
+                            ring.last().is_some() && xy(ring.last()) == xy(part.first()),
+                        );
+                        ring.extend(&part[skip..]);
+                    }
+                    ring
+                }
+                _ => return Err(self.bad_member("CurvePolygon", i, k)),
+            };
+            polygon.push(ring);
+        }
+        out.add(polygon, dims.z);
+        Ok(())
+    }
+
+    /// A LineString's points, or a CircularString's arcs as straight segments (counted in `out.arcs`).
+    fn curve(
+        &mut self,
+        le: bool,
+        kind: u32,
+        dims: Dims,
+        out: &mut Out,
+    ) -> Result<Vec<[f64; 3]>, Skip> {
+        let pts = self.points(le, dims)?;
+        if kind == 2 || pts.len() < 3 {
+            return Ok(pts);
+        }
+        let mut line = vec![pts[0]];
+        for arc in pts.windows(3).step_by(2) {
+            line.extend(arc_points(arc[0], arc[1], arc[2]));
+            out.arcs += 1;
+        }
+        Ok(line)
+    }
+}
+
+impl Out {
+    /// One polygon of x, y, z rings (z NaN without heights): its closing points dropped (an unclosed ring closed and
+    /// said), a wall counted when its outline stands on edge, the plan kept and, with heights, the face.
+    fn add(&mut self, rings: Vec<Vec<[f64; 3]>>, z: bool) {
+        let mut polygon = Vec::with_capacity(rings.len());
+        let mut face = Vec::with_capacity(rings.len());
+        for (i, mut ring3) in rings.into_iter().enumerate() {
+            if ring3.len() >= 2
+                && ring3.first().map(|p| [p[0], p[1]]) == ring3.last().map(|p| [p[0], p[1]])
+            {
+                ring3.pop();
+            } else if ring3.len() >= 3 {
+                let what = if i == 0 {
+                    "exterior ring".to_string()
+                } else {
+                    format!("hole {i}")
+                };
+                self.repairs.push((
+                    IssueReason::RingClosed,
+                    format!("{what} was not closed; closed it"),
+                ));
+            }
+            let ring: Vec<[f64; 2]> = ring3.iter().map(|p| [p[0], p[1]]).collect();
+            if z && i == 0 && ring.len() >= 3 {
+                let (lo, hi) = ring3
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+                        (lo.min(p[2]), hi.max(p[2]))
+                    });
+                let (w, h) = extent(&ring);
+                // On edge: a plan area nothing against the square of the outline's extent, while its height varies.
+                if hi > lo && signed_area2(&ring).abs() <= 1e-6 * w.max(h).powi(2) {
+                    self.on_edge += 1;
+                }
+            }
             polygon.push(ring);
             face.push(ring3);
         }
-        out.polygons.push(polygon);
-        if dims.z {
-            out.faces.push(face);
+        self.polygons.push(polygon);
+        if z {
+            self.faces.push(face);
         }
-        Ok(())
     }
+}
+
+/// Most of a circle an arc's straight segment spans, as GDAL's default (`OGR_ARC_STEPSIZE`, 4°).
+const ARC_STEP_DEG: f64 = 4.0;
+
+/// The arc from `a` through `b` to `c` as points after `a`, the last exactly `c`, each segment spanning at most
+/// [`ARC_STEP_DEG`] of the circle (heights interpolated along it); collinear points are a straight line, `a == c` a
+/// full circle through the point `b` opposite it.
+fn arc_points(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> Vec<[f64; 3]> {
+    let full = a[0] == c[0] && a[1] == c[1];
+    let (centre, sweep) = if full {
+        let m = [(a[0] + b[0]) / 2.0, (a[1] + b[1]) / 2.0];
+        (m, std::f64::consts::TAU)
+    } else {
+        let (bx, by, cx, cy) = (b[0] - a[0], b[1] - a[1], c[0] - a[0], c[1] - a[1]);
+        let d = 2.0 * (bx * cy - by * cx);
+        let scale = (bx.abs() + by.abs() + cx.abs() + cy.abs()).powi(2);
+        if d.abs() <= 1e-12 * scale {
+            return vec![b, c];
+        }
+        let (b2, c2) = (bx * bx + by * by, cx * cx + cy * cy);
+        let m = [
+            a[0] + (cy * b2 - by * c2) / d,
+            a[1] + (bx * c2 - cx * b2) / d,
+        ];
+        let angle = |p: [f64; 3]| (p[1] - m[1]).atan2(p[0] - m[0]);
+        let turn = |from: f64, to: f64| (to - from).rem_euclid(std::f64::consts::TAU);
+        // Counter-clockwise when b lies on the way from a to c going counter-clockwise.
+        let ccw = d > 0.0;
+        let sweep = if ccw {
+            turn(angle(a), angle(c))
+        } else {
+            -turn(angle(c), angle(a))
+        };
+        (m, sweep)
+    };
+    let r = ((a[0] - centre[0]).powi(2) + (a[1] - centre[1]).powi(2)).sqrt();
+    let start = (a[1] - centre[1]).atan2(a[0] - centre[0]);
+    let steps = ((sweep.abs() / ARC_STEP_DEG.to_radians()).ceil() as usize).clamp(1, 100_000);
+    (1..=steps)
+        .map(|k| {
+            let t = k as f64 / steps as f64;
+            if k == steps && !full {
+                return c;
+            }
+            if k == steps {
+                return [a[0], a[1], a[2]];
+            }
+            let th = start + sweep * t;
+            let z = if full { a[2] } else { a[2] + (c[2] - a[2]) * t };
+            [centre[0] + r * th.cos(), centre[1] + r * th.sin(), z]
+        })
+        .collect()
 }
 
 fn extent(r: &[[f64; 2]]) -> (f64, f64) {

@@ -90,6 +90,9 @@ pub enum IssueReason {
     /// heights is used (its ground, its top for the height rule, its 3D model, which is listed as `model_invalid`).
     /// Without such an attribute the building is skipped (`coordinate_out_of_range`).
     GeometryHeightsIgnored,
+    /// A GeoPackage geometry's circular arcs (CircularString, CompoundCurve, CurvePolygon rings) were approximated by
+    /// straight segments, each spanning at most 4° of its circle (GDAL's default).
+    CurvesApproximated,
     /// `--id-attr` names an attribute this feature has no value in: its id is the one its format's own rule gives
     /// (a GeoJSON `id`, a CityJSON object's key, `FILE#INDEX`).
     IdAttributeMissing,
@@ -143,6 +146,7 @@ impl IssueReason {
             UndecodableValueKeptAsText => "undecodable_value_kept_as_text",
             UndecodableKeyKeptAsText => "undecodable_key_kept_as_text",
             GeometryHeightsIgnored => "geometry_heights_ignored",
+            CurvesApproximated => "curves_approximated",
             IdAttributeMissing => "id_attribute_missing",
             ModelMissing => "model_missing",
             ModelInvalid => "model_invalid",

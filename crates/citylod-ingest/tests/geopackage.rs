@@ -93,13 +93,19 @@ fn a_geopackage_written_by_gdal_ingests_into_the_buildings_its_geojson_gives() {
             "{}",
             a.source_id
         );
-        // GDAL writes a column for every property, NULL where a feature has none; osm_id as an integer.
-        assert_eq!(
-            without_nulls(&a.attributes),
-            b.attributes,
-            "{}",
-            a.source_id
+        // GDAL writes a column for every property, NULL where a feature has none; osm_id as an integer. The FID is
+        // an attribute too (QGIS shows it so): 1 to 203.
+        let fid = a.attributes.get("fid").cloned();
+        assert!(
+            matches!(fid, Some(AttrValue::Int(f)) if (1..=203).contains(&f)),
+            "{fid:?}"
         );
+        let attrs: Attributes = without_nulls(&a.attributes)
+            .iter()
+            .filter(|(k, _)| k.as_str() != "fid")
+            .map(|(k, v)| (k.clone(), v.clone()))
+            .collect();
+        assert_eq!(attrs, b.attributes, "{}", a.source_id);
         assert_eq!(a.height_m, b.height_m, "{}", a.source_id);
         assert!((a.base_z_m - b.base_z_m).abs() < 1e-6, "{}", a.source_id);
         assert_eq!(a.footprint.0.len(), b.footprint.0.len(), "{}", a.source_id);
@@ -611,7 +617,9 @@ fn cells_become_typed_attributes_and_odd_ones_are_reported() {
     assert_eq!(a["levels"], AttrValue::Int(4));
     assert_eq!(a["is_monument"], AttrValue::Bool(true));
     assert_eq!(a["built"], AttrValue::String("1940-01-10".into()));
-    assert!(a.get("photo").is_none() && a.get("fid").is_none() && a.get("geom").is_none());
+    assert!(a.get("photo").is_none() && a.get("geom").is_none());
+    // The FID is an attribute too, as QGIS shows it, so --id-attr can name it.
+    assert_eq!(a["fid"], AttrValue::Int(5));
     assert_eq!(r.buildings[0].height_m, 21.5);
     let b = &r.buildings[1].attributes;
     assert_eq!(b["name"], AttrValue::String("cafe".into()));
@@ -1024,5 +1032,325 @@ fn heights_of_3d_rows_in_a_crs_in_feet_are_feet() {
             "the heights (z) of its 1 3D surface model(s) were read in the CRS's linear unit ({ft} m), as ArcGIS \
              takes z without a vertical CRS, and converted to metres"
         )]
+    );
+}
+
+/// A point `x`, `y` metres east and north of one on the Lower East Side, in UTM zone 18N (EPSG:26918): arcs are
+/// circles in the CRS's own coordinates, so a projected CRS in metres keeps the areas simple.
+fn at(x: f64, y: f64) -> [f64; 2] {
+    [585_000.0 + x, 4_507_000.0 + y]
+}
+
+/// A closed `size` m square `x` m east of [`at`]'s point.
+fn utm_square(x: f64, size: f64) -> Vec<[f64; 2]> {
+    vec![
+        at(x, 0.0),
+        at(x + size, 0.0),
+        at(x + size, size),
+        at(x, size),
+        at(x, 0.0),
+    ]
+}
+
+#[test]
+fn curved_geometries_are_read_with_their_arcs_as_segments() {
+    let le = Wkb::default();
+    // A circle of radius 10 m as one CircularString ring (start, opposite point, start): 314 m².
+    let circle = le.of_members(
+        10,
+        &[le.circular_string(&[at(0.0, 0.0), at(20.0, 0.0), at(0.0, 0.0)])],
+    );
+    // A 20 × 10 m rectangle whose east side bulges out in a half circle, as a CompoundCurve ring: 200 + 39.3 m².
+    let d_shape = le.of_members(
+        10,
+        &[le.of_members(
+            9,
+            &[
+                le.line(&[at(100.0, 0.0), at(120.0, 0.0)]),
+                le.circular_string(&[at(120.0, 0.0), at(125.0, 5.0), at(120.0, 10.0)]),
+                le.line(&[at(120.0, 10.0), at(100.0, 10.0), at(100.0, 0.0)]),
+            ],
+        )],
+    );
+    // A MultiSurface of a plain Polygon and a CurvePolygon with straight rings only: 100 + 100 m², no arcs.
+    let straight = le.of_members(
+        12,
+        &[
+            le.polygon(&[utm_square(200.0, 10.0)]),
+            le.of_members(10, &[le.line(&utm_square(220.0, 10.0))]),
+        ],
+    );
+    // A collection holding a curve and a MultiCurve beside its polygon: the curves dropped and said.
+    let with_curves = le.collection(&[
+        le.circular_string(&[at(0.0, 0.0), at(1.0, 1.0), at(2.0, 0.0)]),
+        le.of_members(11, &[le.line(&[[0.0, 0.0], [1.0, 1.0]])]),
+        le.polygon(&[utm_square(300.0, 10.0)]),
+    ]);
+    let rows = [circle, d_shape, straight, with_curves]
+        .into_iter()
+        .enumerate()
+        .map(|(i, w)| row(i as i64 + 1, Some(blob(26918, Envelope::Xy, false, &w))))
+        .collect();
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("curves.gpkg");
+    let mut l = layer(rows, vec![]);
+    l.srs_id = 26918;
+    write(&p, &[Srs::epsg(26918)], &[l]);
+    let r = ingest(&[p], &IngestOptions::default()).unwrap();
+    assert_eq!(skips(&r), vec![]);
+    let areas: Vec<f64> = r.buildings.iter().map(|b| b.area_m2()).collect();
+    let pi = std::f64::consts::PI;
+    for (got, want) in areas
+        .iter()
+        .zip([100.0 * pi, 200.0 + 12.5 * pi, 200.0, 100.0])
+    {
+        // A 4° chord loses (1 − sin 4° / (4° in radians)) ≈ 0.08 % of a circle's area; UTM's scale 0.1 %.
+        assert!((got - want).abs() < 0.005 * want, "{areas:?}");
+    }
+    let repairs: Vec<(String, String, String)> = r
+        .report
+        .repaired
+        .iter()
+        .map(|s| {
+            (
+                s.feature_id.clone(),
+                s.reason.as_str().to_string(),
+                s.detail.clone(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        repairs,
+        [
+            ("curves.gpkg#1", "curves_approximated", "1 circular arc(s) approximated by straight segments of at most 4° of arc"),
+            ("curves.gpkg#2", "curves_approximated", "1 circular arc(s) approximated by straight segments of at most 4° of arc"),
+            ("curves.gpkg#4", "non_polygon_member_dropped", "2 GeometryCollection member(s) not polygonal, dropped: member 0 (CircularString), member 1 (MultiCurve)"),
+        ]
+        .map(|(a, b, c)| (a.to_string(), b.to_string(), c.to_string()))
+    );
+    // The circle has 90 segments of 4°.
+    assert_eq!(r.buildings[0].footprint.0[0].exterior().0.len(), 91);
+}
+
+#[test]
+fn collections_of_the_wrong_members_are_malformed_whatever_their_depth() {
+    // A MultiPoint holding a MultiPoint holding …, 50,000 deep, beside a polygon in a collection: the first wrong
+    // member ends the reading (it used to recurse until the stack overflowed).
+    let le = Wkb::default();
+    let mut nested = Vec::new();
+    for _ in 0..50_000 {
+        nested.push(1u8);
+        nested.extend(4u32.to_le_bytes());
+        nested.extend(1u32.to_le_bytes());
+    }
+    nested.extend(le.point([0.0, 0.0]));
+    let rows = vec![
+        row(
+            1,
+            Some(blob(
+                4326,
+                Envelope::Xy,
+                false,
+                &le.collection(&[le.polygon(&[square(0.0, 10.0)]), nested]),
+            )),
+        ),
+        // Members of nothing: an empty MultiPolygon and an empty collection.
+        row(
+            2,
+            Some(blob(4326, Envelope::None, false, &le.multipolygon(&[]))),
+        ),
+        row(
+            3,
+            Some(blob(4326, Envelope::None, false, &le.collection(&[]))),
+        ),
+        row(
+            4,
+            Some(blob(
+                4326,
+                Envelope::None,
+                false,
+                &le.polygon(&[square(20.0, 10.0)]),
+            )),
+        ),
+    ];
+    let dir = tempfile::tempdir().unwrap();
+    let p = one_layer(dir.path(), "deep.gpkg", layer(rows, vec![]));
+    let r = ingest(&[p], &IngestOptions::default()).unwrap();
+    assert_eq!(r.buildings.len(), 1);
+    assert_eq!(
+        skips(&r),
+        [
+            (
+                "deep.gpkg#1",
+                "malformed_geometry",
+                "FID 1: MultiPoint member 0 is a MultiPoint, which a MultiPoint cannot hold"
+            ),
+            (
+                "deep.gpkg#2",
+                "empty_geometry",
+                "FID 2: a collection without members"
+            ),
+            (
+                "deep.gpkg#3",
+                "empty_geometry",
+                "FID 3: a collection without members"
+            ),
+        ]
+        .map(|(a, b, c)| (a.to_string(), b.to_string(), c.to_string()))
+    );
+}
+
+#[test]
+fn tables_as_gdal_and_qgis_read_them() {
+    let le = Wkb::default();
+    let g = |i: usize| {
+        Some(blob(
+            4326,
+            Envelope::Xy,
+            false,
+            &le.polygon(&[square(20.0 * i as f64, 10.0)]),
+        ))
+    };
+    let rows = (0..3)
+        .map(|i| Row {
+            fid: 10 * (i as i64 + 1),
+            geometry: g(i),
+            values: vec![Sql::Integer(i as i64 + 2), Sql::Blob(vec![7; 3])],
+        })
+        .collect();
+    let mut l = layer(rows, vec![("levels", "INTEGER"), ("thumb", "BLOB(1000)")]);
+    l.table = "Lod12_2D".into();
+    l.geometry_column = "geom".into();
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("tables.gpkg");
+    write(&p, &[], &[l]);
+    let db = rusqlite::Connection::open(&p).unwrap();
+    db.execute_batch(
+        // A generated column (table_info does not list it), the geometry column registered in another case, and a
+        // view over the table with its fid, registered as a second layer.
+        "ALTER TABLE Lod12_2D ADD COLUMN height REAL GENERATED ALWAYS AS (levels * 3.0) VIRTUAL;
+         UPDATE gpkg_geometry_columns SET column_name = 'GEOM';
+         CREATE VIEW tall AS SELECT fid, geom, levels FROM Lod12_2D WHERE levels > 2;
+         INSERT INTO gpkg_contents (table_name, data_type, identifier, srs_id) VALUES ('tall', 'features', 'tall', 4326);
+         INSERT INTO gpkg_geometry_columns VALUES ('tall', 'geom', 'POLYGON', 4326, 0, 0);",
+    )
+    .unwrap();
+    drop(db);
+    // The layer named in another case; BLOB(n) left out as BLOB is.
+    let r = ingest(std::slice::from_ref(&p), &with_layer("lod12_2d")).unwrap();
+    assert_eq!(r.buildings.len(), 3);
+    assert_eq!(r.buildings[2].source_id, "tables.gpkg#30");
+    assert_eq!(r.buildings[2].attributes["height"], AttrValue::Float(12.0));
+    assert_eq!(r.buildings[2].height_m, 12.0);
+    assert!(r.buildings[2].attributes.get("thumb").is_none());
+    assert!(
+        r.report.files[0]
+            .notes
+            .iter()
+            .any(|n| n == "BLOB column(s) not read as attributes: thumb"),
+        "{:?}",
+        r.report.files[0].notes
+    );
+    assert!(r.report.repaired.is_empty(), "{:?}", r.report.repaired);
+    // --id-attr may name the FID.
+    let r = ingest(
+        std::slice::from_ref(&p),
+        &IngestOptions {
+            id_attr: Some("fid".into()),
+            ..with_layer("Lod12_2D")
+        },
+    )
+    .unwrap();
+    assert_eq!(
+        r.buildings
+            .iter()
+            .map(|b| b.source_id.as_str())
+            .collect::<Vec<_>>(),
+        ["10", "20", "30"]
+    );
+    // A view: its rows by their fid column.
+    let r = ingest(std::slice::from_ref(&p), &with_layer("tall")).unwrap();
+    assert_eq!(
+        r.buildings
+            .iter()
+            .map(|b| b.source_id.as_str())
+            .collect::<Vec<_>>(),
+        ["tables.gpkg#20", "tables.gpkg#30"]
+    );
+}
+
+#[test]
+fn a_crs_is_read_from_the_wkt2_definition_and_codes_the_table_lacks_from_their_wkt() {
+    let le = Wkb::default();
+    let (x0, y0) = (987_000.0, 201_000.0);
+    let ft = vec![
+        [x0, y0],
+        [x0 + 100.0, y0],
+        [x0 + 100.0, y0 + 100.0],
+        [x0, y0 + 100.0],
+        [x0, y0],
+    ];
+    let dir = tempfile::tempdir().unwrap();
+    let make = |name: &str, srs: Srs, wkt2: Option<&str>| {
+        let id = srs.srs_id;
+        let mut l = layer(
+            vec![row(
+                1,
+                Some(blob(
+                    id as i32,
+                    Envelope::Xy,
+                    false,
+                    &le.polygon(std::slice::from_ref(&ft)),
+                )),
+            )],
+            vec![],
+        );
+        l.srs_id = id;
+        let p = dir.path().join(name);
+        write(&p, &[srs], &[l]);
+        if let Some(w) = wkt2 {
+            let db = rusqlite::Connection::open(&p).unwrap();
+            db.execute_batch("ALTER TABLE gpkg_spatial_ref_sys ADD COLUMN definition_12_063 TEXT NOT NULL DEFAULT 'undefined';").unwrap();
+            db.execute(
+                "UPDATE gpkg_spatial_ref_sys SET definition_12_063 = ?1 WHERE srs_id = ?2",
+                rusqlite::params![w, id],
+            )
+            .unwrap();
+        }
+        ingest(&[p], &IngestOptions::default())
+    };
+    // Only the WKT 2 column defines it (the WKT 1 definition 'undefined').
+    let wkt2 = r#"PROJCRS["NAD83 / New York Long Island (ftUS)",BASEGEOGCRS["NAD83",DATUM["North American Datum 1983",ELLIPSOID["GRS 1980",6378137,298.257222101]]],CONVERSION["SPCS83 New York Long Island zone (US survey foot)",METHOD["Lambert Conic Conformal (2SP)"]],CS[Cartesian,2],ID["EPSG",2263]]"#;
+    let custom = |def: &str| Srs {
+        srs_id: 100_001,
+        organization: "NONE".into(),
+        organization_coordsys_id: 100_001,
+        definition: def.into(),
+    };
+    let r = make("wkt2.gpkg", custom("undefined"), Some(wkt2)).unwrap();
+    assert_eq!(r.report.files[0].crs, "EPSG:2263");
+    // An EPSG code the offline table lacks, with the WKT of one it has.
+    let lacking = Srs {
+        srs_id: 99_999,
+        organization: "EPSG".into(),
+        organization_coordsys_id: 99_999,
+        definition: ESRI_2263.into(),
+    };
+    let r = make("lacking.gpkg", lacking, None).unwrap();
+    assert_eq!(r.report.files[0].crs, "EPSG:2263");
+    assert!(
+        r.report.files[0]
+            .notes
+            .iter()
+            .any(|n| n.contains("the spatial reference system's")),
+        "{:?}",
+        r.report.files[0].notes
+    );
+    // A custom system with no definition at all.
+    let e = make("nodef.gpkg", custom(""), None).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("srs_id 100001 (NONE 100001) has no definition"),
+        "{e}"
     );
 }

@@ -305,6 +305,30 @@ impl Wkb {
         out
     }
 
+    /// A CircularString (ISO type 8) through x, y points: arcs of three points, each starting where the last ended.
+    pub fn circular_string(&self, pts: &[[f64; 2]]) -> Vec<u8> {
+        let mut out = Vec::new();
+        self.header(&mut out, 8, false);
+        self.u32(&mut out, pts.len() as u32);
+        for p in pts {
+            self.f64(&mut out, p[0]);
+            self.f64(&mut out, p[1]);
+        }
+        out
+    }
+
+    /// A geometry of ISO type `kind` whose members are already written WKB: a CompoundCurve (9) of curves, a
+    /// CurvePolygon (10) of ring curves, a MultiSurface (12), MultiPoint (4), ….
+    pub fn of_members(&self, kind: u32, members: &[Vec<u8>]) -> Vec<u8> {
+        let mut out = Vec::new();
+        self.header(&mut out, kind, false);
+        self.u32(&mut out, members.len() as u32);
+        for m in members {
+            out.extend_from_slice(m);
+        }
+        out
+    }
+
     /// A GeometryCollection of already written members.
     pub fn collection(&self, members: &[Vec<u8>]) -> Vec<u8> {
         let mut out = Vec::new();
