@@ -39,6 +39,8 @@ pub(crate) struct VectorDoc {
     pub features: Vec<RawFeature>,
     pub surfaces: Vec<crate::surface_model::Surfaces>,
     pub declared_crs: Option<crate::crs::DeclaredCrs>,
+    /// Metres per unit of z when the file declares a vertical CRS (a `.prj`'s `VERTCS`).
+    pub z_unit_m: Option<f64>,
     pub notes: Vec<String>,
 }
 

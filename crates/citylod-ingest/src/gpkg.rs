@@ -93,6 +93,7 @@ pub(crate) fn read(path: &Path, layer: Option<&str>) -> Result<VectorDoc, String
         features,
         surfaces,
         declared_crs,
+        z_unit_m: None,
         notes,
     })
 }
@@ -623,8 +624,9 @@ struct Out {
     faces: Vec<Face>,
     /// A PolyhedralSurface or TIN was read.
     surface_type: bool,
-    /// Circular arcs approximated by straight segments.
+    /// Circular arcs approximated by straight segments, and the points they became.
     arcs: usize,
+    arc_points: usize,
 }
 
 /// Coordinates per point, and whether the third is a height (else a measure).
@@ -919,12 +921,18 @@ impl Wkb<'_> {
                             return Err(self.bad_member("CompoundCurve", j, k));
                         }
                         let part = self.curve(le, k, dims, out)?;
-                        // Each part starts where the one before ends.
+                        // Each part starts where the one before ends (GDAL refuses curves that do not).
                         let xy = |p: Option<&[f64; 3]>| p.map(|p| [p[0], p[1]]);
-                        let skip = usize::from(
-                            ring.last().is_some() && xy(ring.last()) == xy(part.first()),
-                        );
-                        ring.extend(&part[skip..]);
+                        if ring.last().is_some() && xy(ring.last()) != xy(part.first()) {
+                            return Err((
+                                IssueReason::MalformedGeometry,
+                                format!(
+                                    "CompoundCurve part {j} does not start where part {} ends",
+                                    j - 1
+                                ),
+                            ));
+                        }
+                        ring.extend(&part[usize::from(!ring.is_empty())..]);
                     }
                     ring
                 }
@@ -945,13 +953,29 @@ impl Wkb<'_> {
         out: &mut Out,
     ) -> Result<Vec<[f64; 3]>, Skip> {
         let pts = self.points(le, dims)?;
-        if kind == 2 || pts.len() < 3 {
+        if kind == 2 || pts.is_empty() {
             return Ok(pts);
+        }
+        if pts.len().is_multiple_of(2) {
+            return Err((
+                IssueReason::MalformedGeometry,
+                format!("a CircularString of {} points (arcs of three, each from the last's end, make an odd count)", pts.len()),
+            ));
         }
         let mut line = vec![pts[0]];
         for arc in pts.windows(3).step_by(2) {
-            line.extend(arc_points(arc[0], arc[1], arc[2]));
+            let added = arc_points(arc[0], arc[1], arc[2]);
             out.arcs += 1;
+            out.arc_points += added.len();
+            line.extend(added);
+            if out.arc_points > MAX_ARC_POINTS {
+                return Err((
+                    IssueReason::MalformedGeometry,
+                    format!(
+                        "circular arcs approximated by over {MAX_ARC_POINTS} points in one geometry"
+                    ),
+                ));
+            }
         }
         Ok(line)
     }
@@ -987,8 +1011,9 @@ impl Out {
                         (lo.min(p[2]), hi.max(p[2]))
                     });
                 let (w, h) = extent(&ring);
-                // On edge: a plan area nothing against the square of the outline's extent, while its height varies.
-                if hi > lo && signed_area2(&ring).abs() <= 1e-6 * w.max(h).powi(2) {
+                // On edge: a plan area nothing against the square of the outline's extent (a wall leaning a millimetre per
+                // metre still), while its height varies.
+                if hi > lo && signed_area2(&ring).abs() <= 1e-3 * w.max(h).powi(2) {
                     self.on_edge += 1;
                 }
             }
@@ -1001,6 +1026,9 @@ impl Out {
         }
     }
 }
+
+/// Most points a geometry's arcs may become (a hostile row of tiny arcs would otherwise take gigabytes).
+const MAX_ARC_POINTS: usize = 1_000_000;
 
 /// Most of a circle an arc's straight segment spans, as GDAL's default (`OGR_ARC_STEPSIZE`, 4°).
 const ARC_STEP_DEG: f64 = 4.0;

@@ -519,6 +519,7 @@ fn vector_file(
         doc.surfaces,
         crs.is_lon_lat(),
         crs.linear_unit_m(),
+        doc.z_unit_m.unwrap_or(crs.linear_unit_m()),
         model_target.is_some(),
         if format == InputFormat::GeoPackage {
             "GeoPackage 3D"

@@ -150,7 +150,58 @@ fn parse(s: &str) -> Option<Node> {
     };
     let n = p.node(0)?;
     p.skip();
+    // Esri writes a vertical CRS after the horizontal one: `PROJCS[…],VERTCS[…]` (see `vertical_unit_m`).
+    while p.b.get(p.at) == Some(&b',') {
+        p.at += 1;
+        if p.node(0)?.key != "VERTCS" {
+            return None;
+        }
+        p.skip();
+    }
     (p.at == p.b.len()).then_some(n)
+}
+
+/// Metres per unit of z when the WKT declares a vertical CRS: Esri's `VERTCS[…]` after the horizontal CRS, or a
+/// `VERT_CS`/`VERTCRS` inside a compound one, by its `UNIT` (`LENGTHUNIT`).
+pub(crate) fn vertical_unit_m(wkt: &str) -> Option<f64> {
+    let wkt = wkt.trim().trim_start_matches('\u{feff}').trim();
+    let at = ["VERTCS[", "VERT_CS[", "VERTCRS["]
+        .iter()
+        .filter_map(|k| wkt.to_ascii_uppercase().find(k))
+        .min()?;
+    let node = parse_prefix(&wkt[at..])?;
+    node.children()
+        .filter(|c| c.key == "UNIT" || c.key == "LENGTHUNIT")
+        .last()
+        .and_then(|u| match u.args.get(1)? {
+            Arg::Number(x) if *x > 0.0 && x.is_finite() => Some(*x),
+            _ => None,
+        })
+}
+
+/// The first node of `s`, whatever follows it.
+fn parse_prefix(s: &str) -> Option<Node> {
+    let depth_zero_end = {
+        let mut depth = 0i32;
+        let mut quoted = false;
+        let mut end = None;
+        for (i, c) in s.bytes().enumerate() {
+            match c {
+                b'"' => quoted = !quoted,
+                b'[' | b'(' if !quoted => depth += 1,
+                b']' | b')' if !quoted => {
+                    depth -= 1;
+                    if depth == 0 {
+                        end = Some(i + 1);
+                        break;
+                    }
+                }
+                _ => {}
+            }
+        }
+        end?
+    };
+    parse(&s[..depth_zero_end])
 }
 
 /// Letters and digits of a name, upper case: `North_American_Datum_1983` → `NORTHAMERICANDATUM1983`.

@@ -91,6 +91,7 @@ pub(crate) fn read(path: &Path) -> Result<VectorDoc, String> {
         }
         features.push(out);
     }
+    let mut z_unit_m = None;
     let declared_crs = match sidecar(path, "prj") {
         Some(p) => {
             let bytes = read(&p)?;
@@ -102,6 +103,7 @@ pub(crate) fn read(path: &Path) -> Result<VectorDoc, String> {
             };
             let (crs, note) = crate::prj::declared_crs(&text);
             notes.extend(note);
+            z_unit_m = crate::prj::vertical_unit_m(&text);
             Some(crs)
         }
         None => None,
@@ -110,6 +112,7 @@ pub(crate) fn read(path: &Path) -> Result<VectorDoc, String> {
         features,
         surfaces,
         declared_crs,
+        z_unit_m,
         notes,
     })
 }
@@ -388,7 +391,8 @@ fn multipatch(c: &[u8]) -> ShapeResult {
                 format!("part {} has a vertex that is not a finite number", k + 1),
             ));
         }
-        let kind = int(44 + 4 * parts + 4 * k);
+        // Esri's extended MultiPatch keeps flags in the high bits; the part type is the low four (as GDAL reads it).
+        let kind = int(44 + 4 * parts + 4 * k) & 0xf;
         let triangle = |a: [f64; 3], b: [f64; 3], c: [f64; 3]| -> Option<Face> {
             let (u, v) = (
                 [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
@@ -424,6 +428,13 @@ fn multipatch(c: &[u8]) -> ShapeResult {
             // Triangles, three points each (a later addition to the format).
             6 => {
                 open_face = None;
+                if !pts.len().is_multiple_of(3) {
+                    return malformed(format!(
+                        "part {} lists triangles in {} points, not a multiple of 3",
+                        k + 1,
+                        pts.len()
+                    ));
+                }
                 for t in pts.chunks_exact(3) {
                     faces.extend(triangle(t[0], t[1], t[2]));
                 }
@@ -433,13 +444,10 @@ fn multipatch(c: &[u8]) -> ShapeResult {
                 if ring.len() > 1 && ring.first() == ring.last() {
                     ring.pop();
                 }
-                let hole_of = match kind {
-                    3 => Some(2),
-                    5 => Some(4),
-                    _ => None,
-                };
-                match (hole_of, open_face, faces.last_mut()) {
-                    (Some(h), Some(o), Some(face)) if h == o => face.push(ring),
+                // An inner ring or a ring after an outer or first ring is a hole of its face (as GDAL reads them);
+                // one with no face open is a face of its own.
+                match (kind, open_face, faces.last_mut()) {
+                    (3 | 5, Some(_), Some(face)) => face.push(ring),
                     _ => {
                         faces.push(vec![ring]);
                         open_face = matches!(kind, 2 | 4).then_some(kind);

@@ -6,6 +6,7 @@ use crate::cityjson::horizontality;
 use crate::feature::{RawFeature, RawPolygon};
 use crate::model3d::{RawModel, RawSurface};
 use crate::report::IssueReason;
+use citylod_mesh::signed_area2;
 use citylod_model::SurfaceKind;
 use std::collections::HashMap;
 
@@ -18,29 +19,35 @@ pub(crate) type Face = Vec<Vec<[f64; 3]>>;
 /// `record 4 (FID 3)`), the faces.
 pub(crate) type Surfaces = (usize, String, Vec<Face>);
 
-/// How a 3D surface model stands: its footprint, the faces it was taken from, the ground's and the top's heights.
+/// How a 3D surface model stands: its footprint, its ground faces, the heights of its base and top.
 struct Standing {
     footprint: Vec<RawPolygon>,
-    /// Indices of the faces the footprint is (the ground), empty when it is the plan of every face.
+    /// Indices of the horizontal faces at its lowest height (floors), for the model's surface kinds.
     ground: Vec<usize>,
-    ground_z: f64,
-    top_z: f64,
+    /// The lowest vertex, when the model reaches down to it (it has walls): a roof alone says nothing of the ground.
+    ground_z: Option<f64>,
+    /// The highest vertex, when the model has height (not flat).
+    top_z: Option<f64>,
 }
 
-/// Faces within this of horizontal (the z share of their unit normal) may be the ground; CityJSON's rule alike.
+/// Faces within this of horizontal (the z share of their unit normal) may be floors; CityJSON's rule alike.
 const HORIZONTAL: f64 = 0.985;
 /// Faces whose normal's z share is under this are walls in a model's surface kinds (steeper than ~84°).
 const WALL: f64 = 0.1;
+/// A model whose highest vertex is less than this above its lowest is flat: it gives no heights and no model.
+const FLAT_M: f64 = 0.1;
 
 /// Gives each feature holding a 3D surface model its footprint and heights (see [`standing`]), and with `want_model` the
 /// faces as its model, counted in the report's `mesh_lods` under `label` (the format's models have no LoD of
-/// CityJSON's kind). `lon_lat`: x and y are degrees (the faces' slopes are judged in metres). `z_to_m`: metres per
-/// unit of z: a projected CRS's linear unit, as ArcGIS takes a z without a vertical CRS (feet in a State Plane in
-/// feet), 1 for lon/lat; a note for the file's report when z was so converted.
+/// CityJSON's kind). `lon_lat`: x and y are degrees; else `xy_to_m` metres per unit of x and y (the faces' slopes are
+/// judged in metres). `z_to_m`: metres per unit of z (a vertical CRS's unit, else a projected CRS's linear unit, as
+/// ArcGIS takes a z without a vertical CRS: feet in a State Plane in feet; 1 for lon/lat); a note for the file's
+/// report when z was so converted.
 pub(crate) fn stand(
     features: &mut [RawFeature],
     surfaces: Vec<Surfaces>,
     lon_lat: bool,
+    xy_to_m: f64,
     z_to_m: f64,
     want_model: bool,
     label: &str,
@@ -59,17 +66,26 @@ pub(crate) fn stand(
             .iter()
             .map(|f| {
                 f.first()
-                    .map_or(0.0, |r| horizontality(&metric(r, lon_lat)))
+                    .map_or(0.0, |r| horizontality(&metric(r, lon_lat, xy_to_m)))
             })
             .collect();
         match standing(&faces, &slopes) {
             Ok(s) => {
                 out.polygons = s.footprint;
                 out.assemble = true;
-                out.footprint_min_z = Some(s.ground_z);
-                out.top_z = Some(s.top_z);
+                out.footprint_min_z = s.ground_z;
+                out.top_z = s.top_z;
                 if want_model {
-                    out.model = Some(Ok(model(&faces, &slopes, &s.ground, label)));
+                    out.model = Some(match s.top_z {
+                        Some(_) => Ok(model(&faces, &slopes, &s.ground, label)),
+                        None => Err((
+                            IssueReason::ModelInvalid,
+                            format!(
+                                "{name}: a flat 3D model (its vertices within {FLAT_M} m in height): its footprint \
+                                 only"
+                            ),
+                        )),
+                    });
                 }
             }
             Err((reason, detail)) => {
@@ -79,27 +95,29 @@ pub(crate) fn stand(
     }
     (n > 0 && z_to_m != 1.0).then(|| {
         format!(
-            "the heights (z) of its {n} 3D surface model(s) were read in the CRS's linear unit ({z_to_m} m), as \
-             ArcGIS takes z without a vertical CRS, and converted to metres"
+            "the heights (z) of its {n} 3D surface model(s) were read in units of {z_to_m} m (its vertical CRS's, else \
+             its CRS's linear unit, as ArcGIS takes z without a vertical CRS) and converted to metres"
         )
     })
 }
 
-/// A ring with x and y in metres along the ground near it when they are degrees (z is taken as metres).
-fn metric(r: &[[f64; 3]], lon_lat: bool) -> Vec<[f64; 3]> {
-    if !lon_lat {
-        return r.to_vec();
-    }
-    let lat = r.first().map_or(0.0, |p| p[1].to_radians());
-    let (kx, ky) = (111_320.0 * lat.cos(), 110_574.0);
+/// A ring with x and y in metres: along the ground near it when they are degrees, else times `xy_to_m`.
+fn metric(r: &[[f64; 3]], lon_lat: bool, xy_to_m: f64) -> Vec<[f64; 3]> {
+    let (kx, ky) = if lon_lat {
+        let lat = r.first().map_or(0.0, |p| p[1].to_radians());
+        (111_320.0 * lat.cos(), 110_574.0)
+    } else {
+        (xy_to_m, xy_to_m)
+    };
     r.iter().map(|p| [p[0] * kx, p[1] * ky, p[2]]).collect()
 }
 
-/// The footprint of a 3D surface model: its horizontal faces at its lowest height (within 5 cm; a floor), else the
-/// plan of every face not on edge (roofs over walls that reach the ground), pieces to be unioned. It stands on its
-/// lowest vertex and reaches its highest.
+/// The footprint of a 3D surface model: the plan of every face that is not a wall (roofs, floors, the parts of a
+/// split level or a stepped or sloping floor), pieces to be unioned, each outline counter-clockwise and its holes
+/// clockwise. It stands on its lowest vertex when it has walls reaching there (a roof alone floats over an unknown
+/// ground) and reaches its highest, unless it is flat.
 fn standing(faces: &[Face], slopes: &[f64]) -> Result<Standing, Skip> {
-    let (ground_z, top_z) = faces
+    let (lowest, highest) = faces
         .iter()
         .flat_map(|f| f.iter().flatten())
         .map(|v| v[2])
@@ -111,36 +129,42 @@ fn standing(faces: &[Face], slopes: &[f64]) -> Result<Standing, Skip> {
         .filter(|i| {
             outline(i).is_some_and(|r| {
                 slopes[*i] > HORIZONTAL
-                    && r.iter().map(|v| v[2]).sum::<f64>() / r.len() as f64 <= ground_z + 0.05
+                    && r.iter().map(|v| v[2]).sum::<f64>() / r.len() as f64 <= lowest + 0.05
             })
         })
         .collect();
-    let from: Vec<usize> = if ground.is_empty() {
-        (0..faces.len())
-            .filter(|i| outline(i).is_some() && slopes[*i] >= WALL)
-            .collect()
-    } else {
-        ground.clone()
-    };
-    if from.is_empty() {
+    let plan: Vec<usize> = (0..faces.len())
+        .filter(|i| outline(i).is_some() && slopes[*i] >= WALL)
+        .collect();
+    if plan.is_empty() {
         return Err((
             IssueReason::NoFootprint,
             "a 3D surface model of walls only: no face to take its footprint from".into(),
         ));
     }
+    let walls = (0..faces.len()).any(|i| outline(&i).is_some() && slopes[i] < WALL);
+    let flat = highest - lowest < FLAT_M;
     Ok(Standing {
-        footprint: from
+        footprint: plan
             .iter()
             .map(|&i| {
                 faces[i]
                     .iter()
-                    .map(|r| r.iter().map(|v| [v[0], v[1]]).collect())
+                    .enumerate()
+                    .map(|(k, r)| {
+                        let mut ring: Vec<[f64; 2]> = r.iter().map(|v| [v[0], v[1]]).collect();
+                        // Floors face down: their plans run clockwise, which is no repair to report.
+                        if (signed_area2(&ring) > 0.0) != (k == 0) {
+                            ring.reverse();
+                        }
+                        ring
+                    })
                     .collect()
             })
             .collect(),
         ground,
-        ground_z,
-        top_z,
+        ground_z: (walls && !flat).then_some(lowest),
+        top_z: (!flat).then_some(highest),
     })
 }
 

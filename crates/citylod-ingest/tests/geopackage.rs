@@ -1029,8 +1029,8 @@ fn heights_of_3d_rows_in_a_crs_in_feet_are_feet() {
     assert_eq!(
         r.report.files[0].notes,
         vec![format!(
-            "the heights (z) of its 1 3D surface model(s) were read in the CRS's linear unit ({ft} m), as ArcGIS \
-             takes z without a vertical CRS, and converted to metres"
+            "the heights (z) of its 1 3D surface model(s) were read in units of {ft} m (its vertical CRS's, else its \
+             CRS's linear unit, as ArcGIS takes z without a vertical CRS) and converted to metres"
         )]
     );
 }
@@ -1353,4 +1353,79 @@ fn a_crs_is_read_from_the_wkt2_definition_and_codes_the_table_lacks_from_their_w
             .contains("srs_id 100001 (NONE 100001) has no definition"),
         "{e}"
     );
+}
+
+#[test]
+fn curves_that_cannot_be_a_ring_are_malformed_and_leaning_walls_are_walls() {
+    let le = Wkb::default();
+    // A CompoundCurve whose second part starts 1 m from where the first ends (GDAL refuses it too).
+    let gap = le.of_members(
+        10,
+        &[le.of_members(
+            9,
+            &[
+                le.line(&[at(0.0, 0.0), at(10.0, 0.0), at(10.0, 10.0)]),
+                le.line(&[at(11.0, 10.0), at(0.0, 10.0), at(0.0, 0.0)]),
+            ],
+        )],
+    );
+    // A CircularString of four points: arcs take three, each from the last one's end.
+    let even = le.of_members(
+        10,
+        &[le.circular_string(&[at(0.0, 0.0), at(5.0, 5.0), at(10.0, 0.0), at(0.0, 0.0)])],
+    );
+    // 12,000 full circles in one ring: over a million points once the arcs are segments.
+    let mut pts = vec![at(0.0, 0.0)];
+    for _ in 0..12_000 {
+        pts.push(at(2.0, 0.0));
+        pts.push(at(0.0, 0.0));
+    }
+    let many = le.of_members(10, &[le.circular_string(&pts)]);
+    // A 10 m box whose walls lean 1 mm over their 9 m, in MultiPolygon Z: still a 3D model, not a flat footprint.
+    let s = utm_square(100.0, 10.0);
+    let mut faces: Vec<Vec<Vec<[f64; 3]>>> = (0..4)
+        .map(|k| {
+            let (a, b) = (s[k], s[k + 1]);
+            vec![vec![
+                [a[0], a[1], 0.0],
+                [b[0], b[1], 0.0],
+                [b[0] + 0.001, b[1], 9.0],
+                [a[0] + 0.001, a[1], 9.0],
+                [a[0], a[1], 0.0],
+            ]]
+        })
+        .collect();
+    faces.push(vec![s.iter().map(|p| [p[0] + 0.001, p[1], 9.0]).collect()]);
+    let rows = vec![
+        row(1, Some(blob(26918, Envelope::Xy, false, &gap))),
+        row(2, Some(blob(26918, Envelope::Xy, false, &even))),
+        row(3, Some(blob(26918, Envelope::Xy, false, &many))),
+        row(
+            4,
+            Some(blob(
+                26918,
+                Envelope::Xyz,
+                false,
+                &le.multipolygon_z(&faces),
+            )),
+        ),
+    ];
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("odd.gpkg");
+    let mut l = layer(rows, vec![]);
+    l.srs_id = 26918;
+    write(&p, &[Srs::epsg(26918)], &[l]);
+    let r = ingest(&[p], &IngestOptions::default()).unwrap();
+    assert_eq!(
+        skips(&r),
+        [
+            ("odd.gpkg#1", "malformed_geometry", "FID 1: CompoundCurve part 1 does not start where part 0 ends"),
+            ("odd.gpkg#2", "malformed_geometry", "FID 2: a CircularString of 4 points (arcs of three, each from the last's end, make an odd count)"),
+            ("odd.gpkg#3", "malformed_geometry", "FID 3: circular arcs approximated by over 1000000 points in one geometry"),
+        ]
+        .map(|(a, b, c)| (a.to_string(), b.to_string(), c.to_string()))
+    );
+    assert_eq!(r.buildings.len(), 1);
+    assert_eq!(r.buildings[0].height_m, 9.0);
+    assert!((r.buildings[0].area_m2() - 100.0).abs() < 0.5);
 }

@@ -957,7 +957,15 @@ fn patch_box(r: &[[f64; 2]], z0: f64, z1: f64, floor: bool) -> Vec<(i32, Vec<[f6
 fn multipatch_records_stand_on_their_floors_or_under_their_roofs() {
     let dir = tempfile::tempdir().unwrap();
     let mut t = Table::new(vec![Field::new("id", b'C', 12, 0)]);
-    for id in ["box", "floored", "courtyard", "triangles", "flat"] {
+    for id in [
+        "box",
+        "floored",
+        "courtyard",
+        "triangles",
+        "flat",
+        "sloped",
+        "basement",
+    ] {
         t.push([text(id)]);
     }
     // A roof with a courtyard: a first ring and a ring after it, over walls (a strip) reaching 2 m.
@@ -988,16 +996,38 @@ fn multipatch_records_stand_on_their_floors_or_under_their_roofs() {
             [s[0][0], s[0][1], 0.0],
         ],
     )];
+    // A box whose floor is two triangles following the terrain 10 cm down across it.
+    let q = square_at(140.0, 10.0);
+    let mut sloped = patch_box(&q, 0.0, 9.0, false);
+    let z = |p: [f64; 2]| if p[0] > q[0][0] { -0.1 } else { 0.0 };
+    let fl = |i: usize| [q[i][0], q[i][1], z(q[i])];
+    sloped.push((6, vec![fl(0), fl(2), fl(1), fl(0), fl(3), fl(2)]));
+    // A 10 m box from 0 to 10 m over a 3 m cellar of 3 × 3 m (its floor at −3 m): it stands on the cellar's floor
+    // and its footprint is the whole box's, not the cellar's.
+    let mut basement = patch_box(&square_at(160.0, 10.0), 0.0, 10.0, true);
+    basement.extend(patch_box(&square_at(163.0, 3.0), -3.0, 0.0, true));
     let shapes = vec![
         Shape::MultiPatch(patch_box(&square_at(0.0, 10.0), 0.0, 9.0, false)),
         Shape::MultiPatch(patch_box(&square_at(20.0, 10.0), 1.0, 9.0, true)),
         Shape::MultiPatch(courtyard),
         Shape::MultiPatch(tri),
         Shape::MultiPatch(flat),
+        Shape::MultiPatch(sloped),
+        Shape::MultiPatch(basement),
     ];
     let shp = write(dir.path(), "patches", &shapes, &t, Some(WGS84_PRJ), None);
     let r = ingest(std::slice::from_ref(&shp), &IngestOptions::default()).unwrap();
-    assert_eq!(ids(&r), ["box", "floored", "courtyard", "triangles"]);
+    assert_eq!(
+        ids(&r),
+        [
+            "box",
+            "floored",
+            "courtyard",
+            "triangles",
+            "sloped",
+            "basement"
+        ]
+    );
     assert_eq!(
         r.report
             .skipped
@@ -1025,13 +1055,31 @@ fn multipatch_records_stand_on_their_floors_or_under_their_roofs() {
         "{}",
         area("triangles")
     );
+    assert!((area("sloped") - 100.0).abs() < 1.0, "{}", area("sloped"));
+    assert!(
+        (area("basement") - 100.0).abs() < 1.0,
+        "{}",
+        area("basement")
+    );
+    assert!(
+        (b("sloped").height_m - 9.1).abs() < 1e-9,
+        "{}",
+        b("sloped").height_m
+    );
+    assert!(
+        (b("basement").height_m - 13.0).abs() < 1e-9,
+        "{}",
+        b("basement").height_m
+    );
+    // Outlines run counter-clockwise already (floors facing down are no misoriented rings).
+    assert_eq!(r.report.rings_reoriented, 0);
     let heights: Vec<f64> = ["box", "floored", "courtyard", "triangles"]
         .iter()
         .map(|i| b(i).height_m)
         .collect();
-    // The triangles alone are a roof at 5 m with nothing under it: no height from the geometry, the default.
+    // The triangles alone are a flat roof at 5 m: no height from the geometry, the default.
     assert_eq!(heights, [9.0, 8.0, 12.0, 10.0]);
-    assert_eq!(r.report.height_sources.get("geometry").copied(), Some(3));
+    assert_eq!(r.report.height_sources.get("geometry").copied(), Some(5));
 
     // With --lod the patches are the buildings' models.
     let r = ingest(
@@ -1044,10 +1092,18 @@ fn multipatch_records_stand_on_their_floors_or_under_their_roofs() {
     .unwrap();
     assert_eq!(
         r.report.mesh_lods.get("MultiPatch").copied(),
-        Some(4),
+        Some(5),
         "{:?}",
         r.report.mesh_lods
     );
+    // The flat roof plate is no model: said.
+    let flat: Vec<_> = r
+        .report
+        .mesh_issues
+        .iter()
+        .map(|m| (m.feature_id.as_str(), m.reason.as_str()))
+        .collect();
+    assert_eq!(flat, [("triangles", "model_invalid")]);
     use citylod_model::SurfaceKind::{Ground, Roof, Wall};
     let kinds = |id: &str| {
         let m = r
@@ -1134,6 +1190,39 @@ fn a_multipatch_shapefile_written_by_gdal_gives_the_models_of_its_cityjson() {
             (top - (b.base_z_m + b.height_m)).abs() < 0.01,
             "{}: {top}",
             b.source_id
+        );
+    }
+}
+
+#[test]
+fn a_vertcs_in_the_prj_gives_the_unit_of_z() {
+    // The Long Island State Plane in feet, as ArcGIS writes it, with a vertical CRS in metres after it: a box 30 units
+    // high is 30 m high; without the VERTCS its z would be feet, as the CRS's linear unit.
+    let esri_2263 = r#"PROJCS["NAD_1983_StatePlane_New_York_Long_Island_FIPS_3104_Feet",GEOGCS["GCS_North_American_1983",DATUM["D_North_American_1983",SPHEROID["GRS_1980",6378137.0,298.257222101]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]],PROJECTION["Lambert_Conformal_Conic"],PARAMETER["False_Easting",984250.0],PARAMETER["False_Northing",0.0],PARAMETER["Central_Meridian",-74.0],PARAMETER["Standard_Parallel_1",40.66666666666666],PARAMETER["Standard_Parallel_2",41.03333333333333],PARAMETER["Latitude_Of_Origin",40.16666666666666],UNIT["Foot_US",0.3048006096012192]]"#;
+    let vertcs = r#",VERTCS["NAVD_1988",VDATUM["North_American_Vertical_Datum_1988"],PARAMETER["Vertical_Shift",0.0],PARAMETER["Direction",1.0],UNIT["Meter",1.0]]"#;
+    let (x0, y0) = (987_000.0, 201_000.0);
+    let ring = vec![
+        [x0, y0],
+        [x0, y0 + 100.0],
+        [x0 + 100.0, y0 + 100.0],
+        [x0 + 100.0, y0],
+        [x0, y0],
+    ];
+    let mut t = Table::new(vec![Field::new("id", b'C', 8, 0)]);
+    t.push([text("tower")]);
+    let shapes = vec![Shape::MultiPatch(patch_box(&ring, 0.0, 30.0, true))];
+    let dir = tempfile::tempdir().unwrap();
+    for (name, prj, want) in [
+        ("metres", format!("{esri_2263}{vertcs}"), 30.0),
+        ("feet", esri_2263.to_string(), 30.0 * 0.3048006096012192),
+    ] {
+        let shp = write(dir.path(), name, &shapes, &t, Some(&prj), None);
+        let r = ingest(&[shp], &IngestOptions::default()).unwrap();
+        assert_eq!(r.report.files[0].crs, "EPSG:2263", "{name}");
+        assert!(
+            (r.buildings[0].height_m - want).abs() < 1e-9,
+            "{name}: {}",
+            r.buildings[0].height_m
         );
     }
 }
