@@ -27,6 +27,8 @@ pub(crate) struct CollapseMesh {
     pub locked: Vec<bool>,
     orig_normal: Vec<V3>,
     comp_of_tri: Vec<u32>,
+    /// Each component's triangles, in index order (a triangle never changes component).
+    comp_tris: Vec<Vec<u32>>,
     comp_alive: Vec<usize>,
     pub alive_tris: usize,
 }
@@ -52,8 +54,10 @@ impl CollapseMesh {
             })
             .collect();
         let mut comp_alive = vec![0; comp_count];
-        for &c in &comp_of_tri {
+        let mut comp_tris = vec![Vec::new(); comp_count];
+        for (t, &c) in comp_of_tri.iter().enumerate() {
             comp_alive[c as usize] += 1;
+            comp_tris[c as usize].push(t as u32);
         }
         let vert_alive = vtris.iter().map(|t| !t.is_empty()).collect();
         CollapseMesh {
@@ -65,6 +69,7 @@ impl CollapseMesh {
             locked: vec![false; pos.len()],
             orig_normal,
             comp_of_tri,
+            comp_tris,
             comp_alive,
             alive_tris: tris.len(),
         }
@@ -183,8 +188,12 @@ impl CollapseMesh {
 
     /// Corner positions of the alive triangles of component `c` as they would be after `u → v`.
     pub fn component_after(&self, c: u32, u: u32, v: u32) -> Vec<[V3; 3]> {
-        (0..self.tris.len())
-            .filter(|&t| self.tri_alive[t] && self.comp_of_tri[t] == c)
+        // The component's own triangles, not a scan of all (which made simplifying a model of many touching parts,
+        // such as a MultiPatch of loose triangles, quadratic in its triangles).
+        self.comp_tris[c as usize]
+            .iter()
+            .map(|&t| t as usize)
+            .filter(|&t| self.tri_alive[t])
             .map(|t| self.tris[t])
             .filter(|tri| !(tri.contains(&u) && tri.contains(&v)))
             .map(|tri| tri.map(|x| self.pos[if x == u { v } else { x } as usize]))
