@@ -200,6 +200,17 @@ fn layer(rows: Vec<Row>, columns: Vec<(&str, &str)>) -> Layer {
     }
 }
 
+/// The geometry blob of a 10 m square `20 i` m east of [`square`]'s point, in lon/lat.
+fn square_blob(i: usize) -> Option<Vec<u8>> {
+    let le = Wkb::default();
+    Some(blob(
+        4326,
+        Envelope::Xy,
+        false,
+        &le.polygon(&[square(20.0 * i as f64, 10.0)]),
+    ))
+}
+
 fn row(fid: i64, geometry: Option<Vec<u8>>) -> Row {
     Row {
         fid,
@@ -555,15 +566,7 @@ fn rows_holding_3d_surface_models_stand_on_their_lowest_faces() {
 
 #[test]
 fn cells_become_typed_attributes_and_odd_ones_are_reported() {
-    let le = Wkb::default();
-    let g = |i: usize| {
-        Some(blob(
-            4326,
-            Envelope::Xy,
-            false,
-            &le.polygon(&[square(20.0 * i as f64, 10.0)]),
-        ))
-    };
+    let g = square_blob;
     let cols = vec![
         ("name", "TEXT"),
         ("height", "REAL"),
@@ -1202,15 +1205,7 @@ fn collections_of_the_wrong_members_are_malformed_whatever_their_depth() {
 
 #[test]
 fn tables_as_gdal_and_qgis_read_them() {
-    let le = Wkb::default();
-    let g = |i: usize| {
-        Some(blob(
-            4326,
-            Envelope::Xy,
-            false,
-            &le.polygon(&[square(20.0 * i as f64, 10.0)]),
-        ))
-    };
+    let g = square_blob;
     let rows = (0..3)
         .map(|i| Row {
             fid: 10 * (i as i64 + 1),
