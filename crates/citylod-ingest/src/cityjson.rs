@@ -584,6 +584,9 @@ fn polygon3(s: &Surface, vertices: &[[f64; 3]]) -> Result<Polygon3, String> {
         .collect()
 }
 
+/// A surface whose [`horizontality`] is over this (within ~10° of horizontal) may be a building's floor.
+pub(crate) const HORIZONTAL: f64 = 0.985;
+
 /// Newell normal's vertical share: 1 for a horizontal ring, 0 for a vertical one.
 pub(crate) fn horizontality(ring: &[[f64; 3]]) -> f64 {
     let mut n = [0.0; 3];
@@ -676,7 +679,7 @@ fn object_geometry(o: &Value, vertices: &[[f64; 3]]) -> Result<ObjectGeometry, S
         .iter()
         .filter(|(p, _)| {
             p.first()
-                .is_some_and(|r| r.len() >= 3 && horizontality(r) > 0.985)
+                .is_some_and(|r| r.len() >= 3 && horizontality(r) > HORIZONTAL)
         })
         .map(|(p, _)| (p, mean_z(p)))
         .collect();

@@ -44,6 +44,52 @@ pub(crate) struct VectorDoc {
     pub notes: Vec<String>,
 }
 
+/// The building's id as for GeoJSON properties: `id`, else `@id`, else OSM's `osm_type/osm_id`, else `FILE#N` (a
+/// shapefile record's 0-based position, a GeoPackage row's FID).
+pub(crate) fn source_id(a: &Attributes, file_name: &str, n: impl std::fmt::Display) -> String {
+    let text = |k: &str| match a.get(k) {
+        Some(AttrValue::String(s)) if !s.is_empty() => Some(s.clone()),
+        Some(AttrValue::Int(i)) => Some(i.to_string()),
+        _ => None,
+    };
+    text("id")
+        .or_else(|| text("@id"))
+        .or_else(|| Some(format!("{}/{}", text("osm_type")?, text("osm_id")?)))
+        .unwrap_or_else(|| format!("{file_name}#{n}"))
+}
+
+/// The bounding box of a ring: [min x, min y, max x, max y].
+pub(crate) fn ring_box(r: &[[f64; 2]]) -> [f64; 4] {
+    r.iter().fold(
+        [
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        ],
+        |b, p| {
+            [
+                b[0].min(p[0]),
+                b[1].min(p[1]),
+                b[2].max(p[0]),
+                b[3].max(p[1]),
+            ]
+        },
+    )
+}
+
+/// The repair that says which members of a GeometryCollection were not polygons (`dropped`: "member PATH (Type)").
+pub(crate) fn dropped_members(dropped: &[String]) -> (IssueReason, String) {
+    (
+        IssueReason::NonPolygonMemberDropped,
+        format!(
+            "{} GeometryCollection member(s) not polygonal, dropped: {}",
+            dropped.len(),
+            crate::geojson::listing(dropped)
+        ),
+    )
+}
+
 /// JSON value → attribute value; nested objects and arrays become compact JSON text.
 pub(crate) fn attr_value(v: &serde_json::Value) -> AttrValue {
     use serde_json::Value;
@@ -69,6 +115,18 @@ pub(crate) fn attributes(v: Option<&serde_json::Value>) -> Attributes {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn source_ids_follow_the_geojson_rule() {
+        let a: Attributes = [
+            ("osm_type".to_string(), AttrValue::String("way".into())),
+            ("osm_id".to_string(), AttrValue::Int(5)),
+        ]
+        .into_iter()
+        .collect();
+        assert_eq!(source_id(&a, "f.shp", 3), "way/5");
+        assert_eq!(source_id(&Attributes::default(), "f.shp", 3), "f.shp#3");
+    }
 
     #[test]
     fn nested_values_become_compact_json_strings() {

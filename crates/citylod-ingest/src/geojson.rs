@@ -604,14 +604,7 @@ fn collect_polygons(
                 ));
             }
             if !dropped.is_empty() {
-                repairs.push((
-                    IssueReason::NonPolygonMemberDropped,
-                    format!(
-                        "{} GeometryCollection member(s) not polygonal, dropped: {}",
-                        dropped.len(),
-                        listing(&dropped)
-                    ),
-                ));
+                repairs.push(crate::feature::dropped_members(&dropped));
             }
             Ok(())
         }

@@ -263,8 +263,12 @@ fn declared_crs(
             ),
         }));
     };
-    let (crs, note) = crate::prj::declared_crs(&definition);
-    notes.extend(note.map(|n| n.replace("the .prj's", "the spatial reference system's")));
+    let source = crate::prj::WktSource {
+        member: MEMBER,
+        whose: "the spatial reference system's",
+    };
+    let (crs, note) = crate::prj::declared_crs(&definition, &source);
+    notes.extend(note);
     Ok(Some(match crs {
         // Neither the code nor the definition: the code's own error says more.
         DeclaredCrs::NotUnderstood { .. } if epsg.is_some() => {
@@ -384,10 +388,11 @@ fn rows(
     let rowid = ["rowid", "_rowid_", "oid"]
         .into_iter()
         .find(|r| !declared.iter().any(|(n, _, _)| n.eq_ignore_ascii_case(r)));
+    // What gives the FID, and the rows' order by it; `None` for a view without a fid column.
     let fid_expr = match (&fid, rowid) {
-        (Some(f), _) => quoted(f),
-        (None, _) if view => "NULL".to_string(),
-        (None, Some(r)) => r.to_string(),
+        (Some(f), _) => Some(quoted(f)),
+        (None, _) if view => None,
+        (None, Some(r)) => Some(r.to_string()),
         (None, None) => {
             return Err(format!(
                 "table {:?} has no integer primary key and columns named rowid, _rowid_ and oid: its rows have no \
@@ -396,7 +401,7 @@ fn rows(
             ))
         }
     };
-    let select: Vec<String> = std::iter::once(fid_expr.clone())
+    let select: Vec<String> = std::iter::once(fid_expr.clone().unwrap_or_else(|| "NULL".into()))
         .chain(std::iter::once(quoted(&geometry_column)))
         .chain(columns.iter().map(|c| quoted(&c.name)))
         .collect();
@@ -405,11 +410,9 @@ fn rows(
             "SELECT {} FROM {}{}",
             select.join(", "),
             quoted(&layer.table),
-            if fid_expr == "NULL" {
-                String::new()
-            } else {
-                format!(" ORDER BY {fid_expr}")
-            }
+            fid_expr
+                .map(|f| format!(" ORDER BY {f}"))
+                .unwrap_or_default()
         ))
         .map_err(sql)?;
     let mut q = st.query([]).map_err(sql)?;
@@ -427,7 +430,7 @@ fn rows(
             attributes.insert(c.name.clone(), value(v, c, &mut repairs));
         }
         let mut out = RawFeature {
-            source_id: crate::shp::source_id(&attributes, file_name, fid),
+            source_id: crate::feature::source_id(&attributes, file_name, fid),
             attributes,
             repairs,
             ..Default::default()
@@ -593,20 +596,15 @@ pub(crate) fn geometry(b: &[u8]) -> Result<Geometry, Skip> {
             ),
         ));
     }
+    // Members dropped from a collection (only a collection drops any and still has polygons), said for a model too.
+    if !out.dropped.is_empty() {
+        out.repairs
+            .push(crate::feature::dropped_members(&out.dropped));
+    }
     // A footprint may have one degenerate part (dropped later as any); walls come several to a building.
     let surfaces = out.surface_type || out.on_edge >= 2;
     if surfaces && out.faces.len() == out.polygons.len() {
         return Ok(Geometry::Surfaces(out.faces, out.repairs));
-    }
-    if out.collection && !out.dropped.is_empty() {
-        out.repairs.push((
-            IssueReason::NonPolygonMemberDropped,
-            format!(
-                "{} GeometryCollection member(s) not polygonal, dropped: {}",
-                out.dropped.len(),
-                crate::geojson::listing(&out.dropped)
-            ),
-        ));
     }
     Ok(Geometry::Footprint(out.polygons, out.repairs))
 }
@@ -617,7 +615,6 @@ struct Out {
     repairs: Repairs,
     /// Members that are not polygons, as "member PATH (Type)", or the whole geometry's type.
     dropped: Vec<String>,
-    collection: bool,
     /// Polygons with heights whose exterior ring stands on edge (a wall of a 3D surface model).
     on_edge: usize,
     /// The polygons with their heights, when they have them.
@@ -785,7 +782,6 @@ impl Wkb<'_> {
                         format!("GeometryCollections nested over {MAX_NESTING} deep"),
                     ));
                 }
-                out.collection = true;
                 let n = self.u32(le)?;
                 for i in 0..n {
                     let member = if path.is_empty() {
@@ -1010,7 +1006,8 @@ impl Out {
                     .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
                         (lo.min(p[2]), hi.max(p[2]))
                     });
-                let (w, h) = extent(&ring);
+                let b = crate::feature::ring_box(&ring);
+                let (w, h) = (b[2] - b[0], b[3] - b[1]);
                 // On edge: a plan area nothing against the square of the outline's extent (a wall leaning a millimetre per
                 // metre still), while its height varies.
                 if hi > lo && signed_area2(&ring).abs() <= 1e-3 * w.max(h).powi(2) {
@@ -1070,28 +1067,14 @@ fn arc_points(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> Vec<[f64; 3]> {
     (1..=steps)
         .map(|k| {
             let t = k as f64 / steps as f64;
-            if k == steps && !full {
-                return c;
-            }
             if k == steps {
-                return [a[0], a[1], a[2]];
+                return if full { a } else { c };
             }
             let th = start + sweep * t;
             let z = if full { a[2] } else { a[2] + (c[2] - a[2]) * t };
             [centre[0] + r * th.cos(), centre[1] + r * th.sin(), z]
         })
         .collect()
-}
-
-fn extent(r: &[[f64; 2]]) -> (f64, f64) {
-    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-    for p in r {
-        for k in 0..2 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    (hi[0] - lo[0], hi[1] - lo[1])
 }
 
 /// A path GeoPackage input is read from: the extension `.gpkg`, in any case.

@@ -517,9 +517,8 @@ fn vector_file(
     doc.notes.extend(surface_model::stand(
         &mut doc.features,
         doc.surfaces,
-        crs.is_lon_lat(),
-        crs.linear_unit_m(),
-        doc.z_unit_m.unwrap_or(crs.linear_unit_m()),
+        &crs,
+        doc.z_unit_m,
         model_target.is_some(),
         if format == InputFormat::GeoPackage {
             "GeoPackage 3D"

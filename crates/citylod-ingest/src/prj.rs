@@ -48,8 +48,14 @@ impl Node {
     }
 }
 
-/// Parses WKT (either bracket style); `None` when it is not WKT. Nesting is limited (a `.prj` is a few levels deep).
+/// Parses WKT (either bracket style): one node, which an Esri vertical CRS may follow; `None` when it is not WKT.
+/// Nesting is limited (a `.prj` is a few levels deep).
 fn parse(s: &str) -> Option<Node> {
+    parse_node(s, true)
+}
+
+/// The node `s` starts with: with `whole`, only when nothing but Esri's trailing `VERTCS` follows it.
+fn parse_node(s: &str, whole: bool) -> Option<Node> {
     struct P<'a> {
         b: &'a [u8],
         at: usize,
@@ -149,6 +155,9 @@ fn parse(s: &str) -> Option<Node> {
         at: 0,
     };
     let n = p.node(0)?;
+    if !whole {
+        return Some(n);
+    }
     p.skip();
     // Esri writes a vertical CRS after the horizontal one: `PROJCS[…],VERTCS[…]` (see `vertical_unit_m`).
     while p.b.get(p.at) == Some(&b',') {
@@ -164,44 +173,19 @@ fn parse(s: &str) -> Option<Node> {
 /// Metres per unit of z when the WKT declares a vertical CRS: Esri's `VERTCS[…]` after the horizontal CRS, or a
 /// `VERT_CS`/`VERTCRS` inside a compound one, by its `UNIT` (`LENGTHUNIT`).
 pub(crate) fn vertical_unit_m(wkt: &str) -> Option<f64> {
-    let wkt = wkt.trim().trim_start_matches('\u{feff}').trim();
+    let upper = wkt.to_ascii_uppercase();
     let at = ["VERTCS[", "VERT_CS[", "VERTCRS["]
         .iter()
-        .filter_map(|k| wkt.to_ascii_uppercase().find(k))
+        .filter_map(|k| upper.find(k))
         .min()?;
-    let node = parse_prefix(&wkt[at..])?;
-    node.children()
+    parse_node(&wkt[at..], false)?
+        .children()
         .filter(|c| c.key == "UNIT" || c.key == "LENGTHUNIT")
         .last()
         .and_then(|u| match u.args.get(1)? {
             Arg::Number(x) if *x > 0.0 && x.is_finite() => Some(*x),
             _ => None,
         })
-}
-
-/// The first node of `s`, whatever follows it.
-fn parse_prefix(s: &str) -> Option<Node> {
-    let depth_zero_end = {
-        let mut depth = 0i32;
-        let mut quoted = false;
-        let mut end = None;
-        for (i, c) in s.bytes().enumerate() {
-            match c {
-                b'"' => quoted = !quoted,
-                b'[' | b'(' if !quoted => depth += 1,
-                b']' | b')' if !quoted => {
-                    depth -= 1;
-                    if depth == 0 {
-                        end = Some(i + 1);
-                        break;
-                    }
-                }
-                _ => {}
-            }
-        }
-        end?
-    };
-    parse(&s[..depth_zero_end])
 }
 
 /// Letters and digits of a name, upper case: `North_American_Datum_1983` → `NORTHAMERICANDATUM1983`.
@@ -512,13 +496,27 @@ fn def_datum(def: &crs_definitions::Def) -> String {
         .unwrap_or_default()
 }
 
-/// The CRS a `.prj` declares, and a note when it was identified rather than named.
-pub(crate) fn declared_crs(wkt: &str) -> (DeclaredCrs, Option<String>) {
+/// Where a WKT came from, for what is said about it: the member an error names and the words a note uses.
+pub(crate) struct WktSource {
+    pub member: &'static str,
+    /// `the .prj's`, as in "identified from the .prj's projection".
+    pub whose: &'static str,
+}
+
+/// A shapefile's `.prj`.
+pub(crate) const PRJ: WktSource = WktSource {
+    member: ".prj",
+    whose: "the .prj's",
+};
+
+/// The CRS a WKT (a `.prj`, a GeoPackage's spatial reference system) declares, and a note when it was identified
+/// rather than named.
+pub(crate) fn declared_crs(wkt: &str, source: &WktSource) -> (DeclaredCrs, Option<String>) {
     let wkt = wkt.trim().trim_start_matches('\u{feff}').trim();
     let not_understood = |why: String| {
         (
             DeclaredCrs::NotUnderstood {
-                member: ".prj",
+                member: source.member,
                 detail: format!("{why} ({:?})", wkt.chars().take(100).collect::<String>()),
             },
             None,
@@ -587,7 +585,10 @@ pub(crate) fn declared_crs(wkt: &str) -> (DeclaredCrs, Option<String>) {
         return if all_zero && metres && wgs84 {
             (
                 DeclaredCrs::Name("EPSG:3857".into()),
-                Some("CRS EPSG:3857 (WGS 84 / Pseudo-Mercator) identified from the .prj's projection".into()),
+                Some(format!(
+                    "CRS EPSG:3857 (WGS 84 / Pseudo-Mercator) identified from {} projection",
+                    source.whose
+                )),
             )
         } else {
             not_understood(
@@ -658,9 +659,10 @@ pub(crate) fn declared_crs(wkt: &str) -> (DeclaredCrs, Option<String>) {
         ));
     };
     let note = format!(
-        "CRS EPSG:{} ({}) identified from the .prj's {}, which names no EPSG code{}",
+        "CRS EPSG:{} ({}) identified from {} {}, which names no EPSG code{}",
         chosen.code,
         def_name(&chosen),
+        source.whose,
         if root.key == "PROJCS" {
             "projection, parameters, unit and ellipsoid"
         } else {
@@ -683,7 +685,7 @@ mod tests {
     use super::*;
 
     fn name(w: &str) -> String {
-        match declared_crs(w).0 {
+        match declared_crs(w, &PRJ).0 {
             DeclaredCrs::Name(n) => n,
             DeclaredCrs::NotUnderstood { member, detail } => format!("? {member} {detail}"),
         }
@@ -707,7 +709,7 @@ mod tests {
     #[test]
     fn esri_prj_files_are_identified_by_their_parameters() {
         let ma = r#"PROJCS["NAD_1983_StatePlane_Massachusetts_Mainland_FIPS_2001",GEOGCS["GCS_North_American_1983",DATUM["D_North_American_1983",SPHEROID["GRS_1980",6378137.0,298.257222101]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]],PROJECTION["Lambert_Conformal_Conic"],PARAMETER["False_Easting",200000.0],PARAMETER["False_Northing",750000.0],PARAMETER["Central_Meridian",-71.5],PARAMETER["Standard_Parallel_1",41.71666666666667],PARAMETER["Standard_Parallel_2",42.68333333333333],PARAMETER["Latitude_Of_Origin",41.0],UNIT["Meter",1.0]]"#;
-        let (crs, note) = declared_crs(ma);
+        let (crs, note) = declared_crs(ma, &PRJ);
         assert_eq!(crs, DeclaredCrs::Name("EPSG:26986".into()));
         assert!(note.unwrap().contains("NAD83 / Massachusetts Mainland"));
         let ny_feet = r#"PROJCS["NAD_1983_StatePlane_New_York_Long_Island_FIPS_3104_Feet",GEOGCS["GCS_North_American_1983",DATUM["D_North_American_1983",SPHEROID["GRS_1980",6378137.0,298.257222101]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]],PROJECTION["Lambert_Conformal_Conic"],PARAMETER["False_Easting",984250.0],PARAMETER["False_Northing",0.0],PARAMETER["Central_Meridian",-74.0],PARAMETER["Standard_Parallel_1",40.66666666666666],PARAMETER["Standard_Parallel_2",41.03333333333333],PARAMETER["Latitude_Of_Origin",40.16666666666666],UNIT["Foot_US",0.3048006096012192]]"#;

@@ -12,7 +12,7 @@
 //! island in a courtyard is a polygon of its own); a counter-clockwise ring no outer ring holds is an outer ring
 //! wound the wrong way (repaired and counted later as any misoriented ring).
 
-use crate::feature::{RawFeature, RawPolygon, VectorDoc};
+use crate::feature::{ring_box, RawFeature, RawPolygon, VectorDoc};
 use crate::report::IssueReason;
 use crate::surface_model::Face;
 use citylod_mesh::signed_area2;
@@ -67,7 +67,7 @@ pub(crate) fn read(path: &Path) -> Result<VectorDoc, String> {
     for (index, shape) in shapes.into_iter().enumerate() {
         let (attributes, repairs, deleted) = table.record(index);
         let mut out = RawFeature {
-            source_id: source_id(&attributes, &file_name, index),
+            source_id: crate::feature::source_id(&attributes, &file_name, index),
             attributes,
             repairs,
             ..Default::default()
@@ -101,7 +101,7 @@ pub(crate) fn read(path: &Path) -> Result<VectorDoc, String> {
                 Some([0xFE, 0xFF]) => encoding_rs::UTF_16BE.decode_with_bom_removal(&bytes).0,
                 _ => String::from_utf8_lossy(&bytes),
             };
-            let (crs, note) = crate::prj::declared_crs(&text);
+            let (crs, note) = crate::prj::declared_crs(&text, &crate::prj::PRJ);
             notes.extend(note);
             z_unit_m = crate::prj::vertical_unit_m(&text);
             Some(crs)
@@ -268,34 +268,43 @@ fn shape(c: &[u8]) -> ShapeResult {
     }
 }
 
-/// A Polygon, PolygonZ or PolygonM record (Z and M values are not read: a footprint is flat).
-fn polygon(c: &[u8]) -> ShapeResult {
+/// The part and point counts of a polygon or MultiPatch record (`what`) and where its parts start, checked against the
+/// record's length: `per_part` and `per_point` bytes each after the 44-byte head, then `tail` bytes. Parts of no points
+/// are allowed where `empty_parts` (a MultiPatch's), else every part starts after the one before.
+fn parts(
+    c: &[u8],
+    what: &str,
+    (per_part, per_point, tail): (u64, u64, u64),
+    empty_parts: bool,
+) -> Result<(usize, Vec<usize>), (IssueReason, String)> {
     let malformed = |d: String| Err((IssueReason::MalformedGeometry, d));
     let (Some(parts), Some(points)) = (le_i32(c, 36), le_i32(c, 40)) else {
         return malformed(format!(
-            "a polygon record of {} bytes, too short for its counts",
+            "a {what} record of {} bytes, too short for its counts",
             c.len()
         ));
     };
     if parts < 0 || points < 0 {
-        return malformed(format!("a polygon of {parts} parts and {points} points"));
+        return malformed(format!("a {what} of {parts} parts and {points} points"));
     }
-    let need = 44 + 4 * parts as u64 + 16 * points as u64;
+    let need = 44 + per_part * parts as u64 + per_point * points as u64 + tail;
     if need > c.len() as u64 {
         return malformed(format!(
-            "a polygon of {parts} parts and {points} points needs {need} bytes, its record holds {}",
+            "a {what} of {parts} parts and {points} points needs {need} bytes, its record holds {}",
             c.len()
         ));
     }
     if parts == 0 || points == 0 {
-        return Err((IssueReason::EmptyGeometry, "polygon without rings".into()));
+        return Err((IssueReason::EmptyGeometry, format!("{what} without parts")));
     }
     let (parts, points) = (parts as usize, points as usize);
     let starts: Vec<usize> = (0..parts)
         .map(|k| le_i32(c, 44 + 4 * k).unwrap_or(-1) as i64 as usize)
         .collect();
     let valid = starts[0] == 0
-        && starts.windows(2).all(|w| w[0] < w[1])
+        && starts
+            .windows(2)
+            .all(|w| w[0] < w[1] || (empty_parts && w[0] == w[1]))
         && starts.last().is_some_and(|&s| s < points);
     if !valid {
         let shown: Vec<String> = starts
@@ -304,10 +313,17 @@ fn polygon(c: &[u8]) -> ShapeResult {
             .map(|s| (*s as i64).to_string())
             .collect();
         return malformed(format!(
-            "ring starts {} are not increasing from 0 below its {points} points",
+            "part starts {} are not increasing from 0 below its {points} points",
             shown.join(", ")
         ));
     }
+    Ok((points, starts))
+}
+
+/// A Polygon, PolygonZ or PolygonM record (Z and M values are not read: a footprint is flat).
+fn polygon(c: &[u8]) -> ShapeResult {
+    let (points, starts) = parts(c, "polygon", (4, 16, 0), false)?;
+    let parts = starts.len();
     let xy = 44 + 4 * parts;
     let point = |i: usize| -> [f64; 2] {
         let at = xy + 16 * i;
@@ -339,40 +355,10 @@ fn polygon(c: &[u8]) -> ShapeResult {
 /// without area (a strip's restarts) are left out; M values are not read.
 fn multipatch(c: &[u8]) -> ShapeResult {
     let malformed = |d: String| Err((IssueReason::MalformedGeometry, d));
-    let (Some(parts), Some(points)) = (le_i32(c, 36), le_i32(c, 40)) else {
-        return malformed(format!(
-            "a MultiPatch record of {} bytes, too short for its counts",
-            c.len()
-        ));
-    };
-    if parts < 0 || points < 0 {
-        return malformed(format!("a MultiPatch of {parts} parts and {points} points"));
-    }
     // Part starts and types, x, y, the z range and z: the M range and values may follow.
-    let need = 44 + 8 * parts as u64 + 24 * points as u64 + 16;
-    if need > c.len() as u64 {
-        return malformed(format!(
-            "a MultiPatch of {parts} parts and {points} points needs {need} bytes, its record holds {}",
-            c.len()
-        ));
-    }
-    if parts == 0 || points == 0 {
-        return Err((
-            IssueReason::EmptyGeometry,
-            "MultiPatch without parts".into(),
-        ));
-    }
-    let (parts, points) = (parts as usize, points as usize);
+    let (points, starts) = parts(c, "MultiPatch", (8, 24, 16), true)?;
+    let parts = starts.len();
     let int = |at: usize| le_i32(c, at).unwrap_or(-1);
-    let starts: Vec<usize> = (0..parts)
-        .map(|k| int(44 + 4 * k) as i64 as usize)
-        .collect();
-    let valid = starts[0] == 0
-        && starts.windows(2).all(|w| w[0] <= w[1])
-        && starts.last().is_some_and(|&s| s < points);
-    if !valid {
-        return malformed("part starts are not increasing from 0 below its point count".into());
-    }
     let xy = 44 + 8 * parts;
     let z = xy + 16 * points + 16;
     let point = |i: usize| -> [f64; 3] {
@@ -471,26 +457,6 @@ fn multipatch(c: &[u8]) -> ShapeResult {
     Ok(Read::Surfaces(faces))
 }
 
-/// The bounding box of a ring: [min x, min y, max x, max y].
-fn bbox(r: &[[f64; 2]]) -> [f64; 4] {
-    r.iter().fold(
-        [
-            f64::INFINITY,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::NEG_INFINITY,
-        ],
-        |b, p| {
-            [
-                b[0].min(p[0]),
-                b[1].min(p[1]),
-                b[2].max(p[0]),
-                b[3].max(p[1]),
-            ]
-        },
-    )
-}
-
 /// Where `p` lies against the open ring `r`: `Some(true)` inside, `Some(false)` outside, `None` on its boundary.
 fn locate(p: [f64; 2], r: &[[f64; 2]]) -> Option<bool> {
     let n = r.len();
@@ -546,7 +512,7 @@ fn holds(outer: &[[f64; 2]], outer_box: [f64; 4], inner: &[[f64; 2]], inner_box:
 fn organize(rings: Vec<Vec<[f64; 2]>>) -> Vec<RawPolygon> {
     const NESTING_CHECKED: usize = 512;
     let mut area: Vec<f64> = rings.iter().map(|r| signed_area2(r)).collect();
-    let boxes: Vec<[f64; 4]> = rings.iter().map(|r| bbox(r)).collect();
+    let boxes: Vec<[f64; 4]> = rings.iter().map(|r| ring_box(r)).collect();
     let n = rings.len();
     if (2..=NESTING_CHECKED).contains(&n) {
         let depth: Vec<usize> = (0..n)
@@ -1128,20 +1094,6 @@ impl<'a> Table<'a> {
     }
 }
 
-/// The building's id as for GeoJSON properties: `id`, else `@id`, else OSM's `osm_type/osm_id`, else `FILE#N` (a
-/// shapefile record's 0-based position, a GeoPackage row's FID).
-pub(crate) fn source_id(a: &Attributes, file_name: &str, n: impl std::fmt::Display) -> String {
-    let text = |k: &str| match a.get(k) {
-        Some(AttrValue::String(s)) if !s.is_empty() => Some(s.clone()),
-        Some(AttrValue::Int(i)) => Some(i.to_string()),
-        _ => None,
-    };
-    text("id")
-        .or_else(|| text("@id"))
-        .or_else(|| Some(format!("{}/{}", text("osm_type")?, text("osm_id")?)))
-        .unwrap_or_else(|| format!("{file_name}#{n}"))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1269,17 +1221,5 @@ mod tests {
             ("café".to_string(), false)
         );
         assert!(Codec::Utf8.decode(b"caf\xe9").1);
-    }
-
-    #[test]
-    fn source_ids_follow_the_geojson_rule() {
-        let a: Attributes = [
-            ("osm_type".to_string(), AttrValue::String("way".into())),
-            ("osm_id".to_string(), AttrValue::Int(5)),
-        ]
-        .into_iter()
-        .collect();
-        assert_eq!(source_id(&a, "f.shp", 3), "way/5");
-        assert_eq!(source_id(&Attributes::default(), "f.shp", 3), "f.shp#3");
     }
 }

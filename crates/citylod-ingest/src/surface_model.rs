@@ -2,7 +2,8 @@
 //! shapefile's MultiPatch records): faces without semantics, from which a building's footprint, ground and top are
 //! taken, and with `--lod` its model, the faces' kinds told apart by their slope.
 
-use crate::cityjson::horizontality;
+use crate::cityjson::{horizontality, HORIZONTAL};
+use crate::crs::Crs;
 use crate::feature::{RawFeature, RawPolygon};
 use crate::model3d::{RawModel, RawSurface};
 use crate::report::IssueReason;
@@ -30,8 +31,6 @@ struct Standing {
     top_z: Option<f64>,
 }
 
-/// Faces within this of horizontal (the z share of their unit normal) may be floors; CityJSON's rule alike.
-const HORIZONTAL: f64 = 0.985;
 /// Faces whose normal's z share is under this are walls in a model's surface kinds (steeper than ~84°).
 const WALL: f64 = 0.1;
 /// A model whose highest vertex is less than this above its lowest is flat: it gives no heights and no model.
@@ -39,20 +38,21 @@ const FLAT_M: f64 = 0.1;
 
 /// Gives each feature holding a 3D surface model its footprint and heights (see [`standing`]), and with `want_model` the
 /// faces as its model, counted in the report's `mesh_lods` under `label` (the format's models have no LoD of
-/// CityJSON's kind). `lon_lat`: x and y are degrees; else `xy_to_m` metres per unit of x and y (the faces' slopes are
-/// judged in metres). `z_to_m`: metres per unit of z (a vertical CRS's unit, else a projected CRS's linear unit, as
-/// ArcGIS takes a z without a vertical CRS: feet in a State Plane in feet; 1 for lon/lat); a note for the file's
-/// report when z was so converted.
+/// CityJSON's kind). The faces' slopes are judged in metres: x and y in `crs`'s degrees or linear unit. z is in metres
+/// per unit of `vertical_unit_m` (a vertical CRS's), else, as ArcGIS takes a z without a vertical CRS, in a projected
+/// CRS's linear unit (feet in a State Plane in feet), metres for lon/lat; a note for the file's report when z was so
+/// converted.
 pub(crate) fn stand(
     features: &mut [RawFeature],
     surfaces: Vec<Surfaces>,
-    lon_lat: bool,
-    xy_to_m: f64,
-    z_to_m: f64,
+    crs: &Crs,
+    vertical_unit_m: Option<f64>,
     want_model: bool,
     label: &str,
 ) -> Option<String> {
     let n = surfaces.len();
+    let (lon_lat, xy_to_m) = (crs.is_lon_lat(), crs.linear_unit_m());
+    let z_to_m = vertical_unit_m.unwrap_or(xy_to_m);
     for (i, name, mut faces) in surfaces {
         if z_to_m != 1.0 {
             faces

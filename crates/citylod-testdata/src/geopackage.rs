@@ -246,22 +246,21 @@ impl Wkb {
 
     /// A MultiPolygon Z.
     pub fn multipolygon_z(&self, polygons: &[Vec<Vec<[f64; 3]>>]) -> Vec<u8> {
-        let mut out = Vec::new();
-        self.header(&mut out, 6, true);
-        self.u32(&mut out, polygons.len() as u32);
-        for p in polygons {
-            self.polygon_into(&mut out, p, true);
-        }
-        out
+        self.polygons_z(6, polygons)
     }
 
     /// A PolyhedralSurface Z (ISO type 15) of Polygon Z faces.
     pub fn polyhedral_surface_z(&self, faces: &[Vec<Vec<[f64; 3]>>]) -> Vec<u8> {
+        self.polygons_z(15, faces)
+    }
+
+    /// A geometry of ISO type `kind` with Z whose members are Polygon Z.
+    fn polygons_z(&self, kind: u32, polygons: &[Vec<Vec<[f64; 3]>>]) -> Vec<u8> {
         let mut out = Vec::new();
-        self.header(&mut out, 15, true);
-        self.u32(&mut out, faces.len() as u32);
-        for f in faces {
-            self.polygon_into(&mut out, f, true);
+        self.header(&mut out, kind, true);
+        self.u32(&mut out, polygons.len() as u32);
+        for p in polygons {
+            self.polygon_into(&mut out, p, true);
         }
         out
     }
