@@ -23,6 +23,7 @@ const KNOWN_SKIP_REASONS: &[&str] = &[
     "no_footprint",
     "repair_failed",
     "mesh_failed",
+    "incomplete_in_extract",
 ];
 
 /// Builds `name` into `target/e2e/<name>` and runs every check that does not depend on the input format.
@@ -616,6 +617,38 @@ fn nyc_les_with_streets_is_valid_complete_and_reports_its_barriers() {
     assert!(g["merges_across"].as_u64().unwrap() > 0, "{g}");
     top_is_condensed("nyc-les-streets", &report, &ts);
     blocks_stay_within_their_tile_error("nyc-les-streets", &report, &ts);
+}
+
+#[test]
+fn nyc_les_from_its_osm_pbf_is_valid_complete_and_keeps_its_streets() {
+    // The OpenStreetMap file the bundled GeoJSON was converted from, as buildings and as streets.
+    let pbf = repo_root().join("examples/nyc-les/ny-access-restriction.osm.pbf");
+    let (report, ts) = build_and_check(
+        "nyc-les-pbf",
+        &[&pbf],
+        &["--streets", pbf.to_str().unwrap()],
+    );
+    let file = &report["ingest"]["files"][0];
+    assert_eq!(file["format"], "osm_pbf", "{file}");
+    // The 1,416 buildings of the GeoJSON export, and 4 self-intersecting outlines the export dropped, repaired.
+    assert_eq!(
+        report["counts"]["buildings_written"], 1420,
+        "{}",
+        report["counts"]
+    );
+    assert_eq!(report["ingest"]["building_parts"], 132);
+    let s = &report["streets"];
+    assert!(s["features_used"].as_u64().unwrap() > 400, "{s}");
+    assert!(s["length_m"].as_f64().unwrap() > 30_000.0, "{s}");
+    assert!(
+        report["generalize"]["streets"]["barrier_level"]
+            .as_u64()
+            .unwrap()
+            >= 2,
+        "{}",
+        report["generalize"]["streets"]
+    );
+    top_is_condensed("nyc-les-pbf", &report, &ts);
 }
 
 #[test]

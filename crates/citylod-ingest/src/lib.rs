@@ -35,6 +35,7 @@ mod gpkg;
 mod height;
 mod lod;
 mod model3d;
+mod osm;
 mod place;
 mod prj;
 mod repair;
@@ -596,6 +597,27 @@ fn load(
             detail: format!(
                 "this is SQLite's {what} beside a GeoPackage; give the .gpkg as the input"
             ),
+        });
+    }
+    if osm::is_osm_pbf_name(path) {
+        let doc = osm::read(path).map_err(|detail| IngestError::InvalidOsmPbf {
+            path: path.into(),
+            detail,
+        })?;
+        let mut notes = doc.notes;
+        if let Some(c) = &opts.crs {
+            notes.push(format!(
+                "OpenStreetMap data is WGS84 lon/lat: --crs {c} applies to the other inputs, not to this file"
+            ));
+        }
+        return Ok(LoadedFile {
+            path: path.into(),
+            format: InputFormat::OsmPbf,
+            crs: Crs::wgs84(),
+            version: None,
+            non_building_objects: 0,
+            features: doc.features,
+            notes,
         });
     }
     let text = read_text(path)?;

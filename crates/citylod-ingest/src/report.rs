@@ -93,6 +93,9 @@ pub enum IssueReason {
     /// A GeoPackage geometry's circular arcs (CircularString, CompoundCurve, CurvePolygon rings) were approximated by
     /// straight segments, each spanning at most 4° of its circle (GDAL's default).
     CurvesApproximated,
+    /// An OpenStreetMap building whose nodes or member ways are not in the file: the extract it comes from was cut
+    /// at its edge through the building. The detail says how many are missing and names one.
+    IncompleteInExtract,
     /// `--id-attr` names an attribute this feature has no value in: its id is the one its format's own rule gives
     /// (a GeoJSON `id`, a CityJSON object's key, `FILE#INDEX`).
     IdAttributeMissing,
@@ -147,6 +150,7 @@ impl IssueReason {
             UndecodableKeyKeptAsText => "undecodable_key_kept_as_text",
             GeometryHeightsIgnored => "geometry_heights_ignored",
             CurvesApproximated => "curves_approximated",
+            IncompleteInExtract => "incomplete_in_extract",
             IdAttributeMissing => "id_attribute_missing",
             ModelMissing => "model_missing",
             ModelInvalid => "model_invalid",
@@ -177,6 +181,7 @@ pub enum InputFormat {
     CityJsonSeq,
     Shapefile,
     GeoPackage,
+    OsmPbf,
 }
 
 /// What happened to one input file.

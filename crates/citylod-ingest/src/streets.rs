@@ -47,6 +47,9 @@ pub fn read_streets(
     fallback_crs: Option<&str>,
     frame: &LocalFrame,
 ) -> Result<Streets, IngestError> {
+    if crate::osm::is_osm_pbf_name(path) {
+        return osm_streets(path, crs, frame);
+    }
     let text = crate::read_text(path)?;
     let doc: Value = serde_json::from_str(&text).map_err(|source| IngestError::Json {
         path: path.into(),
@@ -120,14 +123,7 @@ pub fn read_streets(
     };
     for (id, geometry) in features {
         match feature_segments(geometry, &crs, frame) {
-            Ok(segs) => {
-                out.report.features_used += 1;
-                out.report.length_m += segs
-                    .iter()
-                    .map(|[a, b]| (b[0] - a[0]).hypot(b[1] - a[1]))
-                    .sum::<f64>();
-                out.segments.extend(segs);
-            }
+            Ok(segs) => out.add(segs),
             Err((reason, detail)) => out.report.skipped.push(FeatureIssue {
                 file: file.clone(),
                 feature_id: id,
@@ -138,6 +134,65 @@ pub fn read_streets(
     }
     out.report.segments = out.segments.len();
     Ok(out)
+}
+
+/// The streets of an OpenStreetMap PBF file: its `highway` ways on the ground (see `osm::read_streets`), in WGS84
+/// lon/lat whatever the buildings' CRS; `--streets-crs` cannot apply.
+fn osm_streets(path: &Path, crs: Option<&str>, frame: &LocalFrame) -> Result<Streets, IngestError> {
+    if let Some(c) = crs {
+        return Err(IngestError::InvalidOption {
+            name: "--streets-crs",
+            detail: format!(
+                "{c} given for {}, an OpenStreetMap file, whose coordinates are always WGS84 lon/lat",
+                path.display()
+            ),
+        });
+    }
+    let lines = crate::osm::read_streets(path).map_err(|detail| IngestError::InvalidOsmPbf {
+        path: path.into(),
+        detail,
+    })?;
+    let file = path.display().to_string();
+    let mut out = Streets {
+        segments: Vec::new(),
+        report: StreetsReport {
+            file: file.clone(),
+            crs: format!("{} (OpenStreetMap)", Crs::wgs84().label),
+            features_read: lines.len(),
+            features_used: 0,
+            segments: 0,
+            length_m: 0.0,
+            skipped: Vec::new(),
+        },
+    };
+    for line in lines {
+        match line
+            .points
+            .and_then(|p| line_segments(p.iter().map(|q| Ok((q[0], q[1]))), frame))
+        {
+            Ok(segs) => out.add(segs),
+            Err((reason, detail)) => out.report.skipped.push(FeatureIssue {
+                file: file.clone(),
+                feature_id: line.id,
+                reason,
+                detail,
+            }),
+        }
+    }
+    out.report.segments = out.segments.len();
+    Ok(out)
+}
+
+impl Streets {
+    /// Takes the segments of one feature.
+    fn add(&mut self, segs: Vec<[[f64; 2]; 2]>) {
+        self.report.features_used += 1;
+        self.report.length_m += segs
+            .iter()
+            .map(|[a, b]| (b[0] - a[0]).hypot(b[1] - a[1]))
+            .sum::<f64>();
+        self.segments.extend(segs);
+    }
 }
 
 /// A feature's id: its GeoJSON `id`, else `#index` (0-based) with its `name` property when it has one.
@@ -189,8 +244,7 @@ fn feature_segments(
             IssueReason::MalformedGeometry,
             "line coordinates are not an array".to_string(),
         ))?;
-        let mut placed: Vec<[f64; 2]> = Vec::with_capacity(pts.len());
-        for p in pts {
+        let lon_lat = pts.iter().map(|p| {
             let xy = p
                 .as_array()
                 .filter(|a| a.len() >= 2)
@@ -200,20 +254,17 @@ fn feature_segments(
                     format!("position {p} is not [x, y]"),
                 ))?;
             let at = || format!("position ({}, {})", xy.0, xy.1);
-            let (lon, lat) = crs.to_lon_lat(xy.0, xy.1).map_err(|e| match e {
+            crs.to_lon_lat(xy.0, xy.1).map_err(|e| match e {
                 CoordError::NonFinite => (IssueReason::NonFiniteCoordinate, at()),
                 CoordError::OutOfRange => (IssueReason::CoordinateOutOfRange, at()),
                 CoordError::TransformFailed => (IssueReason::TransformFailed, at()),
-            })?;
-            if !(lon.abs() <= 180.0 && lat.abs() <= 90.0) {
-                return Err((IssueReason::CoordinateOutOfRange, at()));
-            }
-            let e = frame.geodetic_to_enu(lon, lat, frame.origin_h_m);
-            if placed.last() != Some(&[e[0], e[1]]) {
-                placed.push([e[0], e[1]]);
-            }
+            })
+        });
+        match line_segments(lon_lat, frame) {
+            Ok(s) => segments.extend(s),
+            Err((IssueReason::TooFewPoints, _)) => {}
+            Err(e) => return Err(e),
         }
-        segments.extend(placed.windows(2).map(|w| [w[0], w[1]]));
     }
     if segments.is_empty() {
         return Err((
@@ -222,6 +273,35 @@ fn feature_segments(
         ));
     }
     Ok(segments)
+}
+
+/// One line's segments in the local frame, from its points in lon/lat; consecutive repeated points dropped.
+/// `TooFewPoints` when it has no two distinct points.
+fn line_segments(
+    lon_lat: impl Iterator<Item = Result<(f64, f64), Skip>>,
+    frame: &LocalFrame,
+) -> Result<Vec<[[f64; 2]; 2]>, Skip> {
+    let mut placed: Vec<[f64; 2]> = Vec::new();
+    for p in lon_lat {
+        let (lon, lat) = p?;
+        if !(lon.abs() <= 180.0 && lat.abs() <= 90.0) {
+            return Err((
+                IssueReason::CoordinateOutOfRange,
+                format!("position ({lon}, {lat})"),
+            ));
+        }
+        let e = frame.geodetic_to_enu(lon, lat, frame.origin_h_m);
+        if placed.last() != Some(&[e[0], e[1]]) {
+            placed.push([e[0], e[1]]);
+        }
+    }
+    if placed.len() < 2 {
+        return Err((
+            IssueReason::TooFewPoints,
+            "no line with two distinct points".into(),
+        ));
+    }
+    Ok(placed.windows(2).map(|w| [w[0], w[1]]).collect())
 }
 
 #[cfg(test)]

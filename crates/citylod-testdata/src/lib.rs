@@ -6,6 +6,7 @@
 use std::path::{Path, PathBuf};
 
 pub mod geopackage;
+pub mod osm_pbf;
 pub mod shapefile;
 
 /// The folder holding the real data sets (it may not exist).

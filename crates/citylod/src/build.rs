@@ -19,13 +19,16 @@ use crate::shown;
 #[command(allow_negative_numbers = true)]
 pub struct BuildArgs {
     /// Input files: GeoJSON (.geojson, .json), Esri Shapefile (.shp, read with the .dbf beside it), GeoPackage
-    /// (.gpkg, one feature table: see --layer), CityJSON (.city.json, .json) or CityJSONSeq (.city.jsonl, .jsonl).
+    /// (.gpkg, one feature table: see --layer), OpenStreetMap PBF (.osm.pbf: ways and multipolygon relations tagged
+    /// building or building:part, their tags as attributes), CityJSON (.city.json, .json) or CityJSONSeq
+    /// (.city.jsonl, .jsonl).
     #[arg(required = true, value_name = "INPUT", help_heading = "Input")]
     pub inputs: Vec<PathBuf>,
 
     /// CRS of the input coordinates, e.g. EPSG:28992. Default: WGS84 lon/lat for GeoJSON (RFC 7946), the .prj's
     /// CRS for a Shapefile (its EPSG code, or the EPSG CRS matching an Esri .prj's parameters), the layer's spatial
-    /// reference system for a GeoPackage, the file's `referenceSystem` for CityJSON.
+    /// reference system for a GeoPackage, the file's `referenceSystem` for CityJSON. OpenStreetMap data is always
+    /// WGS84 lon/lat.
     #[arg(long, value_name = "EPSG:CODE", help_heading = "Input")]
     pub crs: Option<String>,
 
@@ -173,7 +176,8 @@ pub struct BuildArgs {
     )]
     pub landmark_max_share: f64,
 
-    /// Street centre lines (GeoJSON LineString / MultiLineString) as barriers: the first levels do not join
+    /// Street centre lines (GeoJSON LineString / MultiLineString, or an OpenStreetMap PBF's highway ways: the
+    /// buildings' own .osm.pbf serves) as barriers: the first levels do not join
     /// buildings on opposite sides of a street (Zhang et al. 2014). The build report says up to which level, and
     /// lists every street feature not used, with its reason. A file none of whose lines comes within 1 km of the
     /// buildings is refused (usually a CRS mix-up).
