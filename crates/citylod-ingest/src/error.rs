@@ -57,10 +57,14 @@ pub enum IngestError {
     /// `--layer`, a layer that is not there).
     #[error("{path}: invalid GeoPackage: {detail}")]
     InvalidGeoPackage { path: PathBuf, detail: String },
-    /// A file named `.pbf` that cannot be read as OpenStreetMap PBF (not one, cut short, a compression this reader
-    /// lacks, a history file).
-    #[error("{path}: invalid OpenStreetMap PBF: {detail}")]
-    InvalidOsmPbf { path: PathBuf, detail: String },
+    /// A file named `.pbf`, `.osm` or `.osm.gz` that cannot be read as OpenStreetMap PBF or XML (not one, cut short,
+    /// a compression this reader lacks, a history file, XML that is not well-formed).
+    #[error("{path}: invalid OpenStreetMap {encoding}: {detail}")]
+    InvalidOsm {
+        path: PathBuf,
+        encoding: &'static str,
+        detail: String,
+    },
     /// A GeoPackage layer whose spatial reference system is the undefined one (srs_id -1 or 0), and no CRS was given
     /// by the user.
     #[error("{path}: the layer's spatial reference system is undefined (srs_id -1 or 0); pass its CRS with --crs, e.g. --crs EPSG:28992")]

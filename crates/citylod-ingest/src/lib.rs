@@ -36,6 +36,7 @@ mod height;
 mod lod;
 mod model3d;
 mod osm;
+mod osm_xml;
 mod place;
 mod prj;
 mod repair;
@@ -599,9 +600,10 @@ fn load(
             ),
         });
     }
-    if osm::is_osm_pbf_name(path) {
-        let doc = osm::read(path).map_err(|detail| IngestError::InvalidOsmPbf {
+    if let Some(encoding) = osm::Encoding::of(path) {
+        let doc = osm::read(path).map_err(|detail| IngestError::InvalidOsm {
             path: path.into(),
+            encoding: encoding.label(),
             detail,
         })?;
         let mut notes = doc.notes;
@@ -612,7 +614,10 @@ fn load(
         }
         return Ok(LoadedFile {
             path: path.into(),
-            format: InputFormat::OsmPbf,
+            format: match encoding {
+                osm::Encoding::Pbf => InputFormat::OsmPbf,
+                osm::Encoding::Xml => InputFormat::OsmXml,
+            },
             crs: Crs::wgs84(),
             version: None,
             non_building_objects: 0,

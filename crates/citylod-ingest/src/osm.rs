@@ -39,80 +39,98 @@ pub(crate) struct OsmLine {
     pub points: Result<Vec<[f64; 2]>, (IssueReason, String)>,
 }
 
-/// A name that says OpenStreetMap PBF: `.pbf` (`.osm.pbf`).
-pub(crate) fn is_osm_pbf_name(path: &Path) -> bool {
-    path.extension()
-        .is_some_and(|e| e.to_string_lossy().eq_ignore_ascii_case("pbf"))
+/// How a file holds OpenStreetMap data.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Encoding {
+    /// `.osm.pbf`, `.pbf`
+    Pbf,
+    /// `.osm` (JOSM, the Overpass API, the OSM API), also gzip-compressed as `.osm.gz`
+    Xml,
 }
 
-/// Reads the buildings of an OSM PBF file; `Err` (a detail) when the file is not one or is broken.
-pub(crate) fn read(path: &Path) -> Result<OsmDoc, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read the file: {e}"))?;
-    let file = File::open(&bytes)?;
-    let blocks = file.blocks()?;
-
-    // Pass 1: relations tagged as buildings, and the ways they name.
-    let relations: Vec<Relation> = per_block(&blocks, |b, out| b.relations(out))?;
-    let member_ways: HashSet<i64> = relations
-        .iter()
-        .filter(|r| r.is_multipolygon())
-        .flat_map(|r| r.members.iter())
-        .filter(|m| m.kind == MemberKind::Way)
-        .map(|m| m.id)
-        .collect();
-    // Pass 2: ways tagged as buildings, and those members.
-    let ways: Vec<Way> = per_block(&blocks, |b, out| {
-        b.ways(out, |id, tags| {
-            building_tags(tags) || member_ways.contains(&id)
-        })
-    })?;
-    let needed: HashSet<i64> = ways
-        .iter()
-        .filter(|w| w.locations.is_none())
-        .flat_map(|w| w.refs.iter().copied())
-        .collect();
-    // Pass 3: the nodes those ways use, and nodes tagged as buildings.
-    let nodes: Vec<NodeRead> = per_block(&blocks, |b, out| b.nodes(out, &needed))?;
-    let mut located: HashMap<i64, [i64; 2]> = HashMap::with_capacity(needed.len());
-    let mut point_buildings = Vec::new();
-    for n in nodes {
-        match n {
-            NodeRead::Location(id, at) => {
-                located.insert(id, at);
-            }
-            NodeRead::Building(id, tags) => point_buildings.push((id, tags)),
+impl Encoding {
+    /// The encoding a file's name says, if it says OpenStreetMap.
+    pub(crate) fn of(path: &Path) -> Option<Self> {
+        let name = path.file_name()?.to_string_lossy().to_ascii_lowercase();
+        if name.ends_with(".pbf") {
+            Some(Encoding::Pbf)
+        } else if name.ends_with(".osm") || name.ends_with(".osm.gz") {
+            Some(Encoding::Xml)
+        } else {
+            None
         }
     }
 
-    let way_points = |w: &Way| -> Result<Vec<[i64; 2]>, Vec<i64>> {
+    pub(crate) fn label(self) -> &'static str {
+        match self {
+            Encoding::Pbf => "PBF",
+            Encoding::Xml => "XML",
+        }
+    }
+}
+
+/// What to read from a file.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Want {
+    Buildings,
+    Streets,
+}
+
+/// What buildings or streets need from a file, whatever its encoding: the ways and relations kept, the locations of
+/// the nodes those ways use, the nodes tagged as buildings, and notes on the file.
+#[derive(Default)]
+pub(crate) struct Gathered {
+    pub ways: Vec<Way>,
+    pub relations: Vec<Relation>,
+    pub located: HashMap<i64, [i64; 2]>,
+    pub point_buildings: Vec<(i64, Vec<(String, String)>)>,
+    pub notes: Vec<String>,
+}
+
+impl Gathered {
+    /// A way's locations (nanodegrees lat, lon), or the nodes the file lacks.
+    fn points(&self, w: &Way) -> Result<Vec<[i64; 2]>, Vec<i64>> {
         if let Some(l) = &w.locations {
             return located_on_way(w, l);
         }
         let missing: Vec<i64> = w
             .refs
             .iter()
-            .filter(|r| !located.contains_key(r))
+            .filter(|r| !self.located.contains_key(r))
             .copied()
             .collect();
         if missing.is_empty() {
-            Ok(w.refs.iter().map(|r| located[r]).collect())
+            Ok(w.refs.iter().map(|r| self.located[r]).collect())
         } else {
             Err(missing)
         }
-    };
+    }
+}
+
+fn gather(path: &Path, want: Want) -> Result<Gathered, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read the file: {e}"))?;
+    match Encoding::of(path) {
+        Some(Encoding::Xml) => crate::osm_xml::gather(path, &bytes, want),
+        _ => gather_pbf(&bytes, want),
+    }
+}
+
+/// Reads the buildings of an OSM file; `Err` (a detail) when the file is not one or is broken.
+pub(crate) fn read(path: &Path) -> Result<OsmDoc, String> {
+    let g = gather(path, Want::Buildings)?;
     let mut features = Vec::new();
-    for (id, tags) in point_buildings {
-        let mut f = feature("node", id, tags);
+    for (id, tags) in &g.point_buildings {
+        let mut f = feature("node", *id, tags.clone());
         f.skip = Some((
             IssueReason::UnsupportedGeometry,
             "a building mapped as a point (a node): it has no outline".into(),
         ));
         features.push(f);
     }
-    let by_id: HashMap<i64, &Way> = ways.iter().map(|w| (w.id, w)).collect();
-    for w in ways.iter().filter(|w| building_tags(&w.tags)) {
+    let by_id: HashMap<i64, &Way> = g.ways.iter().map(|w| (w.id, w)).collect();
+    for w in g.ways.iter().filter(|w| building_tags(&w.tags)) {
         let mut f = feature("way", w.id, w.tags.clone());
-        match way_points(w) {
+        match g.points(w) {
             Err(missing) => f.skip = Some(incomplete_nodes(&missing, w.refs.len())),
             Ok(points) => match closed_ring(&w.refs, &points) {
                 Ok(ring) => f.polygons = vec![vec![ring]],
@@ -122,7 +140,7 @@ pub(crate) fn read(path: &Path) -> Result<OsmDoc, String> {
         features.push(f);
     }
     let mut grouping = 0usize;
-    for r in &relations {
+    for r in &g.relations {
         let mut f = feature("relation", r.id, r.tags.clone());
         if !r.is_multipolygon() {
             grouping += 1;
@@ -137,7 +155,7 @@ pub(crate) fn read(path: &Path) -> Result<OsmDoc, String> {
             features.push(f);
             continue;
         }
-        match relation_polygons(r, &by_id, &way_points) {
+        match relation_polygons(r, &by_id, &|w| g.points(w)) {
             Ok((polygons, dropped)) => {
                 f.polygons = polygons;
                 if dropped > 0 {
@@ -153,10 +171,7 @@ pub(crate) fn read(path: &Path) -> Result<OsmDoc, String> {
         }
         features.push(f);
     }
-    let mut notes = Vec::new();
-    if file.locations_on_ways {
-        notes.push("node locations read from the ways (LocationsOnWays)".into());
-    }
+    let mut notes = g.notes;
     if grouping > 0 {
         notes.push(format!(
             "{grouping} relation(s) tagged as buildings are not multipolygons (type=building groups its outline and \
@@ -166,55 +181,94 @@ pub(crate) fn read(path: &Path) -> Result<OsmDoc, String> {
     Ok(OsmDoc { features, notes })
 }
 
-/// The `highway` ways of an OSM PBF file that are streets on the ground: every value but those that are not yet or
+/// The `highway` ways of an OSM file that are streets on the ground: every value but those that are not yet or
 /// no longer roads, or lie indoors (`proposed`, `construction`, `abandoned`, `corridor`, …), and not in a tunnel or
 /// indoors. Errors as [`read`].
 pub(crate) fn read_streets(path: &Path) -> Result<Vec<OsmLine>, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read the file: {e}"))?;
-    let file = File::open(&bytes)?;
-    let blocks = file.blocks()?;
-    let ways: Vec<Way> = per_block(&blocks, |b, out| b.ways(out, |_, tags| street_tags(tags)))?;
-    let needed: HashSet<i64> = ways
-        .iter()
-        .filter(|w| w.locations.is_none())
-        .flat_map(|w| w.refs.iter().copied())
-        .collect();
-    let nodes: Vec<NodeRead> = per_block(&blocks, |b, out| b.nodes(out, &needed))?;
-    let located: HashMap<i64, [i64; 2]> = nodes
-        .into_iter()
-        .filter_map(|n| match n {
-            NodeRead::Location(id, at) => Some((id, at)),
-            NodeRead::Building(..) => None,
-        })
-        .collect();
-    Ok(ways
+    let g = gather(path, Want::Streets)?;
+    Ok(g.ways
         .iter()
         .map(|w| {
             let id = match w.tags.iter().find(|(k, _)| k == "name") {
                 Some((_, name)) => format!("way/{} ({name})", w.id),
                 None => format!("way/{}", w.id),
             };
-            let points = match &w.locations {
-                Some(l) => located_on_way(w, l)
-                    .map(|l| l.into_iter().map(degrees).collect())
-                    .map_err(|missing| incomplete_nodes(&missing, w.refs.len())),
-                None => {
-                    let missing: Vec<i64> = w
-                        .refs
-                        .iter()
-                        .filter(|r| !located.contains_key(r))
-                        .copied()
-                        .collect();
-                    if missing.is_empty() {
-                        Ok(w.refs.iter().map(|r| degrees(located[r])).collect())
-                    } else {
-                        Err(incomplete_nodes(&missing, w.refs.len()))
-                    }
-                }
-            };
+            let points = g
+                .points(w)
+                .map(|l| l.into_iter().map(degrees).collect())
+                .map_err(|missing| incomplete_nodes(&missing, w.refs.len()));
             OsmLine { id, points }
         })
         .collect())
+}
+
+/// The PBF passes: the relations tagged as buildings and the ways they name; the ways wanted; the nodes they use.
+fn gather_pbf(bytes: &[u8], want: Want) -> Result<Gathered, String> {
+    let file = File::open(bytes)?;
+    let blocks = file.blocks()?;
+    let relations: Vec<Relation> = match want {
+        Want::Buildings => per_block(&blocks, |b, out| b.relations(out))?,
+        Want::Streets => Vec::new(),
+    };
+    let members = member_ways(&relations);
+    let ways: Vec<Way> = per_block(&blocks, |b, out| {
+        b.ways(out, |id, tags| wanted_way(want, id, tags, &members))
+    })?;
+    let needed = needed_nodes(&ways);
+    let nodes: Vec<NodeRead> = per_block(&blocks, |b, out| b.nodes(out, &needed))?;
+    let mut g = Gathered {
+        ways,
+        relations,
+        located: HashMap::with_capacity(needed.len()),
+        ..Default::default()
+    };
+    for n in nodes {
+        match n {
+            NodeRead::Location(id, at) => {
+                g.located.insert(id, at);
+            }
+            NodeRead::Building(id, tags) if want == Want::Buildings => {
+                g.point_buildings.push((id, tags))
+            }
+            NodeRead::Building(..) => {}
+        }
+    }
+    if file.locations_on_ways {
+        g.notes
+            .push("node locations read from the ways (LocationsOnWays)".into());
+    }
+    Ok(g)
+}
+
+/// The ways the multipolygon relations name.
+pub(crate) fn member_ways(relations: &[Relation]) -> HashSet<i64> {
+    relations
+        .iter()
+        .filter(|r| r.is_multipolygon())
+        .flat_map(|r| r.members.iter())
+        .filter(|m| m.kind == MemberKind::Way)
+        .map(|m| m.id)
+        .collect()
+}
+
+pub(crate) fn wanted_way(
+    want: Want,
+    id: i64,
+    tags: &[(String, String)],
+    members: &HashSet<i64>,
+) -> bool {
+    match want {
+        Want::Buildings => building_tags(tags) || members.contains(&id),
+        Want::Streets => street_tags(tags),
+    }
+}
+
+/// The nodes whose locations the ways need (none for ways that carry their own).
+pub(crate) fn needed_nodes(ways: &[Way]) -> HashSet<i64> {
+    ways.iter()
+        .filter(|w| w.locations.is_none())
+        .flat_map(|w| w.refs.iter().copied())
+        .collect()
 }
 
 /// A way's locations as the file has them on it, or the nodes without one: a writer that adds locations to ways
@@ -261,7 +315,7 @@ fn street_tags(tags: &[(String, String)]) -> bool {
 }
 
 /// Tagged `building` or `building:part` with a value other than `no`.
-fn building_tags(tags: &[(String, String)]) -> bool {
+pub(crate) fn building_tags(tags: &[(String, String)]) -> bool {
     tags.iter()
         .any(|(k, v)| (k == "building" || k == "building:part") && v != "no")
 }
@@ -745,10 +799,10 @@ fn per_block<T: Send>(
 }
 
 /// A relation tagged as a building.
-struct Relation {
-    id: i64,
-    tags: Vec<(String, String)>,
-    members: Vec<Member>,
+pub(crate) struct Relation {
+    pub id: i64,
+    pub tags: Vec<(String, String)>,
+    pub members: Vec<Member>,
 }
 
 impl Relation {
@@ -765,23 +819,23 @@ impl Relation {
 }
 
 #[derive(Clone, Copy, PartialEq, Eq)]
-enum MemberKind {
+pub(crate) enum MemberKind {
     Node,
     Way,
     Relation,
 }
 
-struct Member {
-    id: i64,
-    kind: MemberKind,
+pub(crate) struct Member {
+    pub id: i64,
+    pub kind: MemberKind,
 }
 
 /// A way kept: its node ids, its tags, its locations when the file has them on its ways (nanodegrees lat, lon).
-struct Way {
-    id: i64,
-    refs: Vec<i64>,
-    tags: Vec<(String, String)>,
-    locations: Option<Vec<[i64; 2]>>,
+pub(crate) struct Way {
+    pub id: i64,
+    pub refs: Vec<i64>,
+    pub tags: Vec<(String, String)>,
+    pub locations: Option<Vec<[i64; 2]>>,
 }
 
 enum NodeRead {

@@ -182,6 +182,7 @@ pub enum InputFormat {
     Shapefile,
     GeoPackage,
     OsmPbf,
+    OsmXml,
 }
 
 /// What happened to one input file.

@@ -47,8 +47,8 @@ pub fn read_streets(
     fallback_crs: Option<&str>,
     frame: &LocalFrame,
 ) -> Result<Streets, IngestError> {
-    if crate::osm::is_osm_pbf_name(path) {
-        return osm_streets(path, crs, frame);
+    if let Some(encoding) = crate::osm::Encoding::of(path) {
+        return osm_streets(path, encoding, crs, frame);
     }
     let text = crate::read_text(path)?;
     let doc: Value = serde_json::from_str(&text).map_err(|source| IngestError::Json {
@@ -136,9 +136,14 @@ pub fn read_streets(
     Ok(out)
 }
 
-/// The streets of an OpenStreetMap PBF file: its `highway` ways on the ground (see `osm::read_streets`), in WGS84
+/// The streets of an OpenStreetMap file (PBF or XML): its `highway` ways on the ground (see `osm::read_streets`), in WGS84
 /// lon/lat whatever the buildings' CRS; `--streets-crs` cannot apply.
-fn osm_streets(path: &Path, crs: Option<&str>, frame: &LocalFrame) -> Result<Streets, IngestError> {
+fn osm_streets(
+    path: &Path,
+    encoding: crate::osm::Encoding,
+    crs: Option<&str>,
+    frame: &LocalFrame,
+) -> Result<Streets, IngestError> {
     if let Some(c) = crs {
         return Err(IngestError::InvalidOption {
             name: "--streets-crs",
@@ -148,8 +153,9 @@ fn osm_streets(path: &Path, crs: Option<&str>, frame: &LocalFrame) -> Result<Str
             ),
         });
     }
-    let lines = crate::osm::read_streets(path).map_err(|detail| IngestError::InvalidOsmPbf {
+    let lines = crate::osm::read_streets(path).map_err(|detail| IngestError::InvalidOsm {
         path: path.into(),
+        encoding: encoding.label(),
         detail,
     })?;
     let file = path.display().to_string();

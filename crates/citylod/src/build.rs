@@ -19,9 +19,9 @@ use crate::shown;
 #[command(allow_negative_numbers = true)]
 pub struct BuildArgs {
     /// Input files: GeoJSON (.geojson, .json), Esri Shapefile (.shp, read with the .dbf beside it), GeoPackage
-    /// (.gpkg, one feature table: see --layer), OpenStreetMap PBF (.osm.pbf: ways and multipolygon relations tagged
-    /// building or building:part, their tags as attributes), CityJSON (.city.json, .json) or CityJSONSeq
-    /// (.city.jsonl, .jsonl).
+    /// (.gpkg, one feature table: see --layer), OpenStreetMap PBF or XML (.osm.pbf, .osm, .osm.gz: ways and
+    /// multipolygon relations tagged building or building:part, their tags as attributes), CityJSON (.city.json,
+    /// .json) or CityJSONSeq (.city.jsonl, .jsonl).
     #[arg(required = true, value_name = "INPUT", help_heading = "Input")]
     pub inputs: Vec<PathBuf>,
 
@@ -176,8 +176,8 @@ pub struct BuildArgs {
     )]
     pub landmark_max_share: f64,
 
-    /// Street centre lines (GeoJSON LineString / MultiLineString, or an OpenStreetMap PBF's highway ways: the
-    /// buildings' own .osm.pbf serves) as barriers: the first levels do not join
+    /// Street centre lines (GeoJSON LineString / MultiLineString, or an OpenStreetMap file's highway ways: the
+    /// buildings' own .osm.pbf or .osm serves) as barriers: the first levels do not join
     /// buildings on opposite sides of a street (Zhang et al. 2014). The build report says up to which level, and
     /// lists every street feature not used, with its reason. A file none of whose lines comes within 1 km of the
     /// buildings is refused (usually a CRS mix-up).

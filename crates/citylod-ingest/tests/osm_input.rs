@@ -1,5 +1,6 @@
-//! OpenStreetMap PBF input: the bundled Lower East Side file against the GeoJSON exported from it, and files written
-//! by the test writer in every encoding the format allows, with broken buildings, broken files and mutations.
+//! OpenStreetMap input. PBF: the bundled Lower East Side file against the GeoJSON exported from it, and files written
+//! by the test writer in every encoding the format allows, with broken buildings, broken files and mutations. XML:
+//! the same extract as libosmium writes it against the PBF, and what JOSM and the Overpass API write.
 
 use citylod_ingest::{ingest, read_streets, IngestError, IngestOptions, Ingested, IssueReason};
 use citylod_model::{AttrValue, LocalFrame};
@@ -476,7 +477,7 @@ fn broken_files_are_refused_with_the_reason() {
     let dir = scratch("broken");
     let good = write_pbf(&town(), &PbfOptions::default());
     let err = |name: &str, bytes: &[u8]| match read(&write(&dir, name, bytes)) {
-        Err(IngestError::InvalidOsmPbf { detail, .. }) => detail,
+        Err(IngestError::InvalidOsm { detail, .. }) => detail,
         other => panic!("{name}: {:?}", other.map(|o| o.report.buildings_written)),
     };
     assert!(
@@ -565,4 +566,198 @@ fn mutated_files_give_an_error_or_buildings_never_a_panic() {
     }
     // Many mutations land in coordinates or tags and still give buildings.
     assert!(written > 100, "{written}");
+}
+
+/// What a building is: id, outline, base, height, attributes.
+fn same(
+    o: &Ingested,
+) -> Vec<(
+    &str,
+    &citylod_model::Footprint,
+    f64,
+    f64,
+    &citylod_model::Attributes,
+)> {
+    o.buildings
+        .iter()
+        .map(|b| {
+            (
+                b.source_id.as_str(),
+                &b.footprint,
+                b.base_z_m,
+                b.height_m,
+                &b.attributes,
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn the_lower_east_side_as_libosmium_xml_gives_what_its_pbf_gives() {
+    let pbf = read(&repo_root().join("examples/nyc-les/ny-access-restriction.osm.pbf")).unwrap();
+    let gz = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/osm/les_osmium.osm.gz");
+    let xml = read(&gz).unwrap();
+    assert_eq!(
+        xml.report.files[0].format,
+        citylod_ingest::InputFormat::OsmXml
+    );
+    assert_eq!(xml.buildings.len(), 1420);
+    // The same buildings, outlines to the bit, the same frame and the same skips.
+    assert_eq!(same(&xml), same(&pbf));
+    assert_eq!(xml.frame, pbf.frame);
+    let skips = |o: &Ingested| -> Vec<(String, IssueReason, String)> {
+        o.report
+            .skipped
+            .iter()
+            .map(|s| (s.feature_id.clone(), s.reason, s.detail.clone()))
+            .collect()
+    };
+    assert_eq!(skips(&xml), skips(&pbf));
+    // Uncompressed too, and its streets.
+    let dir = scratch("xml");
+    let mut text = Vec::new();
+    std::io::Read::read_to_end(
+        &mut flate2::read::GzDecoder::new(std::fs::File::open(&gz).unwrap()),
+        &mut text,
+    )
+    .unwrap();
+    let plain = write(&dir, "les.osm", &text);
+    assert_eq!(same(&read(&plain).unwrap()), same(&pbf));
+    let frame = LocalFrame::new(-73.99, 40.72, 0.0);
+    let (a, b) = (
+        read_streets(&plain, None, None, &frame).unwrap(),
+        read_streets(
+            &repo_root().join("examples/nyc-les/ny-access-restriction.osm.pbf"),
+            None,
+            None,
+            &frame,
+        )
+        .unwrap(),
+    );
+    assert_eq!(a.segments, b.segments);
+    assert_eq!(a.report.features_used, 430);
+}
+
+const JOSM: &str = r#"<?xml version='1.0' encoding='UTF-8'?>
+<osm version='0.6' upload='false' generator='JOSM'>
+  <bounds minlat='52.0' minlon='4.3' maxlat='52.1' maxlon='4.4' origin='OpenStreetMap server' />
+  <node id='-1' action='modify' lat='52.01' lon='4.35' />
+  <node id='-2' action='modify' lat='52.01' lon='4.3502' />
+  <node id='-3' action='modify' lat='52.0102' lon='4.3502' />
+  <node id='-4' action='modify' lat='52.0102' lon='4.35' />
+  <node id='5' lat='52.02' lon='4.36' />
+  <node id='6' lat='52.02' lon='4.3602' />
+  <node id='7' lat='52.0202' lon='4.36' />
+  <node id='8' action='delete' lat='52.0202' lon='4.3602' />
+  <way id='-10' action='modify'>
+    <nd ref='-1' /><nd ref='-2' /><nd ref='-3' /><nd ref='-4' /><nd ref='-1' />
+    <tag k='building' v='house' />
+    <tag k='name' v='Caf&#233; &amp; bar' />
+  </way>
+  <way id='11' action='delete'>
+    <nd ref='5' /><nd ref='6' /><nd ref='7' /><nd ref='5' />
+    <tag k='building' v='yes' />
+  </way>
+  <way id='12' visible='false'>
+    <nd ref='5' /><nd ref='6' /><nd ref='7' /><nd ref='5' />
+    <tag k='building' v='yes' />
+  </way>
+  <way id='13'>
+    <nd ref='5' /><nd ref='6' /><nd ref='8' /><nd ref='7' /><nd ref='5' />
+    <tag k='building' v='yes' />
+  </way>
+</osm>
+"#;
+
+/// Overpass `out geom;`: every reference carries its location, and no node is in the answer; a remark says the
+/// query ran out of time.
+const OVERPASS: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<osm version="0.6" generator="Overpass API 0.7.62">
+<note>The data included in this document is from www.openstreetmap.org.</note>
+<meta osm_base="2026-11-27T10:00:00Z"/>
+  <way id="100">
+    <bounds minlat="40.7" minlon="-74.0" maxlat="40.71" maxlon="-73.99"/>
+    <nd ref="1" lat="40.7000000" lon="-74.0000000"/>
+    <nd ref="2" lat="40.7000000" lon="-73.9998000"/>
+    <nd ref="3" lat="40.7002000" lon="-73.9998000"/>
+    <nd ref="1" lat="40.7000000" lon="-74.0000000"/>
+    <tag k="building" v="yes"/>
+    <tag k="height" v="12"/>
+  </way>
+<remark> runtime error: Query timed out in "query" at line 3 after 26 seconds. </remark>
+</osm>
+"#;
+
+#[test]
+fn josm_and_overpass_files_read_as_their_writers_mean() {
+    let dir = scratch("xml-writers");
+    let josm = read(&write(&dir, "edit.osm", JOSM.as_bytes())).unwrap();
+    // The new way (negative id) is a building; the deleted and invisible ones are not there; a way using a deleted
+    // node is cut.
+    let ids: Vec<&str> = josm
+        .buildings
+        .iter()
+        .map(|b| b.source_id.as_str())
+        .collect();
+    assert_eq!(ids, ["way/-10"]);
+    assert_eq!(
+        josm.buildings[0].attributes.get("name"),
+        Some(&AttrValue::String("Café & bar".into()))
+    );
+    let skipped: Vec<(&str, IssueReason)> = josm
+        .report
+        .skipped
+        .iter()
+        .map(|s| (s.feature_id.as_str(), s.reason))
+        .collect();
+    assert_eq!(skipped, [("way/13", IssueReason::IncompleteInExtract)]);
+
+    let overpass = read(&write(&dir, "query.osm", OVERPASS.as_bytes())).unwrap();
+    assert_eq!(overpass.buildings.len(), 1);
+    assert_eq!(overpass.buildings[0].height_m, 12.0);
+    let side = 0.0002 * 111_320.0;
+    let a = area_m2(&overpass.buildings[0]);
+    let expected = side * side * 40.7f64.to_radians().cos() / 2.0;
+    assert!(
+        (a - expected).abs() < 0.01 * expected,
+        "{a} against {expected}"
+    );
+    let notes = &overpass.report.files[0].notes;
+    assert!(
+        notes.iter().any(|n| n.contains("Query timed out")),
+        "{notes:?}"
+    );
+}
+
+#[test]
+fn broken_xml_is_refused_with_the_reason() {
+    let dir = scratch("xml-broken");
+    let err = |name: &str, text: &[u8]| match read(&write(&dir, name, text)) {
+        Err(IngestError::InvalidOsm {
+            encoding, detail, ..
+        }) => {
+            assert_eq!(encoding, "XML");
+            detail
+        }
+        other => panic!("{name}: {:?}", other.map(|o| o.report.buildings_written)),
+    };
+    assert!(err("cut.osm", &JOSM.as_bytes()[..600]).contains("not well-formed XML"));
+    assert!(err("other.osm", b"<gpx version='1.1'/>").contains("the document is <gpx>, not <osm>"));
+    assert!(err(
+        "latin1.osm",
+        b"<osm><node id='1' lat='1' lon='1'><tag k='name' v='caf\xe9'/></node></osm>"
+    )
+    .contains("not UTF-8"));
+    let e = err(
+        "noid.osm",
+        b"<osm>\n<way id='x'><nd ref='1'/><tag k='building' v='yes'/></way></osm>",
+    );
+    assert!(
+        e.contains("line 2") && e.contains("<way> without a whole-number id"),
+        "{e}"
+    );
+    // An entity bomb is refused, not expanded: the reader takes no DTD.
+    let bomb = b"<?xml version='1.0'?><!DOCTYPE osm [<!ENTITY a 'aaaaaaaaaa'><!ENTITY b '&a;&a;&a;&a;&a;&a;&a;&a;&a;&a;'>]><osm><node id='1' lat='1' lon='1'><tag k='building' v='&b;'/></node></osm>";
+    assert!(err("bomb.osm", bomb).contains("not well-formed XML"));
+    assert!(err("bad.osm.gz", b"not gzip").contains("gzip"));
 }
