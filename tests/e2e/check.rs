@@ -617,7 +617,7 @@ fn inspect_json_matches_the_table_and_the_files() {
     let errors = schema_errors("inspect.schema.json", &report);
     assert!(errors.is_empty(), "{}", errors.join("\n"));
     let depths = report["depths"].as_array().unwrap();
-    assert_eq!(depths.last().unwrap()["features"], 1416);
+    assert_eq!(depths.last().unwrap()["features"], 1403);
     assert_eq!(depths.last().unwrap()["geometric_error_m"]["max"], 0.0);
     // Content bytes: every glb of the tileset, once.
     let glb_bytes: u64 = tree_bytes(dir)
@@ -1012,7 +1012,7 @@ fn a_tileset_rewritten_as_b3dm_is_checked_by_its_batch_tables() {
         assert_eq!(code, 0, "{name}: {:?}", findings(&report));
         let stats = &report["tileset_stats"];
         assert_eq!(stats["identity_checked"], true, "{name}: {stats}");
-        assert_eq!(stats["buildings"], 1416, "{name}: {stats}");
+        assert_eq!(stats["buildings"], 1403, "{name}: {stats}");
         let blocks: u64 = report["views"]
             .as_array()
             .unwrap()

@@ -26,7 +26,7 @@ pub(crate) struct RawFeature {
     pub top_z: Option<f64>,
     /// Set when the feature cannot become a building.
     pub skip: Option<(IssueReason, String)>,
-    /// OSM `building:part` tag present.
+    /// OSM `building:part` tag present (set by `ingest` from the attribute, whatever the format).
     pub is_building_part: bool,
     /// The 3D model (CityJSON, when `IngestOptions::lod` asks for one), or why there is none.
     pub model: Option<Result<RawModel, (IssueReason, String)>>,

@@ -499,9 +499,6 @@ fn feature(parts: Parts, file_name: &str, index: usize) -> RawFeature {
             ),
         ));
     }
-    out.is_building_part = props
-        .and_then(|p| p.get("building:part"))
-        .is_some_and(|v| !v.is_null() && v != "no");
     if parts.kind.and_then(Value::as_str) != Some("Feature") {
         out.skip = Some((IssueReason::MalformedGeometry, NOT_A_FEATURE.into()));
         return out;

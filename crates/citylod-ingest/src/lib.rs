@@ -37,6 +37,7 @@ mod lod;
 mod model3d;
 mod osm;
 mod osm_xml;
+mod parts;
 mod place;
 mod prj;
 mod repair;
@@ -64,7 +65,7 @@ use geo_types::{Coord, MultiPolygon};
 use height::Heights;
 use rayon::prelude::*;
 use repair::Plane;
-use std::collections::{HashMap, HashSet};
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::hash::{Hash, Hasher};
 use std::path::{Path, PathBuf};
 
@@ -200,6 +201,14 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
     if let Some(name) = &opts.id_attr {
         ids_from_attribute(&mut files, name)?;
     }
+    // OSM's building:part tag, in whatever format it comes (a GeoJSON property, a GeoPackage or .dbf column).
+    for raw in files.iter_mut().flat_map(|f| f.features.iter_mut()) {
+        raw.is_building_part = match raw.attributes.get("building:part") {
+            None | Some(AttrValue::Null | AttrValue::Bool(false)) => false,
+            Some(AttrValue::String(v)) => !(v.is_empty() || v == "no"),
+            Some(_) => true,
+        };
+    }
 
     let outcomes: Vec<Vec<Result<Prepared, Skip>>> = files
         .iter()
@@ -211,16 +220,43 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
         })
         .collect();
 
-    let kept = outcomes.iter().flatten().filter_map(|o| o.as_ref().ok());
-    let (bbox, min_ground) = kept.fold(
-        (None, None),
-        |(b, g): (Option<place::LonLatBox>, Option<f64>), p| {
-            (
-                Some(b.map_or(p.bbox, |b: place::LonLatBox| b.union(p.bbox))),
-                Some(g.map_or(p.heights.ground_m, |g: f64| g.min(p.heights.ground_m))),
-            )
-        },
-    );
+    // OSM outlines drawn by their building:parts (Simple 3D Buildings) are not written, so they do not count for the
+    // frame either: found in a provisional frame of every feature kept.
+    let drawn_by_parts: Vec<BTreeMap<usize, Vec<String>>> = if files
+        .iter()
+        .any(|f| f.features.iter().any(|r| r.is_building_part))
+    {
+        let (b, g) = bounds(outcomes.iter().flatten().filter_map(|o| o.as_ref().ok()));
+        let provisional = place::EnuMap::new(&place::frame_for(b, g));
+        files
+            .iter()
+            .zip(&outcomes)
+            .map(|(f, outs)| {
+                let placed: Vec<Option<citylod_model::Footprint>> = outs
+                    .par_iter()
+                    .zip(&f.features)
+                    .map(|(o, raw)| {
+                        let p = o.as_ref().ok()?;
+                        let relevant =
+                            raw.is_building_part || raw.attributes.get("building").is_some();
+                        relevant.then(|| place::to_enu(&provisional, &p.plane, &p.footprint, 0.0).0)
+                    })
+                    .collect();
+                let refs: Vec<Option<&citylod_model::Footprint>> =
+                    placed.iter().map(Option::as_ref).collect();
+                parts::outlines_with_parts(&f.features, &refs)
+            })
+            .collect()
+    } else {
+        vec![BTreeMap::new(); files.len()]
+    };
+    let (bbox, min_ground) = bounds(outcomes.iter().enumerate().flat_map(|(fi, outs)| {
+        let drawn = &drawn_by_parts[fi];
+        outs.iter()
+            .enumerate()
+            .filter(move |(i, _)| !drawn.contains_key(i))
+            .filter_map(|(_, o)| o.as_ref().ok())
+    }));
     let frame = place::frame_for(bbox, min_ground);
     let enu_map = place::EnuMap::new(&frame);
     if let Some(b) = &bbox {
@@ -269,13 +305,26 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
             non_building_objects: file.non_building_objects,
             notes: file.notes.clone(),
         };
-        for (raw, placed) in file.features.iter_mut().zip(placed) {
+        for (index, (raw, placed)) in file.features.iter_mut().zip(placed).enumerate() {
             let issue = |reason: IssueReason, detail: &str| FeatureIssue {
                 file: file_label.clone(),
                 feature_id: raw.source_id.clone(),
                 reason,
                 detail: detail.to_string(),
             };
+            if let Some(part_ids) = drawn_by_parts[file_index].get(&index) {
+                report.skipped.push(issue(
+                    IssueReason::DrawnByParts,
+                    &format!(
+                        "an OpenStreetMap building outline with {} building:part(s) inside ({}): the parts are drawn, \
+                         as Simple 3D Buildings has it, not the outline over them",
+                        part_ids.len(),
+                        geojson::listing(part_ids)
+                    ),
+                ));
+                fr.skipped += 1;
+                continue;
+            }
             // A building is written once however often it is read: the same id, footprint and heights as any
             // building written before (every one, not only the first with that id: the same file given twice).
             let mut written_key = None;
@@ -415,6 +464,16 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
         buildings,
         frame,
         report,
+    })
+}
+
+/// The lon/lat box and the lowest ground of prepared features (`None` for none).
+fn bounds<'a>(kept: impl Iterator<Item = &'a Prepared>) -> (Option<place::LonLatBox>, Option<f64>) {
+    kept.fold((None, None), |(b, g), p| {
+        (
+            Some(b.map_or(p.bbox, |b: place::LonLatBox| b.union(p.bbox))),
+            Some(g.map_or(p.heights.ground_m, |g: f64| g.min(p.heights.ground_m))),
+        )
     })
 }
 

@@ -323,10 +323,7 @@ pub(crate) fn building_tags(tags: &[(String, String)]) -> bool {
 /// A raw feature with `tags` as attributes and `osm_type`, `osm_id` beside them (a tag of either name is kept
 /// under `tag:NAME`, reported).
 fn feature(kind: &str, id: i64, tags: Vec<(String, String)>) -> RawFeature {
-    let mut f = RawFeature {
-        is_building_part: tags.iter().any(|(k, v)| k == "building:part" && v != "no"),
-        ..Default::default()
-    };
+    let mut f = RawFeature::default();
     let mut attributes = Attributes::new();
     for (k, v) in tags {
         let k = if k == "osm_type" || k == "osm_id" {

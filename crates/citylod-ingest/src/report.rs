@@ -96,6 +96,10 @@ pub enum IssueReason {
     /// An OpenStreetMap building whose nodes or member ways are not in the file: the extract it comes from was cut
     /// at its edge through the building. The detail says how many are missing and names one.
     IncompleteInExtract,
+    /// An OpenStreetMap building outline (`building=*`) with `building:part`s inside it: the parts are drawn in its
+    /// place, as OSM's Simple 3D Buildings rule has it (a block of the outline would hide the lower parts). The detail
+    /// names the parts. Its own tags (name, address) are not written.
+    DrawnByParts,
     /// `--id-attr` names an attribute this feature has no value in: its id is the one its format's own rule gives
     /// (a GeoJSON `id`, a CityJSON object's key, `FILE#INDEX`).
     IdAttributeMissing,
@@ -151,6 +155,7 @@ impl IssueReason {
             GeometryHeightsIgnored => "geometry_heights_ignored",
             CurvesApproximated => "curves_approximated",
             IncompleteInExtract => "incomplete_in_extract",
+            DrawnByParts => "drawn_by_parts",
             IdAttributeMissing => "id_attribute_missing",
             ModelMissing => "model_missing",
             ModelInvalid => "model_invalid",

@@ -174,6 +174,31 @@ fn nyc_osm_features_keep_parts_and_parse_string_heights() {
     );
     assert_eq!(r.features_read, 1_416);
     r.check_invariants().unwrap();
+    // The 13 outlines with parts inside are drawn by their parts (Simple 3D Buildings), each listed with them.
+    let drawn: Vec<&str> = r
+        .skipped
+        .iter()
+        .filter(|s| s.reason == IssueReason::DrawnByParts)
+        .map(|s| s.feature_id.as_str())
+        .collect();
+    assert_eq!(drawn.len(), 13, "{drawn:?}");
+    assert_eq!(r.skipped.len(), 13);
+    let tower = r
+        .skipped
+        .iter()
+        .find(|s| s.feature_id == "way/471")
+        .unwrap();
+    assert!(
+        tower
+            .detail
+            .contains("1 building:part(s) inside (way/1558)"),
+        "{}",
+        tower.detail
+    );
+    // Every part is written, and none of the outlines is.
+    for id in &drawn {
+        assert!(out.buildings.iter().all(|b| b.source_id != *id));
+    }
     // building:part features are kept as buildings and counted.
     assert!(
         r.building_parts >= 120 && r.building_parts <= 132,

@@ -1,0 +1,126 @@
+//! OpenStreetMap's Simple 3D Buildings rule (wiki.openstreetmap.org/wiki/Simple_3D_Buildings): a building outline
+//! (`building=*`) with `building:part`s inside it is drawn by its parts, not as a block of its own. The outline
+//! carries the building's name and address for 2D maps; its height, when it has one, is the tallest part's, and
+//! without one a default block would hide the lower parts and cut through the taller ones. For GeoJSON exports of
+//! OSM data and for OSM files alike; a file without `building:part` features is not touched.
+
+use crate::feature::RawFeature;
+use citylod_model::{AttrValue, Footprint};
+use geo::{BoundingRect, Contains, InteriorPoint};
+use rstar::primitives::{GeomWithData, Rectangle};
+use rstar::{RTree, AABB};
+use std::collections::BTreeMap;
+
+/// The outlines among `features` that hold parts (each part counted for the outlines its interior point lies in),
+/// with the ids of those parts in file order. `footprints[i]` is feature i's placed footprint, `None` when skipped.
+pub(crate) fn outlines_with_parts(
+    features: &[RawFeature],
+    footprints: &[Option<&Footprint>],
+) -> BTreeMap<usize, Vec<String>> {
+    let mut out: BTreeMap<usize, Vec<String>> = BTreeMap::new();
+    if !features.iter().any(|f| f.is_building_part) {
+        return out;
+    }
+    let is_outline = |f: &RawFeature| {
+        !f.is_building_part
+            && matches!(f.attributes.get("building"), Some(AttrValue::String(v)) if v != "no")
+    };
+    let boxes: Vec<GeomWithData<Rectangle<[f64; 2]>, usize>> = features
+        .iter()
+        .zip(footprints)
+        .enumerate()
+        .filter(|(_, (f, _))| is_outline(f))
+        .filter_map(|(i, (_, fp))| {
+            let r = fp.as_ref()?.bounding_rect()?;
+            Some(GeomWithData::new(
+                Rectangle::from_corners([r.min().x, r.min().y], [r.max().x, r.max().y]),
+                i,
+            ))
+        })
+        .collect();
+    if boxes.is_empty() {
+        return out;
+    }
+    let tree = RTree::bulk_load(boxes);
+    for (f, fp) in features.iter().zip(footprints) {
+        let (true, Some(fp)) = (f.is_building_part, fp) else {
+            continue;
+        };
+        let Some(p) = fp.interior_point() else {
+            continue;
+        };
+        let at = AABB::from_point([p.x(), p.y()]);
+        let mut holders: Vec<usize> = tree
+            .locate_in_envelope_intersecting(&at)
+            .map(|g| g.data)
+            .filter(|&o| footprints[o].is_some_and(|o| o.contains(&p)))
+            .collect();
+        holders.sort_unstable();
+        for o in holders {
+            out.entry(o).or_default().push(f.source_id.clone());
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use citylod_model::Attributes;
+    use geo_types::{polygon, MultiPolygon};
+
+    fn square(x: f64, y: f64, d: f64) -> Footprint {
+        MultiPolygon(vec![polygon![
+            (x: x, y: y),
+            (x: x + d, y: y),
+            (x: x + d, y: y + d),
+            (x: x, y: y + d),
+        ]])
+    }
+
+    fn feature(id: &str, building: Option<&str>, part: bool) -> RawFeature {
+        let mut attributes = Attributes::new();
+        if let Some(b) = building {
+            attributes.insert("building".into(), AttrValue::String(b.into()));
+        }
+        RawFeature {
+            source_id: id.into(),
+            attributes,
+            is_building_part: part,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn outlines_holding_parts_are_found_with_their_parts() {
+        let features = [
+            feature("outline", Some("yes"), false),
+            feature("part-a", None, true),
+            feature("lone", Some("house"), false),
+            feature("part-b", Some("yes"), true),
+            feature("not-a-building", Some("no"), false),
+            feature("part-outside", None, true),
+            feature("skipped-part", None, true),
+        ];
+        let fps = [
+            square(0.0, 0.0, 20.0),
+            square(1.0, 1.0, 5.0),
+            square(30.0, 0.0, 10.0),
+            // A part sticking out of its outline, its interior point inside.
+            square(10.0, 10.0, 12.0),
+            square(-1.0, -1.0, 50.0),
+            square(100.0, 0.0, 5.0),
+            square(2.0, 2.0, 1.0),
+        ];
+        let mut refs: Vec<Option<&Footprint>> = fps.iter().map(Some).collect();
+        refs[6] = None;
+        let found = outlines_with_parts(&features, &refs);
+        assert_eq!(
+            found.into_iter().collect::<Vec<_>>(),
+            [(0, vec!["part-a".to_string(), "part-b".to_string()])]
+        );
+        // Without parts nothing is looked at.
+        let none = outlines_with_parts(&features[..1], &refs[..1]);
+        assert!(none.is_empty());
+    }
+}
