@@ -51,6 +51,8 @@ const ROOF_ATTR: &str = "b3_h_dak_70p";
 pub(crate) const MAX_GROUND_M: f64 = 10_000.0;
 /// OSM base of a building part above the ground (m).
 const MIN_HEIGHT_ATTR: &str = "min_height";
+/// OSM: the levels a building part skips from the ground (its base, in storeys), read when `min_height` is not there.
+const MIN_LEVEL_ATTR: &str = "building:min_level";
 
 /// Where a building's ground height came from (report key).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -99,7 +101,7 @@ pub(crate) fn ground_attribute(attrs: &Attributes) -> Option<f64> {
 }
 
 /// Resolves ground and height. Ground: `b3_h_maaiveld`, else the lowest footprint vertex z
-/// (CityJSON), else 0; an OSM `min_height` raises the base above that ground. Height: the named
+/// (CityJSON), else 0; an OSM `min_height` (or `building:min_level` storeys) raises the base above that ground. Height: the named
 /// attribute, known names, 3DBAG roof − ground, the 3D geometry's top − ground, storeys × storey
 /// height, else the default. Attribute heights count from the ground, so `min_height` is
 /// subtracted from them (a part reaching less than 0.1 m above its base is 0.1 m thick). A value under 0.1 m or
@@ -123,16 +125,24 @@ pub(crate) fn resolve(
         _ => (0.0, GroundSource::Zero),
     };
     // A `min_height` that is not a number in [0, 1000) m is rejected (reported) and the base stays on the ground.
-    let base_offset_m = match attrs.get(MIN_HEIGHT_ATTR) {
-        None | Some(AttrValue::Null) => 0.0,
-        Some(v) => match v.as_number().filter(|m| (0.0..MAX_HEIGHT_M).contains(m)) {
-            Some(m) => m,
+    // Without one, OSM's `building:min_level` (levels skipped below a part) × the storey height.
+    let mut base_from = |name: &str, scale: f64| match attrs.get(name) {
+        None | Some(AttrValue::Null) => None,
+        Some(v) => match v
+            .as_number()
+            .map(|m| m * scale)
+            .filter(|m| (0.0..MAX_HEIGHT_M).contains(m))
+        {
+            Some(m) => Some(m),
             None => {
-                rejected.push(MIN_HEIGHT_ATTR.to_string());
-                0.0
+                rejected.push(name.to_string());
+                None
             }
         },
     };
+    let base_offset_m = base_from(MIN_HEIGHT_ATTR, 1.0)
+        .or_else(|| base_from(MIN_LEVEL_ATTR, opts.storey_height_m))
+        .unwrap_or(0.0);
 
     let try_attr =
         |name: &str, scale: f64, offset: f64, rejected: &mut Vec<String>| -> Option<f64> {
@@ -181,11 +191,12 @@ pub(crate) fn resolve(
     }
     if found.is_none() {
         let s = opts.storey_height_m;
+        // Storeys count from the ground too (OSM's building:levels of a part includes the levels below it).
         found = match &opts.storey_attr {
-            Some(name) => try_attr(name, s, 0.0, &mut rejected),
+            Some(name) => try_attr(name, s, base_offset_m, &mut rejected),
             None => DEFAULT_STOREY_ATTRS
                 .iter()
-                .find_map(|n| try_attr(n, s, 0.0, &mut rejected)),
+                .find_map(|n| try_attr(n, s, base_offset_m, &mut rejected)),
         }
         .map(|h| (h, HeightSource::Storeys));
     }
@@ -389,5 +400,39 @@ mod tests {
         ]);
         let h = resolve(&a, None, None, &IngestOptions::default());
         assert_eq!((h.base_offset_m, h.height_m), (12.0, 18.0));
+    }
+
+    #[test]
+    fn osm_min_level_raises_a_part_without_min_height_and_levels_count_from_the_ground() {
+        let o = IngestOptions::default();
+        // The top levels of a tower, 9 levels of 3 m above the ground, 8 of them below this part.
+        let a = attrs(&[
+            ("building:levels", AttrValue::String("9".into())),
+            ("building:min_level", AttrValue::String("8".into())),
+        ]);
+        let h = resolve(&a, None, None, &o);
+        assert_eq!((h.base_offset_m, h.height_m), (24.0, 3.0));
+        // A height counts from the ground as well; min_height comes first when both are there.
+        let a = attrs(&[
+            ("height", AttrValue::String("29.3".into())),
+            ("building:min_level", AttrValue::String("8".into())),
+        ]);
+        let h = resolve(&a, None, None, &o);
+        assert_eq!(h.base_offset_m, 24.0);
+        assert!((h.height_m - 5.3).abs() < 1e-9, "{}", h.height_m);
+        let a = attrs(&[
+            ("height", AttrValue::String("22".into())),
+            ("min_height", AttrValue::String("19.9".into())),
+            ("building:min_level", AttrValue::String("7".into())),
+        ]);
+        assert_eq!(resolve(&a, None, None, &o).base_offset_m, 19.9);
+        // Not a number of levels: rejected, on the ground.
+        let a = attrs(&[
+            ("height", AttrValue::Int(10)),
+            ("building:min_level", AttrValue::String("roof".into())),
+        ]);
+        let h = resolve(&a, None, None, &o);
+        assert_eq!(h.base_offset_m, 0.0);
+        assert_eq!(h.rejected, vec!["building:min_level".to_string()]);
     }
 }
