@@ -36,6 +36,7 @@ mod height;
 mod lod;
 mod model3d;
 mod osm;
+mod osm_pbf;
 mod osm_xml;
 mod parts;
 mod place;
@@ -205,7 +206,7 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
     for raw in files.iter_mut().flat_map(|f| f.features.iter_mut()) {
         raw.is_building_part = match raw.attributes.get("building:part") {
             None | Some(AttrValue::Null | AttrValue::Bool(false)) => false,
-            Some(AttrValue::String(v)) => !(v.is_empty() || v == "no"),
+            Some(AttrValue::String(v)) => osm::tag_set(v),
             Some(_) => true,
         };
     }

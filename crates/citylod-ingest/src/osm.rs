@@ -1,39 +1,38 @@
-//! OpenStreetMap PBF input (`.osm.pbf`: what Geofabrik, BBBike, osmium and osmosis write). Every way and every
-//! multipolygon relation tagged `building` or `building:part` (any value but `no`) is a building; its tags are its
-//! attributes (all text, as OSM has them), with `osm_type` and `osm_id` as the GeoJSON exports of OSM data name them,
-//! so a building's id is `way/ID` or `relation/ID` either way.
+//! OpenStreetMap input, PBF (`osm_pbf`) or XML (`osm_xml`): every way and every multipolygon relation tagged
+//! `building` or `building:part` (any value but `no`) is a building; its tags are its attributes (all text, as OSM
+//! has them), with `osm_type` and `osm_id` as the GeoJSON exports of OSM data name them, so a building's id is
+//! `way/ID` or `relation/ID` either way.
 //!
-//! The file format (wiki.openstreetmap.org/wiki/PBF_Format): a sequence of blobs, each a 4-byte big-endian length,
-//! a `BlobHeader` and a `Blob` (raw or zlib-compressed) holding a `HeaderBlock` or a `PrimitiveBlock` of nodes
-//! (plain or dense, delta-coded), ways (node references delta-coded, locations too when the file has
-//! `LocationsOnWays`) and relations. The protocol-buffer messages are decoded here field by field.
-//!
-//! Read in three passes over the decompressed blocks, so that only what buildings need is kept: the relations
-//! tagged as buildings and the ways they name; the ways tagged as buildings and those members; the nodes those ways
-//! use. A building whose nodes or member ways the extract cut away is skipped (`incomplete_in_extract`), one whose
-//! way does not close, or whose relation's ways do not join into closed rings, is `malformed_geometry`; a building
-//! mapped as a point (a node) is skipped as `unsupported_geometry`. A relation's rings are outers or holes by how
+//! A building whose nodes or member ways the extract cut away is skipped (`incomplete_in_extract`), one whose way
+//! does not close, or whose relation's ways do not join into closed rings, is `malformed_geometry`; a building mapped
+//! as a point (a node) is skipped as `unsupported_geometry`. A relation's member ways are joined where they meet (by
+//! location, as osmium does), rings passing a location twice are split there, and rings are outers or holes by how
 //! they nest (every second level inside another ring is a hole), not by their members' roles, which are often wrong.
 
 use crate::feature::{RawFeature, RawPolygon};
 use crate::report::IssueReason;
 use citylod_model::{AttrValue, Attributes};
-use rayon::prelude::*;
 use std::collections::{HashMap, HashSet};
-use std::io::Read;
 use std::path::Path;
 
-/// The format's limits: a BlobHeader is at most 64 KiB, a Blob's data at most 32 MiB.
-const MAX_BLOB_HEADER: usize = 64 * 1024;
-const MAX_BLOB: usize = 32 * 1024 * 1024;
+/// Nodes a way may have here: 50 times what OpenStreetMap's API allows (2,000); a longer one is no building (a
+/// memory guard against hostile files).
+pub(crate) const MAX_WAY_NODES: usize = 100_000;
+/// Members a relation may have: OpenStreetMap's API limit.
+pub(crate) const MAX_MEMBERS: usize = 32_000;
+/// Rings a multipolygon building may have here (their nesting is found pair by pair).
+const MAX_RINGS: usize = 10_000;
 
-/// The features of a PBF file and what the user should know about the file as a whole.
+/// A reason and its detail: why a feature is skipped, or what was repaired.
+type Skip = (IssueReason, String);
+
+/// The features of an OSM file and what the user should know about the file as a whole.
 pub(crate) struct OsmDoc {
     pub features: Vec<RawFeature>,
     pub notes: Vec<String>,
 }
 
-/// The street centre lines of a PBF file: each `highway` way's id, name and points (lon°, lat°), or why it has none.
+/// The street centre lines of an OSM file: each `highway` way's id, name and points (lon°, lat°), or why it has none.
 pub(crate) struct OsmLine {
     pub id: String,
     pub points: Result<Vec<[f64; 2]>, (IssueReason, String)>,
@@ -88,22 +87,46 @@ pub(crate) struct Gathered {
 }
 
 impl Gathered {
-    /// A way's locations (nanodegrees lat, lon), or the nodes the file lacks.
-    fn points(&self, w: &Way) -> Result<Vec<[i64; 2]>, Vec<i64>> {
-        if let Some(l) = &w.locations {
-            return located_on_way(w, l);
+    /// A way's locations (nanodegrees lat, lon), or why it has none: nodes the file lacks, too many nodes.
+    fn points(&self, w: &Way) -> Result<Vec<[i64; 2]>, Skip> {
+        if let Some(n) = w.oversized {
+            return Err((
+                IssueReason::MalformedGeometry,
+                format!(
+                    "a way of {n} nodes, more than the {MAX_WAY_NODES} read here (OpenStreetMap allows 2,000)"
+                ),
+            ));
         }
-        let missing: Vec<i64> = w
-            .refs
-            .iter()
-            .filter(|r| !self.located.contains_key(r))
-            .copied()
-            .collect();
-        if missing.is_empty() {
-            Ok(w.refs.iter().map(|r| self.located[r]).collect())
-        } else {
-            Err(missing)
+        let missing: Vec<i64> = match &w.locations {
+            Some(l) => w
+                .refs
+                .iter()
+                .zip(l)
+                .filter(|(_, p)| !on_earth(**p))
+                .map(|(&r, _)| r)
+                .collect(),
+            None => w
+                .refs
+                .iter()
+                .filter(|r| !self.located.contains_key(r))
+                .copied()
+                .collect(),
+        };
+        if !missing.is_empty() {
+            return Err((
+                IssueReason::IncompleteInExtract,
+                format!(
+                    "{} of its {} node(s) are not in the file (the extract cut it), e.g. node {}",
+                    missing.len(),
+                    w.refs.len(),
+                    missing[0]
+                ),
+            ));
         }
+        Ok(match &w.locations {
+            Some(l) => l.clone(),
+            None => w.refs.iter().map(|r| self.located[r]).collect(),
+        })
     }
 }
 
@@ -111,7 +134,7 @@ fn gather(path: &Path, want: Want) -> Result<Gathered, String> {
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read the file: {e}"))?;
     match Encoding::of(path) {
         Some(Encoding::Xml) => crate::osm_xml::gather(path, &bytes, want),
-        _ => gather_pbf(&bytes, want),
+        _ => crate::osm_pbf::gather(&bytes, want),
     }
 }
 
@@ -130,12 +153,9 @@ pub(crate) fn read(path: &Path) -> Result<OsmDoc, String> {
     let by_id: HashMap<i64, &Way> = g.ways.iter().map(|w| (w.id, w)).collect();
     for w in g.ways.iter().filter(|w| building_tags(&w.tags)) {
         let mut f = feature("way", w.id, w.tags.clone());
-        match g.points(w) {
-            Err(missing) => f.skip = Some(incomplete_nodes(&missing, w.refs.len())),
-            Ok(points) => match closed_ring(&w.refs, &points) {
-                Ok(ring) => f.polygons = vec![vec![ring]],
-                Err(skip) => f.skip = Some(skip),
-            },
+        match g.points(w).and_then(|p| closed_ring(&w.refs, &p)) {
+            Ok(ring) => f.polygons = vec![vec![ring]],
+            Err(skip) => f.skip = Some(skip),
         }
         features.push(f);
     }
@@ -155,17 +175,10 @@ pub(crate) fn read(path: &Path) -> Result<OsmDoc, String> {
             features.push(f);
             continue;
         }
-        match relation_polygons(r, &by_id, &|w| g.points(w)) {
-            Ok((polygons, dropped)) => {
+        match relation_polygons(r, &by_id, &g) {
+            Ok((polygons, repairs)) => {
                 f.polygons = polygons;
-                if dropped > 0 {
-                    f.repairs.push((
-                        IssueReason::NonPolygonMemberDropped,
-                        format!(
-                            "{dropped} member(s) that are not ways (nodes, relations) left out"
-                        ),
-                    ));
-                }
+                f.repairs.extend(repairs);
             }
             Err(skip) => f.skip = Some(skip),
         }
@@ -193,51 +206,10 @@ pub(crate) fn read_streets(path: &Path) -> Result<Vec<OsmLine>, String> {
                 Some((_, name)) => format!("way/{} ({name})", w.id),
                 None => format!("way/{}", w.id),
             };
-            let points = g
-                .points(w)
-                .map(|l| l.into_iter().map(degrees).collect())
-                .map_err(|missing| incomplete_nodes(&missing, w.refs.len()));
+            let points = g.points(w).map(|l| l.into_iter().map(degrees).collect());
             OsmLine { id, points }
         })
         .collect())
-}
-
-/// The PBF passes: the relations tagged as buildings and the ways they name; the ways wanted; the nodes they use.
-fn gather_pbf(bytes: &[u8], want: Want) -> Result<Gathered, String> {
-    let file = File::open(bytes)?;
-    let blocks = file.blocks()?;
-    let relations: Vec<Relation> = match want {
-        Want::Buildings => per_block(&blocks, |b, out| b.relations(out))?,
-        Want::Streets => Vec::new(),
-    };
-    let members = member_ways(&relations);
-    let ways: Vec<Way> = per_block(&blocks, |b, out| {
-        b.ways(out, |id, tags| wanted_way(want, id, tags, &members))
-    })?;
-    let needed = needed_nodes(&ways);
-    let nodes: Vec<NodeRead> = per_block(&blocks, |b, out| b.nodes(out, &needed))?;
-    let mut g = Gathered {
-        ways,
-        relations,
-        located: HashMap::with_capacity(needed.len()),
-        ..Default::default()
-    };
-    for n in nodes {
-        match n {
-            NodeRead::Location(id, at) => {
-                g.located.insert(id, at);
-            }
-            NodeRead::Building(id, tags) if want == Want::Buildings => {
-                g.point_buildings.push((id, tags))
-            }
-            NodeRead::Building(..) => {}
-        }
-    }
-    if file.locations_on_ways {
-        g.notes
-            .push("node locations read from the ways (LocationsOnWays)".into());
-    }
-    Ok(g)
 }
 
 /// The ways the multipolygon relations name.
@@ -251,10 +223,10 @@ pub(crate) fn member_ways(relations: &[Relation]) -> HashSet<i64> {
         .collect()
 }
 
-pub(crate) fn wanted_way(
+pub(crate) fn wanted_way<K: AsRef<str>, V: AsRef<str>>(
     want: Want,
     id: i64,
-    tags: &[(String, String)],
+    tags: &[(K, V)],
     members: &HashSet<i64>,
 ) -> bool {
     match want {
@@ -271,21 +243,10 @@ pub(crate) fn needed_nodes(ways: &[Way]) -> HashSet<i64> {
         .collect()
 }
 
-/// A way's locations as the file has them on it, or the nodes without one: a writer that adds locations to ways
-/// (osmium) marks a node the extract lacks with an undefined location, outside ±90°, ±180°.
-fn located_on_way(w: &Way, l: &[[i64; 2]]) -> Result<Vec<[i64; 2]>, Vec<i64>> {
-    let missing: Vec<i64> = w
-        .refs
-        .iter()
-        .zip(l)
-        .filter(|(_, p)| !(p[0].abs() <= 90_000_000_000 && p[1].abs() <= 180_000_000_000))
-        .map(|(&r, _)| r)
-        .collect();
-    if missing.is_empty() {
-        Ok(l.to_vec())
-    } else {
-        Err(missing)
-    }
+/// A location within ±90°, ±180° (nanodegrees lat, lon). A writer that adds locations to ways (osmium) marks a node
+/// the extract lacks with an undefined location outside them.
+fn on_earth(p: [i64; 2]) -> bool {
+    p[0].unsigned_abs() <= 90_000_000_000 && p[1].unsigned_abs() <= 180_000_000_000
 }
 
 const NOT_STREETS: [&str; 11] = [
@@ -302,12 +263,16 @@ const NOT_STREETS: [&str; 11] = [
     "services",
 ];
 
-fn street_tags(tags: &[(String, String)]) -> bool {
-    let get = |k: &str| tags.iter().find(|(t, _)| t == k).map(|(_, v)| v.as_str());
+fn street_tags<K: AsRef<str>, V: AsRef<str>>(tags: &[(K, V)]) -> bool {
+    let get = |k: &str| {
+        tags.iter()
+            .find(|(t, _)| t.as_ref() == k)
+            .map(|(_, v)| v.as_ref())
+    };
     match get("highway") {
         Some(h) if !NOT_STREETS.contains(&h) => {
-            get("tunnel").is_none_or(|t| t == "no")
-                && get("indoor").is_none_or(|t| t == "no")
+            !get("tunnel").is_some_and(tag_set)
+                && !get("indoor").is_some_and(tag_set)
                 && get("area") != Some("yes")
         }
         _ => false,
@@ -315,9 +280,15 @@ fn street_tags(tags: &[(String, String)]) -> bool {
 }
 
 /// Tagged `building` or `building:part` with a value other than `no`.
-pub(crate) fn building_tags(tags: &[(String, String)]) -> bool {
+pub(crate) fn building_tags<K: AsRef<str>, V: AsRef<str>>(tags: &[(K, V)]) -> bool {
     tags.iter()
-        .any(|(k, v)| (k == "building" || k == "building:part") && v != "no")
+        .any(|(k, v)| matches!(k.as_ref(), "building" | "building:part") && tag_set(v.as_ref()))
+}
+
+/// A tag value that says yes in OSM's sense: anything but empty or `no` (in any case).
+pub(crate) fn tag_set(v: &str) -> bool {
+    let v = v.trim();
+    !(v.is_empty() || v.eq_ignore_ascii_case("no"))
 }
 
 /// A raw feature with `tags` as attributes and `osm_type`, `osm_id` beside them (a tag of either name is kept
@@ -344,40 +315,32 @@ fn feature(kind: &str, id: i64, tags: Vec<(String, String)>) -> RawFeature {
     f
 }
 
-fn incomplete_nodes(missing: &[i64], of: usize) -> (IssueReason, String) {
-    (
-        IssueReason::IncompleteInExtract,
-        format!(
-            "{} of its {of} node(s) are not in the file (the extract cut it), e.g. node {}",
-            missing.len(),
-            missing[0]
-        ),
-    )
-}
-
 /// Nanodegrees (lat, lon) as (lon°, lat°). An exact integer divided by 10⁹ is the double nearest to the decimal
 /// number it stands for, as a GeoJSON export of the same node reads.
 fn degrees(p: [i64; 2]) -> [f64; 2] {
     [p[1] as f64 / 1e9, p[0] as f64 / 1e9]
 }
 
-/// A closed way's points as an open ring (lon°, lat°), or why it is none.
-fn closed_ring(refs: &[i64], points: &[[i64; 2]]) -> Result<Vec<[f64; 2]>, (IssueReason, String)> {
-    let (Some(first), Some(last)) = (refs.first(), refs.last()) else {
+/// A closed way's points as an open ring (lon°, lat°), or why it is none. Closed when it ends where it starts (at
+/// its first node, or at another node at the same location, as osmium takes it).
+fn closed_ring(refs: &[i64], points: &[[i64; 2]]) -> Result<Vec<[f64; 2]>, Skip> {
+    let (Some(first), Some(last)) = (points.first(), points.last()) else {
         return Err((IssueReason::EmptyGeometry, "a way without nodes".into()));
     };
     if first != last {
         return Err((
             IssueReason::MalformedGeometry,
             format!(
-                "the way is not closed (it starts at node {first} and ends at node {last}): no outline"
+                "the way is not closed (it starts at node {} and ends at node {}, elsewhere): no outline",
+                refs[0],
+                refs[refs.len() - 1]
             ),
         ));
     }
-    if refs.len() < 4 {
+    if points.len() < 4 {
         return Err((
             IssueReason::TooFewPoints,
-            format!("a closed way of {} node(s): no area", refs.len()),
+            format!("a closed way of {} node(s): no area", points.len()),
         ));
     }
     Ok(points[..points.len() - 1]
@@ -386,39 +349,47 @@ fn closed_ring(refs: &[i64], points: &[[i64; 2]]) -> Result<Vec<[f64; 2]>, (Issu
         .collect())
 }
 
-type WayPoints<'a> = dyn Fn(&Way) -> Result<Vec<[i64; 2]>, Vec<i64>> + 'a;
-
-/// A multipolygon relation's polygons (outer rings with their holes) and the number of members that are not ways.
+/// A multipolygon relation's polygons (outer rings with their holes) and the repairs made on the way: members that
+/// are not ways, member ways listed more than once (each taken once).
 fn relation_polygons(
     r: &Relation,
     by_id: &HashMap<i64, &Way>,
-    way_points: &WayPoints,
-) -> Result<(Vec<RawPolygon>, usize), (IssueReason, String)> {
-    let mut pieces: Vec<Piece> = Vec::new();
+    g: &Gathered,
+) -> Result<(Vec<RawPolygon>, Vec<Skip>), Skip> {
+    if let Some(n) = r.oversized {
+        return Err((
+            IssueReason::MalformedGeometry,
+            format!("a relation of {n} members, more than the {MAX_MEMBERS} OpenStreetMap allows"),
+        ));
+    }
+    let mut pieces: Vec<Vec<[i64; 2]>> = Vec::new();
     let mut missing_ways = Vec::new();
-    let mut dropped = 0;
+    let mut not_ways = 0;
+    let mut seen = HashSet::new();
+    let mut repeated = Vec::new();
     for m in &r.members {
         if m.kind != MemberKind::Way {
-            dropped += 1;
+            not_ways += 1;
+            continue;
+        }
+        if !seen.insert(m.id) {
+            repeated.push(m.id);
             continue;
         }
         let Some(w) = by_id.get(&m.id) else {
             missing_ways.push(m.id);
             continue;
         };
-        match way_points(w) {
-            Ok(points) if w.refs.len() >= 2 => pieces.push((w.refs.clone(), points)),
-            Ok(_) => {
-                return Err((
-                    IssueReason::MalformedGeometry,
-                    format!("member way {} has fewer than 2 nodes", w.id),
-                ))
-            }
-            Err(missing) => {
-                let (reason, detail) = incomplete_nodes(&missing, w.refs.len());
-                return Err((reason, format!("member way {}: {detail}", w.id)));
-            }
+        let points = g
+            .points(w)
+            .map_err(|(reason, detail)| (reason, format!("member way {}: {detail}", w.id)))?;
+        if points.len() < 2 {
+            return Err((
+                IssueReason::MalformedGeometry,
+                format!("member way {} has fewer than 2 nodes", w.id),
+            ));
         }
+        pieces.push(points);
     }
     if !missing_ways.is_empty() {
         return Err((
@@ -436,363 +407,252 @@ fn relation_polygons(
             "a multipolygon without member ways".into(),
         ));
     }
-    let rings = join_rings(pieces)?;
-    Ok((nest(rings), dropped))
+    let rings: Vec<Vec<[i64; 2]>> = join_rings(pieces)?
+        .into_iter()
+        .flat_map(split_at_repeats)
+        .collect();
+    if rings.is_empty() {
+        return Err((
+            IssueReason::TooFewPoints,
+            "its rings enclose no area".into(),
+        ));
+    }
+    if rings.len() > MAX_RINGS {
+        return Err((
+            IssueReason::MalformedGeometry,
+            format!(
+                "{} rings, more than the {MAX_RINGS} a building is read with here",
+                rings.len()
+            ),
+        ));
+    }
+    let mut repairs = Vec::new();
+    if not_ways > 0 {
+        repairs.push((
+            IssueReason::NonPolygonMemberDropped,
+            format!("{not_ways} member(s) that are not ways (nodes, relations) left out"),
+        ));
+    }
+    if !repeated.is_empty() {
+        repeated.sort_unstable();
+        repeated.dedup();
+        let ids: Vec<String> = repeated.iter().map(|w| format!("way {w}")).collect();
+        repairs.push((
+            IssueReason::NonPolygonMemberDropped,
+            format!(
+                "member way(s) listed more than once, each taken once: {}",
+                crate::geojson::listing(&ids)
+            ),
+        ));
+    }
+    Ok((nest(rings), repairs))
 }
 
-/// A way's node ids and their locations (nanodegrees lat, lon).
-type Piece = (Vec<i64>, Vec<[i64; 2]>);
-
-/// Joins ways end to end into closed rings (their locations, closing node repeated).
-fn join_rings(pieces: Vec<Piece>) -> Result<Vec<Vec<[i64; 2]>>, (IssueReason, String)> {
+/// Joins ways end to end, where one ends at the location another starts or ends, into closed rings (closing point
+/// repeated). A ring that cannot be closed refuses the relation.
+fn join_rings(pieces: Vec<Vec<[i64; 2]>>) -> Result<Vec<Vec<[i64; 2]>>, Skip> {
     let mut rings = Vec::new();
-    let mut open: Vec<Option<Piece>> = Vec::new();
-    for (ids, pts) in pieces {
-        if ids.first() == ids.last() {
-            if ids.len() < 4 {
-                return Err((
-                    IssueReason::TooFewPoints,
-                    format!("a closed member way of {} node(s): no area", ids.len()),
-                ));
-            }
-            rings.push(pts);
+    let mut open: Vec<Option<Vec<[i64; 2]>>> = Vec::new();
+    for p in pieces {
+        if p.first() == p.last() {
+            rings.push(p);
         } else {
-            open.push(Some((ids, pts)));
+            open.push(Some(p));
         }
     }
-    // Open pieces by the nodes they end at.
-    let mut ends: HashMap<i64, Vec<usize>> = HashMap::new();
+    // Open pieces by the locations they end at.
+    let mut ends: HashMap<[i64; 2], Vec<usize>> = HashMap::new();
     for (i, p) in open.iter().enumerate() {
-        let (ids, _) = p.as_ref().expect("all present");
-        ends.entry(ids[0]).or_default().push(i);
-        ends.entry(*ids.last().expect("≥ 2 nodes"))
-            .or_default()
-            .push(i);
+        let p = p.as_ref().expect("all present");
+        ends.entry(p[0]).or_default().push(i);
+        ends.entry(p[p.len() - 1]).or_default().push(i);
     }
     for start in 0..open.len() {
-        let Some((mut ids, mut pts)) = open[start].take() else {
+        let Some(mut ring) = open[start].take() else {
             continue;
         };
-        while ids.first() != ids.last() {
-            let end = *ids.last().expect("≥ 2 nodes");
+        while ring.first() != ring.last() {
+            let end = ring[ring.len() - 1];
             let next = ends
                 .get(&end)
                 .and_then(|c| c.iter().copied().find(|&i| open[i].is_some()));
             let Some(i) = next else {
+                let [lon, lat] = degrees(end);
                 return Err((
                     IssueReason::MalformedGeometry,
                     format!(
-                        "the member ways do not join into closed rings: the ring through node {} ends at node {end}, \
-                         where no other member way continues it",
-                        ids[0]
+                        "the member ways do not join into closed rings: one ends at ({lon}, {lat}), where no other \
+                         member way continues it"
                     ),
                 ));
             };
-            let (mut more_ids, mut more_pts) = open[i].take().expect("checked");
-            if more_ids[0] != end {
-                more_ids.reverse();
-                more_pts.reverse();
+            let mut more = open[i].take().expect("checked");
+            if more[0] != end {
+                more.reverse();
             }
-            ids.extend_from_slice(&more_ids[1..]);
-            pts.extend_from_slice(&more_pts[1..]);
+            ring.extend_from_slice(&more[1..]);
         }
-        if ids.len() < 4 {
-            return Err((
-                IssueReason::TooFewPoints,
-                format!(
-                    "a ring of {} node(s) through node {}: no area",
-                    ids.len(),
-                    ids[0]
-                ),
-            ));
-        }
-        rings.push(pts);
+        rings.push(ring);
     }
     Ok(rings)
 }
 
-/// Closed rings (nanodegrees, closing point repeated) as polygons: a ring inside an odd number of others is a hole
-/// of the smallest ring around it, every other ring an outer one. Rings are open in the result (lon°, lat°).
+/// A closed ring split where it passes a location twice into simple closed rings (two outers touching at a corner
+/// that the joining walked through as one figure eight, an inner ring touching its outer); what encloses no area (a
+/// spike out and back) is dropped.
+fn split_at_repeats(ring: Vec<[i64; 2]>) -> Vec<Vec<[i64; 2]>> {
+    let mut out = Vec::new();
+    let mut path: Vec<[i64; 2]> = Vec::with_capacity(ring.len());
+    let mut at: HashMap<[i64; 2], usize> = HashMap::new();
+    for &p in &ring[..ring.len() - 1] {
+        if let Some(&k) = at.get(&p) {
+            let mut loop_ = path.split_off(k);
+            for q in &loop_ {
+                at.remove(q);
+            }
+            loop_.push(p);
+            if loop_.len() >= 4 {
+                out.push(loop_);
+            }
+        }
+        at.insert(p, path.len());
+        path.push(p);
+    }
+    if path.len() >= 3 {
+        path.push(path[0]);
+        out.push(path);
+    }
+    out
+}
+
+/// Closed simple rings (nanodegrees, closing point repeated) as polygons: a ring inside an odd number of others is a
+/// hole of the smallest ring around it, every other ring an outer one (outers in ring order, then their holes).
+/// Rings are open in the result (lon°, lat°). Containment is decided exactly, on the integer locations.
 fn nest(rings: Vec<Vec<[i64; 2]>>) -> Vec<RawPolygon> {
-    let rings: Vec<Vec<[f64; 2]>> = rings
-        .into_iter()
-        .map(|r| r[..r.len() - 1].iter().map(|&p| degrees(p)).collect())
-        .collect();
-    let boxes: Vec<[f64; 4]> = rings.iter().map(|r| crate::feature::ring_box(r)).collect();
-    let areas: Vec<f64> = rings.iter().map(|r| area(r).abs()).collect();
-    // Around each ring: the rings that contain it (a vertex of it that is not a vertex of theirs lies inside).
-    let around: Vec<Vec<usize>> = (0..rings.len())
+    let areas: Vec<i128> = rings.iter().map(|r| twice_area(r).abs()).collect();
+    let boxes: Vec<[i64; 4]> = rings.iter().map(|r| bounds(r)).collect();
+    // Around each ring: how many rings contain it, and the smallest of them.
+    let around: Vec<(usize, Option<usize>)> = (0..rings.len())
         .map(|i| {
-            (0..rings.len())
-                .filter(|&j| {
-                    j != i
-                        && areas[j] > areas[i]
-                        && boxes[j][0] <= boxes[i][0]
-                        && boxes[j][1] <= boxes[i][1]
-                        && boxes[j][2] >= boxes[i][2]
-                        && boxes[j][3] >= boxes[i][3]
-                        && rings[i]
-                            .iter()
-                            .find(|p| !rings[j].contains(p))
-                            .is_some_and(|p| inside(*p, &rings[j]))
-                })
-                .collect()
+            let mut count = 0;
+            let mut smallest: Option<usize> = None;
+            for j in 0..rings.len() {
+                let (a, b) = (boxes[i], boxes[j]);
+                if j != i
+                    && areas[j] > areas[i]
+                    && b[0] <= a[0]
+                    && b[1] <= a[1]
+                    && b[2] >= a[2]
+                    && b[3] >= a[3]
+                    && ring_inside(&rings[i], &rings[j])
+                {
+                    count += 1;
+                    if smallest.is_none_or(|s| areas[j] < areas[s]) {
+                        smallest = Some(j);
+                    }
+                }
+            }
+            (count, smallest)
         })
         .collect();
+    let open = |r: &[[i64; 2]]| -> Vec<[f64; 2]> {
+        r[..r.len() - 1].iter().map(|&p| degrees(p)).collect()
+    };
     let mut polygons: Vec<RawPolygon> = Vec::new();
     let mut polygon_of: HashMap<usize, usize> = HashMap::new();
-    let mut order: Vec<usize> = (0..rings.len()).collect();
-    order.sort_by_key(|&i| around[i].len());
-    for i in order {
-        if around[i].len().is_multiple_of(2) {
+    for (i, r) in rings.iter().enumerate() {
+        if around[i].0.is_multiple_of(2) {
             polygon_of.insert(i, polygons.len());
-            polygons.push(vec![rings[i].clone()]);
-        } else {
-            // The smallest outer ring around it (one level up).
-            let parent = around[i]
-                .iter()
-                .copied()
-                .filter(|&j| around[j].len() + 1 == around[i].len())
-                .min_by(|&a, &b| areas[a].total_cmp(&areas[b]));
-            match parent.and_then(|p| polygon_of.get(&p)) {
-                Some(&p) => polygons[p].push(rings[i].clone()),
-                None => {
-                    polygon_of.insert(i, polygons.len());
-                    polygons.push(vec![rings[i].clone()]);
-                }
+            polygons.push(vec![open(r)]);
+        }
+    }
+    for (i, r) in rings.iter().enumerate() {
+        if !around[i].0.is_multiple_of(2) {
+            match around[i].1.and_then(|p| polygon_of.get(&p)) {
+                Some(&p) => polygons[p].push(open(r)),
+                // Its smallest container is itself a hole (rings that cross): an outer of its own.
+                None => polygons.push(vec![open(r)]),
             }
         }
     }
     polygons
 }
 
-fn area(r: &[[f64; 2]]) -> f64 {
-    let n = r.len();
-    (0..n)
-        .map(|i| {
-            let (a, b) = (r[i], r[(i + 1) % n]);
-            a[0] * b[1] - b[0] * a[1]
+/// [min lat, min lon, max lat, max lon].
+fn bounds(r: &[[i64; 2]]) -> [i64; 4] {
+    r.iter()
+        .fold([i64::MAX, i64::MAX, i64::MIN, i64::MIN], |b, p| {
+            [
+                b[0].min(p[0]),
+                b[1].min(p[1]),
+                b[2].max(p[0]),
+                b[3].max(p[1]),
+            ]
         })
-        .sum::<f64>()
-        / 2.0
 }
 
-/// Even-odd point in ring.
-fn inside(p: [f64; 2], r: &[[f64; 2]]) -> bool {
-    let mut c = false;
-    let n = r.len();
-    for i in 0..n {
-        let (a, b) = (r[i], r[(i + 1) % n]);
-        if (a[1] > p[1]) != (b[1] > p[1])
-            && p[0] < a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0])
+fn twice_area(r: &[[i64; 2]]) -> i128 {
+    r.windows(2)
+        .map(|w| {
+            let (a, b) = (w[0], w[1]);
+            a[1] as i128 * b[0] as i128 - b[1] as i128 * a[0] as i128
+        })
+        .sum()
+}
+
+#[derive(PartialEq, Eq)]
+enum Where {
+    Inside,
+    Outside,
+    Boundary,
+}
+
+/// Whether ring `a` lies inside ring `b`: the first of its points (vertices, then edge midpoints) not on `b`'s
+/// boundary decides; a ring lying all on `b`'s boundary is not inside it.
+fn ring_inside(a: &[[i64; 2]], b: &[[i64; 2]]) -> bool {
+    let vertices = a.iter().map(|p| [2 * p[0] as i128, 2 * p[1] as i128]);
+    let midpoints = a.windows(2).map(|w| {
+        [
+            w[0][0] as i128 + w[1][0] as i128,
+            w[0][1] as i128 + w[1][1] as i128,
+        ]
+    });
+    for p in vertices.chain(midpoints) {
+        match locate(p, b) {
+            Where::Inside => return true,
+            Where::Outside => return false,
+            Where::Boundary => {}
+        }
+    }
+    false
+}
+
+/// Where point `p` (doubled nanodegrees lat, lon) lies against the closed ring `r`: exact, by crossings of a ray
+/// towards +lon.
+fn locate(p: [i128; 2], r: &[[i64; 2]]) -> Where {
+    let (py, px) = (p[0], p[1]);
+    let mut inside = false;
+    for w in r.windows(2) {
+        let (ay, ax) = (2 * w[0][0] as i128, 2 * w[0][1] as i128);
+        let (by, bx) = (2 * w[1][0] as i128, 2 * w[1][1] as i128);
+        let cross = (bx - ax) * (py - ay) - (by - ay) * (px - ax);
+        if cross == 0
+            && px >= ax.min(bx)
+            && px <= ax.max(bx)
+            && py >= ay.min(by)
+            && py <= ay.max(by)
         {
-            c = !c;
+            return Where::Boundary;
+        }
+        if (ay > py) != (by > py) && (by > ay) == (cross > 0) {
+            inside = !inside;
         }
     }
-    c
-}
-
-// ---------------------------------------------------------------------------------------------------------------
-// The file: blobs and their blocks.
-
-struct File<'a> {
-    /// The data blobs, in file order: raw or zlib-compressed.
-    blobs: Vec<Blob<'a>>,
-    locations_on_ways: bool,
-}
-
-enum Blob<'a> {
-    Raw(&'a [u8]),
-    Zlib(&'a [u8], usize),
-}
-
-impl<'a> File<'a> {
-    fn open(bytes: &'a [u8]) -> Result<Self, String> {
-        let mut pos = 0usize;
-        let mut blobs = Vec::new();
-        let mut header = None;
-        let mut index = 0usize;
-        while pos < bytes.len() {
-            let at = pos;
-            let cut = || format!("the file ends inside blob {index} (at byte {at}): cut short");
-            let len_bytes: [u8; 4] = bytes
-                .get(pos..pos + 4)
-                .ok_or_else(cut)?
-                .try_into()
-                .expect("4 bytes");
-            let header_len = u32::from_be_bytes(len_bytes) as usize;
-            if header_len > MAX_BLOB_HEADER {
-                return Err(if index == 0 {
-                    "not an OpenStreetMap PBF file (it does not start with a blob header)".into()
-                } else {
-                    format!("blob {index} (at byte {at}): a header of {header_len} bytes, over the format's 64 KiB")
-                });
-            }
-            pos += 4;
-            let h = bytes.get(pos..pos + header_len).ok_or_else(cut)?;
-            pos += header_len;
-            let mut kind = None;
-            let mut size = None;
-            for f in Fields::new(h) {
-                match f.map_err(|e| format!("blob {index}'s header: {e}"))? {
-                    (1, Val::Bytes(b)) => kind = Some(b),
-                    (3, Val::Int(n)) => size = Some(n as usize),
-                    _ => {}
-                }
-            }
-            let (Some(kind), Some(size)) = (kind, size) else {
-                return Err(if index == 0 {
-                    "not an OpenStreetMap PBF file (no OSMHeader blob first)".into()
-                } else {
-                    format!("blob {index} (at byte {at}): a header without its type or size")
-                });
-            };
-            if size > MAX_BLOB {
-                return Err(format!(
-                    "blob {index} (at byte {at}): {size} bytes, over the format's 32 MiB"
-                ));
-            }
-            let data = bytes.get(pos..pos + size).ok_or_else(cut)?;
-            pos += size;
-            let blob = Blob::of(data).map_err(|e| format!("blob {index} (at byte {at}): {e}"))?;
-            match kind {
-                b"OSMHeader" => {
-                    if header.is_some() {
-                        return Err(format!("blob {index}: a second OSMHeader"));
-                    }
-                    let data = blob.data().map_err(|e| format!("blob {index}: {e}"))?;
-                    header = Some(read_header(&data)?);
-                }
-                b"OSMData" if header.is_none() => {
-                    return Err(if index == 0 {
-                        "not an OpenStreetMap PBF file (no OSMHeader blob first)".into()
-                    } else {
-                        format!("blob {index}: data before the OSMHeader")
-                    })
-                }
-                b"OSMData" => blobs.push(blob),
-                // Other blob types are allowed by the format and skipped by readers.
-                _ if index == 0 => {
-                    return Err("not an OpenStreetMap PBF file (no OSMHeader blob first)".into())
-                }
-                _ => {}
-            }
-            index += 1;
-        }
-        let Some(locations_on_ways) = header else {
-            return Err("an empty file: no OSMHeader".into());
-        };
-        Ok(File {
-            blobs,
-            locations_on_ways,
-        })
+    if inside {
+        Where::Inside
+    } else {
+        Where::Outside
     }
-
-    /// Every data blob decompressed, in file order.
-    fn blocks(&self) -> Result<Vec<Vec<u8>>, String> {
-        self.blobs
-            .par_iter()
-            .enumerate()
-            .map(|(i, b)| b.data().map_err(|e| format!("data blob {i}: {e}")))
-            .collect()
-    }
-}
-
-/// The HeaderBlock's required features, checked; whether node locations are on the ways.
-fn read_header(data: &[u8]) -> Result<bool, String> {
-    let mut on_ways = false;
-    for f in Fields::new(data) {
-        match f.map_err(|e| format!("the OSMHeader: {e}"))? {
-            (4, Val::Bytes(b)) => {
-                let feature = String::from_utf8_lossy(b);
-                match &*feature {
-                    "OsmSchema-V0.6" | "DenseNodes" => {}
-                    "HistoricalInformation" => {
-                        return Err("a history file (HistoricalInformation: every version of each object); give a \
-                             file of current data"
-                            .into())
-                    }
-                    other => {
-                        return Err(format!(
-                            "the file requires the feature {other:?}, which this reader does not have"
-                        ))
-                    }
-                }
-            }
-            (5, Val::Bytes(b)) if b == b"LocationsOnWays" => on_ways = true,
-            _ => {}
-        }
-    }
-    Ok(on_ways)
-}
-
-impl<'a> Blob<'a> {
-    fn of(data: &'a [u8]) -> Result<Self, String> {
-        let mut raw = None;
-        let mut zlib = None;
-        let mut raw_size = None;
-        for f in Fields::new(data) {
-            match f? {
-                (1, Val::Bytes(b)) => raw = Some(b),
-                (2, Val::Int(n)) => raw_size = Some(n as usize),
-                (3, Val::Bytes(b)) => zlib = Some(b),
-                (4, _) => return Err("LZMA-compressed, which this reader does not read".into()),
-                (5, _) => return Err("bzip2-compressed, which this reader does not read".into()),
-                (6, _) => return Err("LZ4-compressed, which this reader does not read".into()),
-                (7, _) => {
-                    return Err("Zstandard-compressed, which this reader does not read".into())
-                }
-                _ => {}
-            }
-        }
-        match (raw, zlib, raw_size) {
-            (Some(r), None, _) => Ok(Blob::Raw(r)),
-            (None, Some(z), Some(n)) if n <= MAX_BLOB => Ok(Blob::Zlib(z, n)),
-            (None, Some(_), Some(n)) => {
-                Err(format!("{n} bytes uncompressed, over the format's 32 MiB"))
-            }
-            (None, Some(_), None) => Err("compressed data without its raw size".into()),
-            _ => Err("no data (or both raw and compressed)".into()),
-        }
-    }
-
-    fn data(&self) -> Result<Vec<u8>, String> {
-        match *self {
-            Blob::Raw(r) => Ok(r.to_vec()),
-            Blob::Zlib(z, n) => {
-                let mut out = Vec::with_capacity(n);
-                flate2::read::ZlibDecoder::new(z)
-                    .take(n as u64 + 1)
-                    .read_to_end(&mut out)
-                    .map_err(|e| format!("cannot decompress: {e}"))?;
-                if out.len() != n {
-                    return Err(format!(
-                        "decompressed to {} bytes, not the {n} its header says",
-                        out.len()
-                    ));
-                }
-                Ok(out)
-            }
-        }
-    }
-}
-
-/// Runs `f` on every block in parallel and concatenates what it gives, in block order.
-fn per_block<T: Send>(
-    blocks: &[Vec<u8>],
-    f: impl Fn(&Block, &mut Vec<T>) -> Result<(), String> + Sync,
-) -> Result<Vec<T>, String> {
-    let parts: Vec<Vec<T>> = blocks
-        .par_iter()
-        .enumerate()
-        .map(|(i, data)| {
-            let block = Block::new(data).map_err(|e| format!("data block {i}: {e}"))?;
-            let mut out = Vec::new();
-            f(&block, &mut out).map_err(|e| format!("data block {i}: {e}"))?;
-            Ok(out)
-        })
-        .collect::<Result<_, String>>()?;
-    Ok(parts.into_iter().flatten().collect())
 }
 
 /// A relation tagged as a building.
@@ -800,6 +660,8 @@ pub(crate) struct Relation {
     pub id: i64,
     pub tags: Vec<(String, String)>,
     pub members: Vec<Member>,
+    /// More members than [`MAX_MEMBERS`]: their number (and none kept).
+    pub oversized: Option<usize>,
 }
 
 impl Relation {
@@ -833,386 +695,6 @@ pub(crate) struct Way {
     pub refs: Vec<i64>,
     pub tags: Vec<(String, String)>,
     pub locations: Option<Vec<[i64; 2]>>,
-}
-
-enum NodeRead {
-    Location(i64, [i64; 2]),
-    Building(i64, Vec<(String, String)>),
-}
-
-/// A PrimitiveBlock: its string table, coordinate scale and groups.
-struct Block<'a> {
-    strings: Vec<&'a [u8]>,
-    granularity: i64,
-    lat_offset: i64,
-    lon_offset: i64,
-    groups: Vec<&'a [u8]>,
-}
-
-impl<'a> Block<'a> {
-    fn new(data: &'a [u8]) -> Result<Self, String> {
-        let mut b = Block {
-            strings: Vec::new(),
-            granularity: 100,
-            lat_offset: 0,
-            lon_offset: 0,
-            groups: Vec::new(),
-        };
-        for f in Fields::new(data) {
-            match f? {
-                (1, Val::Bytes(table)) => {
-                    for s in Fields::new(table) {
-                        if let (1, Val::Bytes(s)) = s? {
-                            b.strings.push(s);
-                        }
-                    }
-                }
-                (2, Val::Bytes(g)) => b.groups.push(g),
-                (17, Val::Int(n)) => b.granularity = n as i32 as i64,
-                (19, Val::Int(n)) => b.lat_offset = n as i64,
-                (20, Val::Int(n)) => b.lon_offset = n as i64,
-                _ => {}
-            }
-        }
-        if b.granularity <= 0 {
-            return Err(format!("granularity {} is not positive", b.granularity));
-        }
-        Ok(b)
-    }
-
-    fn string(&self, i: u64) -> Result<String, String> {
-        let s = self.strings.get(i as usize).ok_or_else(|| {
-            format!(
-                "string {i} is not in the block's table of {}",
-                self.strings.len()
-            )
-        })?;
-        Ok(String::from_utf8_lossy(s).into_owned())
-    }
-
-    fn tags(&self, keys: &[u64], vals: &[u64]) -> Result<Vec<(String, String)>, String> {
-        if keys.len() != vals.len() {
-            return Err(format!("{} tag keys for {} values", keys.len(), vals.len()));
-        }
-        keys.iter()
-            .zip(vals)
-            .map(|(&k, &v)| Ok((self.string(k)?, self.string(v)?)))
-            .collect()
-    }
-
-    /// Nanodegrees of a raw coordinate pair (lat, lon).
-    fn at(&self, lat: i64, lon: i64) -> [i64; 2] {
-        let scale = |offset: i64, v: i64| {
-            (offset as i128 + self.granularity as i128 * v as i128)
-                .clamp(i64::MIN as i128, i64::MAX as i128) as i64
-        };
-        [scale(self.lat_offset, lat), scale(self.lon_offset, lon)]
-    }
-
-    fn group_items(
-        &self,
-        field: u32,
-        mut each: impl FnMut(&'a [u8]) -> Result<(), String>,
-    ) -> Result<(), String> {
-        for &g in &self.groups {
-            for f in Fields::new(g) {
-                if let (n, Val::Bytes(b)) = f? {
-                    if n == field {
-                        each(b)?;
-                    }
-                }
-            }
-        }
-        Ok(())
-    }
-
-    fn relations(&self, out: &mut Vec<Relation>) -> Result<(), String> {
-        self.group_items(4, |data| {
-            let (mut id, mut keys, mut vals, mut ids, mut types) =
-                (0, vec![], vec![], vec![], vec![]);
-            for f in Fields::new(data) {
-                match f? {
-                    (1, Val::Int(n)) => id = n as i64,
-                    (2, v) => numbers(v, &mut keys)?,
-                    (3, v) => numbers(v, &mut vals)?,
-                    (9, v) => numbers(v, &mut ids)?,
-                    (10, v) => numbers(v, &mut types)?,
-                    _ => {}
-                }
-            }
-            let tags = self.tags(&keys, &vals)?;
-            if !building_tags(&tags) {
-                return Ok(());
-            }
-            if ids.len() != types.len() {
-                return Err(format!(
-                    "relation {id}: {} member ids for {} member types",
-                    ids.len(),
-                    types.len()
-                ));
-            }
-            let mut member = 0i64;
-            let members = ids
-                .iter()
-                .zip(&types)
-                .map(|(&d, &t)| {
-                    member = member.wrapping_add(zigzag(d));
-                    let kind = match t {
-                        0 => MemberKind::Node,
-                        1 => MemberKind::Way,
-                        2 => MemberKind::Relation,
-                        other => return Err(format!("relation {id}: member type {other}")),
-                    };
-                    Ok(Member { id: member, kind })
-                })
-                .collect::<Result<_, String>>()?;
-            out.push(Relation { id, tags, members });
-            Ok(())
-        })
-    }
-
-    fn ways(
-        &self,
-        out: &mut Vec<Way>,
-        keep: impl Fn(i64, &[(String, String)]) -> bool,
-    ) -> Result<(), String> {
-        self.group_items(3, |data| {
-            let (mut id, mut keys, mut vals, mut refs, mut lats, mut lons) =
-                (0, vec![], vec![], vec![], vec![], vec![]);
-            for f in Fields::new(data) {
-                match f? {
-                    (1, Val::Int(n)) => id = n as i64,
-                    (2, v) => numbers(v, &mut keys)?,
-                    (3, v) => numbers(v, &mut vals)?,
-                    (8, v) => numbers(v, &mut refs)?,
-                    (9, v) => numbers(v, &mut lats)?,
-                    (10, v) => numbers(v, &mut lons)?,
-                    _ => {}
-                }
-            }
-            let tags = self.tags(&keys, &vals)?;
-            if !keep(id, &tags) {
-                return Ok(());
-            }
-            let refs = deltas(&refs);
-            let locations = if lats.is_empty() && lons.is_empty() {
-                None
-            } else if lats.len() == refs.len() && lons.len() == refs.len() {
-                let (lats, lons) = (deltas(&lats), deltas(&lons));
-                Some(
-                    lats.iter()
-                        .zip(&lons)
-                        .map(|(&a, &o)| self.at(a, o))
-                        .collect(),
-                )
-            } else {
-                return Err(format!(
-                    "way {id}: {} nodes but {} latitudes and {} longitudes",
-                    refs.len(),
-                    lats.len(),
-                    lons.len()
-                ));
-            };
-            out.push(Way {
-                id,
-                refs,
-                tags,
-                locations,
-            });
-            Ok(())
-        })
-    }
-
-    fn nodes(&self, out: &mut Vec<NodeRead>, needed: &HashSet<i64>) -> Result<(), String> {
-        // Plain nodes.
-        self.group_items(1, |data| {
-            let (mut id, mut keys, mut vals, mut lat, mut lon) = (0, vec![], vec![], 0, 0);
-            for f in Fields::new(data) {
-                match f? {
-                    (1, Val::Int(n)) => id = zigzag(n),
-                    (2, v) => numbers(v, &mut keys)?,
-                    (3, v) => numbers(v, &mut vals)?,
-                    (8, Val::Int(n)) => lat = zigzag(n),
-                    (9, Val::Int(n)) => lon = zigzag(n),
-                    _ => {}
-                }
-            }
-            if needed.contains(&id) {
-                out.push(NodeRead::Location(id, self.at(lat, lon)));
-            }
-            if !keys.is_empty() {
-                let tags = self.tags(&keys, &vals)?;
-                if building_tags(&tags) {
-                    out.push(NodeRead::Building(id, tags));
-                }
-            }
-            Ok(())
-        })?;
-        // Dense nodes.
-        self.group_items(2, |data| {
-            let (mut ids, mut lats, mut lons, mut kv) = (vec![], vec![], vec![], vec![]);
-            for f in Fields::new(data) {
-                match f? {
-                    (1, v) => numbers(v, &mut ids)?,
-                    (8, v) => numbers(v, &mut lats)?,
-                    (9, v) => numbers(v, &mut lons)?,
-                    (10, v) => numbers(v, &mut kv)?,
-                    _ => {}
-                }
-            }
-            if ids.len() != lats.len() || ids.len() != lons.len() {
-                return Err(format!(
-                    "dense nodes: {} ids, {} latitudes, {} longitudes",
-                    ids.len(),
-                    lats.len(),
-                    lons.len()
-                ));
-            }
-            let (mut id, mut lat, mut lon) = (0i64, 0i64, 0i64);
-            let mut kv = kv.iter().copied();
-            for i in 0..ids.len() {
-                id = id.wrapping_add(zigzag(ids[i]));
-                lat = lat.wrapping_add(zigzag(lats[i]));
-                lon = lon.wrapping_add(zigzag(lons[i]));
-                if needed.contains(&id) {
-                    out.push(NodeRead::Location(id, self.at(lat, lon)));
-                }
-                // This node's tags: key, value pairs up to a 0 (none at all when the block has no tags).
-                let (mut keys, mut vals) = (vec![], vec![]);
-                while let Some(k) = kv.next() {
-                    if k == 0 {
-                        break;
-                    }
-                    let v = kv
-                        .next()
-                        .ok_or_else(|| format!("dense node {id}: a tag key without its value"))?;
-                    keys.push(k);
-                    vals.push(v);
-                }
-                if !keys.is_empty() {
-                    let tags = self.tags(&keys, &vals)?;
-                    if building_tags(&tags) {
-                        out.push(NodeRead::Building(id, tags));
-                    }
-                }
-            }
-            Ok(())
-        })
-    }
-}
-
-fn zigzag(n: u64) -> i64 {
-    ((n >> 1) as i64) ^ -((n & 1) as i64)
-}
-
-/// Delta-coded signed (zigzag) numbers, summed.
-fn deltas(v: &[u64]) -> Vec<i64> {
-    let mut at = 0i64;
-    v.iter()
-        .map(|&d| {
-            at = at.wrapping_add(zigzag(d));
-            at
-        })
-        .collect()
-}
-
-// ---------------------------------------------------------------------------------------------------------------
-// Protocol-buffer fields.
-
-#[derive(Clone, Copy)]
-enum Val<'a> {
-    Int(u64),
-    Bytes(&'a [u8]),
-}
-
-/// A repeated number field, packed (one length-delimited run of varints) or not (one varint per field).
-fn numbers(v: Val, out: &mut Vec<u64>) -> Result<(), String> {
-    match v {
-        Val::Int(n) => out.push(n),
-        Val::Bytes(b) => {
-            let mut pos = 0;
-            while pos < b.len() {
-                out.push(varint(b, &mut pos)?);
-            }
-        }
-    }
-    Ok(())
-}
-
-fn varint(buf: &[u8], pos: &mut usize) -> Result<u64, String> {
-    let mut v = 0u64;
-    for shift in (0..64).step_by(7) {
-        let b = *buf.get(*pos).ok_or("a number cut short")?;
-        *pos += 1;
-        v |= u64::from(b & 0x7f) << shift;
-        if b & 0x80 == 0 {
-            return Ok(v);
-        }
-    }
-    Err("a number of more than 10 bytes".into())
-}
-
-/// The fields of one message, in order: (field number, value). Fixed-width values are read as numbers.
-struct Fields<'a> {
-    buf: &'a [u8],
-    pos: usize,
-    failed: bool,
-}
-
-impl<'a> Fields<'a> {
-    fn new(buf: &'a [u8]) -> Self {
-        Fields {
-            buf,
-            pos: 0,
-            failed: false,
-        }
-    }
-
-    fn field(&mut self) -> Result<(u32, Val<'a>), String> {
-        let key = varint(self.buf, &mut self.pos)?;
-        let number = u32::try_from(key >> 3).map_err(|_| "a field number out of range")?;
-        let fixed = |s: &mut Self, n: usize| -> Result<u64, String> {
-            let b = s
-                .buf
-                .get(s.pos..s.pos + n)
-                .ok_or("a fixed-width value cut short")?;
-            s.pos += n;
-            Ok(b.iter().rev().fold(0u64, |v, &x| (v << 8) | u64::from(x)))
-        };
-        let val = match key & 7 {
-            0 => Val::Int(varint(self.buf, &mut self.pos)?),
-            1 => Val::Int(fixed(self, 8)?),
-            5 => Val::Int(fixed(self, 4)?),
-            2 => {
-                let n = varint(self.buf, &mut self.pos)?;
-                let end = usize::try_from(n)
-                    .ok()
-                    .and_then(|n| self.pos.checked_add(n))
-                    .filter(|&e| e <= self.buf.len())
-                    .ok_or("a length-delimited field runs past its message")?;
-                let b = &self.buf[self.pos..end];
-                self.pos = end;
-                Val::Bytes(b)
-            }
-            w => {
-                return Err(format!(
-                    "field {number} has wire type {w}, which the format does not use"
-                ))
-            }
-        };
-        Ok((number, val))
-    }
-}
-
-impl<'a> Iterator for Fields<'a> {
-    type Item = Result<(u32, Val<'a>), String>;
-
-    fn next(&mut self) -> Option<Self::Item> {
-        if self.failed || self.pos >= self.buf.len() {
-            return None;
-        }
-        let f = self.field();
-        self.failed = f.is_err();
-        Some(f)
-    }
+    /// More nodes than [`MAX_WAY_NODES`]: their number (and no refs kept).
+    pub oversized: Option<usize>,
 }

@@ -7,7 +7,7 @@
 
 use crate::osm::{
     building_tags, member_ways, needed_nodes, wanted_way, Gathered, Member, MemberKind, Relation,
-    Want, Way,
+    Want, Way, MAX_MEMBERS, MAX_WAY_NODES,
 };
 use std::io::Read;
 use std::path::Path;
@@ -98,9 +98,12 @@ pub(crate) fn gather(path: &Path, bytes: &[u8], want: Want) -> Result<Gathered, 
             if !building_tags(&tags) {
                 continue;
             }
-            let members = e
-                .children()
-                .filter(|c| c.has_tag_name("member"))
+            let listed: Vec<roxmltree::Node> =
+                e.children().filter(|c| c.has_tag_name("member")).collect();
+            let oversized = (listed.len() > MAX_MEMBERS).then_some(listed.len());
+            let members = listed
+                .iter()
+                .take(if oversized.is_some() { 0 } else { listed.len() })
                 .map(|m| {
                     let kind = match m.attribute("type") {
                         Some("way") => MemberKind::Way,
@@ -108,7 +111,7 @@ pub(crate) fn gather(path: &Path, bytes: &[u8], want: Want) -> Result<Gathered, 
                         _ => MemberKind::Node,
                     };
                     Ok(Member {
-                        id: reference(&m)?,
+                        id: reference(m)?,
                         kind,
                     })
                 })
@@ -117,6 +120,7 @@ pub(crate) fn gather(path: &Path, bytes: &[u8], want: Want) -> Result<Gathered, 
                 id: id(e)?,
                 tags,
                 members,
+                oversized,
             });
         }
     }
@@ -128,6 +132,16 @@ pub(crate) fn gather(path: &Path, bytes: &[u8], want: Want) -> Result<Gathered, 
             continue;
         }
         let nds: Vec<roxmltree::Node> = e.children().filter(|c| c.has_tag_name("nd")).collect();
+        if nds.len() > MAX_WAY_NODES {
+            g.ways.push(Way {
+                id: way_id,
+                refs: Vec::new(),
+                tags,
+                locations: None,
+                oversized: Some(nds.len()),
+            });
+            continue;
+        }
         let refs = nds
             .iter()
             .map(&reference)
@@ -148,6 +162,7 @@ pub(crate) fn gather(path: &Path, bytes: &[u8], want: Want) -> Result<Gathered, 
             refs,
             tags,
             locations,
+            oversized: None,
         });
     }
     let needed = needed_nodes(&g.ways);

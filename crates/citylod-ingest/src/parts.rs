@@ -23,7 +23,7 @@ pub(crate) fn outlines_with_parts(
     }
     let is_outline = |f: &RawFeature| {
         !f.is_building_part
-            && matches!(f.attributes.get("building"), Some(AttrValue::String(v)) if v != "no")
+            && matches!(f.attributes.get("building"), Some(AttrValue::String(v)) if crate::osm::tag_set(v))
     };
     let boxes: Vec<GeomWithData<Rectangle<[f64; 2]>, usize>> = features
         .iter()

@@ -763,3 +763,244 @@ fn broken_xml_is_refused_with_the_reason() {
     assert!(err("bomb.osm", bomb).contains("not well-formed XML"));
     assert!(err("bad.osm.gz", b"not gzip").contains("gzip"));
 }
+
+/// Nodes of a square of side `d` degrees at (x, y), ids from `first`, counter-clockwise from the south-west corner.
+fn square_nodes(first: i64, x: f64, y: f64, d: f64) -> Vec<Node> {
+    [(x, y), (x + d, y), (x + d, y + d), (x, y + d)]
+        .iter()
+        .enumerate()
+        .map(|(i, &(lon, lat))| Node {
+            id: first + i as i64,
+            lon,
+            lat,
+            tags: vec![],
+        })
+        .collect()
+}
+
+fn way(id: i64, refs: &[i64], t: &[(&str, &str)]) -> Way {
+    Way {
+        id,
+        refs: refs.to_vec(),
+        tags: tags(t),
+    }
+}
+
+fn multipolygon(id: i64, ways: &[(i64, &str)]) -> Relation {
+    Relation {
+        id,
+        members: ways
+            .iter()
+            .map(|&(w, role)| ('w', w, role.to_string()))
+            .collect(),
+        tags: tags(&[("type", "multipolygon"), ("building", "yes")]),
+    }
+}
+
+#[test]
+fn relation_rings_join_where_they_meet_and_nest_exactly() {
+    let dir = scratch("rings");
+    let d = 0.0004;
+    let (x, y) = (4.35, 52.01);
+    // Two squares sharing their corner node 3 (the first's north-east, the second's south-west), drawn as two open
+    // ways each, so joining passes node 3 twice; the second has a courtyard.
+    let mut nodes = square_nodes(1, x, y, d); // 1..4, node 3 at (x+d, y+d)
+    nodes.extend(square_nodes(10, x + d, y + d, d)); // 10..13, node 10 at (x+d, y+d): replaced by node 3 below
+    nodes.retain(|n| n.id != 10);
+    nodes.extend(square_nodes(20, x + 1.25 * d, y + 1.25 * d, 0.5 * d)); // the courtyard
+                                                                         // A house whose courtyard's first corner lies on its east wall, another on its west wall.
+    let (hx, hy) = (x + 0.01, y);
+    nodes.extend(square_nodes(30, hx, hy, d));
+    nodes.extend([
+        Node {
+            id: 40,
+            lon: hx + d,
+            lat: hy + 0.5 * d,
+            tags: vec![],
+        },
+        Node {
+            id: 41,
+            lon: hx + 0.5 * d,
+            lat: hy + 0.25 * d,
+            tags: vec![],
+        },
+        Node {
+            id: 42,
+            lon: hx + 0.5 * d,
+            lat: hy + 0.75 * d,
+            tags: vec![],
+        },
+    ]);
+    let (wx, wy) = (x + 0.02, y);
+    nodes.extend(square_nodes(50, wx, wy, d));
+    nodes.extend([
+        Node {
+            id: 60,
+            lon: wx,
+            lat: wy + 0.5 * d,
+            tags: vec![],
+        },
+        Node {
+            id: 61,
+            lon: wx + 0.5 * d,
+            lat: wy + 0.75 * d,
+            tags: vec![],
+        },
+        Node {
+            id: 62,
+            lon: wx + 0.5 * d,
+            lat: wy + 0.25 * d,
+            tags: vec![],
+        },
+    ]);
+    // A way closed by another node at its first node's location, and a relation whose two ways meet at such nodes.
+    let (cx, cy) = (x + 0.03, y);
+    nodes.extend(square_nodes(70, cx, cy, d));
+    nodes.push(Node {
+        id: 74,
+        lon: cx,
+        lat: cy,
+        tags: vec![],
+    });
+    let (rx, ry) = (x + 0.04, y);
+    nodes.extend(square_nodes(80, rx, ry, d));
+    nodes.push(Node {
+        id: 84,
+        lon: rx,
+        lat: ry,
+        tags: vec![],
+    });
+    nodes.push(Node {
+        id: 85,
+        lon: rx + d,
+        lat: ry + d,
+        tags: vec![],
+    });
+    let data = OsmData {
+        nodes,
+        ways: vec![
+            way(100, &[1, 2, 3], &[]),
+            way(101, &[3, 4, 1], &[]),
+            way(102, &[3, 11, 12], &[]),
+            way(103, &[12, 13, 3], &[]),
+            way(104, &[20, 21, 22, 23, 20], &[]),
+            way(110, &[30, 31, 32, 33, 30], &[]),
+            way(111, &[40, 42, 41, 40], &[]),
+            way(120, &[50, 51, 52, 53, 50], &[]),
+            way(121, &[60, 61, 62, 60], &[]),
+            way(130, &[70, 71, 72, 73, 74], &[("building", "yes")]),
+            way(140, &[80, 81, 82], &[]),
+            way(141, &[85, 83, 84], &[]),
+        ],
+        relations: vec![
+            multipolygon(
+                1,
+                &[
+                    (100, "outer"),
+                    (102, "outer"),
+                    (101, "outer"),
+                    (103, "outer"),
+                    (104, "inner"),
+                ],
+            ),
+            multipolygon(2, &[(110, "outer"), (111, "inner")]),
+            multipolygon(3, &[(120, "outer"), (121, "inner")]),
+            // Listed twice: taken once.
+            multipolygon(4, &[(140, "outer"), (141, "outer"), (140, "outer")]),
+        ],
+    };
+    let p = write(
+        &dir,
+        "rings.osm.pbf",
+        &write_pbf(&data, &PbfOptions::default()),
+    );
+    let out = read(&p).unwrap();
+    let r = &out.report;
+    assert!(r.skipped.is_empty(), "{:?}", r.skipped);
+    let by_id = |id: &str| out.buildings.iter().find(|b| b.source_id == id).unwrap();
+    let holes = |id: &str| {
+        let mut h: Vec<usize> = by_id(id)
+            .footprint
+            .0
+            .iter()
+            .map(|p| p.interiors().len())
+            .collect();
+        h.sort();
+        h
+    };
+    // Two squares touching at a corner, the courtyard kept in the second; nothing to repair.
+    assert_eq!(holes("relation/1"), [0, 1]);
+    let sq = area_m2(by_id("way/130"));
+    let a = area_m2(by_id("relation/1"));
+    assert!(
+        (a - sq * (2.0 - 0.25)).abs() < 0.01 * sq,
+        "{a} against {}",
+        sq * 1.75
+    );
+    assert!(
+        !r.repaired.iter().any(|i| i.feature_id == "relation/1"),
+        "{:?}",
+        r.repaired
+    );
+    // A courtyard touching the wall, east or west: a hole either way.
+    for id in ["relation/2", "relation/3"] {
+        assert_eq!(holes(id), [1], "{id}");
+        let a = area_m2(by_id(id));
+        assert!((a - sq * 0.875).abs() < 0.01 * sq, "{id}: {a}");
+    }
+    // Closed at the same location by another node.
+    assert!((area_m2(by_id("way/130")) - area_m2(by_id("relation/4"))).abs() < 0.01 * sq);
+    assert!(r.repaired.iter().any(|i| i.feature_id == "relation/4"
+        && i.reason == IssueReason::NonPolygonMemberDropped
+        && i.detail.contains("listed more than once")));
+}
+
+#[test]
+fn hostile_sizes_are_refused_per_building_not_by_memory() {
+    let dir = scratch("sizes");
+    let (x, y) = (4.35, 52.01);
+    let mut nodes = square_nodes(1, x, y, 0.0004);
+    nodes.extend(square_nodes(5, x + 0.001, y, 0.0004));
+    // A way of 150,000 references to four nodes, and a relation listing one way 40,000 times.
+    let mut refs: Vec<i64> = (0..150_000).map(|i| 1 + (i % 4)).collect();
+    refs.push(1);
+    let data = OsmData {
+        nodes,
+        ways: vec![
+            way(10, &refs, &[("building", "yes")]),
+            way(11, &[5, 6, 7, 8, 5], &[]),
+            way(12, &[5, 6, 7, 8, 5], &[("building", "yes")]),
+        ],
+        relations: vec![Relation {
+            id: 20,
+            members: (0..40_000)
+                .map(|_| ('w', 11, "outer".to_string()))
+                .collect(),
+            tags: tags(&[("type", "multipolygon"), ("building", "yes")]),
+        }],
+    };
+    let p = write(
+        &dir,
+        "sizes.osm.pbf",
+        &write_pbf(&data, &PbfOptions::default()),
+    );
+    let out = read(&p).unwrap();
+    let skipped: Vec<(&str, IssueReason, &str)> = out
+        .report
+        .skipped
+        .iter()
+        .map(|s| (s.feature_id.as_str(), s.reason, s.detail.as_str()))
+        .collect();
+    assert_eq!(out.buildings.len(), 1);
+    assert_eq!(skipped.len(), 2, "{skipped:?}");
+    assert_eq!(
+        (skipped[0].0, skipped[0].1),
+        ("way/10", IssueReason::MalformedGeometry)
+    );
+    assert!(skipped[0].2.contains("150001 nodes"), "{}", skipped[0].2);
+    assert_eq!(
+        (skipped[1].0, skipped[1].1),
+        ("relation/20", IssueReason::MalformedGeometry)
+    );
+    assert!(skipped[1].2.contains("40000 members"), "{}", skipped[1].2);
+}
