@@ -274,6 +274,14 @@ fn main() -> Result<()> {
         &[],
         runs,
     )?;
+    let pbf = data.join("nyc-les/ny-access-restriction.osm.pbf");
+    bench_build(
+        &citylod,
+        "nyc-les (OpenStreetMap PBF, its streets too)",
+        std::slice::from_ref(&pbf),
+        &["--streets", &pbf.to_string_lossy()],
+        runs,
+    )?;
     // The generated city of the generalization benchmark below, written as a 236 MB GeoJSON in UTM and built
     // once (~45 s). Written by a child process: Linux counts the RSS a child inherits at fork in its peak, so this
     // process must stay small for the peaks measured after it.
