@@ -54,28 +54,20 @@ pub(crate) fn gather(path: &Path, bytes: &[u8], want: Want) -> Result<Gathered, 
         ));
     }
     let line = |n: &roxmltree::Node| doc.text_pos_at(n.range().start).row;
-    let id = |e: &roxmltree::Node| -> Result<i64, String> {
-        e.attribute("id")
+    // A whole-number attribute (`id`, `ref`) of an element, or an error naming its line.
+    let whole = |e: &roxmltree::Node, name: &str| -> Result<i64, String> {
+        e.attribute(name)
             .and_then(|v| v.trim().parse().ok())
             .ok_or_else(|| {
                 format!(
-                    "line {}: a <{}> without a whole-number id",
+                    "line {}: a <{}> without a whole-number {name}",
                     line(e),
                     e.tag_name().name()
                 )
             })
     };
-    let reference = |e: &roxmltree::Node| -> Result<i64, String> {
-        e.attribute("ref")
-            .and_then(|v| v.trim().parse().ok())
-            .ok_or_else(|| {
-                format!(
-                    "line {}: a <{}> without a whole-number ref",
-                    line(e),
-                    e.tag_name().name()
-                )
-            })
-    };
+    let id = |e: &roxmltree::Node| whole(e, "id");
+    let reference = |e: &roxmltree::Node| whole(e, "ref");
     let elements: Vec<roxmltree::Node> = root
         .children()
         .filter(|n| n.is_element())

@@ -764,17 +764,21 @@ fn broken_xml_is_refused_with_the_reason() {
     assert!(err("bad.osm.gz", b"not gzip").contains("gzip"));
 }
 
+fn node(id: i64, lon: f64, lat: f64) -> Node {
+    Node {
+        id,
+        lon,
+        lat,
+        tags: vec![],
+    }
+}
+
 /// Nodes of a square of side `d` degrees at (x, y), ids from `first`, counter-clockwise from the south-west corner.
 fn square_nodes(first: i64, x: f64, y: f64, d: f64) -> Vec<Node> {
     [(x, y), (x + d, y), (x + d, y + d), (x, y + d)]
         .iter()
         .enumerate()
-        .map(|(i, &(lon, lat))| Node {
-            id: first + i as i64,
-            lon,
-            lat,
-            tags: vec![],
-        })
+        .map(|(i, &(lon, lat))| node(first + i as i64, lon, lat))
         .collect()
 }
 
@@ -807,75 +811,31 @@ fn relation_rings_join_where_they_meet_and_nest_exactly() {
     let mut nodes = square_nodes(1, x, y, d); // 1..4, node 3 at (x+d, y+d)
     nodes.extend(square_nodes(10, x + d, y + d, d)); // 10..13, node 10 at (x+d, y+d): replaced by node 3 below
     nodes.retain(|n| n.id != 10);
-    nodes.extend(square_nodes(20, x + 1.25 * d, y + 1.25 * d, 0.5 * d)); // the courtyard
-                                                                         // A house whose courtyard's first corner lies on its east wall, another on its west wall.
+    // The courtyard.
+    nodes.extend(square_nodes(20, x + 1.25 * d, y + 1.25 * d, 0.5 * d));
+    // A house whose courtyard's first corner lies on its east wall, another on its west wall.
     let (hx, hy) = (x + 0.01, y);
     nodes.extend(square_nodes(30, hx, hy, d));
     nodes.extend([
-        Node {
-            id: 40,
-            lon: hx + d,
-            lat: hy + 0.5 * d,
-            tags: vec![],
-        },
-        Node {
-            id: 41,
-            lon: hx + 0.5 * d,
-            lat: hy + 0.25 * d,
-            tags: vec![],
-        },
-        Node {
-            id: 42,
-            lon: hx + 0.5 * d,
-            lat: hy + 0.75 * d,
-            tags: vec![],
-        },
+        node(40, hx + d, hy + 0.5 * d),
+        node(41, hx + 0.5 * d, hy + 0.25 * d),
+        node(42, hx + 0.5 * d, hy + 0.75 * d),
     ]);
     let (wx, wy) = (x + 0.02, y);
     nodes.extend(square_nodes(50, wx, wy, d));
     nodes.extend([
-        Node {
-            id: 60,
-            lon: wx,
-            lat: wy + 0.5 * d,
-            tags: vec![],
-        },
-        Node {
-            id: 61,
-            lon: wx + 0.5 * d,
-            lat: wy + 0.75 * d,
-            tags: vec![],
-        },
-        Node {
-            id: 62,
-            lon: wx + 0.5 * d,
-            lat: wy + 0.25 * d,
-            tags: vec![],
-        },
+        node(60, wx, wy + 0.5 * d),
+        node(61, wx + 0.5 * d, wy + 0.75 * d),
+        node(62, wx + 0.5 * d, wy + 0.25 * d),
     ]);
     // A way closed by another node at its first node's location, and a relation whose two ways meet at such nodes.
     let (cx, cy) = (x + 0.03, y);
     nodes.extend(square_nodes(70, cx, cy, d));
-    nodes.push(Node {
-        id: 74,
-        lon: cx,
-        lat: cy,
-        tags: vec![],
-    });
+    nodes.push(node(74, cx, cy));
     let (rx, ry) = (x + 0.04, y);
     nodes.extend(square_nodes(80, rx, ry, d));
-    nodes.push(Node {
-        id: 84,
-        lon: rx,
-        lat: ry,
-        tags: vec![],
-    });
-    nodes.push(Node {
-        id: 85,
-        lon: rx + d,
-        lat: ry + d,
-        tags: vec![],
-    });
+    nodes.push(node(84, rx, ry));
+    nodes.push(node(85, rx + d, ry + d));
     let data = OsmData {
         nodes,
         ways: vec![

@@ -153,6 +153,17 @@ fn blob(out: &mut Vec<u8>, kind: &str, data: &[u8], raw: bool) {
     out.extend_from_slice(&blob);
 }
 
+/// A way's or relation's message begun: its id (int64) and tags (keys and values in the block's strings).
+fn id_and_tags(s: &mut Strings, id: i64, tags: &[(String, String)], unpacked: bool) -> Vec<u8> {
+    let mut m = Vec::new();
+    int_field(&mut m, 1, id as u64);
+    let keys: Vec<u64> = tags.iter().map(|(k, _)| s.id(k)).collect();
+    let vals: Vec<u64> = tags.iter().map(|(_, v)| s.id(v)).collect();
+    repeated(&mut m, 2, &keys, unpacked);
+    repeated(&mut m, 3, &vals, unpacked);
+    m
+}
+
 /// The PBF bytes of `d`.
 pub fn write_pbf(d: &OsmData, o: &PbfOptions) -> Vec<u8> {
     let mut out = Vec::new();
@@ -211,12 +222,7 @@ pub fn write_pbf(d: &OsmData, o: &PbfOptions) -> Vec<u8> {
         let mut s = Strings::default();
         let mut group = Vec::new();
         for w in &d.ways {
-            let mut m = Vec::new();
-            int_field(&mut m, 1, w.id as u64);
-            let keys: Vec<u64> = w.tags.iter().map(|(k, _)| s.id(k)).collect();
-            let vals: Vec<u64> = w.tags.iter().map(|(_, v)| s.id(v)).collect();
-            repeated(&mut m, 2, &keys, u);
-            repeated(&mut m, 3, &vals, u);
+            let mut m = id_and_tags(&mut s, w.id, &w.tags, u);
             repeated(&mut m, 8, &deltas(w.refs.iter().copied()), u);
             if o.locations_on_ways {
                 // A node not in the data gets osmium's undefined location (i32::MIN in both).
@@ -239,12 +245,7 @@ pub fn write_pbf(d: &OsmData, o: &PbfOptions) -> Vec<u8> {
         let mut s = Strings::default();
         let mut group = Vec::new();
         for r in &d.relations {
-            let mut m = Vec::new();
-            int_field(&mut m, 1, r.id as u64);
-            let keys: Vec<u64> = r.tags.iter().map(|(k, _)| s.id(k)).collect();
-            let vals: Vec<u64> = r.tags.iter().map(|(_, v)| s.id(v)).collect();
-            repeated(&mut m, 2, &keys, u);
-            repeated(&mut m, 3, &vals, u);
+            let mut m = id_and_tags(&mut s, r.id, &r.tags, u);
             let roles: Vec<u64> = r.members.iter().map(|(_, _, role)| s.id(role)).collect();
             repeated(&mut m, 8, &roles, u);
             repeated(&mut m, 9, &deltas(r.members.iter().map(|m| m.1)), u);
