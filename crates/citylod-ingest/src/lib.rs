@@ -204,7 +204,12 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
     }
     // OSM's building:part tag, in whatever format it comes (a GeoJSON property, a GeoPackage or .dbf column).
     for raw in files.iter_mut().flat_map(|f| f.features.iter_mut()) {
-        raw.is_building_part = match raw.attributes.get("building:part") {
+        // `building_p`: the name as shapefile writers cut it to 10 characters.
+        let part = raw
+            .attributes
+            .get("building:part")
+            .or_else(|| raw.attributes.get("building_p"));
+        raw.is_building_part = match part {
             None | Some(AttrValue::Null | AttrValue::Bool(false)) => false,
             Some(AttrValue::String(v)) => osm::tag_set(v),
             Some(_) => true,
@@ -246,6 +251,16 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
                 let refs: Vec<Option<&citylod_model::Footprint>> =
                     placed.iter().map(Option::as_ref).collect();
                 parts::outlines_with_parts(&f.features, &refs)
+                    .into_iter()
+                    .map(|(o, ps)| {
+                        (
+                            o,
+                            ps.iter()
+                                .map(|&q| f.features[q].source_id.clone())
+                                .collect(),
+                        )
+                    })
+                    .collect()
             })
             .collect()
     } else {

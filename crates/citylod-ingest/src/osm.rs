@@ -20,8 +20,9 @@ use std::path::Path;
 pub(crate) const MAX_WAY_NODES: usize = 100_000;
 /// Members a relation may have: OpenStreetMap's API limit.
 pub(crate) const MAX_MEMBERS: usize = 32_000;
-/// Rings a multipolygon building may have here (their nesting is found pair by pair).
-const MAX_RINGS: usize = 10_000;
+/// Rings a multipolygon building may have here, and their nodes in all (their nesting is found pair by pair).
+const MAX_RINGS: usize = 2_000;
+const MAX_RING_NODES: usize = 500_000;
 
 /// A reason and its detail: why a feature is skipped, or what was repaired.
 type Skip = (IssueReason, String);
@@ -48,16 +49,27 @@ pub(crate) enum Encoding {
 }
 
 impl Encoding {
-    /// The encoding a file's name says, if it says OpenStreetMap.
+    /// The encoding a file's name says (`.pbf`; `.osm`, `.osm.gz`, `.osm.bz2`), else XML when the file starts with
+    /// `<` (an Overpass API answer saved as `interpreter`, a `.xml`): none of the other formats does.
     pub(crate) fn of(path: &Path) -> Option<Self> {
         let name = path.file_name()?.to_string_lossy().to_ascii_lowercase();
         if name.ends_with(".pbf") {
-            Some(Encoding::Pbf)
-        } else if name.ends_with(".osm") || name.ends_with(".osm.gz") {
-            Some(Encoding::Xml)
-        } else {
-            None
+            return Some(Encoding::Pbf);
         }
+        if [".osm", ".osm.gz", ".osm.bz2"]
+            .iter()
+            .any(|e| name.ends_with(e))
+        {
+            return Some(Encoding::Xml);
+        }
+        let mut head = [0u8; 64];
+        let n = std::fs::File::open(path)
+            .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
+            .ok()?;
+        let text = head[..n]
+            .strip_prefix(b"\xef\xbb\xbf")
+            .unwrap_or(&head[..n]);
+        (text.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'<')).then_some(Encoding::Xml)
     }
 
     pub(crate) fn label(self) -> &'static str {
@@ -417,11 +429,13 @@ fn relation_polygons(
             "its rings enclose no area".into(),
         ));
     }
-    if rings.len() > MAX_RINGS {
+    let nodes: usize = rings.iter().map(Vec::len).sum();
+    if rings.len() > MAX_RINGS || nodes > MAX_RING_NODES {
         return Err((
             IssueReason::MalformedGeometry,
             format!(
-                "{} rings, more than the {MAX_RINGS} a building is read with here",
+                "{} rings of {nodes} nodes, more than the {MAX_RINGS} rings or {MAX_RING_NODES} nodes a building is \
+                 read with here",
                 rings.len()
             ),
         ));

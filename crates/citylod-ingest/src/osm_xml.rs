@@ -9,20 +9,31 @@ use crate::osm::{
     building_tags, member_ways, needed_nodes, wanted_way, Gathered, Member, MemberKind, Relation,
     Want, Way, MAX_MEMBERS, MAX_WAY_NODES,
 };
+use std::collections::{HashMap, HashSet};
 use std::io::Read;
 use std::path::Path;
 
-/// roxmltree addresses text with 32-bit offsets.
-const MAX_TEXT: u64 = u32::MAX as u64;
+/// The XML read at most: its tree takes ~7.5 bytes of memory per byte of text (PBF is the format for more).
+const MAX_TEXT: u64 = 512 * 1024 * 1024;
+/// OSM XML nests three or four deep (`osm`, `relation`, `member`, `nd`); the tree is built by recursion, so deeper
+/// nesting is refused before it is parsed.
+const MAX_DEPTH: usize = 64;
+/// A coordinate no node has, for a reference without its location (an Overpass `out geom(bbox)` cut).
+const NOWHERE: [i64; 2] = [i64::MAX, i64::MAX];
 
 type Tags = Vec<(String, String)>;
 
-pub(crate) fn gather(path: &Path, bytes: &[u8], want: Want) -> Result<Gathered, String> {
-    let gz = path
-        .file_name()
-        .is_some_and(|n| n.to_string_lossy().to_ascii_lowercase().ends_with(".gz"));
+pub(crate) fn gather(_path: &Path, bytes: &[u8], want: Want) -> Result<Gathered, String> {
+    let too_big = || {
+        "over 512 MiB of XML, more than this reader holds; convert it to PBF (e.g. `osmium cat FILE -o FILE.osm.pbf`)"
+            .to_string()
+    };
+    if bytes.starts_with(b"BZh") {
+        return Err("bzip2-compressed, which this reader does not read: decompress it (bunzip2) or convert it to PBF".into());
+    }
     let inflated;
-    let bytes = if gz {
+    // gzip by its magic number, whatever the name says.
+    let bytes = if bytes.starts_with(&[0x1f, 0x8b]) {
         let mut out = Vec::new();
         flate2::read::MultiGzDecoder::new(bytes)
             .take(MAX_TEXT + 1)
@@ -34,10 +45,12 @@ pub(crate) fn gather(path: &Path, bytes: &[u8], want: Want) -> Result<Gathered, 
         bytes
     };
     if bytes.len() as u64 > MAX_TEXT {
-        return Err(
-            "over 4 GiB of XML, more than this reader holds; use the PBF format for such files"
-                .into(),
-        );
+        return Err(too_big());
+    }
+    if let Some(line) = too_deep(bytes) {
+        return Err(format!(
+            "elements nested more than {MAX_DEPTH} deep (at line {line}); OpenStreetMap XML nests three or four"
+        ));
     }
     let text = std::str::from_utf8(bytes).map_err(|e| {
         format!(
@@ -45,7 +58,13 @@ pub(crate) fn gather(path: &Path, bytes: &[u8], want: Want) -> Result<Gathered, 
             e.valid_up_to()
         )
     })?;
-    let doc = roxmltree::Document::parse(text).map_err(|e| format!("not well-formed XML: {e}"))?;
+    let doc = roxmltree::Document::parse(text).map_err(|e| match e {
+        roxmltree::Error::DtdDetected => {
+            "a DOCTYPE, which OpenStreetMap XML does not have (refused: its entities could expand without end)"
+                .to_string()
+        }
+        e => format!("not well-formed XML: {e}"),
+    })?;
     let root = doc.root_element();
     if root.tag_name().name() != "osm" {
         return Err(format!(
@@ -68,9 +87,40 @@ pub(crate) fn gather(path: &Path, bytes: &[u8], want: Want) -> Result<Gathered, 
     };
     let id = |e: &roxmltree::Node| whole(e, "id");
     let reference = |e: &roxmltree::Node| whole(e, "ref");
-    let elements: Vec<roxmltree::Node> = root
-        .children()
-        .filter(|n| n.is_element())
+    // Of an object given more than once (versions from the API's history calls, files appended), the highest
+    // version stands, and an object whose standing version is deleted or invisible is not there at all.
+    let all: Vec<roxmltree::Node> = root.children().filter(|n| n.is_element()).collect();
+    let version = |e: &roxmltree::Node| -> i64 {
+        e.attribute("version")
+            .and_then(|v| v.trim().parse().ok())
+            .unwrap_or(0)
+    };
+    let mut latest: HashMap<(&str, &str), (i64, usize)> = HashMap::new();
+    for (i, e) in all.iter().enumerate() {
+        if let Some(id) = e.attribute("id") {
+            let v = version(e);
+            let slot = latest.entry((e.tag_name().name(), id)).or_insert((v, i));
+            if v >= slot.0 {
+                *slot = (v, i);
+            }
+        }
+    }
+    let superseded = all
+        .iter()
+        .enumerate()
+        .filter(|(i, e)| {
+            e.attribute("id")
+                .is_some_and(|id| latest[&(e.tag_name().name(), id)].1 != *i)
+        })
+        .count();
+    let elements: Vec<roxmltree::Node> = all
+        .iter()
+        .enumerate()
+        .filter(|(i, e)| {
+            e.attribute("id")
+                .is_none_or(|id| latest[&(e.tag_name().name(), id)].1 == *i)
+        })
+        .map(|(_, e)| *e)
         .filter(|e| {
             e.attribute("action") != Some("delete") && e.attribute("visible") != Some("false")
         })
@@ -78,12 +128,18 @@ pub(crate) fn gather(path: &Path, bytes: &[u8], want: Want) -> Result<Gathered, 
     let of = |name: &'static str| elements.iter().filter(move |e| e.has_tag_name(name));
 
     let mut g = Gathered::default();
+    if superseded > 0 {
+        g.notes.push(format!(
+            "{superseded} element(s) given again with a higher version (or later, at the same version) left out"
+        ));
+    }
     for r in of("remark") {
         let said = r.text().unwrap_or("").trim();
         g.notes.push(format!(
             "the file's remark (a message of the Overpass API: what it says may have cut the data short): {said}"
         ));
     }
+    let mut inline: Vec<Way> = Vec::new();
     if want == Want::Buildings {
         for e in of("relation") {
             let tags = tags(e);
@@ -108,6 +164,18 @@ pub(crate) fn gather(path: &Path, bytes: &[u8], want: Want) -> Result<Gathered, 
                     })
                 })
                 .collect::<Result<_, String>>()?;
+            // Overpass `out geom` gives a member way's nodes inline, and the way itself not at all.
+            if oversized.is_none() {
+                for m in &listed {
+                    if m.attribute("type") == Some("way") {
+                        let nds: Vec<roxmltree::Node> =
+                            m.children().filter(|c| c.has_tag_name("nd")).collect();
+                        if !nds.is_empty() {
+                            inline.push(way_of(reference(m)?, &nds, Vec::new()));
+                        }
+                    }
+                }
+            }
             g.relations.push(Relation {
                 id: id(e)?,
                 tags,
@@ -124,39 +192,18 @@ pub(crate) fn gather(path: &Path, bytes: &[u8], want: Want) -> Result<Gathered, 
             continue;
         }
         let nds: Vec<roxmltree::Node> = e.children().filter(|c| c.has_tag_name("nd")).collect();
-        if nds.len() > MAX_WAY_NODES {
-            g.ways.push(Way {
-                id: way_id,
-                refs: Vec::new(),
-                tags,
-                locations: None,
-                oversized: Some(nds.len()),
-            });
-            continue;
+        let mut w = way_of(way_id, &nds, tags);
+        if w.oversized.is_none() {
+            w.refs = nds
+                .iter()
+                .map(&reference)
+                .collect::<Result<Vec<i64>, _>>()?;
         }
-        let refs = nds
-            .iter()
-            .map(&reference)
-            .collect::<Result<Vec<i64>, _>>()?;
-        // Overpass `out geom` puts each node's location on its reference.
-        let locations = nds
-            .iter()
-            .map(|n| {
-                Some([
-                    nanodegrees(n.attribute("lat")?)?,
-                    nanodegrees(n.attribute("lon")?)?,
-                ])
-            })
-            .collect::<Option<Vec<[i64; 2]>>>()
-            .filter(|l| !l.is_empty());
-        g.ways.push(Way {
-            id: way_id,
-            refs,
-            tags,
-            locations,
-            oversized: None,
-        });
+        g.ways.push(w);
     }
+    let present: HashSet<i64> = g.ways.iter().map(|w| w.id).collect();
+    g.ways
+        .extend(inline.into_iter().filter(|w| !present.contains(&w.id)));
     let needed = needed_nodes(&g.ways);
     for e in of("node") {
         let node_id = id(e)?;
@@ -177,6 +224,96 @@ pub(crate) fn gather(path: &Path, bytes: &[u8], want: Want) -> Result<Gathered, 
         }
     }
     Ok(g)
+}
+
+/// A way of `nds`: too long, or with the locations its references carry (Overpass `out geom`; one without gets
+/// [`NOWHERE`], as a node not in the file), or none. Its `refs` are the references' `ref`s where they have them.
+fn way_of(id: i64, nds: &[roxmltree::Node], tags: Tags) -> Way {
+    if nds.len() > MAX_WAY_NODES {
+        return Way {
+            id,
+            refs: Vec::new(),
+            tags,
+            locations: None,
+            oversized: Some(nds.len()),
+        };
+    }
+    let at = |n: &roxmltree::Node| {
+        Some([
+            nanodegrees(n.attribute("lat")?)?,
+            nanodegrees(n.attribute("lon")?)?,
+        ])
+    };
+    let locations = nds
+        .iter()
+        .any(|n| at(n).is_some())
+        .then(|| nds.iter().map(|n| at(n).unwrap_or(NOWHERE)).collect());
+    Way {
+        id,
+        refs: nds
+            .iter()
+            .map(|n| {
+                n.attribute("ref")
+                    .and_then(|r| r.trim().parse().ok())
+                    .unwrap_or(0)
+            })
+            .collect(),
+        tags,
+        locations,
+        oversized: None,
+    }
+}
+
+/// The line at which elements nest deeper than [`MAX_DEPTH`], if they do: a scan of tags that skips comments,
+/// CDATA, declarations and quoted attribute values.
+fn too_deep(text: &[u8]) -> Option<usize> {
+    let (mut depth, mut line, mut i) = (0usize, 1usize, 0usize);
+    let skip_to = |from: usize, end: &[u8]| {
+        text[from..]
+            .windows(end.len())
+            .position(|w| w == end)
+            .map_or(text.len(), |k| from + k + end.len())
+    };
+    while i < text.len() {
+        match text[i] {
+            b'\n' => {
+                line += 1;
+                i += 1;
+            }
+            b'<' if text[i..].starts_with(b"<!--") => i = skip_to(i, b"-->"),
+            b'<' if text[i..].starts_with(b"<![CDATA[") => i = skip_to(i, b"]]>"),
+            b'<' if text[i..].starts_with(b"<?") => i = skip_to(i, b"?>"),
+            b'<' if text[i..].starts_with(b"<!") => i = skip_to(i, b">"),
+            b'<' if text[i..].starts_with(b"</") => {
+                depth = depth.saturating_sub(1);
+                i = skip_to(i, b">");
+            }
+            b'<' => {
+                // An opening tag, to its end outside quotes; `/>` closes it at once.
+                let mut j = i + 1;
+                let mut quote = None;
+                while j < text.len() {
+                    match (quote, text[j]) {
+                        (None, b'"' | b'\'') => quote = Some(text[j]),
+                        (Some(q), c) if c == q => quote = None,
+                        (None, b'>') => break,
+                        (_, b'\n') => line += 1,
+                        _ => {}
+                    }
+                    j += 1;
+                }
+                if !(j > i + 1 && text[j - 1] == b'/') {
+                    depth += 1;
+                    if depth > MAX_DEPTH {
+                        return Some(line);
+                    }
+                }
+                i = j + 1;
+            }
+            _ => i += 1,
+        }
+    }
+    None
 }
 
 fn tags(e: &roxmltree::Node) -> Tags {

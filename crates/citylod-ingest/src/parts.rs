@@ -1,23 +1,28 @@
 //! OpenStreetMap's Simple 3D Buildings rule (wiki.openstreetmap.org/wiki/Simple_3D_Buildings): a building outline
 //! (`building=*`) with `building:part`s inside it is drawn by its parts, not as a block of its own. The outline
-//! carries the building's name and address for 2D maps; its height, when it has one, is the tallest part's, and
-//! without one a default block would hide the lower parts and cut through the taller ones. For GeoJSON exports of
-//! OSM data and for OSM files alike; a file without `building:part` features is not touched.
+//! carries the building's name and address for 2D maps; its height, when it has one, is often the tallest part's,
+//! and without one a default block would hide the lower parts and cut through the taller ones. A part belongs to the
+//! smallest outline that holds at least half of it (a skyway between two buildings belongs to neither; a part of a
+//! small building inside a large one belongs to the small one). For GeoJSON exports of OSM data and for OSM files
+//! alike; a file without `building:part` features is not touched.
 
 use crate::feature::RawFeature;
 use citylod_model::{AttrValue, Footprint};
-use geo::{BoundingRect, Contains, InteriorPoint};
+use geo::{Area, BooleanOps, BoundingRect};
 use rstar::primitives::{GeomWithData, Rectangle};
 use rstar::{RTree, AABB};
 use std::collections::BTreeMap;
 
-/// The outlines among `features` that hold parts (each part counted for the outlines its interior point lies in),
-/// with the ids of those parts in file order. `footprints[i]` is feature i's placed footprint, `None` when skipped.
+/// A part belongs to the smallest outline holding at least this share of its area.
+const PART_INSIDE_SHARE: f64 = 0.5;
+
+/// The outlines among `features` that hold parts, each with the indices of its parts in file order. `footprints[i]`
+/// is feature i's placed footprint (m), `None` when skipped.
 pub(crate) fn outlines_with_parts(
     features: &[RawFeature],
     footprints: &[Option<&Footprint>],
-) -> BTreeMap<usize, Vec<String>> {
-    let mut out: BTreeMap<usize, Vec<String>> = BTreeMap::new();
+) -> BTreeMap<usize, Vec<usize>> {
+    let mut out: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
     if !features.iter().any(|f| f.is_building_part) {
         return out;
     }
@@ -42,22 +47,28 @@ pub(crate) fn outlines_with_parts(
         return out;
     }
     let tree = RTree::bulk_load(boxes);
-    for (f, fp) in features.iter().zip(footprints) {
+    for (p, (f, fp)) in features.iter().zip(footprints).enumerate() {
         let (true, Some(fp)) = (f.is_building_part, fp) else {
             continue;
         };
-        let Some(p) = fp.interior_point() else {
+        let (Some(r), area) = (fp.bounding_rect(), fp.unsigned_area()) else {
             continue;
         };
-        let at = AABB::from_point([p.x(), p.y()]);
-        let mut holders: Vec<usize> = tree
-            .locate_in_envelope_intersecting(&at)
+        if area <= 0.0 {
+            continue;
+        }
+        let env = AABB::from_corners([r.min().x, r.min().y], [r.max().x, r.max().y]);
+        let holder = tree
+            .locate_in_envelope_intersecting(&env)
             .map(|g| g.data)
-            .filter(|&o| footprints[o].is_some_and(|o| o.contains(&p)))
-            .collect();
-        holders.sort_unstable();
-        for o in holders {
-            out.entry(o).or_default().push(f.source_id.clone());
+            .filter_map(|o| {
+                let outline = footprints[o]?;
+                let inside = outline.intersection(*fp).unsigned_area();
+                (inside >= PART_INSIDE_SHARE * area).then(|| (outline.unsigned_area(), o))
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        if let Some((_, o)) = holder {
+            out.entry(o).or_default().push(p);
         }
     }
     out
@@ -115,10 +126,7 @@ mod tests {
         let mut refs: Vec<Option<&Footprint>> = fps.iter().map(Some).collect();
         refs[6] = None;
         let found = outlines_with_parts(&features, &refs);
-        assert_eq!(
-            found.into_iter().collect::<Vec<_>>(),
-            [(0, vec!["part-a".to_string(), "part-b".to_string()])]
-        );
+        assert_eq!(found.into_iter().collect::<Vec<_>>(), [(0, vec![1, 3])]);
         // Without parts nothing is looked at.
         let none = outlines_with_parts(&features[..1], &refs[..1]);
         assert!(none.is_empty());

@@ -760,8 +760,86 @@ fn broken_xml_is_refused_with_the_reason() {
     );
     // An entity bomb is refused, not expanded: the reader takes no DTD.
     let bomb = b"<?xml version='1.0'?><!DOCTYPE osm [<!ENTITY a 'aaaaaaaaaa'><!ENTITY b '&a;&a;&a;&a;&a;&a;&a;&a;&a;&a;'>]><osm><node id='1' lat='1' lon='1'><tag k='building' v='&b;'/></node></osm>";
-    assert!(err("bomb.osm", bomb).contains("not well-formed XML"));
-    assert!(err("bad.osm.gz", b"not gzip").contains("gzip"));
+    assert!(err("bomb.osm", bomb).contains("a DOCTYPE"));
+    // Gzip and bzip2 by their magic numbers, whatever the name.
+    assert!(err("bad.osm.gz", b"\x1f\x8b not gzip").contains("gzip"));
+    assert!(err("extract.osm.bz2", b"BZh91AY&SY").contains("bzip2"));
+    // Nesting deep enough to exhaust a recursive parser's stack is refused before parsing (as one input and as
+    // one of two, where the parse runs on a worker thread).
+    let deep = format!(
+        "<osm>{}{}</osm>",
+        "<a>".repeat(20_000),
+        "</a>".repeat(20_000)
+    );
+    assert!(err("deep.osm", deep.as_bytes()).contains("nested more than 64 deep"));
+    let two = [
+        write(&dir, "deep2.osm", deep.as_bytes()),
+        write(&dir, "fine.osm", JOSM.as_bytes()),
+    ];
+    assert!(matches!(
+        ingest(&two, &IngestOptions::default()),
+        Err(IngestError::InvalidOsm { .. })
+    ));
+}
+
+#[test]
+fn xml_versions_inline_geometry_and_names_read_as_written() {
+    let dir = scratch("xml-more");
+    // The API's history: the highest version stands; an object whose last version is invisible is gone.
+    let history = r#"<osm version="0.6">
+  <node id="1" version="1" lat="52.0" lon="4.3"/><node id="2" version="1" lat="52.0" lon="4.3002"/>
+  <node id="3" version="1" lat="52.0002" lon="4.3002"/><node id="4" version="1" lat="52.0002" lon="4.3"/>
+  <way id="10" version="1"><nd ref="1"/><nd ref="2"/><nd ref="3"/><nd ref="1"/><tag k="building" v="yes"/></way>
+  <way id="10" version="2"><nd ref="1"/><nd ref="2"/><nd ref="3"/><nd ref="4"/><nd ref="1"/><tag k="building" v="yes"/></way>
+  <way id="11" version="1"><nd ref="1"/><nd ref="2"/><nd ref="3"/><nd ref="4"/><nd ref="1"/><tag k="building" v="yes"/></way>
+  <way id="11" version="2" visible="false"/>
+</osm>"#;
+    let out = read(&write(&dir, "history.osm", history.as_bytes())).unwrap();
+    let ids: Vec<&str> = out.buildings.iter().map(|b| b.source_id.as_str()).collect();
+    assert_eq!(ids, ["way/10"]);
+    assert!(
+        out.buildings[0].footprint.0[0].exterior().0.len() == 5,
+        "version 2's four corners"
+    );
+    assert!(out.report.files[0]
+        .notes
+        .iter()
+        .any(|n| n.contains("higher version")));
+    // Overpass `out geom`: a relation's member ways inline, and a way cut by the query's box.
+    let geom = r#"<osm version="0.6" generator="Overpass API">
+  <relation id="5">
+    <member type="way" ref="20" role="outer">
+      <nd lat="52.0" lon="4.3"/><nd lat="52.0" lon="4.3004"/><nd lat="52.0004" lon="4.3004"/>
+    </member>
+    <member type="way" ref="21" role="outer">
+      <nd lat="52.0004" lon="4.3004"/><nd lat="52.0004" lon="4.3"/><nd lat="52.0" lon="4.3"/>
+    </member>
+    <tag k="type" v="multipolygon"/><tag k="building" v="yes"/>
+  </relation>
+  <way id="8">
+    <nd ref="1" lat="52.01" lon="4.31"/><nd ref="2"/><nd ref="3" lat="52.0102" lon="4.3102"/><nd ref="4"/>
+    <nd ref="1" lat="52.01" lon="4.31"/>
+    <tag k="building" v="yes"/>
+  </way>
+</osm>"#;
+    // Saved without an extension, as a browser saves an Overpass answer: read as XML by its first byte.
+    let out = read(&write(&dir, "interpreter", geom.as_bytes())).unwrap();
+    assert_eq!(
+        out.report.files[0].format,
+        citylod_ingest::InputFormat::OsmXml
+    );
+    assert_eq!(out.buildings.len(), 1);
+    assert_eq!(out.buildings[0].source_id, "relation/5");
+    let skip = &out.report.skipped[0];
+    assert_eq!(
+        (skip.feature_id.as_str(), skip.reason),
+        ("way/8", IssueReason::IncompleteInExtract)
+    );
+    assert!(
+        skip.detail.starts_with("2 of its 5 node(s)"),
+        "{}",
+        skip.detail
+    );
 }
 
 fn node(id: i64, lon: f64, lat: f64) -> Node {
