@@ -131,4 +131,32 @@ mod tests {
         let none = outlines_with_parts(&features[..1], &refs[..1]);
         assert!(none.is_empty());
     }
+
+    #[test]
+    fn a_part_belongs_to_the_smallest_outline_holding_half_of_it() {
+        let features = [
+            feature("mall", Some("retail"), false),
+            feature("kiosk", Some("yes"), false),
+            feature("kiosk-roof", None, true),
+            feature("east", Some("yes"), false),
+            feature("skyway", None, true),
+        ];
+        let fps = [
+            square(0.0, 0.0, 100.0),
+            square(40.0, 40.0, 10.0),
+            square(41.0, 41.0, 8.0),
+            square(130.0, 0.0, 20.0),
+            // From the mall's east wall to the east building: a sixth in each, the rest over the street.
+            MultiPolygon(vec![polygon![
+                (x: 92.0, y: 10.0),
+                (x: 138.0, y: 10.0),
+                (x: 138.0, y: 12.0),
+                (x: 92.0, y: 12.0),
+            ]]),
+        ];
+        let refs: Vec<Option<&Footprint>> = fps.iter().map(Some).collect();
+        let found = outlines_with_parts(&features, &refs);
+        // The kiosk's part drops the kiosk, not the mall; the skyway drops neither building.
+        assert_eq!(found.into_iter().collect::<Vec<_>>(), [(1, vec![2])]);
+    }
 }
