@@ -95,6 +95,36 @@ fn number(attrs: &Attributes, name: &str) -> Option<f64> {
     attrs.get(name).and_then(AttrValue::as_number)
 }
 
+/// A length in metres: a number (with `m` or no unit), or feet and inches as OpenStreetMap allows them (`100'`,
+/// `16'4"`, `35 ft`).
+fn length_m(v: &AttrValue) -> Option<f64> {
+    if let Some(m) = v.as_number() {
+        return Some(m);
+    }
+    let AttrValue::String(s) = v else {
+        return None;
+    };
+    let t = s.trim();
+    let number = |x: &str| -> Option<f64> {
+        let x = x.trim();
+        (!x.is_empty() && x.bytes().all(|b| b.is_ascii_digit() || b == b'.'))
+            .then(|| x.parse::<f64>().ok())
+            .flatten()
+    };
+    let lower = t.to_ascii_lowercase();
+    for unit in ["feet", "foot", "ft"] {
+        if let Some(x) = lower.strip_suffix(unit) {
+            return number(x).map(|f| f * 0.3048);
+        }
+    }
+    let (feet, inches) = t.split_once('\'')?;
+    let inches = match inches.trim() {
+        "" => 0.0,
+        i => number(i.strip_suffix('"')?)?,
+    };
+    Some(number(feet)? * 0.3048 + inches * 0.0254)
+}
+
 /// The 3DBAG ground attribute, when it is a number within [`MAX_GROUND_M`] of the datum.
 pub(crate) fn ground_attribute(attrs: &Attributes) -> Option<f64> {
     number(attrs, GROUND_ATTR).filter(|g| g.abs() < MAX_GROUND_M)
@@ -128,10 +158,13 @@ pub(crate) fn resolve(
     // Without one, OSM's `building:min_level` (levels skipped below a part) × the storey height.
     let mut base_from = |name: &str, scale: f64| match attrs.get(name) {
         None | Some(AttrValue::Null) => None,
-        Some(v) => match v
-            .as_number()
-            .map(|m| m * scale)
-            .filter(|m| (0.0..MAX_HEIGHT_M).contains(m))
+        Some(v) => match (if scale == 1.0 {
+            length_m(v)
+        } else {
+            v.as_number()
+        })
+        .map(|m| m * scale)
+        .filter(|m| (0.0..MAX_HEIGHT_M).contains(m))
         {
             Some(m) => Some(m),
             None => {
@@ -150,7 +183,13 @@ pub(crate) fn resolve(
             if matches!(v, AttrValue::Null) {
                 return None;
             }
-            let h = v.as_number().map(|x| x * scale - offset);
+            // A scale of 1 reads a length (m, or feet as OSM writes them); any other a count of storeys.
+            let h = (if scale == 1.0 {
+                length_m(v)
+            } else {
+                v.as_number()
+            })
+            .map(|x| x * scale - offset);
             match h {
                 Some(h) if plausible(h) => Some(h),
                 // A part reaching only just above its `min_height` is a thin slab there (a canopy): MIN_HEIGHT_M
@@ -400,6 +439,46 @@ mod tests {
         ]);
         let h = resolve(&a, None, None, &IngestOptions::default());
         assert_eq!((h.base_offset_m, h.height_m), (12.0, 18.0));
+    }
+
+    #[test]
+    fn osm_heights_in_feet_and_inches_are_read() {
+        let o = IngestOptions::default();
+        for (v, m) in [
+            ("100'", 30.48),
+            ("16'4\"", 4.9784),
+            ("35 ft", 10.668),
+            ("12 feet", 3.6576),
+            ("28 m", 28.0),
+        ] {
+            let h = resolve(
+                &attrs(&[("height", AttrValue::String(v.into()))]),
+                None,
+                None,
+                &o,
+            );
+            assert!((h.height_m - m).abs() < 1e-9, "{v}: {}", h.height_m);
+            assert_eq!(h.source, HeightSource::KnownAttribute, "{v}");
+        }
+        let h = resolve(
+            &attrs(&[
+                ("height", AttrValue::String("60'".into())),
+                ("min_height", AttrValue::String("20'".into())),
+            ]),
+            None,
+            None,
+            &o,
+        );
+        assert!((h.base_offset_m - 6.096).abs() < 1e-9 && (h.height_m - 12.192).abs() < 1e-9);
+        for bad in ["ft", "'", "5'x\"", "1.2.3 ft", "-3'"] {
+            let h = resolve(
+                &attrs(&[("height", AttrValue::String(bad.into()))]),
+                None,
+                None,
+                &o,
+            );
+            assert_eq!(h.source, HeightSource::Default, "{bad}");
+        }
     }
 
     #[test]
