@@ -145,7 +145,7 @@ impl Gathered {
 fn gather(path: &Path, want: Want) -> Result<Gathered, String> {
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read the file: {e}"))?;
     match Encoding::of(path) {
-        Some(Encoding::Xml) => crate::osm_xml::gather(path, &bytes, want),
+        Some(Encoding::Xml) => crate::osm_xml::gather(&bytes, want),
         _ => crate::osm_pbf::gather(&bytes, want),
     }
 }

@@ -1,9 +1,10 @@
 //! OpenStreetMap XML (`.osm`, or gzip-compressed `.osm.gz`): what JOSM saves, the Overpass API returns and the OSM
 //! API's `map` call gives. The same elements as a PBF file holds (nodes with `lat`/`lon`, ways with their `nd`
 //! references, relations with their members, each with its `tag`s), gathered for [`crate::osm`]'s assembly. Objects
-//! JOSM marks deleted (`action="delete"`) or the API marks invisible (`visible="false"`) are left out; ways whose
-//! every `nd` carries its own `lat` and `lon` (Overpass `out geom`) need no nodes; an Overpass `remark` (a timeout,
-//! a memory limit: the answer may be cut) is passed on as a note.
+//! JOSM marks deleted (`action="delete"`) or the API marks invisible (`visible="false"`) are left out, and of an object
+//! given in several versions the highest stands; `nd`s that carry their own `lat` and `lon` (Overpass `out geom`, in
+//! ways and in a relation's members) need no nodes; an Overpass `remark` (a timeout, a memory limit: the answer may be
+//! cut) is passed on as a note. The file is held as a tree, so its size is capped and its nesting checked first.
 
 use crate::osm::{
     building_tags, member_ways, needed_nodes, wanted_way, Gathered, Member, MemberKind, Relation,
@@ -11,7 +12,6 @@ use crate::osm::{
 };
 use std::collections::{HashMap, HashSet};
 use std::io::Read;
-use std::path::Path;
 
 /// The XML read at most: its tree takes ~7.5 bytes of memory per byte of text (PBF is the format for more).
 const MAX_TEXT: u64 = 512 * 1024 * 1024;
@@ -23,7 +23,7 @@ const NOWHERE: [i64; 2] = [i64::MAX, i64::MAX];
 
 type Tags = Vec<(String, String)>;
 
-pub(crate) fn gather(_path: &Path, bytes: &[u8], want: Want) -> Result<Gathered, String> {
+pub(crate) fn gather(bytes: &[u8], want: Want) -> Result<Gathered, String> {
     let too_big = || {
         "over 512 MiB of XML, more than this reader holds; convert it to PBF (e.g. `osmium cat FILE -o FILE.osm.pbf`)"
             .to_string()
