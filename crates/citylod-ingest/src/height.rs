@@ -95,6 +95,22 @@ fn number(attrs: &Attributes, name: &str) -> Option<f64> {
     attrs.get(name).and_then(AttrValue::as_number)
 }
 
+/// How an attribute gives metres: as a length, or as a count of storeys of the given height.
+#[derive(Clone, Copy)]
+enum Measure {
+    Length,
+    Storeys(f64),
+}
+
+impl Measure {
+    fn metres(self, v: &AttrValue) -> Option<f64> {
+        match self {
+            Measure::Length => length_m(v),
+            Measure::Storeys(h) => v.as_number().map(|n| n * h),
+        }
+    }
+}
+
 /// A length in metres: a number (with `m` or no unit), or feet and inches as OpenStreetMap allows them (`100'`,
 /// `16'4"`, `35 ft`).
 fn length_m(v: &AttrValue) -> Option<f64> {
@@ -156,15 +172,11 @@ pub(crate) fn resolve(
     };
     // A `min_height` that is not a number in [0, 1000) m is rejected (reported) and the base stays on the ground.
     // Without one, OSM's `building:min_level` (levels skipped below a part) × the storey height.
-    let mut base_from = |name: &str, scale: f64| match attrs.get(name) {
+    let mut base_from = |name: &str, measure: Measure| match attrs.get(name) {
         None | Some(AttrValue::Null) => None,
-        Some(v) => match (if scale == 1.0 {
-            length_m(v)
-        } else {
-            v.as_number()
-        })
-        .map(|m| m * scale)
-        .filter(|m| (0.0..MAX_HEIGHT_M).contains(m))
+        Some(v) => match measure
+            .metres(v)
+            .filter(|m| (0.0..MAX_HEIGHT_M).contains(m))
         {
             Some(m) => Some(m),
             None => {
@@ -173,23 +185,17 @@ pub(crate) fn resolve(
             }
         },
     };
-    let base_offset_m = base_from(MIN_HEIGHT_ATTR, 1.0)
-        .or_else(|| base_from(MIN_LEVEL_ATTR, opts.storey_height_m))
+    let base_offset_m = base_from(MIN_HEIGHT_ATTR, Measure::Length)
+        .or_else(|| base_from(MIN_LEVEL_ATTR, Measure::Storeys(opts.storey_height_m)))
         .unwrap_or(0.0);
 
     let try_attr =
-        |name: &str, scale: f64, offset: f64, rejected: &mut Vec<String>| -> Option<f64> {
+        |name: &str, measure: Measure, offset: f64, rejected: &mut Vec<String>| -> Option<f64> {
             let v = attrs.get(name)?;
             if matches!(v, AttrValue::Null) {
                 return None;
             }
-            // A scale of 1 reads a length (m, or feet as OSM writes them); any other a count of storeys.
-            let h = (if scale == 1.0 {
-                length_m(v)
-            } else {
-                v.as_number()
-            })
-            .map(|x| x * scale - offset);
+            let h = measure.metres(v).map(|x| x - offset);
             match h {
                 Some(h) if plausible(h) => Some(h),
                 // A part reaching only just above its `min_height` is a thin slab there (a canopy): MIN_HEIGHT_M
@@ -203,13 +209,13 @@ pub(crate) fn resolve(
         };
     let mut found = None;
     if let Some(name) = &opts.height_attr {
-        found = try_attr(name, 1.0, base_offset_m, &mut rejected)
+        found = try_attr(name, Measure::Length, base_offset_m, &mut rejected)
             .map(|h| (h, HeightSource::NamedAttribute));
     }
     if found.is_none() {
         found = KNOWN_HEIGHT_ATTRS
             .iter()
-            .find_map(|n| try_attr(n, 1.0, base_offset_m, &mut rejected))
+            .find_map(|n| try_attr(n, Measure::Length, base_offset_m, &mut rejected))
             .map(|h| (h, HeightSource::KnownAttribute));
     }
     if found.is_none() && present(ROOF_ATTR) {
@@ -232,10 +238,10 @@ pub(crate) fn resolve(
         let s = opts.storey_height_m;
         // Storeys count from the ground too (OSM's building:levels of a part includes the levels below it).
         found = match &opts.storey_attr {
-            Some(name) => try_attr(name, s, base_offset_m, &mut rejected),
+            Some(name) => try_attr(name, Measure::Storeys(s), base_offset_m, &mut rejected),
             None => DEFAULT_STOREY_ATTRS
                 .iter()
-                .find_map(|n| try_attr(n, s, base_offset_m, &mut rejected)),
+                .find_map(|n| try_attr(n, Measure::Storeys(s), base_offset_m, &mut rejected)),
         }
         .map(|h| (h, HeightSource::Storeys));
     }
