@@ -65,6 +65,14 @@ pub enum IngestError {
         encoding: &'static str,
         detail: String,
     },
+    /// A File Geodatabase that cannot be read as one (no catalog, a table cut short or of an unknown layout, several
+    /// feature classes and no `--layer`, a layer that is not there).
+    #[error("{path}: invalid File Geodatabase: {detail}")]
+    InvalidFileGdb { path: PathBuf, detail: String },
+    /// A File Geodatabase feature class whose geometry field has no spatial reference, and no CRS was given by the
+    /// user.
+    #[error("{path}: the feature class has no spatial reference (Unknown); pass its CRS with --crs, e.g. --crs EPSG:2263")]
+    FileGdbWithoutCrs { path: PathBuf },
     /// A GeoPackage layer whose spatial reference system is the undefined one (srs_id -1 or 0), and no CRS was given
     /// by the user.
     #[error("{path}: the layer's spatial reference system is undefined (srs_id -1 or 0); pass its CRS with --crs, e.g. --crs EPSG:28992")]

@@ -1028,12 +1028,12 @@ impl Out {
 const MAX_ARC_POINTS: usize = 1_000_000;
 
 /// Most of a circle an arc's straight segment spans, as GDAL's default (`OGR_ARC_STEPSIZE`, 4°).
-const ARC_STEP_DEG: f64 = 4.0;
+pub(crate) const ARC_STEP_DEG: f64 = 4.0;
 
 /// The arc from `a` through `b` to `c` as points after `a`, the last exactly `c`, each segment spanning at most
 /// [`ARC_STEP_DEG`] of the circle (heights interpolated along it); collinear points are a straight line, `a == c` a
 /// full circle through the point `b` opposite it.
-fn arc_points(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> Vec<[f64; 3]> {
+pub(crate) fn arc_points(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> Vec<[f64; 3]> {
     let full = a[0] == c[0] && a[1] == c[1];
     let (centre, sweep) = if full {
         let m = [(a[0] + b[0]) / 2.0, (a[1] + b[1]) / 2.0];

@@ -22,6 +22,8 @@ pub const KNOWN_HEIGHT_ATTRS: &[&str] = &[
     "Height",
     "HEIGHT",
     "bldg_height",
+    // `building:height` as GDAL writes it where a name may not hold a colon (File Geodatabase, PostgreSQL).
+    "building_height",
     // The same names as shapefile writers cut them to 10 characters (a GeoJSON converted with ogr2ogr).
     "building_h",
     "measuredHe",
@@ -38,6 +40,8 @@ pub const DEFAULT_STOREY_ATTRS: &[&str] = &[
     "num_floors",
     "STORIES",
     "NUM_FLOORS",
+    // As GDAL writes OSM's name where a name may not hold a colon (File Geodatabase, PostgreSQL).
+    "building_levels",
     // Cut to 10 characters by shapefile writers.
     "building_l",
     "b3_bouwlag",
@@ -53,6 +57,8 @@ pub(crate) const MAX_GROUND_M: f64 = 10_000.0;
 const MIN_HEIGHT_ATTR: &str = "min_height";
 /// OSM: the levels a building part skips from the ground (its base, in storeys), read when `min_height` is not there.
 const MIN_LEVEL_ATTR: &str = "building:min_level";
+/// `building:min_level` as GDAL writes it where a name may not hold a colon (File Geodatabase, PostgreSQL).
+const MIN_LEVEL_ATTR_LAUNDERED: &str = "building_min_level";
 
 /// Where a building's ground height came from (report key).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -187,6 +193,12 @@ pub(crate) fn resolve(
     };
     let base_offset_m = base_from(MIN_HEIGHT_ATTR, Measure::Length)
         .or_else(|| base_from(MIN_LEVEL_ATTR, Measure::Storeys(opts.storey_height_m)))
+        .or_else(|| {
+            base_from(
+                MIN_LEVEL_ATTR_LAUNDERED,
+                Measure::Storeys(opts.storey_height_m),
+            )
+        })
         .unwrap_or(0.0);
 
     let try_attr =

@@ -29,6 +29,7 @@ mod cityjson;
 mod crs;
 mod error;
 mod feature;
+mod fgdb;
 mod geoid;
 mod geojson;
 mod gpkg;
@@ -179,11 +180,15 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
             detail,
         })?;
     if let Some(layer) = &opts.layer {
-        if !paths.iter().any(|p| gpkg::is_geopackage_name(p)) {
+        if !paths
+            .iter()
+            .any(|p| gpkg::is_geopackage_name(p) || fgdb::is_filegdb(p))
+        {
             return Err(IngestError::InvalidOption {
                 name: "--layer",
                 detail: format!(
-                    "{layer:?} names a GeoPackage feature table, and none of the inputs is a GeoPackage (.gpkg)"
+                    "{layer:?} names a GeoPackage feature table or a File Geodatabase feature class, and none of the \
+                     inputs is a GeoPackage (.gpkg) or a File Geodatabase (.gdb folder)"
                 ),
             });
         }
@@ -204,11 +209,11 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
     }
     // OSM's building:part tag, in whatever format it comes (a GeoJSON property, a GeoPackage or .dbf column).
     for raw in files.iter_mut().flat_map(|f| f.features.iter_mut()) {
-        // `building_p`: the name as shapefile writers cut it to 10 characters.
-        let part = raw
-            .attributes
-            .get("building:part")
-            .or_else(|| raw.attributes.get("building_p"));
+        // `building_p`: the name as shapefile writers cut it to 10 characters; `building_part`: as GDAL writes it where
+        // a name may not hold a colon (File Geodatabase, PostgreSQL).
+        let part = ["building:part", "building_part", "building_p"]
+            .iter()
+            .find_map(|k| raw.attributes.get(k));
         raw.is_building_part = match part {
             None | Some(AttrValue::Null | AttrValue::Bool(false)) => false,
             Some(AttrValue::String(v)) => osm::tag_set(v),
@@ -597,10 +602,9 @@ fn vector_file(
         &crs,
         doc.z_unit_m,
         model_target.is_some(),
-        if format == InputFormat::GeoPackage {
-            "GeoPackage 3D"
-        } else {
-            "MultiPatch"
+        match format {
+            InputFormat::GeoPackage => "GeoPackage 3D",
+            _ => "MultiPatch",
         },
     ));
     Ok(LoadedFile {
@@ -645,6 +649,34 @@ fn load(
         return Err(IngestError::UnknownFormat {
             path: path.into(),
             detail: format!("this is a shapefile's {what}; give its .shp as the input"),
+        });
+    }
+    if fgdb::is_filegdb(path) {
+        let doc = fgdb::read(path, opts.layer.as_deref()).map_err(|detail| {
+            IngestError::InvalidFileGdb {
+                path: path.into(),
+                detail,
+            }
+        })?;
+        let missing = IngestError::FileGdbWithoutCrs { path: path.into() };
+        return vector_file(
+            path,
+            doc,
+            opts,
+            model_target,
+            InputFormat::FileGeodatabase,
+            missing,
+        );
+    }
+    if let Some((_, what)) = fgdb::MEMBERS
+        .iter()
+        .find(|(e, _)| extension.as_deref() == Some(*e))
+    {
+        return Err(IngestError::UnknownFormat {
+            path: path.into(),
+            detail: format!(
+                "this is a File Geodatabase's {what}; give the .gdb folder that holds it as the input"
+            ),
         });
     }
     if gpkg::is_geopackage_name(path) {

@@ -186,6 +186,7 @@ pub enum InputFormat {
     CityJsonSeq,
     Shapefile,
     GeoPackage,
+    FileGeodatabase,
     OsmPbf,
     OsmXml,
 }

@@ -354,7 +354,6 @@ fn polygon(c: &[u8]) -> ShapeResult {
 /// after it (or a first ring with the rings after it) as one face with holes, a ring alone as a face. Triangles
 /// without area (a strip's restarts) are left out; M values are not read.
 fn multipatch(c: &[u8]) -> ShapeResult {
-    let malformed = |d: String| Err((IssueReason::MalformedGeometry, d));
     // Part starts and types, x, y, the z range and z: the M range and values may follow.
     let (points, starts) = parts(c, "MultiPatch", (8, 24, 16), true)?;
     let parts = starts.len();
@@ -365,9 +364,7 @@ fn multipatch(c: &[u8]) -> ShapeResult {
         let f = |at: usize| le_f64(c, at).unwrap_or(f64::NAN);
         [f(xy + 16 * i), f(xy + 16 * i + 8), f(z + 8 * i)]
     };
-    let mut faces: Vec<Face> = Vec::new();
-    // The face a ring part joins: an outer or first ring opens one, an inner ring or ring after it adds a hole.
-    let mut open_face: Option<i32> = None;
+    let mut read_parts = Vec::with_capacity(parts);
     for k in 0..parts {
         let end = starts.get(k + 1).copied().unwrap_or(points);
         let pts: Vec<[f64; 3]> = (starts[k]..end).map(point).collect();
@@ -378,7 +375,22 @@ fn multipatch(c: &[u8]) -> ShapeResult {
             ));
         }
         // Esri's extended MultiPatch keeps flags in the high bits; the part type is the low four (as GDAL reads it).
-        let kind = int(44 + 4 * parts + 4 * k) & 0xf;
+        read_parts.push(((int(44 + 4 * parts + 4 * k) & 0xf) as i64, pts));
+    }
+    multipatch_faces(read_parts).map(Read::Surfaces)
+}
+
+/// A MultiPatch's parts (type, points) as faces: triangle strips, fans and lists as triangles, an outer ring with the
+/// inner rings after it (or a first ring with the rings after it) as one face with holes, a ring alone as a face.
+/// Triangles without area (a strip's restarts) are left out. Shared by shapefiles and File Geodatabases.
+pub(crate) fn multipatch_faces(
+    parts: Vec<(i64, Vec<[f64; 3]>)>,
+) -> Result<Vec<Face>, (IssueReason, String)> {
+    let malformed = |d: String| Err((IssueReason::MalformedGeometry, d));
+    let mut faces: Vec<Face> = Vec::new();
+    // The face a ring part joins: an outer or first ring opens one, an inner ring or ring after it adds a hole.
+    let mut open_face: Option<i64> = None;
+    for (k, (kind, pts)) in parts.into_iter().enumerate() {
         let triangle = |a: [f64; 3], b: [f64; 3], c: [f64; 3]| -> Option<Face> {
             let (u, v) = (
                 [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
@@ -454,7 +466,7 @@ fn multipatch(c: &[u8]) -> ShapeResult {
             "MultiPatch whose parts have no area".into(),
         ));
     }
-    Ok(Read::Surfaces(faces))
+    Ok(faces)
 }
 
 /// Where `p` lies against the open ring `r`: `Some(true)` inside, `Some(false)` outside, `None` on its boundary.
@@ -509,7 +521,7 @@ fn holds(outer: &[[f64; 2]], outer_box: [f64; 4], inner: &[[f64; 2]], inner_box:
 /// has them — some writers copy rings as they come) is read with the winding the other way round, so that its
 /// courtyards stay courtyards; its rings are then all counted as reoriented. Told by nesting depth (an outer ring
 /// is held by an even number of the record's rings), for records of up to `NESTING_CHECKED` rings.
-fn organize(rings: Vec<Vec<[f64; 2]>>) -> Vec<RawPolygon> {
+pub(crate) fn organize(rings: Vec<Vec<[f64; 2]>>) -> Vec<RawPolygon> {
     const NESTING_CHECKED: usize = 512;
     let mut area: Vec<f64> = rings.iter().map(|r| signed_area2(r)).collect();
     let boxes: Vec<[f64; 4]> = rings.iter().map(|r| ring_box(r)).collect();

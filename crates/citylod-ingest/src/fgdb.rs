@@ -1,0 +1,1204 @@
+//! Esri File Geodatabase input (a `.gdb` folder, as ArcGIS, ArcGIS Pro, QGIS and GDAL write it): one feature class read
+//! by this module's own parser of the open format (the `.gdbtable` of rows and the `.gdbtablx` of their offsets; the
+//! layout as documented by the GDAL project's reverse-engineered specification). The catalog table
+//! (`a00000001.gdbtable`) names the tables; the feature class asked for with `--layer` (or the only one) is read: its
+//! polygons or MultiPatch models, every other field an attribute, and the CRS from the geometry field's WKT (Esri WKT,
+//! identified as a `.prj`'s is).
+//!
+//! Polygons are rings in the shapefile's winding (outer clockwise), organized as a shapefile's are; curves (circular
+//! arcs, Bézier curves, elliptic arcs) are followed in short segments, reported. A MultiPatch (ArcGIS's 3D buildings)
+//! is a 3D surface model, read as a shapefile's MultiPatch is. A row whose geometry cannot become a footprint is a
+//! skipped feature with the reason and its OBJECTID; a file that is not a geodatabase table, or is cut short, refuses
+//! the input.
+
+use crate::crs::DeclaredCrs;
+use crate::feature::{RawFeature, RawPolygon, VectorDoc};
+use crate::report::IssueReason;
+use crate::surface_model::{Face, Surfaces};
+use citylod_model::{AttrValue, Attributes};
+use std::path::{Path, PathBuf};
+
+type Skip = (IssueReason, String);
+type Repairs = Vec<(IssueReason, String)>;
+
+/// The catalog of every geodatabase: the table listing the others, each by its row number.
+const CATALOG: &str = "a00000001.gdbtable";
+
+/// Whether `path` is a File Geodatabase: a folder named `*.gdb`, or any folder holding the catalog table.
+pub(crate) fn is_filegdb(path: &Path) -> bool {
+    path.is_dir()
+        && (path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("gdb"))
+            || path.join(CATALOG).is_file())
+}
+
+/// The files of a geodatabase's tables, each with what it is, for refusing one given as the input.
+pub(crate) const MEMBERS: [(&str, &str); 6] = [
+    ("gdbtable", "table"),
+    ("gdbtablx", "row index"),
+    ("gdbindexes", "index list"),
+    ("atx", "attribute index"),
+    ("spx", "spatial index"),
+    ("freelist", "free-space list"),
+];
+
+/// Reads the feature class `layer` of the geodatabase `dir` (the only one when `layer` is `None`). Errors name what is
+/// wrong with the geodatabase as a whole; one unusable row is a skipped feature.
+pub(crate) fn read(dir: &Path, layer: Option<&str>) -> Result<VectorDoc, String> {
+    let catalog_path = dir.join(CATALOG);
+    if !catalog_path.is_file() {
+        return Err(format!(
+            "a File Geodatabase folder holds its catalog table {CATALOG}, and this one has none"
+        ));
+    }
+    let catalog = Table::open(&catalog_path).map_err(|e| format!("its catalog {CATALOG}: {e}"))?;
+    let name_field = catalog
+        .fields
+        .iter()
+        .position(|f| f.name.eq_ignore_ascii_case("Name"))
+        .ok_or_else(|| format!("its catalog {CATALOG} has no Name field"))?;
+    let format_field = catalog
+        .fields
+        .iter()
+        .position(|f| f.name.eq_ignore_ascii_case("FileFormat"));
+    // Every table the catalog lists with a file of its own (FileFormat 0), by name and row number.
+    let mut tables: Vec<(String, u64)> = Vec::new();
+    for (oid, row) in catalog.rows() {
+        let values = catalog
+            .values(row.map_err(|e| format!("its catalog {CATALOG}, row {oid}: {e}"))?)
+            .map_err(|e| format!("its catalog {CATALOG}, row {oid}: {e}"))?;
+        let Cell::Value(AttrValue::String(name)) = &values[name_field] else {
+            continue;
+        };
+        if let Some(k) = format_field {
+            if !matches!(values[k], Cell::Value(AttrValue::Int(0)) | Cell::Null) {
+                continue;
+            }
+        }
+        tables.push((name.clone(), oid));
+    }
+    // The feature classes: user tables (not GDB_*) with a geometry field whose file is there.
+    let mut classes: Vec<(String, PathBuf, Table)> = Vec::new();
+    let mut unreadable = Vec::new();
+    for (name, oid) in &tables {
+        if name.len() >= 4 && name[..4].eq_ignore_ascii_case("GDB_") {
+            continue;
+        }
+        let path = dir.join(format!("a{oid:08x}.gdbtable"));
+        if !path.is_file() {
+            continue;
+        }
+        match Table::open(&path) {
+            Ok(t) if t.geometry().is_some() => classes.push((name.clone(), path, t)),
+            Ok(_) => {}
+            Err(e) => unreadable.push(format!("{name} ({e})")),
+        }
+    }
+    let list = |classes: &[(String, PathBuf, Table)]| {
+        classes
+            .iter()
+            .map(|(n, _, t)| format!("{n} ({})", t.kind_name()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let chosen = match (layer, classes.as_slice()) {
+        (Some(asked), _) => {
+            // ArcGIS's names are case-insensitive: an exact match first, else the one equal but for case.
+            let exact = classes.iter().position(|(n, _, _)| n == asked);
+            let k = exact.or_else(|| {
+                let mut same = classes
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, (n, _, _))| n.eq_ignore_ascii_case(asked));
+                same.next()
+                    .filter(|_| same.next().is_none())
+                    .map(|(k, _)| k)
+            });
+            match k {
+                Some(k) => k,
+                None if tables.iter().any(|(n, _)| n.eq_ignore_ascii_case(asked)) => {
+                    return Err(format!(
+                        "{asked:?} is a table without geometry, not a feature class (feature classes: {})",
+                        list(&classes)
+                    ))
+                }
+                None => {
+                    return Err(format!(
+                        "no feature class {asked:?} (feature classes: {})",
+                        if classes.is_empty() {
+                            "none".to_string()
+                        } else {
+                            list(&classes)
+                        }
+                    ))
+                }
+            }
+        }
+        (None, []) => {
+            return Err(if unreadable.is_empty() {
+                "a File Geodatabase without feature classes (no table with a geometry field)".into()
+            } else {
+                format!(
+                    "no feature class could be read: {}",
+                    crate::geojson::listing(&unreadable)
+                )
+            })
+        }
+        (None, [_]) => 0,
+        (None, _) => return Err(format!(
+            "it holds {} feature classes; name the one to read with --layer (feature classes: {})",
+            classes.len(),
+            list(&classes)
+        )),
+    };
+    let (name, path, table) = classes.swap_remove(chosen);
+    let mut notes = Vec::new();
+    if !classes.is_empty() {
+        notes.push(format!(
+            "feature class {name:?} read, of {} ({})",
+            classes.len() + 1,
+            list(&classes)
+        ));
+    }
+    let geometry = table.geometry().expect("a feature class").clone();
+    let (declared_crs, z_unit_m) = declared_crs(&geometry.wkt, &mut notes);
+    let dir_name = dir
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let (features, surfaces) = features(&table, &geometry, &dir_name, &mut notes)
+        .map_err(|e| format!("feature class {name:?} ({}): {e}", path.display()))?;
+    Ok(VectorDoc {
+        features,
+        surfaces,
+        declared_crs,
+        z_unit_m,
+        notes,
+    })
+}
+
+/// The CRS of the geometry field's WKT (Esri's, as in a `.prj`), and the metres per unit of z its VERTCS gives; `None`
+/// for a field without a spatial reference (ArcGIS writes the "Unknown" one's GUID, or nothing).
+fn declared_crs(wkt: &str, notes: &mut Vec<String>) -> (Option<DeclaredCrs>, Option<f64>) {
+    let wkt = wkt.trim();
+    if wkt.is_empty() || wkt.starts_with('{') || wkt.eq_ignore_ascii_case("unknown") {
+        return (None, None);
+    }
+    let source = crate::prj::WktSource {
+        member: "spatial reference",
+        whose: "the geometry field's",
+    };
+    let (crs, note) = crate::prj::declared_crs(wkt, &source);
+    notes.extend(note);
+    (Some(crs), crate::prj::vertical_unit_m(wkt))
+}
+
+/// Every row of the feature class, in OBJECTID order: its attributes, and its polygons or its model's faces.
+fn features(
+    table: &Table,
+    geometry: &GeometryDef,
+    dir_name: &str,
+    notes: &mut Vec<String>,
+) -> Result<(Vec<RawFeature>, Vec<Surfaces>), String> {
+    let shape_field = table
+        .fields
+        .iter()
+        .position(|f| matches!(f.kind, Kind::Geometry(_)))
+        .expect("a feature class");
+    let left_out: Vec<String> = table
+        .fields
+        .iter()
+        .filter(|f| matches!(f.kind, Kind::Binary | Kind::Raster))
+        .map(|f| f.name.clone())
+        .collect();
+    if !left_out.is_empty() {
+        notes.push(format!(
+            "binary and raster field(s) not read as attributes: {}",
+            crate::geojson::listing(&left_out)
+        ));
+    }
+    let mut features = Vec::new();
+    let mut surfaces = Vec::new();
+    let mut curved = 0usize;
+    for (oid, row) in table.rows() {
+        let row = row.map_err(|e| format!("row {oid}: {e}"))?;
+        let values = table.values(row).map_err(|e| format!("row {oid}: {e}"))?;
+        let mut attributes = Attributes::new();
+        let mut blob = None;
+        for (k, (field, value)) in table.fields.iter().zip(values).enumerate() {
+            match (&field.kind, value) {
+                (Kind::ObjectId, _) => {
+                    attributes.insert(field.name.clone(), AttrValue::Int(oid as i64));
+                }
+                (_, Cell::Bytes(b)) if k == shape_field => blob = Some(b),
+                (Kind::Binary | Kind::Raster | Kind::Geometry(_), _) => {}
+                (_, Cell::Null) => {
+                    attributes.insert(field.name.clone(), AttrValue::Null);
+                }
+                (_, Cell::Value(v)) => {
+                    attributes.insert(field.name.clone(), v);
+                }
+                (_, Cell::Bytes(_)) => {}
+            }
+        }
+        let mut out = RawFeature {
+            source_id: crate::feature::source_id(&attributes, dir_name, oid),
+            attributes,
+            ..Default::default()
+        };
+        let name = format!("OBJECTID {oid}");
+        match blob {
+            Some(b) => match shape(b, geometry) {
+                Ok(Shape::Footprint(polygons, repairs, arcs)) => {
+                    curved += usize::from(arcs);
+                    out.polygons = polygons;
+                    out.repairs.extend(repairs);
+                }
+                Ok(Shape::Surfaces(faces)) => surfaces.push((features.len(), name, faces)),
+                Err((reason, detail)) => out.skip = Some((reason, format!("{name}: {detail}"))),
+            },
+            _ => out.skip = Some((IssueReason::NoGeometry, format!("{name}: geometry is null"))),
+        }
+        features.push(out);
+    }
+    if curved > 0 {
+        notes.push(format!(
+            "{curved} feature(s) with curves (arcs or Bézier curves): followed in segments of at most {}°",
+            crate::gpkg::ARC_STEP_DEG
+        ));
+    }
+    Ok((features, surfaces))
+}
+
+// ---------------------------------------------------------------------------------------------------------------------
+// Tables
+
+/// A field's type, with what its description says about its values.
+#[derive(Debug, Clone)]
+enum Kind {
+    Int16,
+    Int32,
+    Int64,
+    Float32,
+    Float64,
+    String,
+    DateTime,
+    DateOnly,
+    TimeOnly,
+    DateTimeOffset,
+    ObjectId,
+    Geometry(Box<GeometryDef>),
+    Binary,
+    Raster,
+    Guid,
+    Xml,
+}
+
+/// A geometry field's description: its CRS, and how its integer coordinates become numbers.
+#[derive(Debug, Clone, Default)]
+struct GeometryDef {
+    wkt: String,
+    x_origin: f64,
+    y_origin: f64,
+    xy_scale: f64,
+    z_origin: f64,
+    z_scale: f64,
+}
+
+#[derive(Debug, Clone)]
+struct Field {
+    name: String,
+    kind: Kind,
+    nullable: bool,
+}
+
+/// One value of a row.
+enum Cell<'a> {
+    Null,
+    Value(AttrValue),
+    /// A geometry, binary or raster field's bytes.
+    Bytes(&'a [u8]),
+}
+
+/// One `.gdbtable` with its `.gdbtablx`, read whole.
+struct Table {
+    bytes: Vec<u8>,
+    /// Where each row is, by OBJECTID (deleted rows left out).
+    offsets: Vec<(u64, u64)>,
+    fields: Vec<Field>,
+    /// The layer's geometry type (1 point, 2 multipoint, 3 polyline, 4 polygon, 9 MultiPatch; 0 none).
+    geometry_type: u8,
+    nullable: usize,
+}
+
+/// Longest row read: a row claiming more is a damaged file, not a building.
+const MAX_ROW_BYTES: u64 = 1 << 31;
+
+impl Table {
+    fn open(path: &Path) -> Result<Table, String> {
+        let bytes = std::fs::read(path).map_err(|e| format!("cannot read it: {e}"))?;
+        let tablx_path = path.with_extension("gdbtablx");
+        let tablx = std::fs::read(&tablx_path).map_err(|e| {
+            format!(
+                "cannot read its row index {}: {e}",
+                tablx_path.file_name().unwrap_or_default().to_string_lossy()
+            )
+        })?;
+        let (fields, geometry_type) = describe(&bytes)?;
+        let offsets = offsets(&tablx)?;
+        let nullable = fields.iter().filter(|f| f.nullable).count();
+        Ok(Table {
+            bytes,
+            offsets,
+            fields,
+            geometry_type,
+            nullable,
+        })
+    }
+
+    fn geometry(&self) -> Option<&GeometryDef> {
+        self.fields.iter().find_map(|f| match &f.kind {
+            Kind::Geometry(g) => Some(&**g),
+            _ => None,
+        })
+    }
+
+    fn kind_name(&self) -> &'static str {
+        match self.geometry_type {
+            1 => "points",
+            2 => "multipoints",
+            3 => "lines",
+            4 => "polygons",
+            9 => "MultiPatch",
+            _ => "geometry",
+        }
+    }
+
+    /// Each row's OBJECTID and bytes (after its length), in OBJECTID order.
+    fn rows(&self) -> impl Iterator<Item = (u64, Result<&[u8], String>)> + '_ {
+        self.offsets.iter().map(move |&(oid, at)| {
+            let row = (|| {
+                let len = Cursor::at(&self.bytes, at as usize)
+                    .u32()
+                    .ok_or("its offset lies past the end of the table")?;
+                let start = at as usize + 4;
+                if len as u64 > MAX_ROW_BYTES || start + len as usize > self.bytes.len() {
+                    return Err(format!(
+                        "a row of {len} bytes at offset {at}, past the end of the table ({} bytes)",
+                        self.bytes.len()
+                    ));
+                }
+                Ok(&self.bytes[start..start + len as usize])
+            })();
+            (oid, row)
+        })
+    }
+
+    /// A row's values, field by field (OBJECTID as null: it is the row's number).
+    fn values<'r>(&self, row: &'r [u8]) -> Result<Vec<Cell<'r>>, String> {
+        let flag_bytes = self.nullable.div_ceil(8);
+        let flags = row
+            .get(..flag_bytes)
+            .ok_or("a row shorter than its null flags")?;
+        let mut c = Cursor::at(row, flag_bytes);
+        let mut nullable_index = 0usize;
+        let mut out = Vec::with_capacity(self.fields.len());
+        for f in &self.fields {
+            if matches!(f.kind, Kind::ObjectId) {
+                out.push(Cell::Null);
+                continue;
+            }
+            if f.nullable {
+                let bit = nullable_index;
+                nullable_index += 1;
+                if flags[bit / 8] & (1 << (bit % 8)) != 0 {
+                    out.push(Cell::Null);
+                    continue;
+                }
+            }
+            let short = || format!("the row ends inside field {:?}", f.name);
+            let v = match &f.kind {
+                Kind::Int16 => AttrValue::Int(c.i16().ok_or_else(short)? as i64),
+                Kind::Int32 => AttrValue::Int(c.i32().ok_or_else(short)? as i64),
+                Kind::Int64 => AttrValue::Int(c.i64().ok_or_else(short)?),
+                Kind::Float32 => AttrValue::Float(c.f32().ok_or_else(short)? as f64),
+                Kind::Float64 => AttrValue::Float(c.f64().ok_or_else(short)?),
+                Kind::String | Kind::Xml => {
+                    let n = c.varuint().ok_or_else(short)?;
+                    let b = c.take(n).ok_or_else(short)?;
+                    AttrValue::String(String::from_utf8_lossy(b).into_owned())
+                }
+                Kind::DateTime => date_time(c.f64().ok_or_else(short)?, true, true),
+                Kind::DateOnly => date_time(c.f64().ok_or_else(short)?, true, false),
+                Kind::TimeOnly => date_time(c.f64().ok_or_else(short)?, false, true),
+                Kind::DateTimeOffset => {
+                    let days = c.f64().ok_or_else(short)?;
+                    let minutes = c.i16().ok_or_else(short)?;
+                    match date_time(days, true, true) {
+                        AttrValue::String(s) => {
+                            let sign = if minutes < 0 { '-' } else { '+' };
+                            let m = minutes.unsigned_abs();
+                            AttrValue::String(format!("{s}{sign}{:02}:{:02}", m / 60, m % 60))
+                        }
+                        other => other,
+                    }
+                }
+                Kind::Guid => {
+                    let b = c.take(16).ok_or_else(short)?;
+                    AttrValue::String(guid(b))
+                }
+                Kind::Geometry(_) | Kind::Binary | Kind::Raster => {
+                    let n = c.varuint().ok_or_else(short)?;
+                    out.push(Cell::Bytes(c.take(n).ok_or_else(short)?));
+                    continue;
+                }
+                Kind::ObjectId => unreachable!("handled above"),
+            };
+            out.push(Cell::Value(v));
+        }
+        Ok(out)
+    }
+}
+
+/// A GUID's 16 bytes as ArcGIS shows it: `{XXXXXXXX-XXXX-XXXX-XXXX-XXXXXXXXXXXX}`, the first three groups little-endian.
+fn guid(b: &[u8]) -> String {
+    format!(
+        "{{{:02X}{:02X}{:02X}{:02X}-{:02X}{:02X}-{:02X}{:02X}-{:02X}{:02X}-{:02X}{:02X}{:02X}{:02X}{:02X}{:02X}}}",
+        b[3], b[2], b[1], b[0], b[5], b[4], b[7], b[6], b[8], b[9], b[10], b[11], b[12], b[13], b[14], b[15]
+    )
+}
+
+/// Days since 1899-12-30 (the OLE automation date of Esri's date fields) as ISO 8601 text: the date, the time, or
+/// both; to the millisecond when it has any. A value out of any calendar's reach is kept as its number.
+fn date_time(days: f64, date: bool, time: bool) -> AttrValue {
+    if !days.is_finite() || days.abs() > 3.0e6 {
+        return AttrValue::Float(days);
+    }
+    let ms_total = (days * 86_400_000.0).round() as i64;
+    let (day, ms) = (
+        ms_total.div_euclid(86_400_000),
+        ms_total.rem_euclid(86_400_000),
+    );
+    // 1899-12-30 is day 693,594 after 0000-03-01 in the proleptic Gregorian calendar's civil-from-days count.
+    let (y, m, d) = civil_from_days(day - 25_569);
+    let (h, min, s, milli) = (ms / 3_600_000, ms / 60_000 % 60, ms / 1000 % 60, ms % 1000);
+    let clock = if milli == 0 {
+        format!("{h:02}:{min:02}:{s:02}")
+    } else {
+        format!("{h:02}:{min:02}:{s:02}.{milli:03}")
+    };
+    AttrValue::String(match (date, time) {
+        (true, true) => format!("{y:04}-{m:02}-{d:02}T{clock}"),
+        (true, false) => format!("{y:04}-{m:02}-{d:02}"),
+        _ => clock,
+    })
+}
+
+/// The Gregorian (year, month, day) of a count of days since 1970-01-01.
+fn civil_from_days(z: i64) -> (i64, u32, u32) {
+    let z = z + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = (doy - (153 * mp + 2) / 5 + 1) as u32;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
+    (yoe + era * 400 + i64::from(m <= 2), m, d)
+}
+
+/// The fields of a `.gdbtable` and its layer's geometry type, from its header and field descriptions.
+fn describe(b: &[u8]) -> Result<(Vec<Field>, u8), String> {
+    let mut h = Cursor::at(b, 0);
+    let magic = h.u32();
+    if magic != Some(3) || b.len() < 40 {
+        return Err("not a File Geodatabase table (a .gdbtable starts with the number 3)".into());
+    }
+    let mut c = Cursor::at(b, 32);
+    let start = c.u64().ok_or("cut short in its header")?;
+    let mut c = Cursor::at(b, usize::try_from(start).unwrap_or(usize::MAX));
+    let short = || "cut short in its field descriptions".to_string();
+    let _size = c.u32().ok_or_else(short)?;
+    let version = c.u32().ok_or_else(short)?;
+    if !matches!(version, 3 | 4 | 6) {
+        return Err(format!(
+            "a table of format version {version}, which this reader does not know (it reads 3, 4 and 6: \
+             ArcGIS 9, 10 and ArcGIS Pro 3.2's 64-bit OBJECTIDs)"
+        ));
+    }
+    let layer_flags = c.u32().ok_or_else(short)?;
+    let count = c.u16().ok_or_else(short)?;
+    let mut fields = Vec::with_capacity(count as usize);
+    for k in 0..count {
+        let field = field(&mut c).map_err(|e| format!("field {}: {e}", k + 1))?;
+        fields.push(field);
+    }
+    Ok((fields, (layer_flags & 0xff) as u8))
+}
+
+/// One field's description (after which `c` stands at the next).
+fn field(c: &mut Cursor) -> Result<Field, String> {
+    let short = || "cut short".to_string();
+    let n = c.u8().ok_or_else(short)?;
+    let name = c.utf16(n as usize).ok_or_else(short)?;
+    let n = c.u8().ok_or_else(short)?;
+    let _alias = c.utf16(n as usize).ok_or_else(short)?;
+    let kind = c.u8().ok_or_else(short)?;
+    let with_default = |c: &mut Cursor| -> Option<bool> {
+        let _width = c.u8()?;
+        let flags = c.u8()?;
+        let default = c.u8()?;
+        c.take(default as u64)?;
+        Some(flags & 1 != 0)
+    };
+    let (kind, nullable) = match kind {
+        0 => (Kind::Int16, with_default(c).ok_or_else(short)?),
+        1 => (Kind::Int32, with_default(c).ok_or_else(short)?),
+        2 => (Kind::Float32, with_default(c).ok_or_else(short)?),
+        3 => (Kind::Float64, with_default(c).ok_or_else(short)?),
+        5 => (Kind::DateTime, with_default(c).ok_or_else(short)?),
+        13 => (Kind::Int64, with_default(c).ok_or_else(short)?),
+        14 => (Kind::DateOnly, with_default(c).ok_or_else(short)?),
+        15 => (Kind::TimeOnly, with_default(c).ok_or_else(short)?),
+        16 => (Kind::DateTimeOffset, with_default(c).ok_or_else(short)?),
+        4 => {
+            let _max = c.u32().ok_or_else(short)?;
+            let flags = c.u8().ok_or_else(short)?;
+            let default = c.varuint().ok_or_else(short)?;
+            c.take(default).ok_or_else(short)?;
+            (Kind::String, flags & 1 != 0)
+        }
+        6 => {
+            c.take(2).ok_or_else(short)?;
+            (Kind::ObjectId, false)
+        }
+        7 => {
+            let _ = c.u8().ok_or_else(short)?;
+            let flags = c.u8().ok_or_else(short)?;
+            (Kind::Geometry(Box::new(geometry_def(c)?)), flags & 1 != 0)
+        }
+        8 => {
+            let _ = c.u8().ok_or_else(short)?;
+            let flags = c.u8().ok_or_else(short)?;
+            (Kind::Binary, flags & 1 != 0)
+        }
+        9 => {
+            raster_def(c)?;
+            (Kind::Raster, true)
+        }
+        10 | 11 => {
+            let _width = c.u8().ok_or_else(short)?;
+            let flags = c.u8().ok_or_else(short)?;
+            (Kind::Guid, flags & 1 != 0)
+        }
+        12 => {
+            let _width = c.u8().ok_or_else(short)?;
+            let flags = c.u8().ok_or_else(short)?;
+            (Kind::Xml, flags & 1 != 0)
+        }
+        t => {
+            return Err(format!(
+                "{name:?} is of field type {t}, which this reader does not know"
+            ))
+        }
+    };
+    Ok(Field {
+        name,
+        kind,
+        nullable,
+    })
+}
+
+/// A geometry field's description after its flags: the WKT, then origins, scales, tolerances and extents.
+fn geometry_def(c: &mut Cursor) -> Result<GeometryDef, String> {
+    let short = || "cut short in its geometry description".to_string();
+    let wkt_bytes = c.u16().ok_or_else(short)?;
+    let wkt = c.utf16(wkt_bytes as usize / 2).ok_or_else(short)?;
+    let flags = c.u8().ok_or_else(short)?;
+    let (has_m, has_z) = (flags & 2 != 0, flags & 4 != 0);
+    let mut g = GeometryDef {
+        wkt,
+        ..Default::default()
+    };
+    g.x_origin = c.f64().ok_or_else(short)?;
+    g.y_origin = c.f64().ok_or_else(short)?;
+    g.xy_scale = c.f64().ok_or_else(short)?;
+    if has_m {
+        c.take(16).ok_or_else(short)?;
+    }
+    if has_z {
+        g.z_origin = c.f64().ok_or_else(short)?;
+        g.z_scale = c.f64().ok_or_else(short)?;
+    }
+    // xy tolerance, m and z tolerances, then the extent.
+    let _xy_tolerance = c.f64().ok_or_else(short)?;
+    c.take(8 * (u64::from(has_m) + u64::from(has_z)))
+        .ok_or_else(short)?;
+    c.take(32).ok_or_else(short)?;
+    // Then z and m extents, as many as there are, each pair told from the spatial grid that ends the description
+    // by the int32 after its first byte: 0 for an extent (its doubles' bytes), the grid's size otherwise.
+    loop {
+        let at = c.at;
+        c.take(1).ok_or_else(short)?;
+        let n = c.u32().ok_or_else(short)?;
+        if n == 0 {
+            c.at = at;
+            c.take(16).ok_or_else(short)?;
+            continue;
+        }
+        if n > 3 {
+            return Err(format!(
+                "a spatial grid of {n} levels (at most 3 are known)"
+            ));
+        }
+        c.take(8 * u64::from(n)).ok_or_else(short)?;
+        break;
+    }
+    if !(g.xy_scale.is_finite() && g.xy_scale > 0.0) {
+        return Err(format!("an xy scale of {}", g.xy_scale));
+    }
+    Ok(g)
+}
+
+/// A raster field's description, skipped: its raster column's name, its CRS, its origins and scales.
+fn raster_def(c: &mut Cursor) -> Result<(), String> {
+    let short = || "cut short in its raster description".to_string();
+    c.take(2).ok_or_else(short)?;
+    let n = c.u8().ok_or_else(short)?;
+    c.utf16(n as usize).ok_or_else(short)?;
+    let wkt_bytes = c.u16().ok_or_else(short)?;
+    c.take(u64::from(wkt_bytes)).ok_or_else(short)?;
+    let flags = c.u8().ok_or_else(short)?;
+    if flags > 0 {
+        let (has_m, has_z) = (flags & 2 != 0, flags & 4 != 0);
+        let doubles =
+            3 + 2 * (u64::from(has_m) + u64::from(has_z)) + 1 + u64::from(has_m) + u64::from(has_z);
+        c.take(8 * doubles).ok_or_else(short)?;
+    }
+    c.take(1).ok_or_else(short)?;
+    Ok(())
+}
+
+/// The rows' offsets from a `.gdbtablx`, by OBJECTID: blocks of 1,024 offsets, some left out (a bitmap at the end says
+/// which are present) when whole blocks of rows were deleted.
+fn offsets(x: &[u8]) -> Result<Vec<(u64, u64)>, String> {
+    let mut h = Cursor::at(x, 0);
+    let short = || "its row index (.gdbtablx) is cut short".to_string();
+    if h.u32() != Some(3) {
+        return Err("its row index (.gdbtablx) does not start with the number 3".into());
+    }
+    let blocks = h.u32().ok_or_else(short)? as u64;
+    let rows = h.u32().ok_or_else(short)? as u64;
+    let size = h.u32().ok_or_else(short)? as u64;
+    if !(4..=6).contains(&size) {
+        return Err(format!(
+            "its row index (.gdbtablx) gives offsets of {size} bytes (4, 5 or 6 are known)"
+        ));
+    }
+    let listed = blocks * 1024;
+    let body = listed
+        .checked_mul(size)
+        .and_then(|n| n.checked_add(16))
+        .filter(|&n| n <= x.len() as u64)
+        .ok_or_else(short)?;
+    // Which blocks of 1,024 OBJECTIDs the offsets hold: all, in order, unless the trailer has a bitmap.
+    let mut t = Cursor::at(x, body as usize);
+    let words = t.u32().unwrap_or(0) as u64;
+    let present: Vec<u64> = if words == 0 || blocks == rows.div_ceil(1024) {
+        (0..blocks).collect()
+    } else {
+        let total = t.u32().ok_or_else(short)? as u64;
+        let _present = t.u32().ok_or_else(short)?;
+        let _leading = t.u32().ok_or_else(short)?;
+        let bitmap = t.take(4 * words).ok_or_else(short)?;
+        let ids: Vec<u64> = (0..total.min(words * 32))
+            .filter(|&b| bitmap[(b / 8) as usize] & (1 << (b % 8)) != 0)
+            .collect();
+        if ids.len() as u64 != blocks {
+            return Err(format!(
+                "its row index (.gdbtablx) lists {blocks} blocks of rows and its bitmap {}",
+                ids.len()
+            ));
+        }
+        ids
+    };
+    let mut out = Vec::new();
+    for (k, block) in present.into_iter().enumerate() {
+        for j in 0..1024u64 {
+            let oid = block * 1024 + j + 1;
+            if oid > rows {
+                break;
+            }
+            let at = 16 + (k as u64 * 1024 + j) * size;
+            let b = &x[at as usize..(at + size) as usize];
+            let offset = b.iter().rev().fold(0u64, |v, &byte| (v << 8) | byte as u64);
+            if offset != 0 {
+                out.push((oid, offset));
+            }
+        }
+    }
+    Ok(out)
+}
+
+// ---------------------------------------------------------------------------------------------------------------------
+// Geometry
+
+enum Shape {
+    /// Polygons, the repairs made reading them, and whether they had curves.
+    Footprint(Vec<RawPolygon>, Repairs, bool),
+    /// A MultiPatch's faces.
+    Surfaces(Vec<Face>),
+}
+
+/// Flags of the "general" geometry types (50–54) in the type's high bits.
+const HAS_Z: u64 = 0x8000_0000;
+const HAS_M: u64 = 0x4000_0000;
+const HAS_CURVES: u64 = 0x2000_0000;
+const HAS_IDS: u64 = 0x1000_0000;
+
+/// A geometry blob (after its length) → polygons or a MultiPatch's faces.
+fn shape(b: &[u8], g: &GeometryDef) -> Result<Shape, Skip> {
+    let malformed = |d: String| (IssueReason::MalformedGeometry, d);
+    let mut c = Cursor::at(b, 0);
+    let kind = c
+        .varuint()
+        .ok_or_else(|| malformed("an empty geometry blob".into()))?;
+    let base = kind & 0xff;
+    let (has_z, has_m, curves) = match base {
+        5 => (false, false, false),
+        15 => (true, true, false),
+        19 => (true, false, false),
+        25 => (false, true, false),
+        51 => (kind & HAS_Z != 0, kind & HAS_M != 0, kind & HAS_CURVES != 0),
+        31 => (true, true, false),
+        32 => (true, false, false),
+        54 => (kind & HAS_Z != 0, kind & HAS_M != 0, false),
+        0 => return Err((IssueReason::NoGeometry, "null shape".into())),
+        1 | 9 | 11 | 21 | 52 => {
+            return Err((
+                IssueReason::UnsupportedGeometry,
+                "a point, not a polygon".into(),
+            ))
+        }
+        8 | 18 | 20 | 28 | 53 => {
+            return Err((
+                IssueReason::UnsupportedGeometry,
+                "a multipoint, not a polygon".into(),
+            ))
+        }
+        3 | 10 | 13 | 23 | 50 => {
+            return Err((
+                IssueReason::UnsupportedGeometry,
+                "a line, not a polygon".into(),
+            ))
+        }
+        t => return Err(malformed(format!("unknown geometry type {t}"))),
+    };
+    let multipatch = matches!(base, 31 | 32 | 54);
+    let short = || malformed("the geometry blob is cut short".into());
+    let points = c.varuint().ok_or_else(short)?;
+    if points == 0 {
+        return Err((
+            IssueReason::EmptyGeometry,
+            "a polygon without points".into(),
+        ));
+    }
+    let parts = c.varuint().ok_or_else(short)?;
+    let curve_count = if curves {
+        c.varuint().ok_or_else(short)?
+    } else {
+        0
+    };
+    // Every point takes at least two bytes, every part count one: counts beyond the blob are a damaged row.
+    let room = b.len() as u64;
+    if points > room / 2 || parts == 0 || parts > points || curve_count > room {
+        return Err(malformed(format!(
+            "{points} points in {parts} parts do not fit a blob of {} bytes",
+            b.len()
+        )));
+    }
+    // The bounding box (x min, y min, then the spans), not needed.
+    for _ in 0..4 {
+        c.varuint().ok_or_else(short)?;
+    }
+    let mut sizes = Vec::with_capacity(parts as usize);
+    let mut counted = 0u64;
+    for _ in 1..parts {
+        let n = c.varuint().ok_or_else(short)?;
+        counted = counted.checked_add(n).ok_or_else(short)?;
+        sizes.push(n);
+    }
+    if counted > points || (counted == points && !multipatch) {
+        return Err(malformed(format!(
+            "parts of {counted} points before the last, of {points} in all"
+        )));
+    }
+    sizes.push(points - counted);
+    let part_types = if multipatch {
+        let mut t = Vec::with_capacity(parts as usize);
+        for _ in 0..parts {
+            t.push(c.varuint().ok_or_else(short)?);
+        }
+        t
+    } else {
+        Vec::new()
+    };
+    let n = points as usize;
+    let mut xy = Vec::with_capacity(n);
+    let (mut dx, mut dy) = (0i64, 0i64);
+    for _ in 0..n {
+        dx = dx.wrapping_add(c.varint().ok_or_else(short)?);
+        dy = dy.wrapping_add(c.varint().ok_or_else(short)?);
+        xy.push([
+            dx as f64 / g.xy_scale + g.x_origin,
+            dy as f64 / g.xy_scale + g.y_origin,
+        ]);
+    }
+    let mut z = Vec::new();
+    if has_z {
+        let mut dz = 0i64;
+        z.reserve(n);
+        for _ in 0..n {
+            dz = dz.wrapping_add(c.varint().ok_or_else(short)?);
+            z.push(dz as f64 / g.z_scale + g.z_origin);
+        }
+    }
+    if has_m {
+        // All M unknown: one byte 0x42; else one varint a point.
+        if c.peek() == Some(0x42) {
+            c.take(1);
+        } else {
+            for _ in 0..n {
+                c.varint().ok_or_else(short)?;
+            }
+        }
+    }
+    let _ = HAS_IDS;
+    if xy.iter().flatten().chain(&z).any(|v| !v.is_finite()) {
+        return Err((
+            IssueReason::NonFiniteCoordinate,
+            "a vertex that is not a finite number".into(),
+        ));
+    }
+    if multipatch {
+        if z.is_empty() {
+            return Err(malformed("a MultiPatch without z".into()));
+        }
+        let mut start = 0usize;
+        let parts: Vec<(i64, Vec<[f64; 3]>)> = sizes
+            .iter()
+            .zip(&part_types)
+            .map(|(&size, &t)| {
+                let p: Vec<[f64; 3]> = (start..start + size as usize)
+                    .map(|i| [xy[i][0], xy[i][1], z[i]])
+                    .collect();
+                start += size as usize;
+                ((t & 0xf) as i64, p)
+            })
+            .collect();
+        return crate::shp::multipatch_faces(parts).map(Shape::Surfaces);
+    }
+    let segments = if curves {
+        curve_segments(&mut c, curve_count, n).map_err(malformed)?
+    } else {
+        Vec::new()
+    };
+    let mut rings = Vec::with_capacity(parts as usize);
+    let mut repairs = Vec::new();
+    let mut start = 0usize;
+    let mut seg = segments.iter().peekable();
+    for (k, &size) in sizes.iter().enumerate() {
+        let end = start + size as usize;
+        let mut r: Vec<[f64; 2]> = Vec::with_capacity(size as usize);
+        for i in start..end {
+            r.push(xy[i]);
+            while let Some(s) = seg.next_if(|s| s.0 == i) {
+                if i + 1 < end {
+                    r.extend(follow(&s.1, xy[i], xy[i + 1]));
+                }
+            }
+        }
+        // Segments starting at a ring's last point have no end in it.
+        while seg.next_if(|s| s.0 < end).is_some() {}
+        if r.len() > 1 && r.first() == r.last() {
+            r.pop();
+        } else if r.len() >= 3 {
+            repairs.push((
+                IssueReason::RingClosed,
+                format!("ring {} was not closed; closed it", k + 1),
+            ));
+        }
+        rings.push(r);
+        start = end;
+    }
+    Ok(Shape::Footprint(
+        crate::shp::organize(rings),
+        repairs,
+        !segments.is_empty(),
+    ))
+}
+
+/// A curve segment of a ring: from its start point to the next point of the ring.
+#[derive(Debug, Clone)]
+enum Curve {
+    /// A circular arc through `mid` (or about a centre, `centre: true`: then `ccw` says which way round).
+    Arc {
+        p: [f64; 2],
+        centre: bool,
+        ccw: bool,
+    },
+    /// A cubic Bézier curve with its two control points.
+    Bezier([f64; 2], [f64; 2]),
+    /// An elliptic arc: centre, rotation, semi-major axis, ratio of minor to major, and its direction.
+    Ellipse {
+        centre: [f64; 2],
+        rotation: f64,
+        semi_major: f64,
+        ratio: f64,
+        ccw: bool,
+    },
+}
+
+/// The curve segments after a general polygon's coordinates, each with the index of its start point.
+fn curve_segments(
+    c: &mut Cursor,
+    count: u64,
+    points: usize,
+) -> Result<Vec<(usize, Curve)>, String> {
+    let short = || "its curve segments are cut short".to_string();
+    let mut out = Vec::with_capacity(count.min(points as u64) as usize);
+    for _ in 0..count {
+        let start = c.varuint().ok_or_else(short)?;
+        let kind = c.varuint().ok_or_else(short)?;
+        if start as usize >= points {
+            return Err(format!("a curve segment from point {start} of {points}"));
+        }
+        let curve = match kind {
+            1 => {
+                let p = [c.f64().ok_or_else(short)?, c.f64().ok_or_else(short)?];
+                let bits = c.u32().ok_or_else(short)?;
+                Curve::Arc {
+                    p,
+                    centre: bits & (1 << 7) != 0,
+                    ccw: bits & (1 << 8) != 0,
+                }
+            }
+            4 => {
+                let a = [c.f64().ok_or_else(short)?, c.f64().ok_or_else(short)?];
+                let b = [c.f64().ok_or_else(short)?, c.f64().ok_or_else(short)?];
+                Curve::Bezier(a, b)
+            }
+            5 => {
+                let centre = [c.f64().ok_or_else(short)?, c.f64().ok_or_else(short)?];
+                let rotation = c.f64().ok_or_else(short)?;
+                let semi_major = c.f64().ok_or_else(short)?;
+                let ratio = c.f64().ok_or_else(short)?;
+                let bits = c.u32().ok_or_else(short)?;
+                Curve::Ellipse {
+                    centre,
+                    rotation,
+                    semi_major,
+                    ratio,
+                    ccw: bits & (1 << 11) == 0,
+                }
+            }
+            t => {
+                return Err(format!(
+                    "a curve segment of type {t} (1, 4 and 5 are known)"
+                ))
+            }
+        };
+        out.push((start as usize, curve));
+    }
+    out.sort_by_key(|s| s.0);
+    Ok(out)
+}
+
+/// The points a curve segment from `a` to `b` passes through after `a`, before `b`.
+fn follow(curve: &Curve, a: [f64; 2], b: [f64; 2]) -> Vec<[f64; 2]> {
+    let lift = |p: [f64; 2]| [p[0], p[1], 0.0];
+    let flat = |v: Vec<[f64; 3]>| -> Vec<[f64; 2]> {
+        let mut v: Vec<[f64; 2]> = v.into_iter().map(|p| [p[0], p[1]]).collect();
+        v.pop();
+        v
+    };
+    match *curve {
+        Curve::Arc {
+            p, centre: false, ..
+        } => flat(crate::gpkg::arc_points(lift(a), lift(p), lift(b))),
+        Curve::Arc {
+            p: m,
+            centre: true,
+            ccw,
+        } => {
+            // About a centre: a point half-way round the chosen way is the arc's middle point.
+            let r = ((a[0] - m[0]).hypot(a[1] - m[1]) + (b[0] - m[0]).hypot(b[1] - m[1])) / 2.0;
+            let (ta, tb) = (
+                (a[1] - m[1]).atan2(a[0] - m[0]),
+                (b[1] - m[1]).atan2(b[0] - m[0]),
+            );
+            let sweep = if ccw {
+                (tb - ta).rem_euclid(std::f64::consts::TAU)
+            } else {
+                -(ta - tb).rem_euclid(std::f64::consts::TAU)
+            };
+            let sweep = if sweep == 0.0 {
+                std::f64::consts::TAU * if ccw { 1.0 } else { -1.0 }
+            } else {
+                sweep
+            };
+            let t = ta + sweep / 2.0;
+            let mid = [m[0] + r * t.cos(), m[1] + r * t.sin(), 0.0];
+            flat(crate::gpkg::arc_points(lift(a), mid, lift(b)))
+        }
+        Curve::Bezier(p1, p2) => {
+            const STEPS: usize = 16;
+            (1..STEPS)
+                .map(|k| {
+                    let t = k as f64 / STEPS as f64;
+                    let u = 1.0 - t;
+                    let w = [u * u * u, 3.0 * u * u * t, 3.0 * u * t * t, t * t * t];
+                    [
+                        w[0] * a[0] + w[1] * p1[0] + w[2] * p2[0] + w[3] * b[0],
+                        w[0] * a[1] + w[1] * p1[1] + w[2] * p2[1] + w[3] * b[1],
+                    ]
+                })
+                .collect()
+        }
+        Curve::Ellipse {
+            centre,
+            rotation,
+            semi_major,
+            ratio,
+            ccw,
+        } => {
+            // The angles of a and b on the unrotated ellipse, then steps between them the chosen way round.
+            let (cr, sr) = (rotation.cos(), rotation.sin());
+            let minor = semi_major * ratio;
+            if !(semi_major > 0.0 && minor > 0.0) {
+                return Vec::new();
+            }
+            let param = |p: [f64; 2]| {
+                let (dx, dy) = (p[0] - centre[0], p[1] - centre[1]);
+                let (u, v) = (dx * cr + dy * sr, -dx * sr + dy * cr);
+                (v / minor).atan2(u / semi_major)
+            };
+            let (ta, tb) = (param(a), param(b));
+            let mut sweep = if ccw {
+                (tb - ta).rem_euclid(std::f64::consts::TAU)
+            } else {
+                -(ta - tb).rem_euclid(std::f64::consts::TAU)
+            };
+            if sweep == 0.0 {
+                sweep = std::f64::consts::TAU * if ccw { 1.0 } else { -1.0 };
+            }
+            let steps = ((sweep.abs() / crate::gpkg::ARC_STEP_DEG.to_radians()).ceil() as usize)
+                .clamp(1, 100_000);
+            (1..steps)
+                .map(|k| {
+                    let t = ta + sweep * k as f64 / steps as f64;
+                    let (u, v) = (semi_major * t.cos(), minor * t.sin());
+                    [centre[0] + u * cr - v * sr, centre[1] + u * sr + v * cr]
+                })
+                .collect()
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------------------------------
+// Bytes
+
+/// A position in a byte slice, reading little-endian numbers and the format's variable-length integers.
+struct Cursor<'a> {
+    b: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Cursor<'a> {
+    fn at(b: &'a [u8], at: usize) -> Self {
+        Cursor { b, at }
+    }
+    fn take(&mut self, n: u64) -> Option<&'a [u8]> {
+        let end = self.at.checked_add(usize::try_from(n).ok()?)?;
+        let s = self.b.get(self.at..end)?;
+        self.at = end;
+        Some(s)
+    }
+    fn array<const N: usize>(&mut self) -> Option<[u8; N]> {
+        self.take(N as u64).map(|s| s.try_into().expect("N bytes"))
+    }
+    fn peek(&self) -> Option<u8> {
+        self.b.get(self.at).copied()
+    }
+    fn u8(&mut self) -> Option<u8> {
+        self.array::<1>().map(|a| a[0])
+    }
+    fn u16(&mut self) -> Option<u16> {
+        self.array().map(u16::from_le_bytes)
+    }
+    fn i16(&mut self) -> Option<i16> {
+        self.array().map(i16::from_le_bytes)
+    }
+    fn u32(&mut self) -> Option<u32> {
+        self.array().map(u32::from_le_bytes)
+    }
+    fn i32(&mut self) -> Option<i32> {
+        self.array().map(i32::from_le_bytes)
+    }
+    fn u64(&mut self) -> Option<u64> {
+        self.array().map(u64::from_le_bytes)
+    }
+    fn i64(&mut self) -> Option<i64> {
+        self.array().map(i64::from_le_bytes)
+    }
+    fn f32(&mut self) -> Option<f32> {
+        self.array().map(f32::from_le_bytes)
+    }
+    fn f64(&mut self) -> Option<f64> {
+        self.array().map(f64::from_le_bytes)
+    }
+    /// `n` UTF-16 code units, little-endian (unpaired surrogates replaced).
+    fn utf16(&mut self, n: usize) -> Option<String> {
+        let b = self.take(2 * n as u64)?;
+        let units: Vec<u16> = b
+            .chunks_exact(2)
+            .map(|p| u16::from_le_bytes([p[0], p[1]]))
+            .collect();
+        Some(String::from_utf16_lossy(&units))
+    }
+    /// An unsigned integer in 7-bit groups, least significant first, the high bit of each byte saying more follow.
+    fn varuint(&mut self) -> Option<u64> {
+        let mut v = 0u64;
+        for shift in (0..64).step_by(7) {
+            let byte = self.u8()?;
+            v |= u64::from(byte & 0x7f) << shift;
+            if byte & 0x80 == 0 {
+                return Some(v);
+            }
+        }
+        None
+    }
+    /// A signed integer: the first byte holds the sign (0x40) and 6 bits, the rest 7 bits each.
+    fn varint(&mut self) -> Option<i64> {
+        let first = self.u8()?;
+        let negative = first & 0x40 != 0;
+        let mut v = u64::from(first & 0x3f);
+        if first & 0x80 != 0 {
+            let mut shift = 6;
+            loop {
+                let byte = self.u8()?;
+                if shift >= 64 {
+                    return None;
+                }
+                v |= u64::from(byte & 0x7f) << shift;
+                shift += 7;
+                if byte & 0x80 == 0 {
+                    break;
+                }
+            }
+        }
+        let v = i64::try_from(v).ok()?;
+        Some(if negative { -v } else { v })
+    }
+}
