@@ -146,11 +146,13 @@ pub(crate) fn read(dir: &Path, layer: Option<&str>) -> Result<VectorDoc, String>
             })
         }
         (None, [_]) => 0,
-        (None, _) => return Err(format!(
+        (None, _) => {
+            return Err(format!(
             "it holds {} feature classes; name the one to read with --layer (feature classes: {})",
             classes.len(),
             list(&classes)
-        )),
+        ))
+        }
     };
     let (name, path, table) = classes.swap_remove(chosen);
     let mut notes = Vec::new();
@@ -804,6 +806,10 @@ fn shape(b: &[u8], g: &GeometryDef) -> Result<Shape, Skip> {
             "a polygon without points".into(),
         ));
     }
+    if multipatch {
+        // A MultiPatch has one more count here, which is not needed to read it.
+        c.varuint().ok_or_else(short)?;
+    }
     let parts = c.varuint().ok_or_else(short)?;
     let curve_count = if curves {
         c.varuint().ok_or_else(short)?
@@ -942,7 +948,7 @@ fn shape(b: &[u8], g: &GeometryDef) -> Result<Shape, Skip> {
 /// A curve segment of a ring: from its start point to the next point of the ring.
 #[derive(Debug, Clone)]
 enum Curve {
-    /// A circular arc through `mid` (or about a centre, `centre: true`: then `ccw` says which way round).
+    /// A circular arc through the point `p` on it, or about the centre `p` (`centre: true`, `ccw` saying which way).
     Arc {
         p: [f64; 2],
         centre: bool,
@@ -978,10 +984,15 @@ fn curve_segments(
             1 => {
                 let p = [c.f64().ok_or_else(short)?, c.f64().ok_or_else(short)?];
                 let bits = c.u32().ok_or_else(short)?;
+                // Esri's arc flags: 0x1 empty, 0x8 counter-clockwise, 0x20 a line, 0x40 a point (angles stored),
+                // 0x80 the two numbers are a point on the arc (else its centre).
+                if bits & (0x1 | 0x20 | 0x40) != 0 {
+                    continue;
+                }
                 Curve::Arc {
                     p,
-                    centre: bits & (1 << 7) != 0,
-                    ccw: bits & (1 << 8) != 0,
+                    centre: bits & 0x80 == 0,
+                    ccw: bits & 0x8 != 0,
                 }
             }
             4 => {
@@ -990,17 +1001,21 @@ fn curve_segments(
                 Curve::Bezier(a, b)
             }
             5 => {
-                let centre = [c.f64().ok_or_else(short)?, c.f64().ok_or_else(short)?];
-                let rotation = c.f64().ok_or_else(short)?;
-                let semi_major = c.f64().ok_or_else(short)?;
-                let ratio = c.f64().ok_or_else(short)?;
+                let d: Vec<f64> = (0..5)
+                    .map(|_| c.f64().ok_or_else(short))
+                    .collect::<Result<_, _>>()?;
                 let bits = c.u32().ok_or_else(short)?;
+                // Esri's elliptic arc flags: 0x1 empty, 0x40 a line, 0x80 a point (other numbers stored then),
+                // 0x800 counter-clockwise.
+                if bits & (0x1 | 0x40 | 0x80) != 0 {
+                    continue;
+                }
                 Curve::Ellipse {
-                    centre,
-                    rotation,
-                    semi_major,
-                    ratio,
-                    ccw: bits & (1 << 11) == 0,
+                    centre: [d[0], d[1]],
+                    rotation: d[2],
+                    semi_major: d[3],
+                    ratio: d[4],
+                    ccw: bits & 0x800 != 0,
                 }
             }
             t => {

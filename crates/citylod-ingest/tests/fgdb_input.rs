@@ -132,3 +132,277 @@ fn the_lower_east_side_in_state_plane_feet_gives_the_buildings_of_its_geojson() 
     };
     assert_eq!(skipped(&gdb), skipped(&geojson));
 }
+
+/// GDAL's reading of a feature class (`make_fixtures.py`): per row its OBJECTID, attributes and polygons (lon/lat).
+#[derive(serde::Deserialize)]
+struct Reference {
+    objectid: i64,
+    attributes: BTreeMap<String, serde_json::Value>,
+    polygons: Vec<Vec<Vec<[f64; 2]>>>,
+}
+
+fn reference(name: &str) -> Vec<Reference> {
+    serde_json::from_str(&std::fs::read_to_string(fixture(name)).unwrap()).unwrap()
+}
+
+/// The area of a lon/lat ring in m², on a sphere of the Earth's mean radius (small rings).
+fn ring_area_m2(ring: &[[f64; 2]]) -> f64 {
+    let lat0 = ring[0][1].to_radians();
+    let m = 6_371_008.8_f64.to_radians();
+    let xy: Vec<[f64; 2]> = ring
+        .iter()
+        .map(|p| [p[0] * m * lat0.cos(), p[1] * m])
+        .collect();
+    let n = xy.len();
+    (0..n)
+        .map(|i| xy[i][0] * xy[(i + 1) % n][1] - xy[(i + 1) % n][0] * xy[i][1])
+        .sum::<f64>()
+        .abs()
+        / 2.0
+}
+
+fn by_objectid(out: &Ingested) -> BTreeMap<i64, &citylod_model::Building> {
+    out.buildings
+        .iter()
+        .map(|b| match b.attributes.get("OBJECTID") {
+            Some(AttrValue::Int(n)) => (*n, b),
+            other => panic!("{}: OBJECTID {other:?}", b.source_id),
+        })
+        .collect()
+}
+
+#[test]
+fn polygons_with_holes_deleted_rows_and_every_field_type_read_as_gdal_reads_them() {
+    let out = read(&fixture("kinds.gdb"), Some("blocks")).unwrap();
+    let r = &out.report;
+    r.check_invariants().unwrap();
+    assert_eq!(r.files[0].crs, "EPSG:32618");
+    // 3,000 rows written, then a whole block of 1,024 OBJECTIDs deleted (the row index leaves it out) and two more.
+    let gdal = reference("kinds.blocks.reference.json");
+    assert_eq!(gdal.len(), 1974);
+    assert_eq!(r.features_read, 1974);
+    assert_eq!(r.buildings_written, 1974);
+    let ours = by_objectid(&out);
+    assert_eq!(
+        ours.keys().copied().collect::<Vec<_>>(),
+        gdal.iter().map(|g| g.objectid).collect::<Vec<_>>()
+    );
+    for g in &gdal {
+        let b = ours[&g.objectid];
+        assert_eq!(b.source_id, format!("kinds.gdb#{}", g.objectid));
+        let a = &b.attributes;
+        assert_eq!(
+            a.get("storeys"),
+            Some(&AttrValue::Int(g.attributes["storeys"].as_i64().unwrap()))
+        );
+        assert_eq!(
+            a.get("height"),
+            Some(&AttrValue::Float(g.attributes["height"].as_f64().unwrap()))
+        );
+        match g.attributes["name"].as_str() {
+            Some(s) => assert_eq!(a.get("name"), Some(&AttrValue::String(s.into()))),
+            None => assert_eq!(a.get("name"), Some(&AttrValue::Null)),
+        }
+        // Dates as ISO 8601 text; GDAL's has a time zone the field does not store.
+        for k in ["built", "surveyed"] {
+            match (g.attributes[k].as_str(), a.get(k)) {
+                (Some("NaT"), Some(AttrValue::Null)) => {}
+                (Some(t), Some(AttrValue::String(s))) => assert_eq!(s, &t[..19], "{k}"),
+                (t, s) => panic!("OBJECTID {}: {k} {t:?} against {s:?}", g.objectid),
+            }
+        }
+        // The storeys give the height (3.25 m a storey was written, 3 m taken here): the attribute is read.
+        assert_eq!(
+            b.height_m,
+            3.25 * (g.attributes["storeys"].as_f64().unwrap())
+        );
+        // Outline and courtyard (every seventh row) as GDAL reads them.
+        assert_eq!(b.footprint.0.len(), g.polygons.len());
+        assert_eq!(b.footprint.0[0].interiors().len() + 1, g.polygons[0].len());
+        let v = vertices(&out, b);
+        let w: Vec<[f64; 2]> = g.polygons.iter().flatten().flatten().copied().collect();
+        assert_eq!(v.len(), w.len());
+        for p in &v {
+            assert!(
+                w.iter()
+                    .any(|q| (p[0] - q[0]).abs() < 1e-9 && (p[1] - q[1]).abs() < 1e-9),
+                "OBJECTID {}: {p:?} is none of {w:?}",
+                g.objectid
+            );
+        }
+    }
+}
+
+#[test]
+fn curves_are_followed_in_short_segments() {
+    let out = read(&fixture("kinds.gdb"), Some("round")).unwrap();
+    let r = &out.report;
+    assert_eq!(r.buildings_written, 3);
+    assert!(
+        r.files[0]
+            .notes
+            .iter()
+            .any(|n| n.starts_with("2 feature(s) with curves")),
+        "{:?}",
+        r.files[0].notes
+    );
+    let ours = by_objectid(&out);
+    // A circle of radius 10 m, in 4° steps (a 90-gon: 313.9 m²), GDAL's own linearization within 0.5 %.
+    let tower = ours[&1].area_m2();
+    let n = 90.0;
+    let polygon = 0.5 * n * 100.0 * (std::f64::consts::TAU / n).sin();
+    assert!((tower - polygon).abs() < 0.01 * polygon, "{tower}");
+    // A 30 m × 30 m room with a half-round apse of radius 15 m: 900 + π·15²/2.
+    let apse = ours[&2].area_m2();
+    let exact = 900.0 + std::f64::consts::PI * 225.0 / 2.0;
+    assert!(
+        (apse - exact).abs() < 0.005 * exact,
+        "{apse} against {exact}"
+    );
+    // GDAL's linearization of the same arcs gives the same areas within 1 %.
+    let gdal = reference("kinds.round.reference.json");
+    for g in gdal.iter().filter(|g| g.objectid <= 2) {
+        let ring = &g.polygons[0][0];
+        assert!(ring.len() > 30, "GDAL followed the arcs too");
+        let ours = ours[&g.objectid].area_m2();
+        let theirs = ring_area_m2(ring);
+        assert!(
+            (ours - theirs).abs() < 0.01 * theirs,
+            "{ours} against {theirs}"
+        );
+    }
+    // A plain MultiSurface with a courtyard: 30 × 30 less 15 × 15.
+    let plain = ours[&3];
+    assert_eq!(plain.footprint.0[0].interiors().len(), 1);
+    assert!(
+        (plain.area_m2() - 675.0 * 1.0006).abs() < 0.1,
+        "{}",
+        plain.area_m2()
+    );
+}
+
+#[test]
+fn multipatch_models_stand_on_their_lowest_point_and_reach_their_highest() {
+    let out = read(&fixture("kinds.gdb"), Some("models")).unwrap();
+    let ours = by_objectid(&out);
+    assert_eq!(ours.len(), 3);
+    // Two closed boxes and a tent of two triangles (written by GDAL as MultiPatch triangle or ring parts). Areas in
+    // UTM's metres, which are 0.03 % longer than true ones here (its scale factor, about 1.0003).
+    for (oid, area, height) in [(1, 100.0, 21.0), (2, 256.0, 45.5), (3, 60.0, 12.0)] {
+        let b = ours[&oid];
+        assert!(
+            (b.area_m2() - area * 1.0006).abs() < 2e-4 * area,
+            "{oid}: {}",
+            b.area_m2()
+        );
+        assert!((b.height_m - height).abs() < 1e-3, "{oid}: {}", b.height_m);
+    }
+    // With --lod, the faces are the model.
+    let opts = IngestOptions {
+        layer: Some("models".into()),
+        lod: Some(citylod_ingest::LodChoice::Highest),
+        ..Default::default()
+    };
+    let out = ingest(&[fixture("kinds.gdb")], &opts).unwrap();
+    assert!(out.buildings.iter().all(|b| b.mesh.is_some()));
+}
+
+#[test]
+fn arcgis_pro_3_2_tables_with_big_integers_dates_and_times() {
+    let out = read(&fixture("pro32.gdb"), None).unwrap();
+    let gdal = reference("pro32.buildings.reference.json");
+    let ours = by_objectid(&out);
+    assert_eq!(ours.len(), gdal.len());
+    for g in &gdal {
+        let a = &ours[&g.objectid].attributes;
+        assert_eq!(
+            a.get("bin"),
+            Some(&AttrValue::Int(g.attributes["bin"].as_i64().unwrap()))
+        );
+        assert_eq!(
+            a.get("bin"),
+            Some(&AttrValue::Int(999_999_999_999 + g.objectid))
+        );
+        let text = |k: &str| match a.get(k) {
+            Some(AttrValue::String(s)) => s.clone(),
+            other => panic!("{k}: {other:?}"),
+        };
+        assert_eq!(
+            text("opened"),
+            g.attributes["opened"].as_str().unwrap()[..10]
+        );
+        assert_eq!(text("closes"), g.attributes["closes"].as_str().unwrap());
+        assert_eq!(text("stamp"), g.attributes["stamp"].as_str().unwrap());
+    }
+}
+
+#[test]
+fn a_feature_class_without_a_spatial_reference_asks_for_crs() {
+    let err = read(&fixture("no-crs.gdb"), None).unwrap_err();
+    assert!(
+        matches!(err, IngestError::FileGdbWithoutCrs { .. }),
+        "{err}"
+    );
+    let opts = IngestOptions {
+        crs: Some("EPSG:32618".into()),
+        ..Default::default()
+    };
+    let out = ingest(&[fixture("no-crs.gdb")], &opts).unwrap();
+    assert_eq!(out.buildings.len(), 1);
+    assert_eq!(
+        out.buildings[0].height_m, 10.0,
+        "no height attribute it knows: the default"
+    );
+}
+
+#[test]
+fn layers_are_chosen_by_name_and_wrong_names_list_the_feature_classes() {
+    let err = read(&fixture("kinds.gdb"), None).unwrap_err().to_string();
+    assert!(
+        err.contains("it holds 4 feature classes; name the one to read with --layer")
+            && err.contains("blocks (polygons)")
+            && err.contains("models (MultiPatch)"),
+        "{err}"
+    );
+    let err = read(&fixture("kinds.gdb"), Some("owners"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("\"owners\" is a table without geometry"),
+        "{err}"
+    );
+    let err = read(&fixture("kinds.gdb"), Some("nowhere"))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("no feature class \"nowhere\""), "{err}");
+    // ArcGIS's names are case-insensitive.
+    assert_eq!(
+        read(&fixture("kinds.gdb"), Some("ROUND"))
+            .unwrap()
+            .buildings
+            .len(),
+        3
+    );
+    // Lines are listed as skipped, each with its OBJECTID.
+    let roads = read(&fixture("kinds.gdb"), Some("roads")).unwrap();
+    assert_eq!(
+        roads.report.skipped[0].reason,
+        IssueReason::UnsupportedGeometry
+    );
+    assert_eq!(
+        roads.report.skipped[0].detail,
+        "OBJECTID 1: a line, not a polygon"
+    );
+    // One of the geodatabase's files given instead of its folder.
+    let member = fixture("kinds.gdb").join("a00000001.gdbtable");
+    let err = read(&member, None).unwrap_err().to_string();
+    assert!(err.contains("give the .gdb folder"), "{err}");
+    // A folder named .gdb that is not one.
+    let empty = std::env::temp_dir().join(format!("citylod-fgdb-{}-empty.gdb", std::process::id()));
+    std::fs::create_dir_all(&empty).unwrap();
+    let err = read(&empty, None).unwrap_err().to_string();
+    assert!(
+        err.contains("holds its catalog table a00000001.gdbtable"),
+        "{err}"
+    );
+}
