@@ -406,3 +406,40 @@ fn layers_are_chosen_by_name_and_wrong_names_list_the_feature_classes() {
         "{err}"
     );
 }
+
+#[test]
+fn damaged_geodatabases_are_refused_with_what_is_wrong() {
+    // The catalog cut short.
+    let gdb = scratch_copy("no-crs.gdb", "cut-catalog");
+    let catalog = gdb.join("a00000001.gdbtable");
+    let bytes = std::fs::read(&catalog).unwrap();
+    std::fs::write(&catalog, &bytes[..bytes.len() / 2]).unwrap();
+    let err = read(&gdb, None).unwrap_err().to_string();
+    assert!(
+        err.contains("invalid File Geodatabase: its catalog a00000001.gdbtable"),
+        "{err}"
+    );
+    // The feature class's row index gone: the class cannot be read, and the error says which file is missing.
+    let gdb = scratch_copy("no-crs.gdb", "no-tablx");
+    std::fs::remove_file(gdb.join("a00000009.gdbtablx")).unwrap();
+    let err = read(&gdb, None).unwrap_err().to_string();
+    assert!(
+        err.contains("no feature class could be read: footprints (cannot read its row index a00000009.gdbtablx"),
+        "{err}"
+    );
+    // A row index pointing past the end of the table: that row's error names it.
+    let gdb = scratch_copy("no-crs.gdb", "bad-offset");
+    let tablx = gdb.join("a00000009.gdbtablx");
+    let mut x = std::fs::read(&tablx).unwrap();
+    x[16..20].copy_from_slice(&0x7fff_fff0u32.to_le_bytes());
+    std::fs::write(&tablx, &x).unwrap();
+    let opts = IngestOptions {
+        crs: Some("EPSG:32618".into()),
+        ..Default::default()
+    };
+    let err = ingest(&[gdb], &opts).unwrap_err().to_string();
+    assert!(
+        err.contains("row 1: its offset lies past the end of the table"),
+        "{err}"
+    );
+}
