@@ -656,6 +656,24 @@ fn nyc_les_from_its_osm_pbf_is_valid_complete_and_keeps_its_streets() {
 }
 
 #[test]
+fn nyc_les_from_a_file_geodatabase_in_state_plane_feet_is_valid_and_complete() {
+    // The bundled GeoJSON as GDAL's OpenFileGDB driver wrote it, in EPSG:2263 (US survey feet).
+    let gdb = repo_root().join("crates/citylod-ingest/tests/fgdb/nyc-les-2263.gdb");
+    let (report, ts) = build_and_check("nyc-les-gdb", &[&gdb], &["--layer", "buildings"]);
+    let file = &report["ingest"]["files"][0];
+    assert_eq!(file["format"], "file_geodatabase", "{file}");
+    assert_eq!(file["crs"], "EPSG:2263", "{file}");
+    // As from the GeoJSON: OSM's building:part, written building_part there, still draws outlines by their parts.
+    assert_eq!(
+        report["counts"]["buildings_written"], 1403,
+        "{}",
+        report["counts"]
+    );
+    assert_eq!(report["ingest"]["building_parts"], 132);
+    top_is_condensed("nyc-les-gdb", &report, &ts);
+}
+
+#[test]
 fn boston_tileset_is_valid_complete_and_in_place() {
     let Some(input) = shared_data("boston/boston_buildings.geojson") else {
         return;

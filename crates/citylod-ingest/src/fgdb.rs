@@ -86,13 +86,33 @@ pub(crate) fn read(dir: &Path, layer: Option<&str>) -> Result<VectorDoc, String>
             continue;
         }
         let path = dir.join(format!("a{oid:08x}.gdbtable"));
+        // ArcGIS's compressed tables (Compressed Data Format, or 9.x's Smart Data Compression) have a file of their own.
+        let compressed = ["cdf", "sdc", "gdbtable.cdf", "gdbtable.sdc"]
+            .iter()
+            .any(|e| dir.join(format!("a{oid:08x}.{e}")).is_file());
+        if compressed {
+            unreadable.push((
+                name.clone(),
+                "a compressed table, which this reader cannot read: uncompress the geodatabase in ArcGIS \
+                 (Uncompress File Geodatabase Data) first"
+                    .to_string(),
+            ));
+            continue;
+        }
         if !path.is_file() {
+            unreadable.push((
+                name.clone(),
+                format!(
+                    "its file {} is missing",
+                    path.file_name().unwrap_or_default().to_string_lossy()
+                ),
+            ));
             continue;
         }
         match Table::open(&path) {
             Ok(t) if t.geometry().is_some() => classes.push((name.clone(), path, t)),
             Ok(_) => {}
-            Err(e) => unreadable.push(format!("{name} ({e})")),
+            Err(e) => unreadable.push((name.clone(), e)),
         }
     }
     let list = |classes: &[(String, PathBuf, Table)]| {
@@ -117,6 +137,14 @@ pub(crate) fn read(dir: &Path, layer: Option<&str>) -> Result<VectorDoc, String>
             });
             match k {
                 Some(k) => k,
+                None if unreadable.iter().any(|(n, _)| n.eq_ignore_ascii_case(asked)) => {
+                    let (n, why) = unreadable
+                        .iter()
+                        .find(|(n, _)| n == asked)
+                        .or_else(|| unreadable.iter().find(|(n, _)| n.eq_ignore_ascii_case(asked)))
+                        .expect("checked");
+                    return Err(format!("feature class {n:?} cannot be read: {why}"));
+                }
                 None if tables.iter().any(|(n, _)| n.eq_ignore_ascii_case(asked)) => {
                     return Err(format!(
                         "{asked:?} is a table without geometry, not a feature class (feature classes: {})",
@@ -141,7 +169,12 @@ pub(crate) fn read(dir: &Path, layer: Option<&str>) -> Result<VectorDoc, String>
             } else {
                 format!(
                     "no feature class could be read: {}",
-                    crate::geojson::listing(&unreadable)
+                    crate::geojson::listing(
+                        &unreadable
+                            .iter()
+                            .map(|(n, why)| format!("{n} ({why})"))
+                            .collect::<Vec<_>>()
+                    )
                 )
             })
         }
@@ -156,6 +189,17 @@ pub(crate) fn read(dir: &Path, layer: Option<&str>) -> Result<VectorDoc, String>
     };
     let (name, path, table) = classes.swap_remove(chosen);
     let mut notes = Vec::new();
+    if !unreadable.is_empty() {
+        notes.push(format!(
+            "table(s) of the geodatabase not read: {}",
+            crate::geojson::listing(
+                &unreadable
+                    .iter()
+                    .map(|(n, why)| format!("{n} ({why})"))
+                    .collect::<Vec<_>>()
+            )
+        ));
+    }
     if !classes.is_empty() {
         notes.push(format!(
             "feature class {name:?} read, of {} ({})",
@@ -222,10 +266,27 @@ fn features(
     }
     let mut features = Vec::new();
     let mut surfaces = Vec::new();
-    let mut curved = 0usize;
     for (oid, row) in table.rows() {
-        let row = row.map_err(|e| format!("row {oid}: {e}"))?;
-        let values = table.values(row).map_err(|e| format!("row {oid}: {e}"))?;
+        let name = format!("OBJECTID {oid}");
+        // A row that cannot be read (the index points outside the table, the row ends inside a field) is listed as
+        // skipped, with what is wrong; the rows around it are read.
+        let values = match row.and_then(|r| table.values(r)) {
+            Ok(v) => v,
+            Err(e) => {
+                let mut attributes = Attributes::new();
+                attributes.insert("OBJECTID".into(), AttrValue::Int(oid as i64));
+                features.push(RawFeature {
+                    source_id: crate::feature::source_id(&attributes, dir_name, oid),
+                    attributes,
+                    skip: Some((
+                        IssueReason::MalformedGeometry,
+                        format!("{name}: the row cannot be read: {e}"),
+                    )),
+                    ..Default::default()
+                });
+                continue;
+            }
+        };
         let mut attributes = Attributes::new();
         let mut blob = None;
         for (k, (field, value)) in table.fields.iter().zip(values).enumerate() {
@@ -249,11 +310,9 @@ fn features(
             attributes,
             ..Default::default()
         };
-        let name = format!("OBJECTID {oid}");
         match blob {
             Some(b) => match shape(b, geometry) {
-                Ok(Shape::Footprint(polygons, repairs, arcs)) => {
-                    curved += usize::from(arcs);
+                Ok(Shape::Footprint(polygons, repairs)) => {
                     out.polygons = polygons;
                     out.repairs.extend(repairs);
                 }
@@ -263,12 +322,6 @@ fn features(
             _ => out.skip = Some((IssueReason::NoGeometry, format!("{name}: geometry is null"))),
         }
         features.push(out);
-    }
-    if curved > 0 {
-        notes.push(format!(
-            "{curved} feature(s) with curves (arcs or Bézier curves): followed in segments of at most {}°",
-            crate::gpkg::ARC_STEP_DEG
-        ));
     }
     Ok((features, surfaces))
 }
@@ -329,8 +382,7 @@ struct Table {
     /// Where each row is, by OBJECTID (deleted rows left out).
     offsets: Vec<(u64, u64)>,
     fields: Vec<Field>,
-    /// The layer's geometry type (1 point, 2 multipoint, 3 polyline, 4 polygon, 9 MultiPatch; 0 none).
-    geometry_type: u8,
+    layout: Layout,
     nullable: usize,
 }
 
@@ -352,14 +404,14 @@ impl Table {
 
     /// A table from the bytes of its `.gdbtable` and `.gdbtablx`.
     fn parse(bytes: Vec<u8>, tablx: &[u8]) -> Result<Table, String> {
-        let (fields, geometry_type) = describe(&bytes)?;
-        let offsets = offsets(tablx)?;
+        let (fields, layout) = describe(&bytes)?;
+        let offsets = offsets(tablx, layout.version)?;
         let nullable = fields.iter().filter(|f| f.nullable).count();
         Ok(Table {
             bytes,
             offsets,
             fields,
-            geometry_type,
+            layout,
             nullable,
         })
     }
@@ -372,7 +424,7 @@ impl Table {
     }
 
     fn kind_name(&self) -> &'static str {
-        match self.geometry_type {
+        match self.layout.geometry_type {
             1 => "points",
             2 => "multipoints",
             3 => "lines",
@@ -386,9 +438,12 @@ impl Table {
     fn rows(&self) -> impl Iterator<Item = (u64, Result<&[u8], String>)> + '_ {
         self.offsets.iter().map(move |&(oid, at)| {
             let row = (|| {
-                let len = Cursor::at(&self.bytes, at as usize)
-                    .u32()
+                let len = Cursor::at(&self.bytes, usize::try_from(at).unwrap_or(usize::MAX))
+                    .i32()
                     .ok_or("its offset lies past the end of the table")?;
+                // A deleted row's length is negated; the row index should not point to one.
+                let len = u32::try_from(len)
+                    .map_err(|_| format!("the row at offset {at} is marked deleted"))?;
                 let start = at as usize + 4;
                 if len as u64 > MAX_ROW_BYTES || start + len as usize > self.bytes.len() {
                     return Err(format!(
@@ -431,6 +486,16 @@ impl Table {
                 Kind::Int64 => AttrValue::Int(c.i64().ok_or_else(short)?),
                 Kind::Float32 => AttrValue::Float(c.f32().ok_or_else(short)? as f64),
                 Kind::Float64 => AttrValue::Float(c.f64().ok_or_else(short)?),
+                Kind::String if !self.layout.utf8 => {
+                    // A table written with UTF-16 text: the length in bytes.
+                    let n = c.varuint().ok_or_else(short)?;
+                    let b = c.take(n).ok_or_else(short)?;
+                    let units: Vec<u16> = b
+                        .chunks_exact(2)
+                        .map(|p| u16::from_le_bytes([p[0], p[1]]))
+                        .collect();
+                    AttrValue::String(String::from_utf16_lossy(&units))
+                }
                 Kind::String | Kind::Xml => {
                     let n = c.varuint().ok_or_else(short)?;
                     let b = c.take(n).ok_or_else(short)?;
@@ -516,11 +581,14 @@ fn civil_from_days(z: i64) -> (i64, u32, u32) {
 }
 
 /// The fields of a `.gdbtable` and its layer's geometry type, from its header and field descriptions.
-fn describe(b: &[u8]) -> Result<(Vec<Field>, u8), String> {
+fn describe(b: &[u8]) -> Result<(Vec<Field>, Layout), String> {
     let mut h = Cursor::at(b, 0);
-    let magic = h.u32();
-    if magic != Some(3) || b.len() < 40 {
-        return Err("not a File Geodatabase table (a .gdbtable starts with the number 3)".into());
+    let table_version = h.u32();
+    if !matches!(table_version, Some(3 | 4)) || b.len() < 40 {
+        return Err(
+            "not a File Geodatabase table (a .gdbtable starts with the number 3, or 4 for 64-bit OBJECTIDs)"
+                .into(),
+        );
     }
     let mut c = Cursor::at(b, 32);
     let start = c.u64().ok_or("cut short in its header")?;
@@ -534,29 +602,53 @@ fn describe(b: &[u8]) -> Result<(Vec<Field>, u8), String> {
              ArcGIS 9, 10 and ArcGIS Pro 3.2's 64-bit OBJECTIDs)"
         ));
     }
-    let layer_flags = c.u32().ok_or_else(short)?;
+    let flags = c.u32().ok_or_else(short)?;
+    let layout = Layout {
+        version: table_version.expect("checked"),
+        geometry_type: (flags & 0xff) as u8,
+        utf8: flags & 0x100 != 0,
+        has_m: flags & (1 << 30) != 0,
+        has_z: flags & (1 << 31) != 0,
+    };
     let count = c.u16().ok_or_else(short)?;
     let mut fields = Vec::with_capacity(count as usize);
     for k in 0..count {
-        let field = field(&mut c).map_err(|e| format!("field {}: {e}", k + 1))?;
+        let field = field(&mut c, &layout).map_err(|e| format!("field {}: {e}", k + 1))?;
         fields.push(field);
     }
-    Ok((fields, (layer_flags & 0xff) as u8))
+    Ok((fields, layout))
+}
+
+/// What a table's header says about all its rows.
+#[derive(Debug, Clone, Copy)]
+struct Layout {
+    /// 3, or 4 for 64-bit OBJECTIDs (ArcGIS Pro 3.2).
+    version: u32,
+    /// The layer's geometry type (1 point, 2 multipoint, 3 polyline, 4 polygon, 9 MultiPatch; 0 none).
+    geometry_type: u8,
+    /// Strings are UTF-8 (else UTF-16, as some tables are written).
+    utf8: bool,
+    /// The layer has M, Z: its geometry field then lists their extents.
+    has_m: bool,
+    has_z: bool,
 }
 
 /// One field's description (after which `c` stands at the next).
-fn field(c: &mut Cursor) -> Result<Field, String> {
+fn field(c: &mut Cursor, layout: &Layout) -> Result<Field, String> {
     let short = || "cut short".to_string();
     let n = c.u8().ok_or_else(short)?;
     let name = c.utf16(n as usize).ok_or_else(short)?;
     let n = c.u8().ok_or_else(short)?;
     let _alias = c.utf16(n as usize).ok_or_else(short)?;
     let kind = c.u8().ok_or_else(short)?;
+    // Flags: 0x1 nullable, 0x4 editable; a default value's bytes follow its length only in an editable field.
     let with_default = |c: &mut Cursor| -> Option<bool> {
         let _width = c.u8()?;
         let flags = c.u8()?;
         let default = c.u8()?;
-        c.take(default as u64)?;
+        if flags & 4 != 0 {
+            c.take(default as u64)?;
+        }
         Some(flags & 1 != 0)
     };
     let (kind, nullable) = match kind {
@@ -573,7 +665,9 @@ fn field(c: &mut Cursor) -> Result<Field, String> {
             let _max = c.u32().ok_or_else(short)?;
             let flags = c.u8().ok_or_else(short)?;
             let default = c.varuint().ok_or_else(short)?;
-            c.take(default).ok_or_else(short)?;
+            if flags & 4 != 0 {
+                c.take(default).ok_or_else(short)?;
+            }
             (Kind::String, flags & 1 != 0)
         }
         6 => {
@@ -583,7 +677,10 @@ fn field(c: &mut Cursor) -> Result<Field, String> {
         7 => {
             let _ = c.u8().ok_or_else(short)?;
             let flags = c.u8().ok_or_else(short)?;
-            (Kind::Geometry(Box::new(geometry_def(c)?)), flags & 1 != 0)
+            (
+                Kind::Geometry(Box::new(geometry_def(c, layout)?)),
+                flags & 1 != 0,
+            )
         }
         8 => {
             let _ = c.u8().ok_or_else(short)?;
@@ -617,8 +714,9 @@ fn field(c: &mut Cursor) -> Result<Field, String> {
     })
 }
 
-/// A geometry field's description after its flags: the WKT, then origins, scales, tolerances and extents.
-fn geometry_def(c: &mut Cursor) -> Result<GeometryDef, String> {
+/// A geometry field's description after its flags: the WKT, then origins, scales and tolerances (M's before Z's,
+/// as its own flags say), the extent (Z's before M's, as the layer's flags say) and the spatial grid.
+fn geometry_def(c: &mut Cursor, layout: &Layout) -> Result<GeometryDef, String> {
     let short = || "cut short in its geometry description".to_string();
     let wkt_bytes = c.u16().ok_or_else(short)?;
     let wkt = c.utf16(wkt_bytes as usize / 2).ok_or_else(short)?;
@@ -638,32 +736,25 @@ fn geometry_def(c: &mut Cursor) -> Result<GeometryDef, String> {
         g.z_origin = c.f64().ok_or_else(short)?;
         g.z_scale = c.f64().ok_or_else(short)?;
     }
-    // xy tolerance, m and z tolerances, then the extent.
-    let _xy_tolerance = c.f64().ok_or_else(short)?;
-    c.take(8 * (u64::from(has_m) + u64::from(has_z)))
+    // The xy tolerance, the M and Z tolerances, the x and y extent.
+    c.take(8 * (1 + u64::from(has_m) + u64::from(has_z)) + 32)
         .ok_or_else(short)?;
-    c.take(32).ok_or_else(short)?;
-    // Then z and m extents, as many as there are, each pair told from the spatial grid that ends the description
-    // by the int32 after its first byte: 0 for an extent (its doubles' bytes), the grid's size otherwise.
-    loop {
-        let at = c.at;
-        c.take(1).ok_or_else(short)?;
-        let n = c.u32().ok_or_else(short)?;
-        if n == 0 {
-            c.at = at;
-            c.take(16).ok_or_else(short)?;
-            continue;
-        }
-        if n > 3 {
-            return Err(format!(
-                "a spatial grid of {n} levels (at most 3 are known)"
-            ));
-        }
-        c.take(8 * u64::from(n)).ok_or_else(short)?;
-        break;
+    c.take(16 * (u64::from(layout.has_z) + u64::from(layout.has_m)))
+        .ok_or_else(short)?;
+    c.take(1).ok_or_else(short)?;
+    let grids = c.u32().ok_or_else(short)?;
+    if !(1..=3).contains(&grids) {
+        return Err(format!(
+            "a spatial index of {grids} grid levels (1 to 3 are known)"
+        ));
     }
+    c.take(8 * u64::from(grids)).ok_or_else(short)?;
     if !(g.xy_scale.is_finite() && g.xy_scale > 0.0) {
         return Err(format!("an xy scale of {}", g.xy_scale));
+    }
+    if has_z && !(g.z_scale.is_finite() && g.z_scale > 0.0) {
+        // As GDAL reads a zero z scale: the smallest positive number, so that z stays finite or is refused.
+        g.z_scale = f64::MIN_POSITIVE;
     }
     Ok(g)
 }
@@ -687,48 +778,68 @@ fn raster_def(c: &mut Cursor) -> Result<(), String> {
     Ok(())
 }
 
-/// The rows' offsets from a `.gdbtablx`, by OBJECTID: blocks of 1,024 offsets, some left out (a bitmap at the end says
-/// which are present) when whole blocks of rows were deleted.
-fn offsets(x: &[u8]) -> Result<Vec<(u64, u64)>, String> {
+/// The rows' offsets from a `.gdbtablx`, by OBJECTID: blocks of 1,024 offsets, some left out when a whole block
+/// of OBJECTIDs has no row (then a bitmap after them says which blocks are there). `version` is the table's: 4 has
+/// 64-bit counts.
+fn offsets(x: &[u8], version: u32) -> Result<Vec<(u64, u64)>, String> {
     let mut h = Cursor::at(x, 0);
     let short = || "its row index (.gdbtablx) is cut short".to_string();
-    if h.u32() != Some(3) {
-        return Err("its row index (.gdbtablx) does not start with the number 3".into());
+    if h.u32() != Some(version) {
+        return Err(format!(
+            "its row index (.gdbtablx) does not start with the table's version, {version}"
+        ));
     }
-    let blocks = h.u32().ok_or_else(short)? as u64;
-    let rows = h.u32().ok_or_else(short)? as u64;
-    let size = h.u32().ok_or_else(short)? as u64;
+    let (blocks, rows, size) = if version == 3 {
+        let blocks = u64::from(h.u32().ok_or_else(short)?);
+        let rows = u64::from(h.u32().ok_or_else(short)?);
+        (blocks, Some(rows), u64::from(h.u32().ok_or_else(short)?))
+    } else {
+        let blocks = h.u64().ok_or_else(short)?;
+        (blocks, None, u64::from(h.u32().ok_or_else(short)?))
+    };
     if !(4..=6).contains(&size) {
         return Err(format!(
             "its row index (.gdbtablx) gives offsets of {size} bytes (4, 5 or 6 are known)"
         ));
     }
-    let listed = blocks * 1024;
-    let body = listed
-        .checked_mul(size)
+    let body = blocks
+        .checked_mul(1024 * size)
         .and_then(|n| n.checked_add(16))
         .filter(|&n| n <= x.len() as u64)
         .ok_or_else(short)?;
     // Which blocks of 1,024 OBJECTIDs the offsets hold: all, in order, unless the trailer has a bitmap.
     let mut t = Cursor::at(x, body as usize);
-    let words = t.u32().unwrap_or(0) as u64;
-    let present: Vec<u64> = if words == 0 || blocks == rows.div_ceil(1024) {
-        (0..blocks).collect()
-    } else {
-        let total = t.u32().ok_or_else(short)? as u64;
-        let _present = t.u32().ok_or_else(short)?;
-        let _leading = t.u32().ok_or_else(short)?;
-        let bitmap = t.take(4 * words).ok_or_else(short)?;
-        let ids: Vec<u64> = (0..total.min(words * 32))
-            .filter(|&b| bitmap[(b / 8) as usize] & (1 << (b % 8)) != 0)
-            .collect();
-        if ids.len() as u64 != blocks {
-            return Err(format!(
-                "its row index (.gdbtablx) lists {blocks} blocks of rows and its bitmap {}",
-                ids.len()
-            ));
+    let (present, rows): (Vec<u64>, u64) = match rows {
+        Some(rows) => {
+            let words = u64::from(t.u32().unwrap_or(0));
+            if words == 0 {
+                ((0..blocks).collect(), rows)
+            } else {
+                let bits = u64::from(t.u32().ok_or_else(short)?);
+                t.take(8).ok_or_else(short)?;
+                let bitmap = t.take(4 * words).ok_or_else(short)?;
+                (present_blocks(bitmap, bits.min(32 * words), blocks)?, rows)
+            }
         }
-        ids
+        None => {
+            let rows = t.u64().ok_or_else(short)?;
+            let section = t.u32().ok_or_else(short)?;
+            // ArcGIS Pro's one known form of the bitmap: a 22-byte head, 32,768 bytes of bits, a 52-byte tail.
+            match section {
+                0 => ((0..blocks).collect(), rows),
+                32_842 => {
+                    t.take(22).ok_or_else(short)?;
+                    let bitmap = t.take(32_768).ok_or_else(short)?;
+                    (present_blocks(bitmap, 32_768 * 8, blocks)?, rows)
+                }
+                n => {
+                    return Err(format!(
+                        "its row index (.gdbtablx) has a block map of {n} bytes, a layout this reader does not \
+                         know (64-bit OBJECTIDs with whole blocks of rows deleted)"
+                    ))
+                }
+            }
+        }
     };
     let mut out = Vec::new();
     for (k, block) in present.into_iter().enumerate() {
@@ -737,9 +848,11 @@ fn offsets(x: &[u8]) -> Result<Vec<(u64, u64)>, String> {
             if oid > rows {
                 break;
             }
-            let at = 16 + (k as u64 * 1024 + j) * size;
-            let b = &x[at as usize..(at + size) as usize];
-            let offset = b.iter().rev().fold(0u64, |v, &byte| (v << 8) | byte as u64);
+            let at = (16 + (k as u64 * 1024 + j) * size) as usize;
+            let offset = x[at..at + size as usize]
+                .iter()
+                .rev()
+                .fold(0u64, |v, &byte| (v << 8) | u64::from(byte));
             if offset != 0 {
                 out.push((oid, offset));
             }
@@ -748,12 +861,27 @@ fn offsets(x: &[u8]) -> Result<Vec<(u64, u64)>, String> {
     Ok(out)
 }
 
+/// The blocks a row index's bitmap marks present (bit i of the little-endian bytes: block i), of `bits`; there
+/// must be `blocks` of them.
+fn present_blocks(bitmap: &[u8], bits: u64, blocks: u64) -> Result<Vec<u64>, String> {
+    let ids: Vec<u64> = (0..bits.min(8 * bitmap.len() as u64))
+        .filter(|&b| bitmap[(b / 8) as usize] & (1 << (b % 8)) != 0)
+        .collect();
+    if ids.len() as u64 != blocks {
+        return Err(format!(
+            "its row index (.gdbtablx) holds {blocks} blocks of rows and its bitmap marks {}",
+            ids.len()
+        ));
+    }
+    Ok(ids)
+}
+
 // ---------------------------------------------------------------------------------------------------------------------
 // Geometry
 
 enum Shape {
-    /// Polygons, the repairs made reading them, and whether they had curves.
-    Footprint(Vec<RawPolygon>, Repairs, bool),
+    /// Polygons, and the repairs made reading them (curves followed in segments among them).
+    Footprint(Vec<RawPolygon>, Repairs),
     /// A MultiPatch's faces.
     Surfaces(Vec<Face>),
 }
@@ -762,7 +890,6 @@ enum Shape {
 const HAS_Z: u64 = 0x8000_0000;
 const HAS_M: u64 = 0x4000_0000;
 const HAS_CURVES: u64 = 0x2000_0000;
-const HAS_IDS: u64 = 0x1000_0000;
 
 /// A geometry blob (after its length) → polygons or a MultiPatch's faces.
 fn shape(b: &[u8], g: &GeometryDef) -> Result<Shape, Skip> {
@@ -866,8 +993,9 @@ fn shape(b: &[u8], g: &GeometryDef) -> Result<Shape, Skip> {
             dy as f64 / g.xy_scale + g.y_origin,
         ]);
     }
+    // Z (a footprint needs none, a MultiPatch does) and M come after every point's x and y; the curves after them.
     let mut z = Vec::new();
-    if has_z {
+    if has_z && (multipatch || curves) {
         let mut dz = 0i64;
         z.reserve(n);
         for _ in 0..n {
@@ -875,8 +1003,8 @@ fn shape(b: &[u8], g: &GeometryDef) -> Result<Shape, Skip> {
             z.push(dz as f64 / g.z_scale + g.z_origin);
         }
     }
-    if has_m {
-        // All M unknown: one byte 0x42; else one varint a point.
+    if has_m && curves {
+        // One byte 0x42 when no point has an M; else one varint a point.
         if c.peek() == Some(0x42) {
             c.take(1);
         } else {
@@ -885,7 +1013,6 @@ fn shape(b: &[u8], g: &GeometryDef) -> Result<Shape, Skip> {
             }
         }
     }
-    let _ = HAS_IDS;
     if xy.iter().flatten().chain(&z).any(|v| !v.is_finite()) {
         return Err((
             IssueReason::NonFiniteCoordinate,
@@ -943,11 +1070,18 @@ fn shape(b: &[u8], g: &GeometryDef) -> Result<Shape, Skip> {
         rings.push(r);
         start = end;
     }
-    Ok(Shape::Footprint(
-        crate::shp::organize(rings),
-        repairs,
-        !segments.is_empty(),
-    ))
+    if !segments.is_empty() {
+        repairs.push((
+            IssueReason::CurvesApproximated,
+            format!(
+                "{} curve segment(s) (circular or elliptic arcs, Bézier curves) followed by straight segments of \
+                 at most {}° of arc (a Bézier curve: 16)",
+                segments.len(),
+                crate::gpkg::ARC_STEP_DEG
+            ),
+        ));
+    }
+    Ok(Shape::Footprint(crate::shp::organize(rings), repairs))
 }
 
 /// A curve segment of a ring: from its start point to the next point of the ring.

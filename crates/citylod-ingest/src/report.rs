@@ -90,8 +90,9 @@ pub enum IssueReason {
     /// heights is used (its ground, its top for the height rule, its 3D model, which is listed as `model_invalid`).
     /// Without such an attribute the building is skipped (`coordinate_out_of_range`).
     GeometryHeightsIgnored,
-    /// A GeoPackage geometry's circular arcs (CircularString, CompoundCurve, CurvePolygon rings) were approximated by
-    /// straight segments, each spanning at most 4° of its circle (GDAL's default).
+    /// A GeoPackage geometry's circular arcs (CircularString, CompoundCurve, CurvePolygon rings), or a File
+    /// Geodatabase polygon's curve segments (circular and elliptic arcs, Bézier curves), were approximated by
+    /// straight segments, each spanning at most 4° of its circle (GDAL's default; a Bézier curve: 16 segments).
     CurvesApproximated,
     /// An OpenStreetMap building whose nodes or member ways are not in the file: the extract it comes from was cut
     /// at its edge through the building. The detail says how many are missing and names one.

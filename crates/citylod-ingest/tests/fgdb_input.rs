@@ -238,14 +238,13 @@ fn curves_are_followed_in_short_segments() {
     let out = read(&fixture("kinds.gdb"), Some("round")).unwrap();
     let r = &out.report;
     assert_eq!(r.buildings_written, 3);
-    assert!(
-        r.files[0]
-            .notes
-            .iter()
-            .any(|n| n.starts_with("2 feature(s) with curves")),
-        "{:?}",
-        r.files[0].notes
-    );
+    let curved: Vec<&str> = r
+        .repaired
+        .iter()
+        .filter(|i| i.reason == IssueReason::CurvesApproximated)
+        .map(|i| i.feature_id.as_str())
+        .collect();
+    assert_eq!(curved, ["kinds.gdb#1", "kinds.gdb#2"]);
     let ours = by_objectid(&out);
     // A circle of radius 10 m, in 4° steps (a 90-gon: 313.9 m²), GDAL's own linearization within 0.5 %.
     let tower = ours[&1].area_m2();
@@ -427,6 +426,15 @@ fn damaged_geodatabases_are_refused_with_what_is_wrong() {
         err.contains("no feature class could be read: footprints (cannot read its row index a00000009.gdbtablx"),
         "{err}"
     );
+    // A table ArcGIS compressed: refused by name, with what to do.
+    let gdb = scratch_copy("no-crs.gdb", "compressed");
+    std::fs::write(gdb.join("a00000009.cdf"), b"").unwrap();
+    let err = read(&gdb, Some("footprints")).unwrap_err().to_string();
+    assert!(
+        err.contains("feature class \"footprints\" cannot be read: a compressed table")
+            && err.contains("Uncompress File Geodatabase Data"),
+        "{err}"
+    );
     // A row index pointing past the end of the table: that row's error names it.
     let gdb = scratch_copy("no-crs.gdb", "bad-offset");
     let tablx = gdb.join("a00000009.gdbtablx");
@@ -437,9 +445,12 @@ fn damaged_geodatabases_are_refused_with_what_is_wrong() {
         crs: Some("EPSG:32618".into()),
         ..Default::default()
     };
-    let err = ingest(&[gdb], &opts).unwrap_err().to_string();
-    assert!(
-        err.contains("row 1: its offset lies past the end of the table"),
-        "{err}"
+    // The row is listed as skipped, with what is wrong; the others would be read.
+    let out = ingest(&[gdb], &opts).unwrap();
+    let skipped = &out.report.skipped[0];
+    assert_eq!(skipped.reason, IssueReason::MalformedGeometry);
+    assert_eq!(
+        skipped.detail,
+        "OBJECTID 1: the row cannot be read: its offset lies past the end of the table"
     );
 }
