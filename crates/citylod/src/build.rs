@@ -19,16 +19,17 @@ use crate::shown;
 #[command(allow_negative_numbers = true)]
 pub struct BuildArgs {
     /// Input files: GeoJSON (.geojson, .json), Esri Shapefile (.shp, read with the .dbf beside it), GeoPackage
-    /// (.gpkg, one feature table: see --layer), OpenStreetMap PBF or XML (.osm.pbf, .osm, .osm.gz: ways and
-    /// multipolygon relations tagged building or building:part, their tags as attributes), CityJSON (.city.json,
-    /// .json) or CityJSONSeq (.city.jsonl, .jsonl).
+    /// (.gpkg, one feature table: see --layer), Esri File Geodatabase (a .gdb folder, one feature class: see
+    /// --layer), OpenStreetMap PBF or XML (.osm.pbf, .osm, .osm.gz: ways and multipolygon relations tagged building
+    /// or building:part, their tags as attributes), CityJSON (.city.json, .json) or CityJSONSeq (.city.jsonl,
+    /// .jsonl).
     #[arg(required = true, value_name = "INPUT", help_heading = "Input")]
     pub inputs: Vec<PathBuf>,
 
     /// CRS of the input coordinates, e.g. EPSG:28992. Default: WGS84 lon/lat for GeoJSON (RFC 7946), the .prj's
     /// CRS for a Shapefile (its EPSG code, or the EPSG CRS matching an Esri .prj's parameters), the layer's spatial
-    /// reference system for a GeoPackage, the file's `referenceSystem` for CityJSON. OpenStreetMap data is always
-    /// WGS84 lon/lat.
+    /// reference system for a GeoPackage, the geometry field's spatial reference for a File Geodatabase (identified
+    /// as a .prj's), the file's `referenceSystem` for CityJSON. OpenStreetMap data is always WGS84 lon/lat.
     #[arg(long, value_name = "EPSG:CODE", help_heading = "Input")]
     pub crs: Option<String>,
 
@@ -38,8 +39,10 @@ pub struct BuildArgs {
     #[arg(long, value_name = "NAME", help_heading = "Input")]
     pub id_attr: Option<String>,
 
-    /// The feature table to read from a GeoPackage (e.g. lod12_2d of a 3DBAG download). Default: its only feature
-    /// table; a GeoPackage holding several is refused with their names. Its rows' default id is FILE#FID.
+    /// The feature table to read from a GeoPackage (e.g. lod12_2d of a 3DBAG download), or the feature class to read
+    /// from a File Geodatabase (its name in ArcGIS, in any case; feature datasets need not be named). Default: the
+    /// only one; a file holding several is refused with their names. Default ids: FILE#FID, a geodatabase's
+    /// FOLDER.gdb#OBJECTID.
     #[arg(long, value_name = "TABLE", help_heading = "Input")]
     pub layer: Option<String>,
 
@@ -92,8 +95,8 @@ pub struct BuildArgs {
     /// with none at or below it stays a prism (the console and the build report's `mesh_lods` and
     /// `mesh_lod_fallbacks` say how many). Without it, buildings are prisms of their footprints. A GeoPackage layer
     /// of 3D surface models (PolyhedralSurface, TIN, or MultiPolygon Z with walls, as 3DBAG's 3D layers) has one
-    /// model per row, a shapefile one per MultiPatch record: any value takes it (counted as `GeoPackage 3D`,
-    /// `MultiPatch`). GeoJSON and Shapefile polygons ignore it.
+    /// model per row, a shapefile or File Geodatabase one per MultiPatch: any value takes it (counted as
+    /// `GeoPackage 3D`, `MultiPatch`). GeoJSON, Shapefile and File Geodatabase polygons ignore it.
     #[arg(long, value_name = "LOD", help_heading = "3D buildings")]
     pub lod: Option<String>,
 
