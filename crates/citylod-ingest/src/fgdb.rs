@@ -24,13 +24,119 @@ type Repairs = Vec<(IssueReason, String)>;
 /// The catalog of every geodatabase: the table listing the others, each by its row number.
 const CATALOG: &str = "a00000001.gdbtable";
 
-/// Whether `path` is a File Geodatabase: a folder named `*.gdb`, or any folder holding the catalog table.
+/// Whether `path` is a File Geodatabase: a folder named `*.gdb`, or any folder holding the catalog table, or a ZIP
+/// archive (`Buildings.gdb.zip`, as geodatabases are downloaded; one without a geodatabase inside is refused).
 pub(crate) fn is_filegdb(path: &Path) -> bool {
-    path.is_dir()
-        && (path
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("gdb"))
-            || path.join(CATALOG).is_file())
+    let extension = |e: &str| path.extension().is_some_and(|x| x.eq_ignore_ascii_case(e));
+    (path.is_dir() && (extension("gdb") || path.join(CATALOG).is_file()))
+        || (extension("zip") && path.is_file())
+}
+
+/// Where the geodatabase's files are: a folder, or a folder inside a ZIP archive.
+enum Source {
+    Dir(PathBuf),
+    Zip {
+        archive: crate::zip::Archive,
+        /// The members' names by file name, for those in the geodatabase's folder.
+        files: std::collections::HashMap<String, usize>,
+        folder: String,
+    },
+}
+
+impl Source {
+    fn open(path: &Path) -> Result<Source, String> {
+        if path.is_dir() {
+            return Ok(Source::Dir(path.to_path_buf()));
+        }
+        let archive = crate::zip::Archive::open(path)?;
+        // The folders holding a catalog table (macOS's resource forks left out).
+        let mut folders: Vec<String> = archive
+            .members
+            .iter()
+            .filter(|m| !m.name.starts_with("__MACOSX/"))
+            .filter_map(|m| {
+                let (folder, file) = m.name.rsplit_once('/').unwrap_or(("", &m.name));
+                file.eq_ignore_ascii_case(CATALOG)
+                    .then(|| folder.to_string())
+            })
+            .collect();
+        folders.sort();
+        folders.dedup();
+        let folder = match folders.as_slice() {
+            [one] => one.clone(),
+            [] => {
+                return Err(
+                    "a ZIP archive without a File Geodatabase in it (no folder holding a00000001.gdbtable); unzip \
+                     other archives and give citylod the files in them"
+                        .into(),
+                )
+            }
+            many => {
+                return Err(format!(
+                    "a ZIP archive holding {} File Geodatabases ({}); unzip it and give citylod the one to read",
+                    many.len(),
+                    crate::geojson::listing(many)
+                ))
+            }
+        };
+        let files = archive
+            .members
+            .iter()
+            .enumerate()
+            .filter_map(|(k, m)| {
+                let (dir, file) = m.name.rsplit_once('/').unwrap_or(("", &m.name));
+                (dir == folder).then(|| (file.to_ascii_lowercase(), k))
+            })
+            .collect();
+        Ok(Source::Zip {
+            archive,
+            files,
+            folder,
+        })
+    }
+
+    /// The geodatabase's name, for feature ids (`Buildings.gdb`).
+    fn name(&self, path: &Path) -> String {
+        let last = |p: &str| p.rsplit('/').next().unwrap_or(p).to_string();
+        match self {
+            Source::Zip { folder, .. } if !folder.is_empty() => last(folder),
+            _ => path
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+        }
+    }
+
+    fn exists(&self, file: &str) -> bool {
+        match self {
+            Source::Dir(d) => d.join(file).is_file(),
+            Source::Zip { files, .. } => files.contains_key(&file.to_ascii_lowercase()),
+        }
+    }
+
+    /// The file's bytes (at most `limit` of them, when given).
+    fn read(&self, file: &str, limit: Option<u64>) -> Result<Vec<u8>, String> {
+        match self {
+            Source::Dir(d) => {
+                let f = std::fs::File::open(d.join(file))
+                    .map_err(|e| format!("cannot read {file}: {e}"))?;
+                let mut out = Vec::new();
+                let mut r: Box<dyn std::io::Read> = match limit {
+                    Some(n) => Box::new(std::io::Read::take(f, n)),
+                    None => Box::new(f),
+                };
+                std::io::Read::read_to_end(&mut r, &mut out)
+                    .map_err(|e| format!("cannot read {file}: {e}"))?;
+                Ok(out)
+            }
+            Source::Zip { archive, files, .. } => {
+                let k = files
+                    .get(&file.to_ascii_lowercase())
+                    .ok_or_else(|| format!("{file} is not in the archive"))?;
+                archive.read(&archive.members[*k], limit)
+            }
+        }
+    }
 }
 
 /// The files of a geodatabase's tables, each with what it is, for refusing one given as the input.
@@ -45,14 +151,15 @@ pub(crate) const MEMBERS: [(&str, &str); 6] = [
 
 /// Reads the feature class `layer` of the geodatabase `dir` (the only one when `layer` is `None`). Errors name what is
 /// wrong with the geodatabase as a whole; one unusable row is a skipped feature.
-pub(crate) fn read(dir: &Path, layer: Option<&str>) -> Result<VectorDoc, String> {
-    let catalog_path = dir.join(CATALOG);
-    if !catalog_path.is_file() {
+pub(crate) fn read(path: &Path, layer: Option<&str>) -> Result<VectorDoc, String> {
+    let source = Source::open(path)?;
+    if !source.exists(CATALOG) {
         return Err(format!(
             "a File Geodatabase folder holds its catalog table {CATALOG}, and this one has none"
         ));
     }
-    let catalog = Table::open(&catalog_path).map_err(|e| format!("its catalog {CATALOG}: {e}"))?;
+    let catalog =
+        Table::open(&source, "a00000001").map_err(|e| format!("its catalog {CATALOG}: {e}"))?;
     let name_field = catalog
         .fields
         .iter()
@@ -78,18 +185,19 @@ pub(crate) fn read(dir: &Path, layer: Option<&str>) -> Result<VectorDoc, String>
         }
         tables.push((name.clone(), oid));
     }
-    // The feature classes: user tables (not GDB_*) with a geometry field whose file is there.
-    let mut classes: Vec<(String, PathBuf, Table)> = Vec::new();
+    // The feature classes: user tables (not GDB_*) with a geometry field whose file is there. Only their field
+    // descriptions are read here.
+    let mut classes: Vec<(String, String, Layout)> = Vec::new();
     let mut unreadable = Vec::new();
     for (name, oid) in &tables {
         if name.len() >= 4 && name[..4].eq_ignore_ascii_case("GDB_") {
             continue;
         }
-        let path = dir.join(format!("a{oid:08x}.gdbtable"));
+        let stem = format!("a{oid:08x}");
         // ArcGIS's compressed tables (Compressed Data Format, or 9.x's Smart Data Compression) have a file of their own.
         let compressed = ["cdf", "sdc", "gdbtable.cdf", "gdbtable.sdc"]
             .iter()
-            .any(|e| dir.join(format!("a{oid:08x}.{e}")).is_file());
+            .any(|e| source.exists(&format!("{stem}.{e}")));
         if compressed {
             unreadable.push((
                 name.clone(),
@@ -99,23 +207,19 @@ pub(crate) fn read(dir: &Path, layer: Option<&str>) -> Result<VectorDoc, String>
             ));
             continue;
         }
-        if !path.is_file() {
-            unreadable.push((
-                name.clone(),
-                format!(
-                    "its file {} is missing",
-                    path.file_name().unwrap_or_default().to_string_lossy()
-                ),
-            ));
+        if !source.exists(&format!("{stem}.gdbtable")) {
+            unreadable.push((name.clone(), format!("its file {stem}.gdbtable is missing")));
             continue;
         }
-        match Table::open(&path) {
-            Ok(t) if t.geometry().is_some() => classes.push((name.clone(), path, t)),
+        match describe_file(&source, &stem) {
+            Ok((fields, layout)) if fields.iter().any(|f| matches!(f.kind, Kind::Geometry(_))) => {
+                classes.push((name.clone(), stem, layout))
+            }
             Ok(_) => {}
             Err(e) => unreadable.push((name.clone(), e)),
         }
     }
-    let list = |classes: &[(String, PathBuf, Table)]| {
+    let list = |classes: &[(String, String, Layout)]| {
         classes
             .iter()
             .map(|(n, _, t)| format!("{n} ({})", t.kind_name()))
@@ -187,7 +291,9 @@ pub(crate) fn read(dir: &Path, layer: Option<&str>) -> Result<VectorDoc, String>
         ))
         }
     };
-    let (name, path, table) = classes.swap_remove(chosen);
+    let (name, stem, _) = classes.remove(chosen);
+    let table = Table::open(&source, &stem)
+        .map_err(|e| format!("feature class {name:?} ({stem}.gdbtable): {e}"))?;
     let mut notes = Vec::new();
     if !unreadable.is_empty() {
         notes.push(format!(
@@ -209,12 +315,9 @@ pub(crate) fn read(dir: &Path, layer: Option<&str>) -> Result<VectorDoc, String>
     }
     let geometry = table.geometry().expect("a feature class").clone();
     let (declared_crs, z_unit_m) = declared_crs(&geometry.wkt, &mut notes);
-    let dir_name = dir
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
+    let dir_name = source.name(path);
     let (features, surfaces) = features(&table, &geometry, &dir_name, &mut notes)
-        .map_err(|e| format!("feature class {name:?} ({}): {e}", path.display()))?;
+        .map_err(|e| format!("feature class {name:?} ({stem}.gdbtable): {e}"))?;
     Ok(VectorDoc {
         features,
         surfaces,
@@ -390,15 +493,11 @@ struct Table {
 const MAX_ROW_BYTES: u64 = 1 << 31;
 
 impl Table {
-    fn open(path: &Path) -> Result<Table, String> {
-        let bytes = std::fs::read(path).map_err(|e| format!("cannot read it: {e}"))?;
-        let tablx_path = path.with_extension("gdbtablx");
-        let tablx = std::fs::read(&tablx_path).map_err(|e| {
-            format!(
-                "cannot read its row index {}: {e}",
-                tablx_path.file_name().unwrap_or_default().to_string_lossy()
-            )
-        })?;
+    fn open(source: &Source, stem: &str) -> Result<Table, String> {
+        let bytes = source.read(&format!("{stem}.gdbtable"), None)?;
+        let tablx = source
+            .read(&format!("{stem}.gdbtablx"), None)
+            .map_err(|e| format!("cannot read its row index: {e}"))?;
         Table::parse(bytes, &tablx)
     }
 
@@ -421,17 +520,6 @@ impl Table {
             Kind::Geometry(g) => Some(&**g),
             _ => None,
         })
-    }
-
-    fn kind_name(&self) -> &'static str {
-        match self.layout.geometry_type {
-            1 => "points",
-            2 => "multipoints",
-            3 => "lines",
-            4 => "polygons",
-            9 => "MultiPatch",
-            _ => "geometry",
-        }
     }
 
     /// Each row's OBJECTID and bytes (after its length), in OBJECTID order.
@@ -619,6 +707,26 @@ fn describe(b: &[u8]) -> Result<(Vec<Field>, Layout), String> {
     Ok((fields, layout))
 }
 
+/// The header and field descriptions of a table (its first bytes only), for listing the feature classes.
+fn describe_file(source: &Source, stem: &str) -> Result<(Vec<Field>, Layout), String> {
+    let file = format!("{stem}.gdbtable");
+    let head = source.read(&file, Some(40))?;
+    let at = Cursor::at(&head, 32)
+        .u64()
+        .ok_or("cut short in its header")?;
+    let head = source.read(&file, Some(at.saturating_add(4)))?;
+    let size = Cursor::at(&head, at as usize)
+        .u32()
+        .ok_or("cut short before its field descriptions")?;
+    if size > MAX_FIELDS_BYTES {
+        return Err(format!("field descriptions of {size} bytes"));
+    }
+    describe(&source.read(&file, Some(at + 4 + u64::from(size)))?)
+}
+
+/// Longest field description section read (GDAL's limit): more is a damaged table.
+const MAX_FIELDS_BYTES: u32 = 10 << 20;
+
 /// What a table's header says about all its rows.
 #[derive(Debug, Clone, Copy)]
 struct Layout {
@@ -631,6 +739,19 @@ struct Layout {
     /// The layer has M, Z: its geometry field then lists their extents.
     has_m: bool,
     has_z: bool,
+}
+
+impl Layout {
+    fn kind_name(&self) -> &'static str {
+        match self.geometry_type {
+            1 => "points",
+            2 => "multipoints",
+            3 => "lines",
+            4 => "polygons",
+            9 => "MultiPatch",
+            _ => "geometry",
+        }
+    }
 }
 
 /// One field's description (after which `c` stands at the next).

@@ -49,6 +49,7 @@ mod streets;
 mod surface_model;
 mod template;
 mod valid;
+mod zip;
 
 pub use crs::{CoordError, Crs, CrsError};
 pub use error::IngestError;

@@ -423,7 +423,7 @@ fn damaged_geodatabases_are_refused_with_what_is_wrong() {
     std::fs::remove_file(gdb.join("a00000009.gdbtablx")).unwrap();
     let err = read(&gdb, None).unwrap_err().to_string();
     assert!(
-        err.contains("no feature class could be read: footprints (cannot read its row index a00000009.gdbtablx"),
+        err.contains("feature class \"footprints\" (a00000009.gdbtable): cannot read its row index: cannot read a00000009.gdbtablx"),
         "{err}"
     );
     // A table ArcGIS compressed: refused by name, with what to do.
@@ -453,4 +453,81 @@ fn damaged_geodatabases_are_refused_with_what_is_wrong() {
         skipped.detail,
         "OBJECTID 1: the row cannot be read: its offset lies past the end of the table"
     );
+}
+
+#[test]
+fn zipped_geodatabases_read_as_their_folders() {
+    // As downloaded: Buildings.gdb.zip with the folder at the top, deflated (written by Python's zipfile).
+    let folder = read(&fixture("nyc-les-2263.gdb"), None).unwrap();
+    let zipped = read(&fixture("nyc-les-2263.gdb.zip"), None).unwrap();
+    assert_eq!(zipped.buildings.len(), folder.buildings.len());
+    for (a, b) in zipped.buildings.iter().zip(&folder.buildings) {
+        assert_eq!(a.source_id, b.source_id);
+        assert_eq!(a.attributes, b.attributes);
+        assert_eq!(a.footprint, b.footprint);
+        assert_eq!(a.height_m, b.height_m);
+    }
+    let issues = |o: &Ingested| {
+        o.report
+            .skipped
+            .iter()
+            .map(|i| (i.feature_id.clone(), i.reason, i.detail.clone()))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(issues(&zipped), issues(&folder));
+    assert_eq!(zipped.report.files[0].format, InputFormat::FileGeodatabase);
+    // Stored, deeper in the archive, with ZIP64 records; ids take the geodatabase's name.
+    let opts = IngestOptions {
+        crs: Some("EPSG:32618".into()),
+        ..Default::default()
+    };
+    let nested = ingest(&[fixture("nested-zip64.zip")], &opts).unwrap();
+    assert_eq!(nested.buildings.len(), 1);
+    assert_eq!(nested.buildings[0].source_id, "Footprints.gdb#1");
+    // Two geodatabases, or none.
+    let err = read(&fixture("two.zip"), None).unwrap_err().to_string();
+    assert!(
+        err.contains("a ZIP archive holding 2 File Geodatabases (a.gdb, b.gdb)"),
+        "{err}"
+    );
+    let err = read(&fixture("none.zip"), None).unwrap_err().to_string();
+    assert!(
+        err.contains("a ZIP archive without a File Geodatabase in it"),
+        "{err}"
+    );
+}
+
+#[test]
+fn damaged_zip_archives_say_so() {
+    let dir = std::env::temp_dir().join(format!("citylod-fgdb-{}-zips", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bytes = std::fs::read(fixture("nyc-les-2263.gdb.zip")).unwrap();
+    // A byte changed inside the deflated data of the first member (the catalog, after its 30-byte local header and
+    // name): inflating fails or the CRC-32 does not match.
+    let mut bad = bytes.clone();
+    let name_len = u16::from_le_bytes([bad[26], bad[27]]) as usize;
+    bad[30 + name_len + 20] ^= 0x55;
+    let p = dir.join("flipped.gdb.zip");
+    std::fs::write(&p, &bad).unwrap();
+    let err = read(&p, None).unwrap_err().to_string();
+    assert!(
+        err.contains("the archive is damaged")
+            || err.contains("cannot be inflated")
+            || err.contains("inflates to"),
+        "{err}"
+    );
+    // Cut short: the central directory at the end is gone.
+    let p = dir.join("cut.gdb.zip");
+    std::fs::write(&p, &bytes[..bytes.len() / 2]).unwrap();
+    let err = read(&p, None).unwrap_err().to_string();
+    assert!(err.contains("not a ZIP archive"), "{err}");
+    // Cut anywhere, or a byte changed anywhere: an error or a result, never a panic.
+    for k in (0..bytes.len()).step_by(997) {
+        std::fs::write(&p, &bytes[..k]).unwrap();
+        let _ = read(&p, None);
+        let mut m = bytes.clone();
+        m[k] = m[k].wrapping_add(0x3b);
+        std::fs::write(&p, &m).unwrap();
+        let _ = read(&p, None);
+    }
 }

@@ -19,8 +19,8 @@ use crate::shown;
 #[command(allow_negative_numbers = true)]
 pub struct BuildArgs {
     /// Input files: GeoJSON (.geojson, .json), Esri Shapefile (.shp, read with the .dbf beside it), GeoPackage
-    /// (.gpkg, one feature table: see --layer), Esri File Geodatabase (a .gdb folder, one feature class: see
-    /// --layer), OpenStreetMap PBF or XML (.osm.pbf, .osm, .osm.gz: ways and multipolygon relations tagged building
+    /// (.gpkg, one feature table: see --layer), Esri File Geodatabase (a .gdb folder or a .zip holding one, one
+    /// feature class: see --layer), OpenStreetMap PBF or XML (.osm.pbf, .osm, .osm.gz: ways and multipolygon relations tagged building
     /// or building:part, their tags as attributes), CityJSON (.city.json, .json) or CityJSONSeq (.city.jsonl,
     /// .jsonl).
     #[arg(required = true, value_name = "INPUT", help_heading = "Input")]

@@ -11,6 +11,7 @@ import json
 import math
 import os
 import shutil
+import zipfile
 
 import geopandas as gpd
 import pyogrio
@@ -230,6 +231,27 @@ def reference(gdb, name):
         json.dump(out, f, separators=(',', ':'), default=str)
 
 
+def zips():
+    """Geodatabases zipped by Python's zipfile (an independent writer of ZIP): as downloaded (deflated, the folder at
+    the top), stored in a sub-folder with ZIP64 records, two geodatabases in one archive, and none."""
+    def add_dir(z, folder, prefix):
+        for f in sorted(os.listdir(os.path.join(HERE, folder))):
+            z.write(os.path.join(HERE, folder, f), prefix + f)
+    with zipfile.ZipFile(os.path.join(HERE, 'nyc-les-2263.gdb.zip'), 'w', zipfile.ZIP_DEFLATED) as z:
+        add_dir(z, 'nyc-les-2263.gdb', 'nyc-les-2263.gdb/')
+    with zipfile.ZipFile(os.path.join(HERE, 'nested-zip64.zip'), 'w', zipfile.ZIP_STORED, allowZip64=True) as z:
+        for f in sorted(os.listdir(os.path.join(HERE, 'no-crs.gdb'))):
+            with open(os.path.join(HERE, 'no-crs.gdb', f), 'rb') as src, \
+                    z.open('download/data/Footprints.gdb/' + f, 'w', force_zip64=True) as dst:
+                dst.write(src.read())
+        z.writestr('download/readme.txt', 'made-up footprints')
+    with zipfile.ZipFile(os.path.join(HERE, 'two.zip'), 'w', zipfile.ZIP_DEFLATED) as z:
+        add_dir(z, 'no-crs.gdb', 'a.gdb/')
+        add_dir(z, 'no-crs.gdb', 'b.gdb/')
+    with zipfile.ZipFile(os.path.join(HERE, 'none.zip'), 'w', zipfile.ZIP_DEFLATED) as z:
+        z.writestr('buildings.geojson', '{"type": "FeatureCollection", "features": []}')
+
+
 if __name__ == '__main__':
     nyc()
     kinds()
@@ -238,4 +260,5 @@ if __name__ == '__main__':
     for gdb, name in [('kinds.gdb', 'blocks'), ('kinds.gdb', 'round'),
                       ('pro32.gdb', 'buildings')]:
         reference(gdb, name)
+    zips()
     print('written')
