@@ -531,3 +531,31 @@ fn damaged_zip_archives_say_so() {
         let _ = read(&p, None);
     }
 }
+
+#[test]
+fn a_row_index_with_whole_blocks_missing_gives_every_row_its_objectid() {
+    // OBJECTIDs 1-100, 2049-2100, 5000 and 70000: the row index holds 4 of 69 blocks of 1,024, and a bitmap of them.
+    let x = std::fs::read(fixture("sparse.gdb/a00000009.gdbtablx")).unwrap();
+    assert_eq!(
+        u32::from_le_bytes(x[4..8].try_into().unwrap()),
+        4,
+        "blocks stored"
+    );
+    let out = read(&fixture("sparse.gdb"), None).unwrap();
+    let gdal = reference("sparse.footprints.reference.json");
+    let ours = by_objectid(&out);
+    assert_eq!(
+        ours.keys().copied().collect::<Vec<_>>(),
+        gdal.iter().map(|g| g.objectid).collect::<Vec<_>>()
+    );
+    assert_eq!(ours.len(), 154);
+    for g in &gdal {
+        let b = ours[&g.objectid];
+        assert_eq!(b.height_m, g.attributes["height"].as_f64().unwrap());
+        let v = vertices(&out, b);
+        let w: Vec<[f64; 2]> = g.polygons.iter().flatten().flatten().copied().collect();
+        assert!(v.iter().all(|p| w
+            .iter()
+            .any(|q| (p[0] - q[0]).abs() < 1e-9 && (p[1] - q[1]).abs() < 1e-9)));
+    }
+}

@@ -40,6 +40,7 @@ for name, res, args in [
     ('OGR_L_DeleteFeature', C.c_int, [vp, C.c_int64]),
     ('OGR_FD_GetFieldIndex', C.c_int, [vp, C.c_char_p]),
     ('OGR_F_Create', vp, [vp]),
+    ('OGR_F_SetFID', C.c_int, [vp, C.c_int64]),
     ('OGR_F_Destroy', None, [vp]),
     ('OGR_F_SetFieldInteger64', None, [vp, C.c_int, C.c_int64]),
     ('OGR_F_SetFieldDouble', None, [vp, C.c_int, C.c_double]),
@@ -87,8 +88,10 @@ def layer(ds, name, kind, epsg=None, fields=(), opts=None):
     return lyr
 
 
-def add(lyr, wkt, values=None):
+def add(lyr, wkt, values=None, fid=None):
     f = lib.OGR_F_Create(lib.OGR_L_GetLayerDefn(lyr))
+    if fid is not None:
+        lib.OGR_F_SetFID(f, fid)
     if wkt:
         s, g = C.c_char_p(wkt.encode()), vp()
         assert lib.OGR_G_CreateFromWkt(C.byref(s), None, C.byref(g)) == 0, wkt
@@ -186,6 +189,18 @@ def pro32():
     lib.GDALClose(ds)
 
 
+def sparse():
+    """OBJECTIDs with gaps of whole blocks of 1,024 (1-100, 2049-2100, 5000, 70000): the row index then stores only
+    the blocks that hold rows, and a bitmap of them."""
+    path = os.path.join(HERE, 'sparse.gdb')
+    ds = create(path)
+    lyr = layer(ds, 'footprints', 'polygon', 32618, [('height', 'real')])
+    for oid in list(range(1, 101)) + list(range(2049, 2101)) + [5000, 70000]:
+        x, y = 583000.0 + (oid % 50) * 20, 4507000.0 + (oid // 50) * 20
+        add(lyr, square(x, y, 10), {'height': float(oid % 40 + 3)}, fid=oid)
+    lib.GDALClose(ds)
+
+
 def no_crs():
     path = os.path.join(HERE, 'no-crs.gdb')
     ds = create(path)
@@ -257,7 +272,8 @@ if __name__ == '__main__':
     kinds()
     pro32()
     no_crs()
-    for gdb, name in [('kinds.gdb', 'blocks'), ('kinds.gdb', 'round'),
+    sparse()
+    for gdb, name in [('sparse.gdb', 'footprints'), ('kinds.gdb', 'blocks'), ('kinds.gdb', 'round'),
                       ('pro32.gdb', 'buildings')]:
         reference(gdb, name)
     zips()
