@@ -230,6 +230,13 @@ fn main() -> Result<()> {
     if argv.get(1).map(String::as_str) == Some("case") && argv.len() == 4 {
         return run_case(&argv[2], &argv[3]);
     }
+    if argv.get(1).map(String::as_str) == Some("synth-gdb") && argv.len() == 4 {
+        let n: usize = argv[2]
+            .parse()
+            .context("synth-gdb N DIR: N is a building count")?;
+        return synth::write_gdb(&synth::city(n, 42), Path::new(&argv[3]))
+            .with_context(|| format!("writing {}", argv[3]));
+    }
     if argv.get(1).map(String::as_str) == Some("synth-geojson") && argv.len() == 4 {
         let n: usize = argv[2]
             .parse()
@@ -282,6 +289,24 @@ fn main() -> Result<()> {
         &["--streets", &pbf.to_string_lossy()],
         runs,
     )?;
+    // 300,000 buildings of the generated city as a File Geodatabase (written by the test writer, in a child process
+    // as below).
+    let gdb = std::env::temp_dir().join(format!("citylod-bench-city-{}.gdb", std::process::id()));
+    measure(
+        Command::new(std::env::current_exe()?)
+            .arg("synth-gdb")
+            .arg("300000")
+            .arg(&gdb),
+    )?;
+    let built = bench_build(
+        &citylod,
+        "generated 300,000 (File Geodatabase)",
+        std::slice::from_ref(&gdb),
+        &["--crs", synth::UTM_CRS],
+        1,
+    );
+    let _ = std::fs::remove_dir_all(&gdb);
+    built?;
     // The generated city of the generalization benchmark below, written as a 236 MB GeoJSON in UTM and built
     // once (~45 s). Written by a child process: Linux counts the RSS a child inherits at fork in its peak, so this
     // process must stay small for the peaks measured after it.

@@ -187,3 +187,37 @@ mod tests {
         assert_ne!(city(100, 1)[5].footprint, city(100, 2)[5].footprint);
     }
 }
+
+/// Writes `buildings` (from [`city`]) as a File Geodatabase folder `dir` (feature class `buildings`, in [`UTM_CRS`]
+/// without a spatial reference, so read with `--crs`): outer rings clockwise as Esri's rule has them, coordinates on
+/// GDAL's default grid of 1/10,000 m, a `height` (m) and a `name` per row.
+pub fn write_gdb(buildings: &[Building], dir: &std::path::Path) -> std::io::Result<()> {
+    use citylod_testdata::fgdb::{write_gdb, GdbOptions, Row};
+    let rows: Vec<Row> = buildings
+        .iter()
+        .map(|b| {
+            let poly = &b.footprint.0[0];
+            let rings = std::iter::once(poly.exterior())
+                .chain(poly.interiors())
+                .enumerate()
+                .map(|(k, r)| {
+                    let mut ring: Vec<[f64; 2]> =
+                        r.0.iter()
+                            .map(|c| [c.x + UTM_ORIGIN.0, c.y + UTM_ORIGIN.1])
+                            .collect();
+                    // The generator's rings run counter-clockwise: outer rings reversed, holes kept.
+                    if k == 0 {
+                        ring.reverse();
+                    }
+                    ring
+                })
+                .collect();
+            Row {
+                rings,
+                height: Some(b.height_m),
+                name: Some(b.source_id.clone()),
+            }
+        })
+        .collect();
+    write_gdb(dir, "buildings", &rows, &GdbOptions::default())
+}

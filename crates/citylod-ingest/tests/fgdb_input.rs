@@ -559,3 +559,80 @@ fn a_row_index_with_whole_blocks_missing_gives_every_row_its_objectid() {
             .any(|q| (p[0] - q[0]).abs() < 1e-9 && (p[1] - q[1]).abs() < 1e-9)));
     }
 }
+
+#[test]
+fn thousands_of_rows_over_several_blocks_with_deleted_rows_and_nulls() {
+    use citylod_testdata::fgdb::{write_gdb, GdbOptions, Row};
+    // 2,500 squares (three blocks of the row index), every 11th with a courtyard, every 13th without a height, every
+    // 17th without a name; rows 1,024 to 1,030 and 2,500 deleted.
+    let rows: Vec<Row> = (0..2500)
+        .map(|k| {
+            let (x, y) = (
+                583_000.0 + (k % 50) as f64 * 20.0,
+                4_507_000.0 + (k / 50) as f64 * 20.0,
+            );
+            // Outer ring clockwise, hole counter-clockwise, both closed, as Esri writes them.
+            let mut rings = vec![vec![
+                [x, y],
+                [x, y + 12.0],
+                [x + 12.0, y + 12.0],
+                [x + 12.0, y],
+                [x, y],
+            ]];
+            if k % 11 == 0 {
+                rings.push(vec![
+                    [x + 3.0, y + 3.0],
+                    [x + 9.0, y + 3.0],
+                    [x + 9.0, y + 9.0],
+                    [x + 3.0, y + 9.0],
+                    [x + 3.0, y + 3.0],
+                ]);
+            }
+            Row {
+                rings,
+                height: (k % 13 != 0).then_some(4.0 + (k % 7) as f64),
+                name: (k % 17 != 0).then(|| format!("bâtiment {k}")),
+            }
+        })
+        .collect();
+    let dir = std::env::temp_dir().join(format!("citylod-fgdb-{}-written.gdb", std::process::id()));
+    let deleted: Vec<u64> = (1024..=1030).chain([2500]).collect();
+    write_gdb(
+        &dir,
+        "squares",
+        &rows,
+        &GdbOptions {
+            deleted: deleted.clone(),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let opts = IngestOptions {
+        crs: Some("EPSG:32618".into()),
+        ..Default::default()
+    };
+    let out = ingest(&[dir], &opts).unwrap();
+    let ours = by_objectid(&out);
+    assert_eq!(ours.len(), 2500 - deleted.len());
+    for (k, row) in rows.iter().enumerate() {
+        let oid = k as i64 + 1;
+        if deleted.contains(&(oid as u64)) {
+            assert!(!ours.contains_key(&oid));
+            continue;
+        }
+        let b = ours[&oid];
+        assert_eq!(b.height_m, row.height.unwrap_or(10.0), "OBJECTID {oid}");
+        assert_eq!(
+            b.attributes.get("name"),
+            Some(&row.name.clone().map_or(AttrValue::Null, AttrValue::String))
+        );
+        let holes = b.footprint.0[0].interiors().len();
+        assert_eq!(holes, usize::from(k % 11 == 0), "OBJECTID {oid}");
+        let area = if k % 11 == 0 { 144.0 - 36.0 } else { 144.0 };
+        assert!(
+            (b.area_m2() - area * 1.0006).abs() < 0.05,
+            "OBJECTID {oid}: {}",
+            b.area_m2()
+        );
+    }
+}
