@@ -158,36 +158,6 @@ fn signed_area(r: &[(f64, f64)]) -> f64 {
         / 2.0
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn exact_count_deterministic_and_ccw() {
-        let a = city(5000, 7);
-        let b = city(5000, 7);
-        assert_eq!(a.len(), 5000);
-        for (x, y) in a.iter().zip(&b) {
-            assert_eq!(x.footprint, y.footprint);
-        }
-        for bld in &a {
-            let ring: Vec<(f64, f64)> = bld.footprint.0[0]
-                .exterior()
-                .0
-                .iter()
-                .map(|c| (c.x, c.y))
-                .collect();
-            assert!(
-                signed_area(&ring[..ring.len() - 1]) > 10.0,
-                "{} not CCW or tiny",
-                bld.source_id
-            );
-            assert!(bld.height_m > 0.0);
-        }
-        assert_ne!(city(100, 1)[5].footprint, city(100, 2)[5].footprint);
-    }
-}
-
 /// Writes `buildings` (from [`city`]) as a File Geodatabase folder `dir` (feature class `buildings`, in [`UTM_CRS`]
 /// without a spatial reference, so read with `--crs`): outer rings clockwise as Esri's rule has them, coordinates on
 /// GDAL's default grid of 1/10,000 m, a `height` (m) and a `name` per row.
@@ -220,4 +190,34 @@ pub fn write_gdb(buildings: &[Building], dir: &std::path::Path) -> std::io::Resu
         })
         .collect();
     write_gdb(dir, "buildings", &rows, &GdbOptions::default())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exact_count_deterministic_and_ccw() {
+        let a = city(5000, 7);
+        let b = city(5000, 7);
+        assert_eq!(a.len(), 5000);
+        for (x, y) in a.iter().zip(&b) {
+            assert_eq!(x.footprint, y.footprint);
+        }
+        for bld in &a {
+            let ring: Vec<(f64, f64)> = bld.footprint.0[0]
+                .exterior()
+                .0
+                .iter()
+                .map(|c| (c.x, c.y))
+                .collect();
+            assert!(
+                signed_area(&ring[..ring.len() - 1]) > 10.0,
+                "{} not CCW or tiny",
+                bld.source_id
+            );
+            assert!(bld.height_m > 0.0);
+        }
+        assert_ne!(city(100, 1)[5].footprint, city(100, 2)[5].footprint);
+    }
 }
