@@ -104,24 +104,26 @@ fn number(attrs: &Attributes, name: &str) -> Option<f64> {
 /// How an attribute gives metres: as a length, or as a count of storeys of the given height.
 #[derive(Clone, Copy)]
 enum Measure {
-    Length,
+    /// A length: metres per unit of a number without a unit (`--height-unit`).
+    Length(f64),
     Storeys(f64),
 }
 
 impl Measure {
     fn metres(self, v: &AttrValue) -> Option<f64> {
         match self {
-            Measure::Length => length_m(v),
+            Measure::Length(unit) => length_m(v, unit),
             Measure::Storeys(h) => v.as_number().map(|n| n * h),
         }
     }
 }
 
-/// A length in metres: a number (with `m` or no unit), or feet and inches as OpenStreetMap allows them (`100'`,
-/// `16'4"`, `35 ft`).
-fn length_m(v: &AttrValue) -> Option<f64> {
+/// A length in metres: a number without a unit (times `unit`, metres per unit), a number in metres (`28 m`), or
+/// feet and inches as OpenStreetMap allows them (`100'`, `16'4"`, `35 ft`).
+fn length_m(v: &AttrValue, unit: f64) -> Option<f64> {
     if let Some(m) = v.as_number() {
-        return Some(m);
+        let explicit_metres = matches!(v, AttrValue::String(s) if s.trim_end().ends_with(|c: char| c.is_ascii_alphabetic()));
+        return Some(if explicit_metres { m } else { m * unit });
     }
     let AttrValue::String(s) = v else {
         return None;
@@ -191,7 +193,8 @@ pub(crate) fn resolve(
             }
         },
     };
-    let base_offset_m = base_from(MIN_HEIGHT_ATTR, Measure::Length)
+    let length = Measure::Length(opts.height_unit_m.unwrap_or(1.0));
+    let base_offset_m = base_from(MIN_HEIGHT_ATTR, length)
         .or_else(|| base_from(MIN_LEVEL_ATTR, Measure::Storeys(opts.storey_height_m)))
         .or_else(|| {
             base_from(
@@ -221,13 +224,13 @@ pub(crate) fn resolve(
         };
     let mut found = None;
     if let Some(name) = &opts.height_attr {
-        found = try_attr(name, Measure::Length, base_offset_m, &mut rejected)
+        found = try_attr(name, length, base_offset_m, &mut rejected)
             .map(|h| (h, HeightSource::NamedAttribute));
     }
     if found.is_none() {
         found = KNOWN_HEIGHT_ATTRS
             .iter()
-            .find_map(|n| try_attr(n, Measure::Length, base_offset_m, &mut rejected))
+            .find_map(|n| try_attr(n, length, base_offset_m, &mut rejected))
             .map(|h| (h, HeightSource::KnownAttribute));
     }
     if found.is_none() && present(ROOF_ATTR) {
@@ -289,6 +292,39 @@ mod tests {
             .iter()
             .map(|(k, v)| (k.to_string(), v.clone()))
             .collect()
+    }
+
+    #[test]
+    fn bare_numbers_are_in_the_height_unit_and_text_in_its_own() {
+        let ft = Measure::Length(0.3048);
+        let near = |v: Option<f64>, m: f64| (v.unwrap() - m).abs() < 1e-9;
+        assert!(near(ft.metres(&AttrValue::Float(100.0)), 30.48));
+        assert!(near(ft.metres(&AttrValue::Int(100)), 30.48));
+        assert!(near(ft.metres(&AttrValue::String("100".into())), 30.48));
+        assert!(near(ft.metres(&AttrValue::String("100 m".into())), 100.0));
+        assert!(near(ft.metres(&AttrValue::String("100 ft".into())), 30.48));
+        assert!(near(ft.metres(&AttrValue::String("16'4\"".into())), 4.9784));
+        assert!(near(
+            Measure::Length(1.0).metres(&AttrValue::Float(100.0)),
+            100.0
+        ));
+        let o = IngestOptions {
+            height_unit_m: Some(0.3048),
+            ..Default::default()
+        };
+        let a = attrs(&[
+            ("height", AttrValue::Float(328.0)),
+            ("min_height", AttrValue::Int(100)),
+        ]);
+        let h = resolve(&a, None, None, &o);
+        assert!(
+            (h.height_m - (328.0 - 100.0) * 0.3048).abs() < 1e-9,
+            "{h:?}"
+        );
+        assert!((h.base_offset_m - 30.48).abs() < 1e-9);
+        // Storey counts are counts, whatever the unit.
+        let a = attrs(&[("stories", AttrValue::Int(4))]);
+        assert_eq!(resolve(&a, None, None, &o).height_m, 12.0);
     }
 
     #[test]

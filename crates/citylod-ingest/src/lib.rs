@@ -81,6 +81,9 @@ pub struct IngestOptions {
     pub crs: Option<String>,
     /// Attribute holding the building height (m), tried before the well-known names.
     pub height_attr: Option<String>,
+    /// Metres per unit of a height attribute's number without a unit (`min_height` too): `None` for metres; 0.3048
+    /// for feet, 1200/3937 for US survey feet (`--height-unit`). Storey counts and 3DBAG's heights are not affected.
+    pub height_unit_m: Option<f64>,
     /// Attribute holding the storey count; default: [`DEFAULT_STOREY_ATTRS`].
     pub storey_attr: Option<String>,
     /// Height of one storey (m). Default 3.0.
@@ -105,6 +108,7 @@ impl Default for IngestOptions {
         IngestOptions {
             crs: None,
             height_attr: None,
+            height_unit_m: None,
             storey_attr: None,
             storey_height_m: 3.0,
             default_height_m: 10.0,
@@ -597,6 +601,35 @@ fn vector_file(
         (None, None) => return Err(missing),
         (given, declared) => settle_crs(path, given, declared, format)?,
     };
+    // Heights in a CRS in feet are often in feet too; metres are assumed unless --height-unit says otherwise (and
+    // OpenStreetMap's are metres whatever the CRS the data was converted to).
+    let unit = crs.linear_unit_m();
+    if opts.height_unit_m.is_none() && (unit - 1.0).abs() > 1e-9 && !crs.is_lon_lat() {
+        let height_attr = doc
+            .features
+            .iter()
+            .filter(|f| f.attributes.get("osm_id").is_none())
+            .find_map(|f| {
+                opts.height_attr
+                    .iter()
+                    .map(String::as_str)
+                    .chain(KNOWN_HEIGHT_ATTRS.iter().copied())
+                    .find(|k| f.attributes.get(k).and_then(AttrValue::as_number).is_some())
+            });
+        if let Some(k) = height_attr {
+            let unit_name = if (unit - 1200.0 / 3937.0).abs() < 1e-12 {
+                "US survey feet".to_string()
+            } else if (unit - 0.3048).abs() < 1e-12 {
+                "feet".to_string()
+            } else {
+                format!("units of {unit} m")
+            };
+            doc.notes.push(format!(
+                "the CRS is in {unit_name}, and the height attribute {k:?} was read in metres: if it is in feet too, \
+                 build again with --height-unit ft (or us-ft)"
+            ));
+        }
+    }
     doc.notes.extend(surface_model::stand(
         &mut doc.features,
         doc.surfaces,

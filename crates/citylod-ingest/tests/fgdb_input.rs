@@ -636,3 +636,27 @@ fn thousands_of_rows_over_several_blocks_with_deleted_rows_and_nulls() {
         );
     }
 }
+
+#[test]
+fn heights_in_feet_are_read_in_feet_when_asked_and_the_report_says_when_to_ask() {
+    let mut opts = IngestOptions {
+        height_attr: Some("height_ft".into()),
+        ..Default::default()
+    };
+    let out = ingest(&[fixture("pro32.gdb")], &opts).unwrap();
+    assert_eq!(out.buildings[0].height_m, 100.0);
+    assert!(
+        out.report.files[0].notes.iter().any(|n| n
+            .contains("height attribute \"height_ft\" was read in metres")
+            && n.contains("--height-unit ft")),
+        "{:?}",
+        out.report.files[0].notes
+    );
+    opts.height_unit_m = Some(0.3048);
+    let out = ingest(&[fixture("pro32.gdb")], &opts).unwrap();
+    assert!((out.buildings[0].height_m - 30.48).abs() < 1e-9);
+    assert!(!out.report.files[0]
+        .notes
+        .iter()
+        .any(|n| n.contains("--height-unit")));
+}

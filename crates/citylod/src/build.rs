@@ -51,6 +51,13 @@ pub struct BuildArgs {
     #[arg(long, value_name = "NAME", help_heading = "Input")]
     pub height_attr: Option<String>,
 
+    /// Unit of height attributes given as bare numbers (the height attribute and OSM's min_height): `m` (default),
+    /// `ft` (international foot, 0.3048 m) or `us-ft` (US survey foot, 1200/3937 m), as US city data in a State
+    /// Plane CRS in feet often has them (e.g. NYC's HEIGHTROOF). Text with its own unit ("28 m", "92 ft", 16'4") is
+    /// read in that unit; storey counts, --storey-height and --default-height are not affected.
+    #[arg(long, value_enum, value_name = "UNIT", help_heading = "Input")]
+    pub height_unit: Option<HeightUnitArg>,
+
     /// Attribute holding the number of storeys, used when no height attribute is present.
     /// Default: the first of stories, storeys, building:levels, b3_bouwlagen, … that a feature has.
     #[arg(long, value_name = "NAME", help_heading = "Input")]
@@ -293,6 +300,28 @@ pub enum CompressionArg {
     None,
     /// KHR_draco_mesh_compression (lossless on the quantized geometry; clients need a Draco decoder)
     Draco,
+}
+
+/// `--height-unit`.
+#[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum HeightUnitArg {
+    /// Metres
+    M,
+    /// International feet (0.3048 m)
+    Ft,
+    /// US survey feet (1200/3937 m)
+    UsFt,
+}
+
+impl HeightUnitArg {
+    pub fn metres(self) -> f64 {
+        match self {
+            HeightUnitArg::M => 1.0,
+            HeightUnitArg::Ft => 0.3048,
+            HeightUnitArg::UsFt => 1200.0 / 3937.0,
+        }
+    }
 }
 
 /// `--geoid`.
@@ -587,6 +616,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
     let opts = IngestOptions {
         crs: args.crs.clone(),
         height_attr: args.height_attr.clone(),
+        height_unit_m: args.height_unit.map(HeightUnitArg::metres),
         id_attr: args.id_attr.clone(),
         layer: args.layer.clone(),
         storey_attr: args.storey_attr.clone(),
@@ -816,7 +846,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
             .map(|p| p.display().to_string())
             .collect(),
         options: serde_json::json!({
-            "crs": args.crs, "height_attr": args.height_attr, "storey_attr": args.storey_attr,
+            "crs": args.crs, "height_attr": args.height_attr, "height_unit": args.height_unit, "storey_attr": args.storey_attr,
             "storey_height_m": args.storey_height, "default_height_m": args.default_height,
             "height_offset_m": args.height_offset, "geoid": args.geoid,
             "tile_max_features": args.tile_max_features, "tile_max_triangles": args.tile_max_triangles,
