@@ -190,7 +190,11 @@ pub(crate) fn read(path: &Path, layer: Option<&str>) -> Result<VectorDoc, String
     let mut classes: Vec<(String, String, Layout)> = Vec::new();
     let mut unreadable = Vec::new();
     for (name, oid) in &tables {
-        if name.len() >= 4 && name[..4].eq_ignore_ascii_case("GDB_") {
+        if name
+            .as_bytes()
+            .get(..4)
+            .is_some_and(|p| p.eq_ignore_ascii_case(b"GDB_"))
+        {
             continue;
         }
         let stem = format!("a{oid:08x}");
@@ -1167,6 +1171,7 @@ fn shape(b: &[u8], g: &GeometryDef) -> Result<Shape, Skip> {
     let mut repairs = Vec::new();
     let mut start = 0usize;
     let mut seg = segments.iter().peekable();
+    let mut followed = 0usize;
     for (k, &size) in sizes.iter().enumerate() {
         let end = start + size as usize;
         let mut r: Vec<[f64; 2]> = Vec::with_capacity(size as usize);
@@ -1174,8 +1179,18 @@ fn shape(b: &[u8], g: &GeometryDef) -> Result<Shape, Skip> {
             r.push(xy[i]);
             while let Some(s) = seg.next_if(|s| s.0 == i) {
                 if i + 1 < end {
-                    r.extend(follow(&s.1, xy[i], xy[i + 1]));
+                    // A curve whose numbers give no finite points (a damaged row) is its straight segment.
+                    let points = follow(&s.1, xy[i], xy[i + 1]);
+                    if points.iter().flatten().all(|v| v.is_finite()) {
+                        followed += points.len();
+                        r.extend(points);
+                    }
                 }
+            }
+            if followed > MAX_CURVE_POINTS {
+                return Err(malformed(format!(
+                    "its curves would take more than {MAX_CURVE_POINTS} points to follow"
+                )));
             }
         }
         // Segments starting at a ring's last point have no end in it.
@@ -1204,6 +1219,9 @@ fn shape(b: &[u8], g: &GeometryDef) -> Result<Shape, Skip> {
     }
     Ok(Shape::Footprint(crate::shp::organize(rings), repairs))
 }
+
+/// Most points a feature's curves are followed by: more is a damaged or hostile row, not a building.
+const MAX_CURVE_POINTS: usize = 1_000_000;
 
 /// A curve segment of a ring: from its start point to the next point of the ring.
 #[derive(Debug, Clone)]

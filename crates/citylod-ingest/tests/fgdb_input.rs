@@ -660,3 +660,36 @@ fn heights_in_feet_are_read_in_feet_when_asked_and_the_report_says_when_to_ask()
         .iter()
         .any(|n| n.contains("--height-unit")));
 }
+
+#[test]
+fn names_with_characters_beyond_ascii_are_feature_class_names_like_any_other() {
+    use citylod_testdata::fgdb::{write_gdb, GdbOptions, Row};
+    // "GD€…": a name whose fourth byte is inside a character (the system tables' prefix test once sliced it).
+    let dir = std::env::temp_dir().join(format!("citylod-fgdb-{}-names.gdb", std::process::id()));
+    let row = Row {
+        rings: vec![vec![
+            [0.0, 0.0],
+            [0.0, 10.0],
+            [10.0, 10.0],
+            [10.0, 0.0],
+            [0.0, 0.0],
+        ]],
+        height: Some(7.0),
+        name: Some("Gebäude".into()),
+    };
+    write_gdb(
+        &dir,
+        "GD€_Gebäude",
+        std::slice::from_ref(&row),
+        &GdbOptions::default(),
+    )
+    .unwrap();
+    let opts = IngestOptions {
+        crs: Some("EPSG:32618".into()),
+        layer: Some("gd€_gebäude".into()),
+        ..Default::default()
+    };
+    let out = ingest(&[dir], &opts).unwrap();
+    assert_eq!(out.buildings.len(), 1);
+    assert_eq!(out.buildings[0].height_m, 7.0);
+}
