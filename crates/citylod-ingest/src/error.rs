@@ -67,7 +67,7 @@ pub enum IngestError {
     },
     /// A File Geodatabase that cannot be read as one (no catalog, a table cut short or of an unknown layout, several
     /// feature classes and no `--layer`, a layer that is not there).
-    #[error("{path}: invalid File Geodatabase: {detail}")]
+    #[error("{path}: File Geodatabase: {detail}")]
     InvalidFileGdb { path: PathBuf, detail: String },
     /// A File Geodatabase feature class whose geometry field has no spatial reference, and no CRS was given by the
     /// user.

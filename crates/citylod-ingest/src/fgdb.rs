@@ -15,6 +15,7 @@ use crate::crs::DeclaredCrs;
 use crate::feature::{RawFeature, RawPolygon, VectorDoc};
 use crate::report::IssueReason;
 use crate::surface_model::{Face, Surfaces};
+use citylod_mesh::signed_area2;
 use citylod_model::{AttrValue, Attributes};
 use std::path::{Path, PathBuf};
 
@@ -100,7 +101,11 @@ impl Source {
         let last = |p: &str| p.rsplit('/').next().unwrap_or(p).to_string();
         match self {
             Source::Zip { folder, .. } if !folder.is_empty() => last(folder),
-            _ => path
+            // `.` or `..` has no name of its own: its full path has.
+            _ => std::fs::canonicalize(path)
+                .ok()
+                .as_deref()
+                .unwrap_or(path)
                 .file_name()
                 .map(|n| n.to_string_lossy().into_owned())
                 .unwrap_or_default(),
@@ -152,6 +157,11 @@ pub(crate) const MEMBERS: [(&str, &str); 6] = [
 /// Reads the feature class `layer` of the geodatabase `dir` (the only one when `layer` is `None`). Errors name what is
 /// wrong with the geodatabase as a whole; one unusable row is a skipped feature.
 pub(crate) fn read(path: &Path, layer: Option<&str>) -> Result<VectorDoc, String> {
+    read_class(path, layer, false)
+}
+
+/// [`read`], or with `any_geometry` a class of points or lines too (its rows then skipped), for tests of the rows.
+fn read_class(path: &Path, layer: Option<&str>, any_geometry: bool) -> Result<VectorDoc, String> {
     let source = Source::open(path)?;
     if !source.exists(CATALOG) {
         return Err(format!(
@@ -187,16 +197,14 @@ pub(crate) fn read(path: &Path, layer: Option<&str>) -> Result<VectorDoc, String
     }
     // The feature classes: user tables (not GDB_*) with a geometry field whose file is there. Only their field
     // descriptions are read here.
-    let mut classes: Vec<(String, String, Layout)> = Vec::new();
-    let mut unreadable = Vec::new();
-    for (name, oid) in &tables {
-        if name
-            .as_bytes()
+    let system = |n: &str| {
+        n.as_bytes()
             .get(..4)
             .is_some_and(|p| p.eq_ignore_ascii_case(b"GDB_"))
-        {
-            continue;
-        }
+    };
+    let mut classes: Vec<(String, String, Layout)> = Vec::new();
+    let mut unreadable: Vec<(String, String)> = Vec::new();
+    for (name, oid) in tables.iter().filter(|(n, _)| !system(n)) {
         let stem = format!("a{oid:08x}");
         // ArcGIS's compressed tables (Compressed Data Format, or 9.x's Smart Data Compression) have a file of their own.
         let compressed = ["cdf", "sdc", "gdbtable.cdf", "gdbtable.sdc"]
@@ -223,98 +231,127 @@ pub(crate) fn read(path: &Path, layer: Option<&str>) -> Result<VectorDoc, String
             Err(e) => unreadable.push((name.clone(), e)),
         }
     }
-    let list = |classes: &[(String, String, Layout)]| {
-        classes
+    // What the geodatabase holds, for messages: its feature classes with their geometry, and those not readable.
+    let holds = |classes: &[(String, String, Layout)]| {
+        let mut parts: Vec<String> = classes
             .iter()
             .map(|(n, _, t)| format!("{n} ({})", t.kind_name()))
-            .collect::<Vec<_>>()
-            .join(", ")
+            .collect();
+        parts.extend(
+            unreadable
+                .iter()
+                .map(|(n, _)| format!("{n} (not readable)")),
+        );
+        if parts.is_empty() {
+            "none".to_string()
+        } else {
+            parts.join(", ")
+        }
     };
-    let chosen = match (layer, classes.as_slice()) {
-        (Some(asked), _) => {
+    // Polygons and MultiPatch can be buildings; points, multipoints and lines cannot.
+    let buildings = |t: &Layout| matches!(t.geometry_type, 4 | 9 | 0);
+    let chosen = match layer {
+        Some(asked) => {
+            // A class inside a feature dataset may be named with it (`Dataset/Class`, `Dataset\Class`): classes
+            // are named by their own names, unique in a geodatabase.
+            let asked = asked.rsplit(['/', '\\']).next().unwrap_or(asked);
             // ArcGIS's names are case-insensitive: an exact match first, else the one equal but for case.
-            let exact = classes.iter().position(|(n, _, _)| n == asked);
-            let k = exact.or_else(|| {
-                let mut same = classes
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, (n, _, _))| n.eq_ignore_ascii_case(asked));
-                same.next()
-                    .filter(|_| same.next().is_none())
-                    .map(|(k, _)| k)
-            });
-            match k {
-                Some(k) => k,
-                None if unreadable.iter().any(|(n, _)| n.eq_ignore_ascii_case(asked)) => {
-                    let (n, why) = unreadable
+            let find = |names: &mut dyn Iterator<Item = &str>| -> Option<usize> {
+                let names: Vec<&str> = names.collect();
+                names.iter().position(|n| *n == asked).or_else(|| {
+                    let mut same = names
                         .iter()
-                        .find(|(n, _)| n == asked)
-                        .or_else(|| unreadable.iter().find(|(n, _)| n.eq_ignore_ascii_case(asked)))
-                        .expect("checked");
-                    return Err(format!("feature class {n:?} cannot be read: {why}"));
+                        .enumerate()
+                        .filter(|(_, n)| n.eq_ignore_ascii_case(asked));
+                    same.next()
+                        .filter(|_| same.next().is_none())
+                        .map(|(k, _)| k)
+                })
+            };
+            if let Some(k) = find(&mut classes.iter().map(|c| c.0.as_str())) {
+                k
+            } else if let Some(k) = find(&mut unreadable.iter().map(|c| c.0.as_str())) {
+                let (n, why) = &unreadable[k];
+                return Err(format!("feature class {n:?} cannot be read: {why}"));
+            } else if let Some(k) = find(&mut tables.iter().map(|c| c.0.as_str())) {
+                let n = &tables[k].0;
+                return Err(if system(n) {
+                    format!("{n:?} is one of the geodatabase's system tables, not a feature class (feature classes: {})", holds(&classes))
+                } else {
+                    format!("{n:?} is a table without geometry, not a feature class (feature classes: {})", holds(&classes))
+                });
+            } else {
+                return Err(format!(
+                    "no feature class {asked:?} (feature classes: {}; a feature dataset is not one: name a class in \
+                     it)",
+                    holds(&classes)
+                ));
+            }
+        }
+        None => {
+            let candidates: Vec<usize> = (0..classes.len())
+                .filter(|&k| buildings(&classes[k].2))
+                .collect();
+            match candidates.as_slice() {
+                [k] => *k,
+                [] if classes.is_empty() && unreadable.is_empty() => {
+                    return Err("a File Geodatabase without feature classes (no table with a geometry field)".into())
                 }
-                None if tables.iter().any(|(n, _)| n.eq_ignore_ascii_case(asked)) => {
+                [] if classes.is_empty() => {
                     return Err(format!(
-                        "{asked:?} is a table without geometry, not a feature class (feature classes: {})",
-                        list(&classes)
+                        "no feature class could be read: {}",
+                        crate::geojson::listing(
+                            &unreadable
+                                .iter()
+                                .map(|(n, why)| format!("{n} ({why})"))
+                                .collect::<Vec<_>>()
+                        )
                     ))
                 }
-                None => {
+                [] => {
                     return Err(format!(
-                        "no feature class {asked:?} (feature classes: {})",
-                        if classes.is_empty() {
-                            "none".to_string()
-                        } else {
-                            list(&classes)
-                        }
+                        "it holds no polygon or MultiPatch feature class, which buildings are (feature classes: {})",
+                        holds(&classes)
+                    ))
+                }
+                many => {
+                    return Err(format!(
+                        "it holds {} polygon or MultiPatch feature classes; name the one to read with --layer \
+                         (feature classes: {})",
+                        many.len(),
+                        holds(&classes)
                     ))
                 }
             }
         }
-        (None, []) => {
-            return Err(if unreadable.is_empty() {
-                "a File Geodatabase without feature classes (no table with a geometry field)".into()
-            } else {
-                format!(
-                    "no feature class could be read: {}",
-                    crate::geojson::listing(
-                        &unreadable
-                            .iter()
-                            .map(|(n, why)| format!("{n} ({why})"))
-                            .collect::<Vec<_>>()
-                    )
-                )
-            })
-        }
-        (None, [_]) => 0,
-        (None, _) => {
-            return Err(format!(
-            "it holds {} feature classes; name the one to read with --layer (feature classes: {})",
-            classes.len(),
-            list(&classes)
-        ))
-        }
     };
+    if !any_geometry && !buildings(&classes[chosen].2) {
+        let (n, _, t) = &classes[chosen];
+        return Err(format!(
+            "feature class {n:?} holds {}; buildings are polygons or MultiPatch (feature classes: {})",
+            t.kind_name(),
+            holds(&classes)
+        ));
+    }
     let (name, stem, _) = classes.remove(chosen);
     let table = Table::open(&source, &stem)
         .map_err(|e| format!("feature class {name:?} ({stem}.gdbtable): {e}"))?;
     let mut notes = Vec::new();
+    let others = holds(&classes);
+    notes.push(if others == "none" {
+        format!("read feature class {name:?}")
+    } else {
+        format!("read feature class {name:?}; the geodatabase also holds {others}")
+    });
     if !unreadable.is_empty() {
         notes.push(format!(
-            "table(s) of the geodatabase not read: {}",
+            "table(s) of the geodatabase not readable: {}",
             crate::geojson::listing(
                 &unreadable
                     .iter()
                     .map(|(n, why)| format!("{n} ({why})"))
                     .collect::<Vec<_>>()
             )
-        ));
-    }
-    if !classes.is_empty() {
-        notes.push(format!(
-            "feature class {name:?} read, of {} ({})",
-            classes.len() + 1,
-            list(&classes)
         ));
     }
     let geometry = table.geometry().expect("a feature class").clone();
@@ -339,8 +376,8 @@ fn declared_crs(wkt: &str, notes: &mut Vec<String>) -> (Option<DeclaredCrs>, Opt
         return (None, None);
     }
     let source = crate::prj::WktSource {
-        member: "spatial reference",
-        whose: "the geometry field's",
+        member: "feature class's spatial reference (its WKT)",
+        whose: "the feature class's",
     };
     let (crs, note) = crate::prj::declared_crs(wkt, &source);
     notes.extend(note);
@@ -362,7 +399,7 @@ fn features(
     let left_out: Vec<String> = table
         .fields
         .iter()
-        .filter(|f| matches!(f.kind, Kind::Binary | Kind::Raster))
+        .filter(|f| matches!(f.kind, Kind::Binary | Kind::Raster(_)))
         .map(|f| f.name.clone())
         .collect();
     if !left_out.is_empty() {
@@ -386,7 +423,7 @@ fn features(
                     source_id: crate::feature::source_id(&attributes, dir_name, oid),
                     attributes,
                     skip: Some((
-                        IssueReason::MalformedGeometry,
+                        IssueReason::UnreadableRow,
                         format!("{name}: the row cannot be read: {e}"),
                     )),
                     ..Default::default()
@@ -402,7 +439,7 @@ fn features(
                     attributes.insert(field.name.clone(), AttrValue::Int(oid as i64));
                 }
                 (_, Cell::Bytes(b)) if k == shape_field => blob = Some(b),
-                (Kind::Binary | Kind::Raster | Kind::Geometry(_), _) => {}
+                (Kind::Binary | Kind::Raster(_) | Kind::Geometry(_), _) => {}
                 (_, Cell::Null) => {
                     attributes.insert(field.name.clone(), AttrValue::Null);
                 }
@@ -418,7 +455,7 @@ fn features(
             ..Default::default()
         };
         match blob {
-            Some(b) => match shape(b, geometry) {
+            Some(b) => match shape(b, geometry, table.layout.geometry_type == 9) {
                 Ok(Shape::Footprint(polygons, repairs)) => {
                     out.polygons = polygons;
                     out.repairs.extend(repairs);
@@ -452,7 +489,8 @@ enum Kind {
     ObjectId,
     Geometry(Box<GeometryDef>),
     Binary,
-    Raster,
+    /// How its values are stored: 1 a managed raster's number (4 bytes), else a length and bytes.
+    Raster(u8),
     Guid,
     Xml,
 }
@@ -612,7 +650,11 @@ impl Table {
                     let b = c.take(16).ok_or_else(short)?;
                     AttrValue::String(guid(b))
                 }
-                Kind::Geometry(_) | Kind::Binary | Kind::Raster => {
+                Kind::Raster(1) => {
+                    out.push(Cell::Bytes(c.take(4).ok_or_else(short)?));
+                    continue;
+                }
+                Kind::Geometry(_) | Kind::Binary | Kind::Raster(_) => {
                     let n = c.varuint().ok_or_else(short)?;
                     out.push(Cell::Bytes(c.take(n).ok_or_else(short)?));
                     continue;
@@ -813,8 +855,8 @@ fn field(c: &mut Cursor, layout: &Layout) -> Result<Field, String> {
             (Kind::Binary, flags & 1 != 0)
         }
         9 => {
-            raster_def(c)?;
-            (Kind::Raster, true)
+            let (nullable, storage) = raster_def(c)?;
+            (Kind::Raster(storage), nullable)
         }
         10 | 11 => {
             let _width = c.u8().ok_or_else(short)?;
@@ -885,9 +927,12 @@ fn geometry_def(c: &mut Cursor, layout: &Layout) -> Result<GeometryDef, String> 
 }
 
 /// A raster field's description, skipped: its raster column's name, its CRS, its origins and scales.
-fn raster_def(c: &mut Cursor) -> Result<(), String> {
+/// A raster field's description: whether it may be null, and how its values are stored (0 a path to an external
+/// raster, 1 a managed raster's number, 2 the raster inline).
+fn raster_def(c: &mut Cursor) -> Result<(bool, u8), String> {
     let short = || "cut short in its raster description".to_string();
-    c.take(2).ok_or_else(short)?;
+    c.take(1).ok_or_else(short)?;
+    let nullable = c.u8().ok_or_else(short)? & 1 != 0;
     let n = c.u8().ok_or_else(short)?;
     c.utf16(n as usize).ok_or_else(short)?;
     let wkt_bytes = c.u16().ok_or_else(short)?;
@@ -899,8 +944,8 @@ fn raster_def(c: &mut Cursor) -> Result<(), String> {
             3 + 2 * (u64::from(has_m) + u64::from(has_z)) + 1 + u64::from(has_m) + u64::from(has_z);
         c.take(8 * doubles).ok_or_else(short)?;
     }
-    c.take(1).ok_or_else(short)?;
-    Ok(())
+    let storage = c.u8().ok_or_else(short)?;
+    Ok((nullable, storage))
 }
 
 /// The rows' offsets from a `.gdbtablx`, by OBJECTID: blocks of 1,024 offsets, some left out when a whole block
@@ -936,12 +981,20 @@ fn offsets(x: &[u8], version: u32) -> Result<Vec<(u64, u64)>, String> {
     let mut t = Cursor::at(x, body as usize);
     let (present, rows): (Vec<u64>, u64) = match rows {
         Some(rows) => {
-            let words = u64::from(t.u32().unwrap_or(0));
+            // The trailer: the bitmap's length in 32-bit words (0: every block is there), the blocks it covers, the
+            // blocks stored (again), then the bitmap.
+            let words = u64::from(t.u32().ok_or_else(short)?);
+            let bits = u64::from(t.u32().ok_or_else(short)?);
+            let stored = u64::from(t.u32().ok_or_else(short)?);
+            t.take(4).ok_or_else(short)?;
+            if stored != blocks {
+                return Err(format!(
+                    "its row index (.gdbtablx) says {blocks} blocks of rows at its start and {stored} at its end"
+                ));
+            }
             if words == 0 {
                 ((0..blocks).collect(), rows)
             } else {
-                let bits = u64::from(t.u32().ok_or_else(short)?);
-                t.take(8).ok_or_else(short)?;
                 let bitmap = t.take(4 * words).ok_or_else(short)?;
                 (present_blocks(bitmap, bits.min(32 * words), blocks)?, rows)
             }
@@ -1017,7 +1070,9 @@ const HAS_M: u64 = 0x4000_0000;
 const HAS_CURVES: u64 = 0x2000_0000;
 
 /// A geometry blob (after its length) → polygons or a MultiPatch's faces.
-fn shape(b: &[u8], g: &GeometryDef) -> Result<Shape, Skip> {
+/// `multipatch_layer`: the layer is a MultiPatch one, whose rows GDAL writes as polygons with z (their faces, walls
+/// among them) when asked to (`CREATE_MULTIPATCH=YES`): those are models too.
+fn shape(b: &[u8], g: &GeometryDef, multipatch_layer: bool) -> Result<Shape, Skip> {
     let malformed = |d: String| (IssueReason::MalformedGeometry, d);
     let mut c = Cursor::at(b, 0);
     let kind = c
@@ -1033,7 +1088,7 @@ fn shape(b: &[u8], g: &GeometryDef) -> Result<Shape, Skip> {
         31 => (true, true, false),
         32 => (true, false, false),
         54 => (kind & HAS_Z != 0, kind & HAS_M != 0, false),
-        0 => return Err((IssueReason::NoGeometry, "null shape".into())),
+        0 => return Err((IssueReason::NoGeometry, "geometry is null".into())),
         1 | 9 | 11 | 21 | 52 => {
             return Err((
                 IssueReason::UnsupportedGeometry,
@@ -1055,6 +1110,7 @@ fn shape(b: &[u8], g: &GeometryDef) -> Result<Shape, Skip> {
         t => return Err(malformed(format!("unknown geometry type {t}"))),
     };
     let multipatch = matches!(base, 31 | 32 | 54);
+    let faces_with_z = multipatch_layer && !multipatch && has_z && !curves;
     let short = || malformed("the geometry blob is cut short".into());
     let points = c.varuint().ok_or_else(short)?;
     if points == 0 {
@@ -1094,7 +1150,7 @@ fn shape(b: &[u8], g: &GeometryDef) -> Result<Shape, Skip> {
     }
     if counted > points || (counted == points && !multipatch) {
         return Err(malformed(format!(
-            "parts of {counted} points before the last, of {points} in all"
+            "damaged geometry: its part sizes ({counted} points before the last part) exceed its {points} points"
         )));
     }
     sizes.push(points - counted);
@@ -1120,7 +1176,7 @@ fn shape(b: &[u8], g: &GeometryDef) -> Result<Shape, Skip> {
     }
     // Z (a footprint needs none, a MultiPatch does) and M come after every point's x and y; the curves after them.
     let mut z = Vec::new();
-    if has_z && (multipatch || curves) {
+    if has_z && (multipatch || curves || faces_with_z) {
         let mut dz = 0i64;
         z.reserve(n);
         for _ in 0..n {
@@ -1162,6 +1218,9 @@ fn shape(b: &[u8], g: &GeometryDef) -> Result<Shape, Skip> {
             .collect();
         return crate::shp::multipatch_faces(parts).map(Shape::Surfaces);
     }
+    if faces_with_z {
+        return polygon_faces(&sizes, &xy, &z).map(Shape::Surfaces);
+    }
     let segments = if curves {
         curve_segments(&mut c, curve_count, n).map_err(malformed)?
     } else {
@@ -1172,8 +1231,13 @@ fn shape(b: &[u8], g: &GeometryDef) -> Result<Shape, Skip> {
     let mut start = 0usize;
     let mut seg = segments.iter().peekable();
     let mut followed = 0usize;
+    // Rings that are one full circle: a circle's points say nothing of its direction, so it is set by nesting below.
+    let mut circles = Vec::new();
     for (k, &size) in sizes.iter().enumerate() {
         let end = start + size as usize;
+        if size <= 2 && segments.iter().any(|s| s.0 == start) && xy[start] == xy[end - 1] {
+            circles.push(k);
+        }
         let mut r: Vec<[f64; 2]> = Vec::with_capacity(size as usize);
         for i in start..end {
             r.push(xy[i]);
@@ -1206,18 +1270,88 @@ fn shape(b: &[u8], g: &GeometryDef) -> Result<Shape, Skip> {
         rings.push(r);
         start = end;
     }
+    // A circle inside an even number of the row's other rings is an outer ring (clockwise, Esri's rule), inside an
+    // odd number a hole.
+    for &k in &circles {
+        let Some(&p) = rings[k].first() else { continue };
+        let depth = (0..rings.len())
+            .filter(|&o| {
+                o != k && rings[o].len() >= 3 && crate::shp::locate(p, &rings[o]) == Some(true)
+            })
+            .count();
+        let clockwise = signed_area2(&rings[k]) < 0.0;
+        if clockwise != depth.is_multiple_of(2) {
+            rings[k].reverse();
+        }
+    }
     if !segments.is_empty() {
         repairs.push((
             IssueReason::CurvesApproximated,
             format!(
-                "{} curve segment(s) (circular or elliptic arcs, Bézier curves) followed by straight segments of \
-                 at most {}° of arc (a Bézier curve: 16)",
+                "{} curve segment(s) (circular or elliptic arcs, Bézier curves) approximated by straight segments \
+                 of at most {}° of arc (a Bézier curve: 16)",
                 segments.len(),
                 crate::gpkg::ARC_STEP_DEG
             ),
         ));
     }
     Ok(Shape::Footprint(crate::shp::organize(rings), repairs))
+}
+
+/// A polygon with z in a MultiPatch layer as a model's faces: each ring a face, but for a ring wound the other way
+/// (counter-clockwise in plan, Esri's holes) that lies in the plan and height range of the face before it, which is
+/// that face's hole. Walls (no area in plan) are faces of their own.
+fn polygon_faces(sizes: &[u64], xy: &[[f64; 2]], z: &[f64]) -> Result<Vec<Face>, Skip> {
+    let mut faces: Vec<Face> = Vec::new();
+    // The plan box and height range of the last face's outer ring, when it is wound as an outer ring.
+    let mut last: Option<([f64; 4], [f64; 2])> = None;
+    let mut start = 0usize;
+    for &size in sizes {
+        let mut ring: Vec<[f64; 3]> = (start..start + size as usize)
+            .map(|i| [xy[i][0], xy[i][1], z[i]])
+            .collect();
+        start += size as usize;
+        if ring.len() > 1 && ring.first() == ring.last() {
+            ring.pop();
+        }
+        if ring.len() < 3 {
+            continue;
+        }
+        let plan: Vec<[f64; 2]> = ring.iter().map(|p| [p[0], p[1]]).collect();
+        let area = signed_area2(&plan);
+        let b = crate::feature::ring_box(&plan);
+        let span = (b[2] - b[0]).hypot(b[3] - b[1]);
+        let flat = area.abs() > 1e-9 * span * span;
+        let heights = ring
+            .iter()
+            .fold([f64::INFINITY, f64::NEG_INFINITY], |h, p| {
+                [h[0].min(p[2]), h[1].max(p[2])]
+            });
+        let hole_of_last = flat
+            && area > 0.0
+            && last.is_some_and(|(o, h)| {
+                b[0] >= o[0]
+                    && b[1] >= o[1]
+                    && b[2] <= o[2]
+                    && b[3] <= o[3]
+                    && heights[0] >= h[0] - 1e-6
+                    && heights[1] <= h[1] + 1e-6
+            });
+        match faces.last_mut() {
+            Some(face) if hole_of_last => face.push(ring),
+            _ => {
+                last = (flat && area < 0.0).then_some((b, heights));
+                faces.push(vec![ring]);
+            }
+        }
+    }
+    if faces.is_empty() {
+        return Err((
+            IssueReason::EmptyGeometry,
+            "a model whose faces have no area".into(),
+        ));
+    }
+    Ok(faces)
 }
 
 /// Most points a feature's curves are followed by: more is a damaged or hostile row, not a building.
@@ -1568,7 +1702,7 @@ mod tests {
             "hole",
             "testnotnullable",
         ] {
-            let doc = read(&dir, Some(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+            let doc = read_class(&dir, Some(name), true).unwrap_or_else(|e| panic!("{name}: {e}"));
             let gdal: Vec<Reference> = serde_json::from_str(
                 &std::fs::read_to_string(fixture(&format!("arcgis.{name}.reference.json")))
                     .unwrap(),
@@ -1674,7 +1808,7 @@ mod tests {
                     if let Ok(values) = row.and_then(|r| table.values(r)) {
                         for v in values {
                             if let (Cell::Bytes(b), Some(g)) = (v, &g) {
-                                let _ = shape(b, g);
+                                let _ = shape(b, g, table.layout.geometry_type == 9);
                             }
                         }
                     }

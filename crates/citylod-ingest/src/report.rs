@@ -42,6 +42,9 @@ pub enum IssueReason {
     /// A Shapefile record its `.dbf` marks deleted (`*`): the shape and its attributes are not read, as GIS tools
     /// do not show them.
     DeletedRecord,
+    /// A File Geodatabase row whose bytes cannot be read (the row index points outside the table, the row ends inside
+    /// a field): skipped with its OBJECTID and what is wrong; the rows around it are read.
+    UnreadableRow,
     // --- repairs ---
     /// A GeoJSON ring whose last point did not repeat the first was closed.
     RingClosed,
@@ -139,6 +142,7 @@ impl IssueReason {
             MeshFailed => "mesh_failed",
             Duplicate => "duplicate",
             DeletedRecord => "deleted_record",
+            UnreadableRow => "unreadable_row",
             RingClosed => "ring_closed",
             RepeatedPointsRemoved => "repeated_points_removed",
             DegenerateHoleDropped => "degenerate_hole_dropped",

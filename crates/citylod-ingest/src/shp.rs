@@ -470,7 +470,7 @@ pub(crate) fn multipatch_faces(
 }
 
 /// Where `p` lies against the open ring `r`: `Some(true)` inside, `Some(false)` outside, `None` on its boundary.
-fn locate(p: [f64; 2], r: &[[f64; 2]]) -> Option<bool> {
+pub(crate) fn locate(p: [f64; 2], r: &[[f64; 2]]) -> Option<bool> {
     let n = r.len();
     let mut inside = false;
     for i in 0..n {

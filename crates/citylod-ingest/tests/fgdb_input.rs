@@ -237,14 +237,17 @@ fn polygons_with_holes_deleted_rows_and_every_field_type_read_as_gdal_reads_them
 fn curves_are_followed_in_short_segments() {
     let out = read(&fixture("kinds.gdb"), Some("round")).unwrap();
     let r = &out.report;
-    assert_eq!(r.buildings_written, 3);
+    assert_eq!(r.buildings_written, 5);
     let curved: Vec<&str> = r
         .repaired
         .iter()
         .filter(|i| i.reason == IssueReason::CurvesApproximated)
         .map(|i| i.feature_id.as_str())
         .collect();
-    assert_eq!(curved, ["kinds.gdb#1", "kinds.gdb#2"]);
+    assert_eq!(
+        curved,
+        ["kinds.gdb#1", "kinds.gdb#2", "kinds.gdb#4", "kinds.gdb#5"]
+    );
     let ours = by_objectid(&out);
     // A circle of radius 10 m, in 4° steps (a 90-gon: 313.9 m²), GDAL's own linearization within 0.5 %.
     let tower = ours[&1].area_m2();
@@ -268,6 +271,23 @@ fn curves_are_followed_in_short_segments() {
         assert!(
             (ours - theirs).abs() < 0.01 * theirs,
             "{ours} against {theirs}"
+        );
+    }
+    // Full circles, whose points give no direction: a round courtyard in a round building (radii 15 and 5 m), and a
+    // square one, stay courtyards.
+    let pi = std::f64::consts::PI;
+    let k = 1.0006 * (n / std::f64::consts::TAU * (std::f64::consts::TAU / n).sin());
+    for (oid, area) in [
+        (4, k * pi * (225.0 - 25.0)),
+        (5, 1.0006 * (k / 1.0006 * pi * 225.0 - 100.0)),
+    ] {
+        let b = ours[&oid];
+        assert_eq!(b.footprint.0.len(), 1, "OBJECTID {oid}");
+        assert_eq!(b.footprint.0[0].interiors().len(), 1, "OBJECTID {oid}");
+        assert!(
+            (b.area_m2() - area).abs() < 0.002 * area,
+            "OBJECTID {oid}: {} against {area}",
+            b.area_m2()
         );
     }
     // A plain MultiSurface with a courtyard: 30 × 30 less 15 × 15.
@@ -304,6 +324,23 @@ fn multipatch_models_stand_on_their_lowest_point_and_reach_their_highest() {
     };
     let out = ingest(&[fixture("kinds.gdb")], &opts).unwrap();
     assert!(out.buildings.iter().all(|b| b.mesh.is_some()));
+}
+
+#[test]
+fn polygons_with_z_in_a_multipatch_layer_are_models() {
+    // GDAL's CREATE_MULTIPATCH=YES writes a box's six faces as one polygon with z: walls included, standing at 5 m.
+    let out = read(&fixture("kinds.gdb"), Some("walls")).unwrap();
+    let r = &out.report;
+    assert_eq!(r.buildings_written, 1);
+    assert!(r.repaired.is_empty(), "{:?}", r.repaired);
+    let b = &out.buildings[0];
+    assert!((b.height_m - 12.0).abs() < 1e-6, "{}", b.height_m);
+    assert!(
+        (b.area_m2() - 100.0 * 1.0006).abs() < 0.05,
+        "{}",
+        b.area_m2()
+    );
+    assert_eq!(r.ground_sources.get("geometry"), Some(&1));
 }
 
 #[test]
@@ -358,8 +395,9 @@ fn a_feature_class_without_a_spatial_reference_asks_for_crs() {
 fn layers_are_chosen_by_name_and_wrong_names_list_the_feature_classes() {
     let err = read(&fixture("kinds.gdb"), None).unwrap_err().to_string();
     assert!(
-        err.contains("it holds 4 feature classes; name the one to read with --layer")
-            && err.contains("blocks (polygons)")
+        err.contains(
+            "it holds 4 polygon or MultiPatch feature classes; name the one to read with --layer"
+        ) && err.contains("blocks (polygons)")
             && err.contains("models (MultiPatch)"),
         "{err}"
     );
@@ -380,17 +418,38 @@ fn layers_are_chosen_by_name_and_wrong_names_list_the_feature_classes() {
             .unwrap()
             .buildings
             .len(),
-        3
+        5
     );
-    // Lines are listed as skipped, each with its OBJECTID.
-    let roads = read(&fixture("kinds.gdb"), Some("roads")).unwrap();
+    // A class of lines is refused at once, saying what buildings are.
+    let err = read(&fixture("kinds.gdb"), Some("roads"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("feature class \"roads\" holds lines; buildings are polygons or MultiPatch"),
+        "{err}"
+    );
+    // A class in a feature dataset may be named with it, as ArcGIS shows it.
     assert_eq!(
-        roads.report.skipped[0].reason,
-        IssueReason::UnsupportedGeometry
+        read(&fixture("kinds.gdb"), Some("Buildings/round"))
+            .unwrap()
+            .buildings
+            .len(),
+        5
     );
     assert_eq!(
-        roads.report.skipped[0].detail,
-        "OBJECTID 1: a line, not a polygon"
+        read(&fixture("kinds.gdb"), Some("Buildings\\round"))
+            .unwrap()
+            .buildings
+            .len(),
+        5
+    );
+    // A system table.
+    let err = read(&fixture("kinds.gdb"), Some("GDB_Items"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("one of the geodatabase's system tables"),
+        "{err}"
     );
     // One of the geodatabase's files given instead of its folder.
     let member = fixture("kinds.gdb").join("a00000001.gdbtable");
@@ -415,7 +474,7 @@ fn damaged_geodatabases_are_refused_with_what_is_wrong() {
     std::fs::write(&catalog, &bytes[..bytes.len() / 2]).unwrap();
     let err = read(&gdb, None).unwrap_err().to_string();
     assert!(
-        err.contains("invalid File Geodatabase: its catalog a00000001.gdbtable"),
+        err.contains("File Geodatabase: its catalog a00000001.gdbtable"),
         "{err}"
     );
     // The feature class's row index gone: the class cannot be read, and the error says which file is missing.
@@ -435,6 +494,17 @@ fn damaged_geodatabases_are_refused_with_what_is_wrong() {
             && err.contains("Uncompress File Geodatabase Data"),
         "{err}"
     );
+    // A sparse row index without its trailer (whose bitmap says which blocks are stored): refused, not read as if
+    // every block were there (which would give rows the wrong OBJECTIDs).
+    let gdb = scratch_copy("sparse.gdb", "no-trailer");
+    let tablx = gdb.join("a00000009.gdbtablx");
+    let x = std::fs::read(&tablx).unwrap();
+    std::fs::write(&tablx, &x[..16 + 4 * 1024 * 5]).unwrap();
+    let err = read(&gdb, None).unwrap_err().to_string();
+    assert!(
+        err.contains("its row index (.gdbtablx) is cut short"),
+        "{err}"
+    );
     // A row index pointing past the end of the table: that row's error names it.
     let gdb = scratch_copy("no-crs.gdb", "bad-offset");
     let tablx = gdb.join("a00000009.gdbtablx");
@@ -448,7 +518,7 @@ fn damaged_geodatabases_are_refused_with_what_is_wrong() {
     // The row is listed as skipped, with what is wrong; the others would be read.
     let out = ingest(&[gdb], &opts).unwrap();
     let skipped = &out.report.skipped[0];
-    assert_eq!(skipped.reason, IssueReason::MalformedGeometry);
+    assert_eq!(skipped.reason, IssueReason::UnreadableRow);
     assert_eq!(
         skipped.detail,
         "OBJECTID 1: the row cannot be read: its offset lies past the end of the table"

@@ -40,9 +40,10 @@ pub struct BuildArgs {
     pub id_attr: Option<String>,
 
     /// The feature table to read from a GeoPackage (e.g. lod12_2d of a 3DBAG download), or the feature class to read
-    /// from a File Geodatabase (its name in ArcGIS, in any case; feature datasets need not be named). Default: the
-    /// only one; a file holding several is refused with their names. Default ids: FILE#FID, a geodatabase's
-    /// FOLDER.gdb#OBJECTID.
+    /// from a File Geodatabase (its name in ArcGIS, in any case, alone or after its feature dataset's:
+    /// Dataset/Class). Default: the only one (of a geodatabase: the only polygon or MultiPatch class); a file
+    /// holding several is refused with their names. Default ids: an `id` field's value, else FILE#FID, or for a
+    /// geodatabase FOLDER.gdb#OBJECTID.
     #[arg(long, value_name = "TABLE", help_heading = "Input")]
     pub layer: Option<String>,
 

@@ -121,15 +121,16 @@ def square(x, y, s, hole=False):
     return f'POLYGON ({outer}, {inner})'
 
 
-def box_z(x, y, s, h):
-    """A closed box as a PolyhedralSurface Z (GDAL writes it as a MultiPatch)."""
+def box_z(x, y, s, h, base=0, kind='POLYHEDRALSURFACE Z'):
+    """A closed box from `base` up to `h` as a PolyhedralSurface Z (GDAL writes it as a MultiPatch), or another
+    collection of polygons with z."""
     c = [(x, y), (x + s, y), (x + s, y + s), (x, y + s)]
-    faces = ['((' + ', '.join(f'{a} {b} 0' for a, b in c[::-1] + [c[-1]]) + '))',
+    faces = ['((' + ', '.join(f'{a} {b} {base}' for a, b in c[::-1] + [c[-1]]) + '))',
              '((' + ', '.join(f'{a} {b} {h}' for a, b in c + [c[0]]) + '))']
     for i in range(4):
         (a, b), (d, e) = c[i], c[(i + 1) % 4]
-        faces.append(f'(({a} {b} 0, {d} {e} 0, {d} {e} {h}, {a} {b} {h}, {a} {b} 0))')
-    return 'POLYHEDRALSURFACE Z (' + ', '.join(faces) + ')'
+        faces.append(f'(({a} {b} {base}, {d} {e} {base}, {d} {e} {h}, {a} {b} {h}, {a} {b} {base}))')
+    return kind + ' (' + ', '.join(faces) + ')'
 
 
 def kinds():
@@ -155,12 +156,24 @@ def kinds():
                 f'{cx + 95} {cy + 15}, {cx + 80} {cy + 30}), ({cx + 80} {cy + 30}, {cx + 50} {cy + 30}, {cx + 50} {cy})))',
         {'kind': 'apse'})
     add(round_, 'MULTISURFACE (' + square(cx + 200, cy, 30, hole=True)[len('POLYGON '):] + ')', {'kind': 'plain'})
+    # Full circles: a round building with a round courtyard, and one with a square courtyard.
+    ox = cx + 400
+    add(round_, f'CURVEPOLYGON (CIRCULARSTRING ({ox - 15} {cy}, {ox + 15} {cy}, {ox - 15} {cy}), '
+                f'CIRCULARSTRING ({ox - 5} {cy}, {ox + 5} {cy}, {ox - 5} {cy}))', {'kind': 'round courtyard'})
+    ox = cx + 500
+    add(round_, f'CURVEPOLYGON (CIRCULARSTRING ({ox - 15} {cy}, {ox + 15} {cy}, {ox - 15} {cy}), '
+                f'({ox - 5} {cy - 5}, {ox + 5} {cy - 5}, {ox + 5} {cy + 5}, {ox - 5} {cy + 5}, {ox - 5} {cy - 5}))',
+        {'kind': 'square courtyard'})
     models = layer(ds, 'models', 'polyhedralsurface_z', 32618, [('name', 'string')])
     add(models, box_z(x0 + 3000, y0, 10, 21.0), {'name': 'box'})
     add(models, box_z(x0 + 3100, y0, 16, 45.5), {'name': 'tall box'})
     add(models, f'TIN Z ((({x0 + 3200} {y0} 0, {x0 + 3210} {y0} 0, {x0 + 3205} {y0 + 8} 12, {x0 + 3200} {y0} 0)), '
                 f'(({x0 + 3210} {y0} 0, {x0 + 3210} {y0 + 8} 0, {x0 + 3205} {y0 + 8} 12, {x0 + 3210} {y0} 0)))',
         {'name': 'tent'})
+    # Models written as polygons with z in a MultiPatch layer (GDAL's CREATE_MULTIPATCH=YES): a box standing at z 5.
+    walls = layer(ds, 'walls', 'multipolygon_z', 32618, [('name', 'string')], opts=['CREATE_MULTIPATCH=YES'])
+    wx, wy = x0 + 3300, y0
+    add(walls, box_z(wx, wy, 10, 17, base=5, kind='MULTIPOLYGON Z'), {'name': 'raised box'})
     roads = layer(ds, 'roads', 'line', 32618, [('name', 'string')])
     add(roads, f'LINESTRING ({x0} {y0 - 10}, {x0 + 1200} {y0 - 10})', {'name': 'Main Street'})
     table = layer(ds, 'owners', 'none', None, [('owner', 'string')])
