@@ -355,7 +355,18 @@ fn read_class(path: &Path, layer: Option<&str>, any_geometry: bool) -> Result<Ve
         ));
     }
     let geometry = table.geometry().expect("a feature class").clone();
-    let (declared_crs, z_unit_m) = declared_crs(&geometry.wkt, &mut notes);
+    let (mut declared_crs, z_unit_m) = declared_crs(&geometry.wkt, &mut notes);
+    // ArcGIS records the class's spatial reference by its well-known ID in the class's definition (GDB_Items): an
+    // EPSG code there names the CRS with authority, where the WKT alone is matched by its parameters.
+    if declared_crs.is_some() {
+        if let Some(code) = item_wkid(&source, &tables, &name) {
+            let epsg = format!("EPSG:{code}");
+            if crate::crs::Crs::parse(&epsg).is_ok() {
+                notes.retain(|n| !n.contains("identified from"));
+                declared_crs = Some(DeclaredCrs::Name(epsg));
+            }
+        }
+    }
     let dir_name = source.name(path);
     let (features, surfaces) = features(&table, &geometry, &dir_name, &mut notes)
         .map_err(|e| format!("feature class {name:?} ({stem}.gdbtable): {e}"))?;
@@ -366,6 +377,43 @@ fn read_class(path: &Path, layer: Option<&str>, any_geometry: bool) -> Result<Ve
         z_unit_m,
         notes,
     })
+}
+
+/// The EPSG code the class's definition in GDB_Items gives its spatial reference (`LatestWKID`, else `WKID`; Esri's
+/// own codes, over 100,000, left out), when the geodatabase has that table and it can be read.
+fn item_wkid(source: &Source, tables: &[(String, u64)], class: &str) -> Option<u32> {
+    let (_, oid) = tables.iter().find(|(n, _)| n == "GDB_Items")?;
+    let items = Table::open(source, &format!("a{oid:08x}")).ok()?;
+    let field = |name: &str| {
+        items
+            .fields
+            .iter()
+            .position(|f| f.name.eq_ignore_ascii_case(name))
+    };
+    let (name_k, definition_k) = (field("Name")?, field("Definition")?);
+    for (_, row) in items.rows() {
+        let Ok(values) = row.and_then(|r| items.values(r)) else {
+            continue;
+        };
+        let (Cell::Value(AttrValue::String(n)), Cell::Value(AttrValue::String(d))) =
+            (&values[name_k], &values[definition_k])
+        else {
+            continue;
+        };
+        if !n.eq_ignore_ascii_case(class) || !d.contains("DEFeatureClassInfo") {
+            continue;
+        }
+        let tag = |t: &str| -> Option<u32> {
+            let open = format!("<{t}>");
+            let at = d.find(&open)? + open.len();
+            let end = d[at..].find('<')? + at;
+            d[at..end].trim().parse().ok()
+        };
+        return tag("LatestWKID")
+            .filter(|c| *c < 100_000)
+            .or_else(|| tag("WKID").filter(|c| *c < 100_000));
+    }
+    None
 }
 
 /// The CRS of the geometry field's WKT (Esri's, as in a `.prj`), and the metres per unit of z its VERTCS gives; `None`

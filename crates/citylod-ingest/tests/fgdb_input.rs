@@ -177,6 +177,15 @@ fn polygons_with_holes_deleted_rows_and_every_field_type_read_as_gdal_reads_them
     let r = &out.report;
     r.check_invariants().unwrap();
     assert_eq!(r.files[0].crs, "EPSG:32618");
+    // By the class's WKID in GDB_Items, not by matching its WKT's parameters (which would be said in a note).
+    assert!(
+        !r.files[0]
+            .notes
+            .iter()
+            .any(|n| n.contains("identified from")),
+        "{:?}",
+        r.files[0].notes
+    );
     // 3,000 rows written, then a whole block of 1,024 OBJECTIDs deleted (the row index leaves it out) and two more.
     let gdal = reference("kinds.blocks.reference.json");
     assert_eq!(gdal.len(), 1974);
