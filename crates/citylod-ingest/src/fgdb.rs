@@ -1307,14 +1307,7 @@ fn shape(b: &[u8], g: &GeometryDef, multipatch_layer: bool) -> Result<Shape, Ski
         }
         // Segments starting at a ring's last point have no end in it.
         while seg.next_if(|s| s.0 < end).is_some() {}
-        if r.len() > 1 && r.first() == r.last() {
-            r.pop();
-        } else if r.len() >= 3 {
-            repairs.push((
-                IssueReason::RingClosed,
-                format!("ring {} was not closed; closed it", k + 1),
-            ));
-        }
+        crate::shp::open_ring(&mut r, k, &mut repairs);
         rings.push(r);
         start = end;
     }

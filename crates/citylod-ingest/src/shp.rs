@@ -337,17 +337,22 @@ fn polygon(c: &[u8]) -> ShapeResult {
     for k in 0..parts {
         let end = starts.get(k + 1).copied().unwrap_or(points);
         let mut r: Vec<[f64; 2]> = (starts[k]..end).map(point).collect();
-        if r.len() > 1 && r.first() == r.last() {
-            r.pop();
-        } else if r.len() >= 3 {
-            repairs.push((
-                IssueReason::RingClosed,
-                format!("ring {} was not closed; closed it", k + 1),
-            ));
-        }
+        open_ring(&mut r, k, &mut repairs);
         rings.push(r);
     }
     Ok(Read::Footprint(organize(rings), repairs))
+}
+
+/// Ring `k` of a record as an open ring: its closing point dropped, or a repair said when it had none.
+pub(crate) fn open_ring(r: &mut Vec<[f64; 2]>, k: usize, repairs: &mut Vec<(IssueReason, String)>) {
+    if r.len() > 1 && r.first() == r.last() {
+        r.pop();
+    } else if r.len() >= 3 {
+        repairs.push((
+            IssueReason::RingClosed,
+            format!("ring {} was not closed; closed it", k + 1),
+        ));
+    }
 }
 
 /// A MultiPatch record's faces: triangle strips, fans and lists as triangles, an outer ring with the inner rings
