@@ -231,11 +231,17 @@ fn read_class(path: &Path, layer: Option<&str>, any_geometry: bool) -> Result<Ve
             Err(e) => unreadable.push((name.clone(), e)),
         }
     }
-    // What the geodatabase holds, for messages: its feature classes with their geometry, and those not readable.
+    let items = items(&source, &tables);
+    // What the geodatabase holds, for messages: its feature classes (in their feature datasets) with their geometry,
+    // and those not readable.
+    let in_dataset = |n: &str| match items.dataset.get(&n.to_lowercase()) {
+        Some(d) => format!("{d}/{n}"),
+        None => n.to_string(),
+    };
     let holds = |classes: &[(String, String, Layout)]| {
         let mut parts: Vec<String> = classes
             .iter()
-            .map(|(n, _, t)| format!("{n} ({})", t.kind_name()))
+            .map(|(n, _, t)| format!("{} ({})", in_dataset(n), t.kind_name()))
             .collect();
         parts.extend(
             unreadable
@@ -281,11 +287,28 @@ fn read_class(path: &Path, layer: Option<&str>, any_geometry: bool) -> Result<Ve
                     format!("{n:?} is a table without geometry, not a feature class (feature classes: {})", holds(&classes))
                 });
             } else {
-                return Err(format!(
-                    "no feature class {asked:?} (feature classes: {}; a feature dataset is not one: name a class in \
-                     it)",
-                    holds(&classes)
-                ));
+                // A feature dataset: the classes in it.
+                let inside: Vec<String> = classes
+                    .iter()
+                    .filter(|(n, _, _)| {
+                        items
+                            .dataset
+                            .get(&n.to_lowercase())
+                            .is_some_and(|d| d.eq_ignore_ascii_case(asked))
+                    })
+                    .map(|(n, _, t)| format!("{n} ({})", t.kind_name()))
+                    .collect();
+                return Err(if inside.is_empty() {
+                    format!(
+                        "no feature class {asked:?} (feature classes: {})",
+                        holds(&classes)
+                    )
+                } else {
+                    format!(
+                        "{asked:?} is a feature dataset holding {}; name the feature class to read with --layer",
+                        inside.join(", ")
+                    )
+                });
             }
         }
         None => {
@@ -359,7 +382,7 @@ fn read_class(path: &Path, layer: Option<&str>, any_geometry: bool) -> Result<Ve
     // ArcGIS records the class's spatial reference by its well-known ID in the class's definition (GDB_Items): an
     // EPSG code there names the CRS with authority, where the WKT alone is matched by its parameters.
     if declared_crs.is_some() {
-        if let Some(code) = item_wkid(&source, &tables, &name) {
+        if let Some(code) = items.wkid.get(&name.to_lowercase()) {
             let epsg = format!("EPSG:{code}");
             if crate::crs::Crs::parse(&epsg).is_ok() {
                 notes.retain(|n| !n.contains("identified from"));
@@ -379,41 +402,72 @@ fn read_class(path: &Path, layer: Option<&str>, any_geometry: bool) -> Result<Ve
     })
 }
 
-/// The EPSG code the class's definition in GDB_Items gives its spatial reference (`LatestWKID`, else `WKID`; Esri's
-/// own codes, over 100,000, left out), when the geodatabase has that table and it can be read.
-fn item_wkid(source: &Source, tables: &[(String, u64)], class: &str) -> Option<u32> {
-    let (_, oid) = tables.iter().find(|(n, _)| n == "GDB_Items")?;
-    let items = Table::open(source, &format!("a{oid:08x}")).ok()?;
+/// What the item table (GDB_Items) says of the feature classes: the EPSG code of each one's spatial reference
+/// (`LatestWKID`, else `WKID`; Esri's own codes, over 100,000, left out) and the feature dataset it is in. Keys are
+/// class names in lower case. Empty when the geodatabase has no such table or it cannot be read.
+#[derive(Default)]
+struct Items {
+    wkid: std::collections::HashMap<String, u32>,
+    dataset: std::collections::HashMap<String, String>,
+}
+
+fn items(source: &Source, tables: &[(String, u64)]) -> Items {
+    let mut out = Items::default();
+    let Some((_, oid)) = tables.iter().find(|(n, _)| n == "GDB_Items") else {
+        return out;
+    };
+    let Ok(table) = Table::open(source, &format!("a{oid:08x}")) else {
+        return out;
+    };
     let field = |name: &str| {
-        items
+        table
             .fields
             .iter()
             .position(|f| f.name.eq_ignore_ascii_case(name))
     };
-    let (name_k, definition_k) = (field("Name")?, field("Definition")?);
-    for (_, row) in items.rows() {
-        let Ok(values) = row.and_then(|r| items.values(r)) else {
+    let (Some(name_k), Some(path_k), Some(definition_k)) =
+        (field("Name"), field("Path"), field("Definition"))
+    else {
+        return out;
+    };
+    for (_, row) in table.rows() {
+        let Ok(values) = row.and_then(|r| table.values(r)) else {
             continue;
         };
-        let (Cell::Value(AttrValue::String(n)), Cell::Value(AttrValue::String(d))) =
-            (&values[name_k], &values[definition_k])
-        else {
+        let text = |k: usize| match &values[k] {
+            Cell::Value(AttrValue::String(t)) => Some(t.as_str()),
+            _ => None,
+        };
+        let (Some(name), Some(d)) = (text(name_k), text(definition_k)) else {
             continue;
         };
-        if !n.eq_ignore_ascii_case(class) || !d.contains("DEFeatureClassInfo") {
+        if !d.contains("DEFeatureClassInfo") {
             continue;
         }
+        let key = name.to_lowercase();
         let tag = |t: &str| -> Option<u32> {
             let open = format!("<{t}>");
             let at = d.find(&open)? + open.len();
             let end = d[at..].find('<')? + at;
             d[at..end].trim().parse().ok()
         };
-        return tag("LatestWKID")
+        if let Some(code) = tag("LatestWKID")
             .filter(|c| *c < 100_000)
-            .or_else(|| tag("WKID").filter(|c| *c < 100_000));
+            .or_else(|| tag("WKID").filter(|c| *c < 100_000))
+        {
+            out.wkid.insert(key.clone(), code);
+        }
+        // `\Dataset\Class` for a class in a feature dataset, `\Class` for one at the top.
+        let parts: Vec<&str> = text(path_k)
+            .unwrap_or("")
+            .split('\\')
+            .filter(|p| !p.is_empty())
+            .collect();
+        if let [dataset, _] = parts.as_slice() {
+            out.dataset.insert(key, dataset.to_string());
+        }
     }
-    None
+    out
 }
 
 /// The CRS of the geometry field's WKT (Esri's, as in a `.prj`), and the metres per unit of z its VERTCS gives; `None`

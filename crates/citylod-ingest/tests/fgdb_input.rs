@@ -772,3 +772,31 @@ fn names_with_characters_beyond_ascii_are_feature_class_names_like_any_other() {
     assert_eq!(out.buildings.len(), 1);
     assert_eq!(out.buildings[0].height_m, 7.0);
 }
+
+#[test]
+fn feature_datasets_are_shown_and_named_as_arcgis_shows_them() {
+    let err = read(&fixture("datasets.gdb"), None)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains(
+            "Buildings/Footprints (polygons), Buildings/Towers (polygons), Parcels (polygons)"
+        ),
+        "{err}"
+    );
+    let err = read(&fixture("datasets.gdb"), Some("buildings"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains(
+            "\"buildings\" is a feature dataset holding Footprints (polygons), Towers (polygons)"
+        ),
+        "{err}"
+    );
+    for name in ["Towers", "Buildings/Towers", "Buildings\\Towers"] {
+        let out = read(&fixture("datasets.gdb"), Some(name)).unwrap();
+        assert_eq!(out.buildings.len(), 1, "{name}");
+        assert_eq!(out.report.files[0].crs, "EPSG:2263");
+        assert!(out.report.files[0].notes[0].starts_with("read feature class \"Towers\""));
+    }
+}

@@ -214,6 +214,17 @@ def sparse():
     lib.GDALClose(ds)
 
 
+def datasets():
+    """Two feature classes in a feature dataset (`Buildings`), one at the top, in State Plane feet."""
+    path = os.path.join(HERE, 'datasets.gdb')
+    ds = create(path)
+    for name, dataset in [('Footprints', 'Buildings'), ('Towers', 'Buildings'), ('Parcels', None)]:
+        opts = [f'FEATURE_DATASET={dataset}'] if dataset else None
+        lyr = layer(ds, name, 'multipolygon', 2263, [('height', 'real')], opts=opts)
+        add(lyr, square(987000.0, 201000.0, 60), {'height': 12.0})
+    lib.GDALClose(ds)
+
+
 def no_crs():
     path = os.path.join(HERE, 'no-crs.gdb')
     ds = create(path)
@@ -286,6 +297,7 @@ if __name__ == '__main__':
     pro32()
     no_crs()
     sparse()
+    datasets()
     for gdb, name in [('sparse.gdb', 'footprints'), ('kinds.gdb', 'blocks'), ('kinds.gdb', 'round'),
                       ('pro32.gdb', 'buildings')]:
         reference(gdb, name)
