@@ -391,7 +391,21 @@ fn read_class(path: &Path, layer: Option<&str>, any_geometry: bool) -> Result<Ve
         }
     }
     let dir_name = source.name(path);
-    let (features, surfaces) = features(&table, &geometry, &dir_name, &mut notes)
+    // Coded value domains: each coded field gets its code's description beside it, as ArcGIS shows it.
+    let coded: Vec<(String, Vec<(String, String)>)> = items
+        .field_domains
+        .get(&name.to_lowercase())
+        .into_iter()
+        .flatten()
+        .filter_map(|(field, domain)| Some((field.clone(), items.domains.get(domain)?.clone())))
+        .collect();
+    if !coded.is_empty() {
+        notes.push(format!(
+            "field(s) with coded values ({}): each code's description is added as FIELD_description",
+            crate::geojson::listing(&coded.iter().map(|(f, _)| f.clone()).collect::<Vec<_>>())
+        ));
+    }
+    let (features, surfaces) = features(&table, &geometry, &dir_name, &coded, &mut notes)
         .map_err(|e| format!("feature class {name:?} ({stem}.gdbtable): {e}"))?;
     Ok(VectorDoc {
         features,
@@ -409,6 +423,53 @@ fn read_class(path: &Path, layer: Option<&str>, any_geometry: bool) -> Result<Ve
 struct Items {
     wkid: std::collections::HashMap<String, u32>,
     dataset: std::collections::HashMap<String, String>,
+    /// Per class, its fields' coded value domains: field name → domain name.
+    field_domains: std::collections::HashMap<String, Vec<(String, String)>>,
+    /// Coded value domains by name: (code as text, description).
+    domains: std::collections::HashMap<String, Vec<(String, String)>>,
+}
+
+/// The text of the first child element of `node` named `name`.
+fn child_text<'a>(node: roxmltree::Node<'a, '_>, name: &str) -> Option<&'a str> {
+    node.children()
+        .find(|c| c.tag_name().name() == name)
+        .and_then(|c| c.text())
+        .map(str::trim)
+}
+
+/// A coded value domain's definition (ArcGIS's GPCodedValueDomain2 XML): its name and (code, description) pairs.
+fn coded_domain(xml: &str) -> Option<(String, Vec<(String, String)>)> {
+    let doc = roxmltree::Document::parse(xml).ok()?;
+    let root = doc.root_element();
+    let name = child_text(root, "DomainName")?.to_string();
+    let values = root
+        .descendants()
+        .filter(|n| n.tag_name().name() == "CodedValue")
+        .filter_map(|v| {
+            Some((
+                child_text(v, "Code")?.to_string(),
+                child_text(v, "Name")?.to_string(),
+            ))
+        })
+        .collect();
+    Some((name, values))
+}
+
+/// The fields of a class definition that have a domain: (field, domain).
+fn field_domains(xml: &str) -> Vec<(String, String)> {
+    let Ok(doc) = roxmltree::Document::parse(xml) else {
+        return Vec::new();
+    };
+    doc.descendants()
+        .filter(|n| n.tag_name().name() == "GPFieldInfoEx")
+        .filter_map(|f| {
+            Some((
+                child_text(f, "Name")?.to_string(),
+                child_text(f, "DomainName")?.to_string(),
+            ))
+        })
+        .filter(|(_, d)| !d.is_empty())
+        .collect()
 }
 
 fn items(source: &Source, tables: &[(String, u64)]) -> Items {
@@ -441,10 +502,20 @@ fn items(source: &Source, tables: &[(String, u64)]) -> Items {
         let (Some(name), Some(d)) = (text(name_k), text(definition_k)) else {
             continue;
         };
+        if d.contains("CodedValueDomain") {
+            if let Some((domain, values)) = coded_domain(d) {
+                out.domains.insert(domain, values);
+            }
+            continue;
+        }
         if !d.contains("DEFeatureClassInfo") {
             continue;
         }
         let key = name.to_lowercase();
+        let with_domain = field_domains(d);
+        if !with_domain.is_empty() {
+            out.field_domains.insert(key.clone(), with_domain);
+        }
         let tag = |t: &str| -> Option<u32> {
             let open = format!("<{t}>");
             let at = d.find(&open)? + open.len();
@@ -491,6 +562,7 @@ fn features(
     table: &Table,
     geometry: &GeometryDef,
     dir_name: &str,
+    coded: &[(String, Vec<(String, String)>)],
     notes: &mut Vec<String>,
 ) -> Result<(Vec<RawFeature>, Vec<Surfaces>), String> {
     let shape_field = table
@@ -546,6 +618,22 @@ fn features(
                     attributes.insert(field.name.clone(), AttrValue::Null);
                 }
                 (_, Cell::Value(v)) => {
+                    if let Some((_, values)) = coded.iter().find(|(f, _)| *f == field.name) {
+                        let code = match &v {
+                            AttrValue::Int(i) => Some(i.to_string()),
+                            AttrValue::Float(x) => Some(x.to_string()),
+                            AttrValue::String(t) => Some(t.clone()),
+                            _ => None,
+                        };
+                        if let Some((_, description)) =
+                            code.and_then(|c| values.iter().find(|(k, _)| *k == c))
+                        {
+                            attributes.insert(
+                                format!("{}_description", field.name),
+                                AttrValue::String(description.clone()),
+                            );
+                        }
+                    }
                     attributes.insert(field.name.clone(), v);
                 }
                 (_, Cell::Bytes(_)) => {}

@@ -800,3 +800,27 @@ fn feature_datasets_are_shown_and_named_as_arcgis_shows_them() {
         assert!(out.report.files[0].notes[0].starts_with("read feature class \"Towers\""));
     }
 }
+
+#[test]
+fn coded_values_get_their_descriptions_beside_their_codes() {
+    let out = read(&fixture("domains.gdb"), None).unwrap();
+    let ours = by_objectid(&out);
+    let text = |oid: i64, k: &str| ours[&oid].attributes.get(k).cloned();
+    let s = |t: &str| Some(AttrValue::String(t.into()));
+    // Codes stay as stored; the description of a known code is added as FIELD_description.
+    assert_eq!(text(1, "use"), Some(AttrValue::Int(1)));
+    assert_eq!(text(1, "use_description"), s("Residential"));
+    assert_eq!(text(2, "use_description"), s("Commercial"));
+    assert_eq!(text(2, "status_description"), s("Demolished"));
+    assert_eq!(text(3, "use_description"), s("Industrial"));
+    // Null, and codes the domain does not list, get none.
+    assert_eq!(text(4, "use"), Some(AttrValue::Null));
+    assert_eq!(text(4, "use_description"), None);
+    assert_eq!(text(5, "use"), Some(AttrValue::Int(9)));
+    assert_eq!(text(5, "use_description"), None);
+    assert_eq!(text(5, "status_description"), None);
+    assert!(out.report.files[0]
+        .notes
+        .iter()
+        .any(|n| n.contains("coded values (use, status)")));
+}

@@ -22,6 +22,12 @@ REPO = os.path.abspath(os.path.join(HERE, '../../../..'))
 lib = C.CDLL(glob.glob(os.path.join(os.path.dirname(pyogrio.__file__), '..', 'pyogrio.libs', 'libgdal*.so*'))[0])
 lib.GDALAllRegister()
 vp = C.c_void_p
+
+
+class CodedValue(C.Structure):
+    _fields_ = [('code', C.c_char_p), ('value', C.c_char_p)]
+
+
 for name, res, args in [
     ('GDALGetDriverByName', vp, [C.c_char_p]),
     ('GDALCreate', vp, [vp, C.c_char_p, C.c_int, C.c_int, C.c_int, C.c_int, vp]),
@@ -49,6 +55,9 @@ for name, res, args in [
     ('OGR_F_SetGeometryDirectly', C.c_int, [vp, vp]),
     ('OGR_G_CreateFromWkt', C.c_int, [C.POINTER(C.c_char_p), vp, C.POINTER(vp)]),
     ('CPLGetLastErrorMsg', C.c_char_p, []),
+    ('OGR_Fld_SetDomainName', None, [vp, C.c_char_p]),
+    ('OGR_CodedFldDomain_Create', vp, [C.c_char_p, C.c_char_p, C.c_int, C.c_int, C.POINTER(CodedValue)]),
+    ('GDALDatasetAddFieldDomain', C.c_bool, [vp, vp, C.POINTER(C.c_char_p)]),
 ]:
     f = getattr(lib, name)
     f.restype, f.argtypes = res, args
@@ -72,6 +81,15 @@ def create(path):
     return ds
 
 
+def coded_domain(ds, name, field_type, pairs):
+    """A coded value domain: (code, description) pairs."""
+    values = (CodedValue * (len(pairs) + 1))(*[CodedValue(c.encode(), v.encode()) for c, v in pairs],
+                                              CodedValue(None, None))
+    domain = lib.OGR_CodedFldDomain_Create(name.encode(), b'', OFT[field_type], 0, values)
+    err = C.c_char_p()
+    assert lib.GDALDatasetAddFieldDomain(ds, domain, C.byref(err)), err.value
+
+
 def layer(ds, name, kind, epsg=None, fields=(), opts=None):
     srs = None
     if epsg:
@@ -81,8 +99,11 @@ def layer(ds, name, kind, epsg=None, fields=(), opts=None):
     o, keep = options(opts)
     lyr = lib.GDALDatasetCreateLayer(ds, name.encode(), srs, WKB[kind], o)
     assert lyr, lib.CPLGetLastErrorMsg()
-    for fname, ftype in fields:
+    for field in fields:
+        fname, ftype = field[0], field[1]
         fld = lib.OGR_Fld_Create(fname.encode(), OFT[ftype])
+        if len(field) > 2:
+            lib.OGR_Fld_SetDomainName(fld, field[2].encode())
         assert lib.OGR_L_CreateField(lyr, fld, 1) == 0, lib.CPLGetLastErrorMsg()
         lib.OGR_Fld_Destroy(fld)
     return lyr
@@ -225,6 +246,20 @@ def datasets():
     lib.GDALClose(ds)
 
 
+def domains():
+    """Fields with coded value domains, as ArcGIS users keep building use and status: codes stored, descriptions in
+    the geodatabase's item table."""
+    path = os.path.join(HERE, 'domains.gdb')
+    ds = create(path)
+    coded_domain(ds, 'BuildingUse', 'int', [('1', 'Residential'), ('2', 'Commercial'), ('3', 'Industrial')])
+    coded_domain(ds, 'Status', 'string', [('A', 'Active'), ('D', 'Demolished')])
+    lyr = layer(ds, 'buildings', 'multipolygon', 32618,
+                [('use', 'int', 'BuildingUse'), ('status', 'string', 'Status'), ('height', 'real')])
+    for k, (use, status) in enumerate([(1, 'A'), (2, 'D'), (3, 'A'), (None, None), (9, 'X')]):
+        add(lyr, square(583000.0 + 20 * k, 4507000.0, 10), {'use': use, 'status': status, 'height': 9.0})
+    lib.GDALClose(ds)
+
+
 def no_crs():
     path = os.path.join(HERE, 'no-crs.gdb')
     ds = create(path)
@@ -298,6 +333,7 @@ if __name__ == '__main__':
     no_crs()
     sparse()
     datasets()
+    domains()
     for gdb, name in [('sparse.gdb', 'footprints'), ('kinds.gdb', 'blocks'), ('kinds.gdb', 'round'),
                       ('pro32.gdb', 'buildings')]:
         reference(gdb, name)
