@@ -123,14 +123,10 @@ impl Source {
     fn read(&self, file: &str, limit: Option<u64>) -> Result<Vec<u8>, String> {
         match self {
             Source::Dir(d) => {
-                let f = std::fs::File::open(d.join(file))
-                    .map_err(|e| format!("cannot read {file}: {e}"))?;
+                use std::io::Read;
                 let mut out = Vec::new();
-                let mut r: Box<dyn std::io::Read> = match limit {
-                    Some(n) => Box::new(std::io::Read::take(f, n)),
-                    None => Box::new(f),
-                };
-                std::io::Read::read_to_end(&mut r, &mut out)
+                std::fs::File::open(d.join(file))
+                    .and_then(|f| f.take(limit.unwrap_or(u64::MAX)).read_to_end(&mut out))
                     .map_err(|e| format!("cannot read {file}: {e}"))?;
                 Ok(out)
             }
@@ -405,8 +401,7 @@ fn read_class(path: &Path, layer: Option<&str>, any_geometry: bool) -> Result<Ve
             crate::geojson::listing(&coded.iter().map(|(f, _)| f.clone()).collect::<Vec<_>>())
         ));
     }
-    let (features, surfaces) = features(&table, &geometry, &dir_name, &coded, &mut notes)
-        .map_err(|e| format!("feature class {name:?} ({stem}.gdbtable): {e}"))?;
+    let (features, surfaces) = features(&table, &geometry, &dir_name, &coded, &mut notes);
     Ok(VectorDoc {
         features,
         surfaces,
@@ -564,7 +559,7 @@ fn features(
     dir_name: &str,
     coded: &[(String, Vec<(String, String)>)],
     notes: &mut Vec<String>,
-) -> Result<(Vec<RawFeature>, Vec<Surfaces>), String> {
+) -> (Vec<RawFeature>, Vec<Surfaces>) {
     let shape_field = table
         .fields
         .iter()
@@ -582,6 +577,23 @@ fn features(
             crate::geojson::listing(&left_out)
         ));
     }
+    // Each field's coded values (code as text → description), looked up once.
+    let coded_at: Vec<Option<std::collections::HashMap<&str, &str>>> = table
+        .fields
+        .iter()
+        .map(|f| {
+            coded
+                .iter()
+                .find(|(name, _)| *name == f.name)
+                .map(|(_, values)| {
+                    values
+                        .iter()
+                        .map(|(c, d)| (c.as_str(), d.as_str()))
+                        .collect()
+                })
+        })
+        .collect();
+    let multipatch_layer = table.layout.geometry_type == 9;
     let mut features = Vec::new();
     let mut surfaces = Vec::new();
     for (oid, row) in table.rows() {
@@ -618,19 +630,17 @@ fn features(
                     attributes.insert(field.name.clone(), AttrValue::Null);
                 }
                 (_, Cell::Value(v)) => {
-                    if let Some((_, values)) = coded.iter().find(|(f, _)| *f == field.name) {
+                    if let Some(values) = &coded_at[k] {
                         let code = match &v {
                             AttrValue::Int(i) => Some(i.to_string()),
                             AttrValue::Float(x) => Some(x.to_string()),
                             AttrValue::String(t) => Some(t.clone()),
                             _ => None,
                         };
-                        if let Some((_, description)) =
-                            code.and_then(|c| values.iter().find(|(k, _)| *k == c))
-                        {
+                        if let Some(description) = code.and_then(|c| values.get(c.as_str())) {
                             attributes.insert(
                                 format!("{}_description", field.name),
-                                AttrValue::String(description.clone()),
+                                AttrValue::String(description.to_string()),
                             );
                         }
                     }
@@ -645,7 +655,7 @@ fn features(
             ..Default::default()
         };
         match blob {
-            Some(b) => match shape(b, geometry, table.layout.geometry_type == 9) {
+            Some(b) => match shape(b, geometry, multipatch_layer) {
                 Ok(Shape::Footprint(polygons, repairs)) => {
                     out.polygons = polygons;
                     out.repairs.extend(repairs);
@@ -657,7 +667,7 @@ fn features(
         }
         features.push(out);
     }
-    Ok((features, surfaces))
+    (features, surfaces)
 }
 
 // ---------------------------------------------------------------------------------------------------------------------

@@ -55,10 +55,9 @@ const ROOF_ATTR: &str = "b3_h_dak_70p";
 pub(crate) const MAX_GROUND_M: f64 = 10_000.0;
 /// OSM base of a building part above the ground (m).
 const MIN_HEIGHT_ATTR: &str = "min_height";
-/// OSM: the levels a building part skips from the ground (its base, in storeys), read when `min_height` is not there.
-const MIN_LEVEL_ATTR: &str = "building:min_level";
-/// `building:min_level` as GDAL writes it where a name may not hold a colon (File Geodatabase, PostgreSQL).
-const MIN_LEVEL_ATTR_LAUNDERED: &str = "building_min_level";
+/// OSM: the levels a building part skips from the ground (its base, in storeys), read when `min_height` is not there;
+/// then as GDAL writes the name where a name may not hold a colon (File Geodatabase, PostgreSQL).
+const MIN_LEVEL_ATTRS: [&str; 2] = ["building:min_level", "building_min_level"];
 
 /// Where a building's ground height came from (report key).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -195,12 +194,10 @@ pub(crate) fn resolve(
     };
     let length = Measure::Length(opts.height_unit_m.unwrap_or(1.0));
     let base_offset_m = base_from(MIN_HEIGHT_ATTR, length)
-        .or_else(|| base_from(MIN_LEVEL_ATTR, Measure::Storeys(opts.storey_height_m)))
         .or_else(|| {
-            base_from(
-                MIN_LEVEL_ATTR_LAUNDERED,
-                Measure::Storeys(opts.storey_height_m),
-            )
+            MIN_LEVEL_ATTRS
+                .iter()
+                .find_map(|n| base_from(n, Measure::Storeys(opts.storey_height_m)))
         })
         .unwrap_or(0.0);
 
