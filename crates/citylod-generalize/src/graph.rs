@@ -177,7 +177,25 @@ fn candidate_pairs_with<R: Send>(
     (pairs, stats, beside_out)
 }
 
-/// Adjacent distance of every pair (rayon; the output order is the input order).
+/// Resolution of the merge distances (m): adjacent distances are rounded to this grid before
+/// clustering, so differences below it are ties. The same city stored with a coarser coordinate grid
+/// (a File Geodatabase's 1e-9°, a GeoJSON export's 7 decimals) or projected differently moves its
+/// distances by fractions of a millimetre; unrounded, those differences order merges that are equal
+/// in the city, and on a regular town they decide where the levels' thresholds fall. Half the 2 cm
+/// grid the writer stores exact buildings on, and far below any level threshold.
+pub const DISTANCE_RESOLUTION_M: f64 = 0.01;
+
+/// `d_m` on the [`DISTANCE_RESOLUTION_M`] grid (nearest step; infinities and NaN unchanged).
+pub fn on_distance_grid(d_m: f64) -> f64 {
+    if d_m.is_finite() {
+        (d_m / DISTANCE_RESOLUTION_M).round() * DISTANCE_RESOLUTION_M
+    } else {
+        d_m
+    }
+}
+
+/// Adjacent distance of every pair, on the [`DISTANCE_RESOLUTION_M`] grid (rayon; the output order
+/// is the input order).
 pub fn weigh_pairs(
     footprints: &[&Footprint],
     pairs: &[(u32, u32)],
@@ -188,12 +206,14 @@ pub fn weigh_pairs(
         .map(|&(a, b)| CandidateEdge {
             a,
             b,
-            d_m: adjacent_distance(
-                footprints[a as usize],
-                footprints[b as usize],
-                lambda_adjacent,
-            )
-            .d_m,
+            d_m: on_distance_grid(
+                adjacent_distance(
+                    footprints[a as usize],
+                    footprints[b as usize],
+                    lambda_adjacent,
+                )
+                .d_m,
+            ),
         })
         .collect()
 }
@@ -202,7 +222,8 @@ pub fn weigh_pairs(
 /// (a, b) not in `existing` (sorted) whose boxes are within `reach_far_m` (max-norm gap) and whose
 /// lower bound (1 − λ)·gap ≤ d (the Euclidean gap between the boxes is ≤ d_min) is below the distance
 /// at which `merges` first join a and b. Adding these pairs and clustering again makes every merge
-/// with d < (1 − λ)·reach_far_m exact: a pair left out has d ≥ its bound ≥ its final join distance.
+/// with d < (1 − λ)·reach_far_m exact: a pair left out has d ≥ its bound ≥ its final join distance
+/// (rounding d to the distance grid keeps that order, since the join distance is on the grid).
 /// Works in chunks of buildings so memory stays bounded; the result is sorted and unique.
 pub fn refine_pairs(
     footprints: &[&Footprint],

@@ -6,7 +6,7 @@
 //! axis), the children no part could take being cut spatially. Invariant: every level partitions the
 //! level below, no node has more than δp children, and the top level is one node.
 
-use crate::graph::CandidateEdge;
+use crate::graph::{on_distance_grid, CandidateEdge};
 use crate::single_link::{Merge, UnionFind};
 
 /// Tuning of the condensing.
@@ -311,9 +311,14 @@ struct NodeInfo {
 }
 
 impl NodeInfo {
+    /// The box's centre on the distance grid, so that parts grown in a regular town do not depend on
+    /// sub-millimetre differences (which axis is longer, which child is nearer its seed).
     fn centre(&self) -> [f64; 2] {
         let b = self.bbox;
-        [(b[0] + b[2]) / 2.0, (b[1] + b[3]) / 2.0]
+        [
+            on_distance_grid((b[0] + b[2]) / 2.0),
+            on_distance_grid((b[1] + b[3]) / 2.0),
+        ]
     }
 }
 
