@@ -286,7 +286,18 @@ fn point_in_rings(p: Coord<f64>, rings: &Rings) -> bool {
 
 /// A proposed pair of adjacent sides. Preference: smallest angle between the sides (the paper's
 /// rule), then largest N (so that the pair that faces best wins among equals, e.g. two aligned
-/// rectangles whose corner pairs also offer their collinear short sides), then coordinates.
+/// rectangles whose corner pairs also offer their collinear short sides), then coordinates. Angles
+/// within [`ANGLE_TIE_RAD`] of each other are equal.
+/// Angles between sides closer than this are ties (rad). Two aligned rectangles whose corners face
+/// each other offer two pairs at angle 0, the facing sides (N = 1) and the collinear ones (N = 0); a
+/// city stored on a 0.1 mm grid (a File Geodatabase's 1e-9°) or reprojected turns a 10 m side by
+/// ~1e-5 rad, and without a tolerance that noise, not N, picked the pair (d = 0.4·d_min or d_min).
+/// 5e-5 rad is half a millimetre over 10 m: it makes Boston from GeoJSON, from a geodatabase in
+/// lon/lat and from one in EPSG:26986 cluster alike. Wider tolerances (1e-4 rad and up) also
+/// merge angles that differ in the data and were measured to move Delft's coarse errors
+/// (docs/coarse-bytes.md, session 33).
+const ANGLE_TIE_RAD: f64 = 5e-5;
+
 struct Candidate {
     sa: Line<f64>,
     sb: Line<f64>,
@@ -306,9 +317,8 @@ impl Candidate {
     }
 
     fn better_than(&self, other: &Candidate) -> bool {
-        const ANGLE_TOL: f64 = 1e-9;
         const N_TOL: f64 = 1e-12;
-        if (self.angle - other.angle).abs() > ANGLE_TOL {
+        if (self.angle - other.angle).abs() > ANGLE_TIE_RAD {
             return self.angle < other.angle;
         }
         if (self.n - other.n).abs() > N_TOL {

@@ -500,17 +500,30 @@ fn delaunay_pairs(
         if first[i] != i as u32 {
             continue;
         }
-        let pts: Vec<_> =
-            fp.0.iter()
-                .flat_map(|p| {
-                    let c = &p.exterior().0;
-                    // Rings are closed: skip the repeated last point.
-                    c[..c.len().saturating_sub(1)].iter()
-                })
+        // Each ring from its lowest vertex (x, then y), and the chosen points in that order too: the
+        // triangulation of cocircular sites (corners of aligned buildings on the site grid) depends on
+        // the insertion order, and the same building stored with its rings starting elsewhere (a File
+        // Geodatabase written by GDAL starts them one vertex on) must give the same pairs.
+        let lowest = |a: &&geo_types::Coord<f64>, b: &&geo_types::Coord<f64>| {
+            a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y))
+        };
+        let mut pts: Vec<&geo_types::Coord<f64>> = Vec::new();
+        for p in &fp.0 {
+            let c = &p.exterior().0;
+            // Rings are closed: skip the repeated last point.
+            let ring: Vec<_> = c[..c.len().saturating_sub(1)]
+                .iter()
                 .filter(|c| c.x.is_finite() && c.y.is_finite())
                 .collect();
+            let start = (0..ring.len())
+                .min_by(|&a, &b| lowest(&ring[a], &ring[b]))
+                .unwrap_or(0);
+            pts.extend(ring[start..].iter().chain(&ring[..start]));
+        }
         let step = pts.len().div_ceil(max_points).max(1);
-        for c in pts.iter().step_by(step) {
+        let mut chosen: Vec<_> = pts.iter().step_by(step).collect();
+        chosen.sort_by(|a, b| lowest(a, b));
+        for c in chosen {
             sites.push(Site {
                 pos: Point2::new(snap(c.x), snap(c.y)),
                 building: i as u32,

@@ -84,21 +84,21 @@ fn parallel_facing_pairs_cluster_before_staggered_ones_in_delft() {
     // Cluster both ways and compare when the two buildings of each pair end up together.
     let adjacent_merges = single_link(n, &weigh_pairs(&fps, &pairs, 0.6));
     let plain_merges = single_link(n, &weigh_pairs(&fps, &pairs, 0.0));
-    let sample: Vec<_> = examples
-        .iter()
-        .step_by((examples.len() / 200).max(1))
-        .collect();
-    let queries: Vec<(u32, u32)> = sample
-        .iter()
-        .flat_map(|(f, s)| [(f.2, f.3), (s.2, s.3)])
-        .collect();
+    // Every example, through the join steps of each distinct pair (a deterministic sample of the
+    // examples moved by several points whenever a few pairs changed class).
+    let mut queries: Vec<(u32, u32)> = facing.iter().chain(&skewed).map(|p| (p.2, p.3)).collect();
+    queries.sort_unstable();
+    queries.dedup();
     let adj_steps = join_steps(n, &adjacent_merges, &queries);
     let plain_steps = join_steps(n, &plain_merges, &queries);
+    let step = |steps: &[usize], p: &(f64, f64, u32, u32)| {
+        steps[queries.binary_search(&(p.2, p.3)).expect("queried")]
+    };
     let mut reversed = 0;
     let mut facing_first = 0;
-    for q in 0..sample.len() {
-        let (fa, sa) = (adj_steps[2 * q], adj_steps[2 * q + 1]);
-        let (fp, sp) = (plain_steps[2 * q], plain_steps[2 * q + 1]);
+    for (f, s) in &examples {
+        let (fa, sa) = (step(&adj_steps, f), step(&adj_steps, s));
+        let (fp, sp) = (step(&plain_steps, f), step(&plain_steps, s));
         if fa < sa {
             facing_first += 1;
         }
@@ -106,20 +106,20 @@ fn parallel_facing_pairs_cluster_before_staggered_ones_in_delft() {
             reversed += 1;
         }
     }
-    let (f, s) = sample[0];
+    let (f, s) = examples[0];
     eprintln!(
         "delft: {} facing and {} skewed pairs; {} examples (d_min facing ≥ skewed); e.g. facing {:?} d_min {:.2} m → d {:.2} m, \
-         skewed {:?} d_min {:.2} m → d {:.2} m; of {} sampled examples the facing pair clusters first in {} \
+         skewed {:?} d_min {:.2} m → d {:.2} m; the facing pair clusters first in {} \
          with the adjacent distance, and {} of those are clustered the other way round by plain distance",
         facing.len(), skewed.len(), examples.len(), (f.2, f.3), f.0, f.1, (s.2, s.3), s.0, s.1,
-        sample.len(), facing_first, reversed
+        facing_first, reversed
     );
     // Single-link joins a pair no later than its own edge, and often earlier through neighbours, so
     // not every facing pair can come first; most must, and plain distance must reverse some of them.
     assert!(
-        facing_first * 10 >= sample.len() * 7,
+        facing_first * 10 >= examples.len() * 7,
         "{facing_first} of {}",
-        sample.len()
+        examples.len()
     );
     assert!(reversed > 0);
 }
