@@ -88,9 +88,54 @@ pub(crate) struct Heights {
     /// Height of the building above its base (m).
     pub height_m: f64,
     pub source: HeightSource,
-    /// Attributes that were present but gave no plausible value.
-    pub rejected: Vec<String>,
+    /// Attributes that were present but gave no plausible value (or, for a base, one at or above the height).
+    pub rejected: Vec<Rejected>,
 }
+
+/// An attribute a rule reached that was present and not used, with what it held and why (for the report).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Rejected {
+    pub name: String,
+    pub detail: String,
+}
+
+impl Rejected {
+    fn new(name: &str, v: Option<&AttrValue>, why: &str) -> Self {
+        let shown = match v {
+            Some(AttrValue::String(t)) => format!("{t:?}"),
+            Some(AttrValue::Int(i)) => i.to_string(),
+            Some(AttrValue::Float(f)) => f.to_string(),
+            Some(AttrValue::Bool(b)) => b.to_string(),
+            Some(AttrValue::Null) | None => "null".into(),
+        };
+        Rejected {
+            name: name.to_string(),
+            detail: format!("{name} = {shown}: {why}"),
+        }
+    }
+
+    /// Why a value gave no length: not a number, or an ambiguous comma, or `range` (when it gave `metres`).
+    fn unusable(name: &str, v: &AttrValue, metres: Option<f64>, range: &str) -> Self {
+        let why = match (metres, v) {
+            (Some(m), _) => format!("{} m, {range}", trim_float(m)),
+            (None, AttrValue::String(t)) if citylod_model::ambiguous_comma(t) => {
+                "a comma before three digits may separate thousands (1,776) or decimals (1,776 = 1.776): \
+                 write the number without it"
+                    .to_string()
+            }
+            _ => "not a number".to_string(),
+        };
+        Rejected::new(name, Some(v), &why)
+    }
+}
+
+fn trim_float(m: f64) -> String {
+    let t = format!("{m:.3}");
+    t.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
+/// The range a height must lie in, as the report says it.
+const HEIGHT_RANGE: &str = "not a height between 0.1 and 1000 m";
 
 fn plausible(h: f64) -> bool {
     h.is_finite() && (MIN_HEIGHT_M..=MAX_HEIGHT_M).contains(&h)
@@ -170,7 +215,13 @@ pub(crate) fn resolve(
     let present = |name: &str| !matches!(attrs.get(name), None | Some(AttrValue::Null));
     let ground_attr = ground_attribute(attrs);
     if ground_attr.is_none() && present(GROUND_ATTR) {
-        rejected.push(GROUND_ATTR.to_string());
+        let v = attrs.get(GROUND_ATTR).expect("present");
+        rejected.push(Rejected::unusable(
+            GROUND_ATTR,
+            v,
+            v.as_number(),
+            "further than 10 km from the datum",
+        ));
     }
     let (ground_m, ground_source) = match (ground_attr, footprint_min_z) {
         (Some(g), _) => (g, GroundSource::Attribute),
@@ -179,56 +230,79 @@ pub(crate) fn resolve(
     };
     // A `min_height` that is not a number in [0, 1000) m is rejected (reported) and the base stays on the ground.
     // Without one, OSM's `building:min_level` (levels skipped below a part) × the storey height.
-    let mut base_from = |name: &str, measure: Measure| match attrs.get(name) {
+    let mut base_from = |name: &'static str, measure: Measure| match attrs.get(name) {
         None | Some(AttrValue::Null) => None,
-        Some(v) => match measure
-            .metres(v)
-            .filter(|m| (0.0..MAX_HEIGHT_M).contains(m))
-        {
-            Some(m) => Some(m),
-            None => {
-                rejected.push(name.to_string());
-                None
-            }
-        },
-    };
-    let length = Measure::Length(opts.height_unit_m.unwrap_or(1.0));
-    let base_offset_m = base_from(MIN_HEIGHT_ATTR, length)
-        .or_else(|| {
-            MIN_LEVEL_ATTRS
-                .iter()
-                .find_map(|n| base_from(n, Measure::Storeys(opts.storey_height_m)))
-        })
-        .unwrap_or(0.0);
-
-    let try_attr =
-        |name: &str, measure: Measure, offset: f64, rejected: &mut Vec<String>| -> Option<f64> {
-            let v = attrs.get(name)?;
-            if matches!(v, AttrValue::Null) {
-                return None;
-            }
-            let h = measure.metres(v).map(|x| x - offset);
-            match h {
-                Some(h) if plausible(h) => Some(h),
-                // A part reaching only just above its `min_height` is a thin slab there (a canopy): MIN_HEIGHT_M
-                // thick, not the default height standing on its base.
-                Some(h) if offset > 0.0 && h > 0.0 && h < MIN_HEIGHT_M => Some(MIN_HEIGHT_M),
-                _ => {
-                    rejected.push(name.to_string());
+        Some(v) => {
+            let m = measure.metres(v);
+            match m.filter(|m| (0.0..MAX_HEIGHT_M).contains(m)) {
+                Some(m) => Some((m, name)),
+                None => {
+                    rejected.push(Rejected::unusable(
+                        name,
+                        v,
+                        m,
+                        "not a base between 0 and 1000 m",
+                    ));
                     None
                 }
             }
-        };
-    let mut found = None;
+        }
+    };
+    let length = Measure::Length(opts.height_unit_m.unwrap_or(1.0));
+    let base = base_from(MIN_HEIGHT_ATTR, length).or_else(|| {
+        MIN_LEVEL_ATTRS
+            .iter()
+            .find_map(|n| base_from(n, Measure::Storeys(opts.storey_height_m)))
+    });
+    let mut base_offset_m = base.map_or(0.0, |(m, _)| m);
+
+    // The height above the base, and whether the base must go: a height (from the ground) at or under the base
+    // contradicts it, and the height is what the data says of the building, so it stands on the ground instead.
+    let try_attr = |name: &str,
+                    measure: Measure,
+                    offset: f64,
+                    rejected: &mut Vec<Rejected>|
+     -> Option<(f64, bool)> {
+        let v = attrs.get(name)?;
+        if matches!(v, AttrValue::Null) {
+            return None;
+        }
+        let total = measure.metres(v);
+        match total.map(|x| x - offset) {
+            Some(h) if plausible(h) => Some((h, false)),
+            // A part reaching only just above its `min_height` is a thin slab there (a canopy): MIN_HEIGHT_M
+            // thick, not the default height standing on its base.
+            Some(h) if offset > 0.0 && h > 0.0 && h < MIN_HEIGHT_M => Some((MIN_HEIGHT_M, false)),
+            Some(h) if offset > 0.0 && h <= 0.0 && total.is_some_and(plausible) => {
+                Some((total.expect("checked"), true))
+            }
+            _ => {
+                rejected.push(Rejected::unusable(name, v, total, HEIGHT_RANGE));
+                None
+            }
+        }
+    };
+    let mut found: Option<(f64, HeightSource)> = None;
+    let mut base_dropped = false;
+    let mut take = |r: Option<(f64, bool)>, source: HeightSource| {
+        r.map(|(h, dropped)| {
+            base_dropped |= dropped;
+            (h, source)
+        })
+    };
     if let Some(name) = &opts.height_attr {
-        found = try_attr(name, length, base_offset_m, &mut rejected)
-            .map(|h| (h, HeightSource::NamedAttribute));
+        found = take(
+            try_attr(name, length, base_offset_m, &mut rejected),
+            HeightSource::NamedAttribute,
+        );
     }
     if found.is_none() {
-        found = KNOWN_HEIGHT_ATTRS
-            .iter()
-            .find_map(|n| try_attr(n, length, base_offset_m, &mut rejected))
-            .map(|h| (h, HeightSource::KnownAttribute));
+        found = take(
+            KNOWN_HEIGHT_ATTRS
+                .iter()
+                .find_map(|n| try_attr(n, length, base_offset_m, &mut rejected)),
+            HeightSource::KnownAttribute,
+        );
     }
     if found.is_none() && present(ROOF_ATTR) {
         found = number(attrs, ROOF_ATTR)
@@ -237,7 +311,9 @@ pub(crate) fn resolve(
             .filter(|h| plausible(*h))
             .map(|h| (h, HeightSource::RoofMinusGround));
         if found.is_none() {
-            rejected.push(ROOF_ATTR.to_string());
+            let v = attrs.get(ROOF_ATTR).expect("present");
+            let h = v.as_number().zip(ground_attr).map(|(r, g)| r - g);
+            rejected.push(Rejected::unusable(ROOF_ATTR, v, h, HEIGHT_RANGE));
         }
     }
     if found.is_none() {
@@ -249,13 +325,26 @@ pub(crate) fn resolve(
     if found.is_none() {
         let s = opts.storey_height_m;
         // Storeys count from the ground too (OSM's building:levels of a part includes the levels below it).
-        found = match &opts.storey_attr {
-            Some(name) => try_attr(name, Measure::Storeys(s), base_offset_m, &mut rejected),
-            None => DEFAULT_STOREY_ATTRS
-                .iter()
-                .find_map(|n| try_attr(n, Measure::Storeys(s), base_offset_m, &mut rejected)),
+        found = take(
+            match &opts.storey_attr {
+                Some(name) => try_attr(name, Measure::Storeys(s), base_offset_m, &mut rejected),
+                None => DEFAULT_STOREY_ATTRS
+                    .iter()
+                    .find_map(|n| try_attr(n, Measure::Storeys(s), base_offset_m, &mut rejected)),
+            },
+            HeightSource::Storeys,
+        );
+    }
+    if base_dropped {
+        if let Some((m, name)) = base {
+            let why = format!(
+                "a base of {} m, not below the height {} m: the part stands on the ground",
+                trim_float(m),
+                trim_float(found.map_or(0.0, |f| f.0))
+            );
+            rejected.push(Rejected::new(name, attrs.get(name), &why));
         }
-        .map(|h| (h, HeightSource::Storeys));
+        base_offset_m = 0.0;
     }
     let (height_m, source) = found.unwrap_or((opts.default_height_m, HeightSource::Default));
     Heights {
@@ -283,6 +372,18 @@ pub(crate) fn height_source_key(s: HeightSource) -> &'static str {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    // Rejections compare with attribute names in these tests; their details have tests of their own.
+    impl PartialEq<&str> for Rejected {
+        fn eq(&self, other: &&str) -> bool {
+            self.name == *other
+        }
+    }
+    impl PartialEq<String> for Rejected {
+        fn eq(&self, other: &String) -> bool {
+            self.name == *other
+        }
+    }
 
     fn attrs(pairs: &[(&str, AttrValue)]) -> Attributes {
         pairs
@@ -472,14 +573,97 @@ mod tests {
         assert!((h.base_offset_m - 9.95).abs() < 1e-12);
         assert_eq!(h.height_m, MIN_HEIGHT_M);
         assert!(h.rejected.is_empty(), "{:?}", h.rejected);
-        // At or under its base it is no height at all: the next rule (here the default), reported.
+    }
+
+    #[test]
+    fn a_base_at_or_above_the_height_is_dropped_and_the_part_stands_on_the_ground() {
+        // The height is what the data says of the building; a base that contradicts it goes (reported), where it
+        // used to stay and carry a default-height box floating above it.
+        let o = IngestOptions::default();
+        for (min, detail) in [
+            (
+                AttrValue::Int(10),
+                "min_height = 10: a base of 10 m, not below the height 10 m",
+            ),
+            (
+                AttrValue::String("30".into()),
+                "min_height = \"30\": a base of 30 m, not below the height 10 m",
+            ),
+        ] {
+            let a = attrs(&[("height", AttrValue::Int(10)), ("min_height", min)]);
+            let h = resolve(&a, None, None, &o);
+            assert_eq!(h.source, HeightSource::KnownAttribute);
+            assert_eq!((h.base_offset_m, h.height_m), (0.0, 10.0));
+            assert_eq!(h.rejected, ["min_height"]);
+            assert!(
+                h.rejected[0].detail.starts_with(detail),
+                "{}",
+                h.rejected[0].detail
+            );
+        }
+        // Storeys alike: 2 levels with 5 skipped below.
         let a = attrs(&[
-            ("height", AttrValue::Int(10)),
-            ("min_height", AttrValue::Int(10)),
+            ("building:levels", AttrValue::String("2".into())),
+            ("building:min_level", AttrValue::String("5".into())),
         ]);
-        let h = resolve(&a, None, None, &IngestOptions::default());
+        let h = resolve(&a, None, None, &o);
+        assert_eq!(
+            (h.base_offset_m, h.height_m, h.source),
+            (0.0, 6.0, HeightSource::Storeys)
+        );
+        assert_eq!(h.rejected, ["building:min_level"]);
+    }
+
+    #[test]
+    fn rejected_values_say_what_they_held_and_why() {
+        let o = IngestOptions::default();
+        for (v, detail) in [
+            (
+                AttrValue::String("1,776".into()),
+                "height = \"1,776\": a comma before three digits",
+            ),
+            (
+                AttrValue::String("tall".into()),
+                "height = \"tall\": not a number",
+            ),
+            (
+                AttrValue::Float(0.09),
+                "height = 0.09: 0.09 m, not a height between 0.1 and 1000 m",
+            ),
+            (
+                AttrValue::Int(5000),
+                "height = 5000: 5000 m, not a height between 0.1 and 1000 m",
+            ),
+            (AttrValue::Bool(true), "height = true: not a number"),
+        ] {
+            let h = resolve(&attrs(&[("height", v.clone())]), None, None, &o);
+            assert_eq!(h.source, HeightSource::Default, "{v:?}");
+            assert_eq!(h.rejected, ["height"], "{v:?}");
+            assert!(
+                h.rejected[0].detail.starts_with(detail),
+                "{}",
+                h.rejected[0].detail
+            );
+        }
+        // A US height column in feet with thousands separators: the ambiguous value is not read as 1.776 ft.
+        let feet = IngestOptions {
+            height_unit_m: Some(0.3048),
+            ..IngestOptions::default()
+        };
+        let h = resolve(
+            &attrs(&[("height", AttrValue::String("1,776".into()))]),
+            None,
+            None,
+            &feet,
+        );
         assert_eq!(h.source, HeightSource::Default);
-        assert_eq!(h.rejected, vec!["height".to_string()]);
+        let h = resolve(
+            &attrs(&[("height", AttrValue::String("1776".into()))]),
+            None,
+            None,
+            &feet,
+        );
+        assert!((h.height_m - 541.3248).abs() < 1e-9);
     }
 
     #[test]

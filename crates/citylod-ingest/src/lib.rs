@@ -398,11 +398,16 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
             match placed {
                 Ok((p, footprint, base_z_m, meshed)) => {
                     debug_assert!(footprint.0.iter().all(|q| winding(q.exterior()) > 0.0));
-                    if !p.repairs.is_empty() {
+                    if !p.repairs.is_empty() || !p.heights.rejected.is_empty() {
                         report.features_repaired += 1;
                     }
                     for (reason, detail) in &p.repairs {
                         report.repaired.push(issue(*reason, detail));
+                    }
+                    for r in &p.heights.rejected {
+                        report
+                            .repaired
+                            .push(issue(IssueReason::HeightValueRejected, &r.detail));
                     }
                     *report
                         .height_sources
@@ -412,10 +417,10 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
                         .ground_sources
                         .entry(p.heights.ground_source.as_str().into())
                         .or_default() += 1;
-                    for name in &p.heights.rejected {
+                    for r in &p.heights.rejected {
                         *report
                             .height_values_rejected
-                            .entry(name.clone())
+                            .entry(r.name.clone())
                             .or_default() += 1;
                     }
                     report.building_parts += usize::from(raw.is_building_part);
@@ -587,6 +592,37 @@ fn ids_from_attribute(files: &mut [LoadedFile], name: &str) -> Result<(), Ingest
     Ok(())
 }
 
+/// Heights in a CRS in feet are often in feet too; metres are assumed unless --height-unit says otherwise (and
+/// OpenStreetMap's are metres whatever the CRS the data was converted to): a note when a height attribute was read
+/// as metres in such a CRS.
+fn feet_note(crs: &Crs, features: &[RawFeature], opts: &IngestOptions) -> Option<String> {
+    let unit = crs.linear_unit_m();
+    if opts.height_unit_m.is_some() || (unit - 1.0).abs() <= 1e-9 || crs.is_lon_lat() {
+        return None;
+    }
+    let k = features
+        .iter()
+        .filter(|f| f.attributes.get("osm_id").is_none())
+        .find_map(|f| {
+            opts.height_attr
+                .iter()
+                .map(String::as_str)
+                .chain(KNOWN_HEIGHT_ATTRS.iter().copied())
+                .find(|k| f.attributes.get(k).and_then(AttrValue::as_number).is_some())
+        })?;
+    let unit_name = if (unit - 1200.0 / 3937.0).abs() < 1e-12 {
+        "US survey feet".to_string()
+    } else if (unit - 0.3048).abs() < 1e-12 {
+        "feet".to_string()
+    } else {
+        format!("units of {unit} m")
+    };
+    Some(format!(
+        "the CRS is in {unit_name}, and the height attribute {k:?} was read in metres: if it is in feet too, \
+         build again with --height-unit ft (or us-ft)"
+    ))
+}
+
 /// A Shapefile or GeoPackage read: its CRS settled (`missing` when neither the file nor the user names one), then its
 /// 3D surface models stood on the ground in that CRS's units.
 fn vector_file(
@@ -601,35 +637,7 @@ fn vector_file(
         (None, None) => return Err(missing),
         (given, declared) => settle_crs(path, given, declared, format)?,
     };
-    // Heights in a CRS in feet are often in feet too; metres are assumed unless --height-unit says otherwise (and
-    // OpenStreetMap's are metres whatever the CRS the data was converted to).
-    let unit = crs.linear_unit_m();
-    if opts.height_unit_m.is_none() && (unit - 1.0).abs() > 1e-9 && !crs.is_lon_lat() {
-        let height_attr = doc
-            .features
-            .iter()
-            .filter(|f| f.attributes.get("osm_id").is_none())
-            .find_map(|f| {
-                opts.height_attr
-                    .iter()
-                    .map(String::as_str)
-                    .chain(KNOWN_HEIGHT_ATTRS.iter().copied())
-                    .find(|k| f.attributes.get(k).and_then(AttrValue::as_number).is_some())
-            });
-        if let Some(k) = height_attr {
-            let unit_name = if (unit - 1200.0 / 3937.0).abs() < 1e-12 {
-                "US survey feet".to_string()
-            } else if (unit - 0.3048).abs() < 1e-12 {
-                "feet".to_string()
-            } else {
-                format!("units of {unit} m")
-            };
-            doc.notes.push(format!(
-                "the CRS is in {unit_name}, and the height attribute {k:?} was read in metres: if it is in feet too, \
-                 build again with --height-unit ft (or us-ft)"
-            ));
-        }
-    }
+    doc.notes.extend(feet_note(&crs, &doc.features, opts));
     doc.notes.extend(surface_model::stand(
         &mut doc.features,
         doc.surfaces,
@@ -869,6 +877,7 @@ fn load(
         Some(_) => return Err(unknown("the top-level JSON value is not an object".into())),
     };
     let crs = settle_crs(path, &opts.crs, declared, format)?;
+    let notes = feet_note(&crs, &features, opts).into_iter().collect();
     Ok(LoadedFile {
         path: path.into(),
         format,
@@ -876,7 +885,7 @@ fn load(
         version,
         non_building_objects,
         features,
-        notes: Vec::new(),
+        notes,
     })
 }
 

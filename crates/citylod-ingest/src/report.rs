@@ -107,6 +107,11 @@ pub enum IssueReason {
     /// `--id-attr` names an attribute this feature has no value in: its id is the one its format's own rule gives
     /// (a GeoJSON `id`, a CityJSON object's key, `FILE#INDEX`).
     IdAttributeMissing,
+    /// A height, storey, base or ground attribute the height rules reached held no usable value: not a number, a
+    /// number whose only comma stands before three digits (`1,776`: thousands or decimals?), a value out of range,
+    /// or a base (`min_height`, `building:min_level`) at or above the building's height, which then stands on the
+    /// ground. The next rule gave the height; the detail names the attribute, its value and why.
+    HeightValueRejected,
     // --- 3D models (building written, listed in `mesh_issues`) ---
     /// No Solid or surface geometry at the asked LoD or below: no mesh. When only one part lacks
     /// it, the mesh is built from the other parts.
@@ -162,6 +167,7 @@ impl IssueReason {
             IncompleteInExtract => "incomplete_in_extract",
             DrawnByParts => "drawn_by_parts",
             IdAttributeMissing => "id_attribute_missing",
+            HeightValueRejected => "height_value_rejected",
             ModelMissing => "model_missing",
             ModelInvalid => "model_invalid",
             ModelSurfaceDropped => "model_surface_dropped",

@@ -34,6 +34,33 @@ pub struct StreetsReport {
     pub skipped: Vec<FeatureIssue>,
 }
 
+/// What a street file holds when it is a format `--streets` does not read (by extension, or by a GeoPackage's or
+/// ZIP's first bytes): a phrase for the error.
+fn other_format(path: &Path) -> Option<&'static str> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("shp" | "shx" | "dbf") => return Some("a Shapefile"),
+        Some("gpkg") => return Some("a GeoPackage"),
+        Some("gdb") => return Some("a File Geodatabase"),
+        _ if path.is_dir() => return Some("a folder"),
+        _ => {}
+    }
+    let mut head = [0u8; 16];
+    let n = std::fs::File::open(path)
+        .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
+        .ok()?;
+    if head[..n].starts_with(b"SQLite format 3\0") {
+        Some("an SQLite database (a GeoPackage?)")
+    } else if head[..n].starts_with(b"PK\x03\x04") {
+        Some("a ZIP archive")
+    } else {
+        None
+    }
+}
+
 /// Reads the street lines of a GeoJSON file (a FeatureCollection, a Feature or a bare LineString /
 /// MultiLineString) and maps them into `frame`. Coordinates are in `crs` when given (`--streets-crs`), else in the
 /// CRS the file declares (legacy `crs` member), else in `fallback_crs` (the buildings' `--crs`), else RFC 7946
@@ -49,6 +76,16 @@ pub fn read_streets(
 ) -> Result<Streets, IngestError> {
     if let Some(encoding) = crate::osm::Encoding::of(path) {
         return osm_streets(path, encoding, crs, frame);
+    }
+    if let Some(kind) = other_format(path) {
+        return Err(IngestError::UnknownFormat {
+            path: path.into(),
+            detail: format!(
+                "--streets reads GeoJSON or OpenStreetMap (.osm, .osm.pbf) street lines, and this is {kind}: convert \
+                 its lines to GeoJSON first (e.g. `ogr2ogr -f GeoJSON -t_srs EPSG:4326 streets.geojson {}`)",
+                path.display()
+            ),
+        });
     }
     let text = crate::read_text(path)?;
     let doc: Value = serde_json::from_str(&text).map_err(|source| IngestError::Json {
@@ -434,5 +471,30 @@ mod tests {
             ),
             Err(IngestError::Read { .. })
         ));
+    }
+
+    #[test]
+    fn formats_streets_do_not_read_are_named_not_misread_as_text() {
+        // A Shapefile's or GeoPackage's bytes used to give "stream did not contain valid UTF-8".
+        let frame = LocalFrame::new(0.0, 0.0, 0.0);
+        for (name, bytes, kind) in [
+            ("roads.shp", &b"\x00\x00\x27\x0a\xff"[..], "a Shapefile"),
+            ("roads.gpkg", b"SQLite format 3\0\x10\x00", "a GeoPackage"),
+            (
+                "roads.sqlite",
+                b"SQLite format 3\0\x10\x00",
+                "an SQLite database",
+            ),
+            ("roads.zip", b"PK\x03\x04\x14\x00", "a ZIP archive"),
+        ] {
+            let dir = std::env::temp_dir().join(format!("citylod-streets-{}", std::process::id()));
+            std::fs::create_dir_all(&dir).unwrap();
+            let p = dir.join(name);
+            std::fs::write(&p, bytes).unwrap();
+            let e = read_streets(&p, None, None, &frame)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(kind) && e.contains("ogr2ogr -f GeoJSON"), "{e}");
+        }
     }
 }

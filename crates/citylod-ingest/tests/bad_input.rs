@@ -222,6 +222,78 @@ fn heights_missing_string_and_storeys_resolve_and_are_counted() {
 }
 
 #[test]
+fn rejected_heights_are_listed_per_feature_with_their_values() {
+    // A US height column with a thousands separator, a base above its height, and a height of 0: each building is
+    // listed with what it held (the report used to give a count per attribute only), and none is a made-up box
+    // floating above a contradictory base.
+    let dir = tempfile::tempdir().unwrap();
+    let text = collection(&[
+        feature("wtc", r#"{"height":"1,776"}"#, SQUARE),
+        feature("floating", r#"{"height":"20","min_height":"30"}"#, SQUARE),
+        feature("shed", r#"{"height":0}"#, SQUARE),
+        feature("fine", r#"{"height":"12,5"}"#, SQUARE),
+    ]);
+    let out = ingest(
+        &[write(&dir, "h.geojson", &text)],
+        &IngestOptions::default(),
+    )
+    .unwrap();
+    let listed: Vec<(&str, &str)> = out
+        .report
+        .repaired
+        .iter()
+        .filter(|r| r.reason == IssueReason::HeightValueRejected)
+        .map(|r| (r.feature_id.as_str(), r.detail.as_str()))
+        .collect();
+    assert_eq!(listed.len(), 3, "{listed:?}");
+    assert!(
+        listed[0].0 == "wtc"
+            && listed[0]
+                .1
+                .contains("\"1,776\": a comma before three digits")
+    );
+    assert!(
+        listed[1].0 == "floating" && listed[1].1.contains("min_height = \"30\": a base of 30 m")
+    );
+    assert!(listed[2].0 == "shed" && listed[2].1.contains("height = 0: 0 m, not a height"));
+    let b = |id: &str| out.buildings.iter().find(|b| b.source_id == id).unwrap();
+    assert_eq!(b("wtc").height_source, HeightSource::Default);
+    assert_eq!(
+        (b("floating").height_m, b("floating").base_z_m),
+        (20.0, 0.0)
+    );
+    assert_eq!(b("fine").height_m, 12.5);
+    assert_eq!(out.report.features_repaired, 3);
+}
+
+#[test]
+fn a_geojson_in_feet_says_when_its_heights_were_read_as_metres() {
+    // GeoJSON (2008) with a crs member naming NY Long Island in US feet, as NYC exports are: the note Shapefile,
+    // GeoPackage and File Geodatabase input already had.
+    let dir = tempfile::tempdir().unwrap();
+    let text = r#"{"type":"FeatureCollection","crs":{"type":"name","properties":{"name":"urn:ogc:def:crs:EPSG::2263"}},
+        "features":[{"type":"Feature","id":"b","properties":{"HEIGHTROOF":120},"geometry":{"type":"Polygon",
+        "coordinates":[[[987000,203000],[987050,203000],[987050,203050],[987000,203050],[987000,203000]]]}}]}"#;
+    let path = write(&dir, "ft.geojson", text);
+    let mut opts = IngestOptions {
+        height_attr: Some("HEIGHTROOF".into()),
+        ..Default::default()
+    };
+    let out = ingest(std::slice::from_ref(&path), &opts).unwrap();
+    assert_eq!(out.buildings[0].height_m, 120.0);
+    assert!(
+        out.report.files[0].notes.iter().any(|n| n
+            .contains("the CRS is in US survey feet, and the height attribute \"HEIGHTROOF\" was read in metres")),
+        "{:?}",
+        out.report.files[0].notes
+    );
+    opts.height_unit_m = Some(1200.0 / 3937.0);
+    let out = ingest(&[path], &opts).unwrap();
+    assert!((out.buildings[0].height_m - 36.576).abs() < 1e-3);
+    assert!(out.report.files[0].notes.is_empty());
+}
+
+#[test]
 fn unknown_crs_codes_are_file_errors() {
     let dir = tempfile::tempdir().unwrap();
     let p = write(

@@ -116,16 +116,14 @@ impl AttrValue {
 }
 
 /// Parses the number a string starts with, ignoring surrounding blanks and a trailing unit such as `m`.
-/// Accepts a decimal comma (`"12,5"`). Returns `None` for an empty or non-numeric string.
+/// Accepts a decimal comma (`"12,5"`). Returns `None` for an empty or non-numeric string, and for one whose only
+/// comma stands before exactly three digits (`"1,776"`, [`ambiguous_comma`]).
 pub fn parse_leading_number(s: &str) -> Option<f64> {
     let t = s.trim();
-    let end = t
-        .char_indices()
-        .find(|&(i, c)| {
-            !(c.is_ascii_digit() || c == '.' || c == ',' || ((c == '-' || c == '+') && i == 0))
-        })
-        .map(|(i, _)| i)
-        .unwrap_or(t.len());
+    let end = number_end(t);
+    if ambiguous_comma(t) {
+        return None;
+    }
     let num = t[..end].replace(',', ".");
     let rest = t[end..].trim().to_ascii_lowercase();
     if !(rest.is_empty()
@@ -138,6 +136,27 @@ pub fn parse_leading_number(s: &str) -> Option<f64> {
         return None;
     }
     num.parse::<f64>().ok().filter(|v| v.is_finite())
+}
+
+fn number_end(t: &str) -> usize {
+    t.char_indices()
+        .find(|&(i, c)| {
+            !(c.is_ascii_digit() || c == '.' || c == ',' || ((c == '-' || c == '+') && i == 0))
+        })
+        .map(|(i, _)| i)
+        .unwrap_or(t.len())
+}
+
+/// True when the number a string starts with has one comma, no point, and exactly three digits after the comma
+/// (`"1,776"`, `"12,500 m"`): a thousands separator in US data, a decimal comma in European data. Neither reading
+/// is safe (One World Trade Center's 1,776 ft would become a 54 cm slab), so such text is not read as a number.
+pub fn ambiguous_comma(s: &str) -> bool {
+    let t = s.trim();
+    let n = &t[..number_end(t)];
+    let Some((_, after)) = n.split_once(',') else {
+        return false;
+    };
+    !n.contains('.') && after.len() == 3 && after.bytes().all(|b| b.is_ascii_digit())
 }
 
 #[cfg(test)]
@@ -188,6 +207,20 @@ mod tests {
         assert_eq!(parse_leading_number("abc"), None);
         assert_eq!(parse_leading_number(""), None);
         assert_eq!(parse_leading_number("30 ft"), None);
+        // A comma before exactly three digits may separate thousands or decimals: not read either way.
+        for t in ["1,776", "1,250", " 12,500 m", "-1,000"] {
+            assert!(ambiguous_comma(t), "{t}");
+            assert_eq!(parse_leading_number(t), None, "{t}");
+        }
+        for (t, v) in [
+            ("1,7", 1.7),
+            ("12,50", 12.5),
+            ("1,7765", 1.7765),
+            ("1.776", 1.776),
+        ] {
+            assert!(!ambiguous_comma(t), "{t}");
+            assert_eq!(parse_leading_number(t), Some(v), "{t}");
+        }
         assert_eq!(AttrValue::String("7.5".into()).as_number(), Some(7.5));
         assert_eq!(AttrValue::Float(f64::NAN).as_number(), None);
     }

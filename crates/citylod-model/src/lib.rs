@@ -13,7 +13,7 @@ mod building;
 mod frame;
 mod hierarchy;
 
-pub use attr::{AttrValue, Attributes};
+pub use attr::{ambiguous_comma, AttrValue, Attributes};
 pub use building::{
     Building, BuildingId, BuildingModel, Footprint, HeightSource, Mesh3d, SurfaceKind,
 };

@@ -889,17 +889,25 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
 
     if !args.quiet {
         eprintln!(
-            "citylod: {} of {} features written as buildings ({} repaired, {} skipped) into {} tiles, {:.1} MB, in {:.2} s",
+            "citylod: {} of {} features written as buildings ({} repaired, {} skipped) into {} {}, {:.1} MB, in {:.2} s",
             written,
             r.features_read,
-            r.repaired.len(),
+            r.features_repaired,
             report.counts.skipped,
             stats.tiles,
+            if stats.tiles == 1 { "tile" } else { "tiles" },
             stats.glb_bytes as f64 / 1e6,
             t_all.elapsed().as_secs_f64()
         );
         for (reason, n) in &r.skipped_by_reason {
             eprintln!("  skipped {n:>6} × {reason}");
+        }
+        // Heights the data gave and citylod did not use change what is drawn: say so here, not only in the report.
+        if let Some(n) = r.repaired_by_reason.get("height_value_rejected") {
+            eprintln!(
+                "  {n} height value(s) not used (not a number, out of range, an ambiguous comma, a base above the \
+                 height): listed as height_value_rejected in build-report.json with each feature's id and value"
+            );
         }
         // What concerns a file as a whole (a shapefile's code page assumed, fields not read).
         for f in &r.files {
