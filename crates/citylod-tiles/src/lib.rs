@@ -50,7 +50,7 @@ pub use content::{bounds as point_bounds, Bounds};
 pub use error::TilesError;
 pub use metadata::{schema_to_json, FeatureRow};
 pub use spec::{
-    ClassDef, ContentFeature, MetadataSchema, PropValue, PropertyDef, PropertyKind, TileSpec,
+    is_id, ClassDef, ContentFeature, MetadataSchema, PropValue, PropertyDef, PropertyKind, TileSpec,
 };
 pub use staging::Staging;
 pub use tiling::{tile_spatially, tile_spatially_by};

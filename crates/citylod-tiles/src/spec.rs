@@ -126,7 +126,7 @@ impl<C> TileSpec<C> {
 }
 
 /// True for a valid 3D Tiles metadata id.
-pub(crate) fn is_id(s: &str) -> bool {
+pub fn is_id(s: &str) -> bool {
     let mut chars = s.chars();
     matches!(chars.next(), Some(c) if c.is_ascii_alphabetic() || c == '_')
         && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')

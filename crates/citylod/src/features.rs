@@ -42,6 +42,10 @@ pub struct AttributeSummary {
     pub folded_property: Option<String>,
     /// The attributes folded into it, sorted.
     pub folded: Vec<String>,
+    /// Attributes whose names are no property id (`building:levels`, `höhe`, `1st`) or clash with one: input name →
+    /// the property id written (the schema's description of that property names the input attribute too).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub renamed: BTreeMap<String, String>,
 }
 
 const FIXED: [(&str, PropertyKind, &str); 5] = [
@@ -144,11 +148,21 @@ impl BuildingTable {
             .filter(|k| !columns.contains(*k))
             .map(|k| k.to_string())
             .collect();
+        // Names that are property ids already keep them; the others are made ids after, so a sanitized name never
+        // takes the name another attribute has (`a b` becoming `a_b` beside a real `a_b`).
+        let mut ids: BTreeMap<&str, String> = BTreeMap::new();
+        for pass_valid in [true, false] {
+            for &name in &columns {
+                if citylod_tiles::is_id(name) == pass_valid {
+                    ids.insert(name, unique_id(name, &mut used));
+                }
+            }
+        }
         let mut attrs = Vec::new();
         for (name, kind) in kinds.into_iter().filter(|(k, _)| columns.contains(k)) {
             // A column holds some value (`held`); the kind is known unless every value was null.
             let kind = kind.unwrap_or(PropertyKind::String);
-            let id = unique_id(name, &mut used);
+            let id = ids.remove(name).expect("every column has its id");
             let mut description = (id != name).then(|| format!("input attribute `{name}`"));
             // A BOOLEAN property has no noData value in EXT_structural_metadata, so a missing value would read
             // back as false: true/false absent from some buildings are written as 1/0 with noData instead.
@@ -207,6 +221,13 @@ impl BuildingTable {
                 .then(|| self.class.properties.last().map(|p| p.name.clone()))
                 .flatten(),
             folded: self.folded.iter().cloned().collect(),
+            renamed: self
+                .attrs
+                .iter()
+                .zip(&self.class.properties[FIXED.len()..])
+                .filter(|((name, _), p)| *name != p.name)
+                .map(|((name, _), p)| (name.clone(), p.name.clone()))
+                .collect(),
         }
     }
 
@@ -655,6 +676,45 @@ mod tests {
         assert_eq!(no_data("taken").as_deref(), Some("(no value)~"));
         assert_eq!(no_data("only_empty"), None);
         assert_eq!(no_data("only_missing"), None);
+    }
+
+    #[test]
+    fn attribute_names_that_are_ids_keep_them_and_renames_are_reported() {
+        // `a b` sorts before `a_b`: made an id first, it used to take `a_b` and push the real `a_b` to `a_b_2`,
+        // so a click showed one attribute's value under the other's name.
+        use AttrValue::*;
+        let buildings = [building(
+            0,
+            [
+                ("a b", String("s".into())),
+                ("a_b", String("t".into())),
+                ("building:levels", Int(3)),
+                ("building_levels", Int(4)),
+                ("1st", Int(1)),
+                ("source_id", String("mine".into())),
+            ],
+        )];
+        let t = BuildingTable::new(&buildings);
+        let id_of = |name: &str| {
+            let k = t.attrs.iter().position(|(n, _)| n == name).unwrap();
+            t.class.properties[FIXED.len() + k].name.clone()
+        };
+        assert_eq!(id_of("a_b"), "a_b");
+        assert_eq!(id_of("a b"), "a_b_2");
+        assert_eq!(id_of("building_levels"), "building_levels");
+        assert_eq!(id_of("building:levels"), "building_levels_2");
+        assert_eq!(id_of("1st"), "_1st");
+        assert_eq!(id_of("source_id"), "source_id_2");
+        let renamed = t.summary().renamed;
+        assert_eq!(
+            renamed.into_iter().collect::<Vec<_>>(),
+            [
+                ("1st".to_string(), "_1st".to_string()),
+                ("a b".into(), "a_b_2".into()),
+                ("building:levels".into(), "building_levels_2".into()),
+                ("source_id".into(), "source_id_2".into()),
+            ]
+        );
     }
 
     #[test]
