@@ -633,10 +633,11 @@ fn vector_file(
     format: InputFormat,
     missing: IngestError,
 ) -> Result<LoadedFile, IngestError> {
-    let crs = match (&opts.crs, doc.declared_crs) {
+    let (crs, crs_note) = match (&opts.crs, doc.declared_crs) {
         (None, None) => return Err(missing),
         (given, declared) => settle_crs(path, given, declared, format)?,
     };
+    doc.notes.extend(crs_note);
     doc.notes.extend(feet_note(&crs, &doc.features, opts));
     doc.notes.extend(surface_model::stand(
         &mut doc.features,
@@ -876,8 +877,11 @@ fn load(
         }
         Some(_) => return Err(unknown("the top-level JSON value is not an object".into())),
     };
-    let crs = settle_crs(path, &opts.crs, declared, format)?;
-    let notes = feet_note(&crs, &features, opts).into_iter().collect();
+    let (crs, crs_note) = settle_crs(path, &opts.crs, declared, format)?;
+    let notes = crs_note
+        .into_iter()
+        .chain(feet_note(&crs, &features, opts))
+        .collect();
     Ok(LoadedFile {
         path: path.into(),
         format,
@@ -890,36 +894,53 @@ fn load(
 }
 
 /// The CRS of a file: `--crs` when given, else what the file declares, else WGS84 lon/lat for GeoJSON (RFC 7946);
-/// an error for a declaration that names no usable CRS, or for a CityJSON file that declares none.
+/// an error for a declaration that names no usable CRS, or for a CityJSON file that declares none. With it a note
+/// when `--crs` replaced a declaration that names another CRS (or one citylod does not know).
 fn settle_crs(
     path: &Path,
     given: &Option<String>,
     declared: Option<DeclaredCrs>,
     format: InputFormat,
-) -> Result<Crs, IngestError> {
-    Ok(match (given, &declared) {
-        (Some(c), _) => Crs::parse(c).map_err(|e| IngestError::UnknownCrs {
+) -> Result<(Crs, Option<String>), IngestError> {
+    if let Some(c) = given {
+        let crs = Crs::parse(c).map_err(|e| IngestError::UnknownCrs {
             origin: "--crs".into(),
             crs: c.clone(),
             detail: e.0,
+        })?;
+        let said = match &declared {
+            Some(DeclaredCrs::Name(d)) => {
+                let same = Crs::parse(d).is_ok_and(|k| k.label == crs.label);
+                (!same).then(|| d.clone())
+            }
+            Some(DeclaredCrs::NotUnderstood { member, .. }) => Some(member.to_string()),
+            None => None,
+        };
+        let note = said.map(|d| {
+            format!(
+                "the file declares {d}; --crs {c} ({}) was used instead, as it is for every input",
+                crs.label
+            )
+        });
+        return Ok((crs, note));
+    }
+    let crs = match &declared {
+        Some(DeclaredCrs::Name(d)) => Crs::parse(d).map_err(|e| IngestError::UnknownCrs {
+            origin: path.display().to_string(),
+            crs: d.clone(),
+            detail: e.0,
         })?,
-        (None, Some(DeclaredCrs::Name(d))) => {
-            Crs::parse(d).map_err(|e| IngestError::UnknownCrs {
-                origin: path.display().to_string(),
-                crs: d.clone(),
-                detail: e.0,
-            })?
-        }
-        (None, Some(DeclaredCrs::NotUnderstood { member, detail })) => {
+        Some(DeclaredCrs::NotUnderstood { member, detail }) => {
             return Err(IngestError::CrsNotUnderstood {
                 path: path.into(),
                 member,
                 detail: detail.clone(),
             })
         }
-        (None, None) if format == InputFormat::GeoJson => Crs::wgs84(),
-        (None, None) => return Err(IngestError::MissingCrs { path: path.into() }),
-    })
+        None if format == InputFormat::GeoJson => Crs::wgs84(),
+        None => return Err(IngestError::MissingCrs { path: path.into() }),
+    };
+    Ok((crs, None))
 }
 
 /// Cleans, converts and repairs one feature and resolves its heights. `Err` = skip with reason.

@@ -590,4 +590,42 @@ fn a_crs_member_not_understood_is_an_error_unless_crs_is_given() {
     let out = ingest(&[p], &opts).unwrap();
     assert_eq!(out.report.buildings_written, 1);
     assert_eq!(out.report.files[0].crs, "EPSG:4326");
+    // ... and says so: a declaration --crs overrode is in the file's notes.
+    assert!(
+        out.report.files[0]
+            .notes
+            .iter()
+            .any(|n| n.starts_with("the file declares crs; --crs EPSG:4326")),
+        "{:?}",
+        out.report.files[0].notes
+    );
+}
+
+#[test]
+fn crs_over_a_declared_crs_is_noted_unless_they_agree() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = r#"{"type":"FeatureCollection","crs":{"type":"name","properties":{"name":"urn:ogc:def:crs:EPSG::28992"}},
+        "features":[{"type":"Feature","id":"b","properties":{},"geometry":{"type":"Polygon",
+        "coordinates":[[[85000,446000],[85010,446000],[85010,446010],[85000,446010],[85000,446000]]]}}]}"#;
+    let p = write(&dir, "rd.geojson", text);
+    let with = |crs: &str| {
+        let opts = IngestOptions {
+            crs: Some(crs.into()),
+            ..Default::default()
+        };
+        ingest(std::slice::from_ref(&p), &opts)
+            .unwrap()
+            .report
+            .files[0]
+            .notes
+            .clone()
+    };
+    assert!(with("EPSG:28992").is_empty());
+    let notes = with("EPSG:2263");
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.contains("the file declares urn:ogc:def:crs:EPSG::28992; --crs EPSG:2263")),
+        "{notes:?}"
+    );
 }
