@@ -96,6 +96,46 @@ pub(crate) fn read_features_text(
     }))
 }
 
+/// A GeoJSON text sequence (RFC 8142, `ogr2ogr -f GeoJSONSeq`: each Feature after an RS character) or
+/// newline-delimited GeoJSON (one Feature per line): its features, each read by [`read_feature_text`] (numbered in
+/// file order). `None` when the text is neither: no RS before the first value, and not at least two lines of which
+/// the first is a whole Feature. Such a file is WGS84 lon/lat, as RFC 7946 has it.
+pub(crate) fn read_sequence(text: &str, file_name: &str) -> Option<GeoJsonDoc> {
+    const RS: char = '\u{1e}';
+    let records: Vec<&str> = if text.trim_start().starts_with(RS) {
+        text.split(RS)
+            .map(str::trim)
+            .filter(|r| !r.is_empty())
+            .collect()
+    } else {
+        let lines: Vec<&str> = text
+            .lines()
+            .map(str::trim)
+            .filter(|l| !l.is_empty())
+            .collect();
+        #[derive(serde::Deserialize)]
+        struct Kind {
+            #[serde(rename = "type")]
+            kind: Option<String>,
+        }
+        let first_is_feature = lines.first().is_some_and(|l| {
+            serde_json::from_str::<Kind>(l).is_ok_and(|k| k.kind.as_deref() == Some("Feature"))
+        });
+        if lines.len() < 2 || !first_is_feature {
+            return None;
+        }
+        lines
+    };
+    Some(GeoJsonDoc {
+        features: records
+            .par_iter()
+            .enumerate()
+            .map(|(i, r)| read_feature_text(r, file_name, i))
+            .collect(),
+        declared_crs: None,
+    })
+}
+
 /// The members of a Feature the reader uses; repeats of other (foreign) members are not reported.
 const FEATURE_MEMBERS: [&str; 4] = ["type", "id", "geometry", "properties"];
 

@@ -790,8 +790,10 @@ fn load(
     };
 
     let is_jsonl = file_name.ends_with(".jsonl");
-    let mut collection = None;
-    let whole: Option<serde_json::Value> = if is_jsonl {
+    let mut collection = geojson::read_sequence(&text, &file_name);
+    let whole: Option<serde_json::Value> = if collection.is_some() {
+        Some(serde_json::Value::Null)
+    } else if is_jsonl {
         None
     } else {
         let parsed = geojson::read_features_text(&text, &file_name).and_then(|c| match c {

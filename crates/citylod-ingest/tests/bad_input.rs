@@ -602,6 +602,35 @@ fn a_crs_member_not_understood_is_an_error_unless_crs_is_given() {
 }
 
 #[test]
+fn geojson_text_sequences_and_newline_delimited_geojson_are_read() {
+    // ogr2ogr -f GeoJSONSeq writes RFC 8142 (an RS before each feature); many tools write one feature a line.
+    let dir = tempfile::tempdir().unwrap();
+    let a = feature("a", r#"{"height":12}"#, SQUARE);
+    let b = feature("b", "{}", &square_further_east());
+    let broken = r#"{"type":"Feature","id":"c","geometry":"#;
+    for (name, text) in [
+        ("lines.geojsonl", format!("{a}\n\n{b}\n{broken}\n")),
+        (
+            "rs.geojsons",
+            format!("\u{1e}{a}\n\u{1e}{b}\n\u{1e}{broken}\n"),
+        ),
+        ("lines.jsonl", format!("{a}\n{b}\n{broken}")),
+    ] {
+        let out = ingest(&[write(&dir, name, &text)], &IngestOptions::default()).unwrap();
+        let ids: Vec<&str> = out.buildings.iter().map(|b| b.source_id.as_str()).collect();
+        assert_eq!(ids, ["a", "b"], "{name}");
+        assert_eq!(out.buildings[0].height_m, 12.0, "{name}");
+        assert_eq!(out.report.features_read, 3, "{name}");
+        assert_eq!(out.report.skipped.len(), 1, "{name}");
+        assert!(
+            out.report.skipped[0].feature_id.ends_with("#2"),
+            "{name}: {:?}",
+            out.report.skipped
+        );
+    }
+}
+
+#[test]
 fn crs_over_a_declared_crs_is_noted_unless_they_agree() {
     let dir = tempfile::tempdir().unwrap();
     let text = r#"{"type":"FeatureCollection","crs":{"type":"name","properties":{"name":"urn:ogc:def:crs:EPSG::28992"}},
