@@ -176,6 +176,8 @@ fn unreadable_inputs_exit_2_with_a_clear_message() {
         (vec![good.display().to_string(), "--tile-max-features".into(), "-5".into()], "'-5' for '--tile-max-features"),
         // Coordinates read in the wrong CRS: every footprint lost the same way, and the message says what to try.
         (vec![good.display().to_string(), "--crs".into(), "EPSG:2263".into()], "are the coordinates longitude/latitude degrees? then leave --crs out"),
+        // A CityJSON holding terrain and no building says what it did hold.
+        (vec![write(&d, "terrain.city.json", r#"{"type":"CityJSON","version":"2.0","transform":{"scale":[1,1,1],"translate":[0,0,0]},"metadata":{"referenceSystem":"https://www.opengis.net/def/crs/EPSG/0/28992"},"CityObjects":{"t":{"type":"TINRelief","geometry":[]}},"vertices":[]}"#).display().to_string()], "holds 1 city object(s) that are not buildings"),
         (vec![write(&d, "projected.geojson", r#"{"type":"FeatureCollection","features":[{"type":"Feature","id":"p1","properties":{},"geometry":{"type":"Polygon","coordinates":[[[85000,446000],[85010,446000],[85010,446010],[85000,446000]]]}}]}"#).display().to_string()], "give it with --crs"),
     ];
     for (inputs, expect) in cases {

@@ -529,9 +529,24 @@ fn winding(r: &geo_types::LineString) -> f64 {
 
 /// A file's text without the byte-order mark some editors put first (JSON parsers reject it).
 pub(crate) fn read_text(path: &Path) -> Result<String, IngestError> {
-    let mut text = std::fs::read_to_string(path).map_err(|source| IngestError::Read {
+    let bytes = std::fs::read(path).map_err(|source| IngestError::Read {
         path: path.into(),
         source,
+    })?;
+    let mut text = String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let line = e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count() + 1;
+        IngestError::Read {
+            path: path.into(),
+            source: std::io::Error::new(
+                std::io::ErrorKind::InvalidData,
+                format!(
+                    "not UTF-8 text: byte {at} (line {line}) is 0x{:02X}; JSON is UTF-8 (RFC 8259), so save the \
+                     file as UTF-8 (e.g. iconv -f latin1 -t utf-8, or ogr2ogr with -lco ENCODING=UTF-8)",
+                    e.as_bytes()[at]
+                ),
+            ),
+        }
     })?;
     if text.starts_with('\u{feff}') {
         text.drain(..'\u{feff}'.len_utf8());

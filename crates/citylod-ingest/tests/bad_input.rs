@@ -318,6 +318,27 @@ fn unknown_crs_codes_are_file_errors() {
 }
 
 #[test]
+fn a_latin1_file_is_refused_with_where_and_what_to_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bytes = collection(&[feature("a", r#"{"name":"Stra"}"#, SQUARE)]).into_bytes();
+    let at = bytes.windows(4).position(|w| w == b"Stra").unwrap() + 4;
+    bytes.splice(at..at, [0xDF, b'e']); // "Straße" in Latin-1
+    let p = dir.path().join("latin1.geojson");
+    std::fs::write(&p, &bytes).unwrap();
+    let err = ingest(&[p], &IngestOptions::default()).unwrap_err();
+    let e = format!(
+        "{err}: {}",
+        std::error::Error::source(&err)
+            .map(|s| s.to_string())
+            .unwrap_or_default()
+    );
+    assert!(
+        e.contains(&format!("byte {at} (line 1) is 0xDF")) && e.contains("save the file as UTF-8"),
+        "{e}"
+    );
+}
+
+#[test]
 fn other_file_level_problems_are_clear_errors() {
     let dir = tempfile::tempdir().unwrap();
     let missing = dir.path().join("nope.geojson");

@@ -709,6 +709,18 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
                 );
             }
         }
+        let others: usize = ingested
+            .report
+            .files
+            .iter()
+            .map(|f| f.non_building_objects)
+            .sum();
+        if others > 0 {
+            why += &format!(
+                "\n  the input holds {others} city object(s) that are not buildings (terrain, roads, vegetation, …): \
+                 citylod reads Building and BuildingPart objects only"
+            );
+        }
         bail!(
             "no building could be read from the input ({} features read, {} skipped){}{why}",
             ingested.report.features_read,
