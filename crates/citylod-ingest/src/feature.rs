@@ -30,6 +30,8 @@ pub(crate) struct RawFeature {
     pub is_building_part: bool,
     /// The 3D model (CityJSON, when `IngestOptions::lod` asks for one), or why there is none.
     pub model: Option<Result<RawModel, (IssueReason, String)>>,
+    /// GeoJSON positions carried a z other than 0, which is not read (a note for the file says so).
+    pub z_ignored: bool,
 }
 
 /// What a Shapefile or GeoPackage reader hands over: the features, the faces of those holding 3D surface models

@@ -604,6 +604,21 @@ fn fill_geometry(out: &mut RawFeature, geometry: Option<&Value>) {
         ));
     }
     out.polygons = polygons;
+    out.z_ignored = geometry.get("coordinates").is_some_and(nonzero_z);
+}
+
+/// Whether some position under `v` (a coordinates array, any nesting) has a third number other than 0.
+fn nonzero_z(v: &Value) -> bool {
+    let Some(items) = v.as_array() else {
+        return false;
+    };
+    if items.first().is_some_and(Value::is_number) {
+        return items
+            .get(2)
+            .and_then(Value::as_f64)
+            .is_some_and(|z| z != 0.0);
+    }
+    items.iter().any(nonzero_z)
 }
 
 type Skip = (IssueReason, String);

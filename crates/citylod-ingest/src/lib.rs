@@ -895,9 +895,18 @@ fn load(
         Some(_) => return Err(unknown("the top-level JSON value is not an object".into())),
     };
     let (crs, crs_note) = settle_crs(path, &opts.crs, declared, format)?;
+    let with_z = features.iter().filter(|f| f.z_ignored).count();
+    let z_note = (with_z > 0).then(|| {
+        format!(
+            "{with_z} feature(s) have z values in their coordinates, which are not used: the buildings stand at 0 m \
+             (GeoJSON gives no datum for them; use --height-offset for a common ground height) and their heights \
+             come from the height rules"
+        )
+    });
     let notes = crs_note
         .into_iter()
         .chain(feet_note(&crs, &features, opts))
+        .chain(z_note)
         .collect();
     Ok(LoadedFile {
         path: path.into(),

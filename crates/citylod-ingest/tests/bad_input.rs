@@ -652,6 +652,39 @@ fn geojson_text_sequences_and_newline_delimited_geojson_are_read() {
 }
 
 #[test]
+fn z_values_in_geojson_coordinates_are_noted_as_not_used() {
+    let dir = tempfile::tempdir().unwrap();
+    let with_z = SQUARE.replace("4.36,52.0]", "4.36,52.0,5.5]");
+    let zero_z = SQUARE.replace("4.36,52.0]", "4.36,52.0,0]");
+    let text = collection(&[
+        feature("z", "{}", &with_z),
+        feature("zero", "{}", &zero_z),
+        feature("flat", "{}", SQUARE),
+    ]);
+    let out = ingest(
+        &[write(&dir, "z.geojson", &text)],
+        &IngestOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(out.report.buildings_written, 3);
+    assert!(out.buildings.iter().all(|b| b.base_z_m == 0.0));
+    let notes = &out.report.files[0].notes;
+    assert!(
+        notes.len() == 1
+            && notes[0]
+                .starts_with("1 feature(s) have z values in their coordinates, which are not used"),
+        "{notes:?}"
+    );
+    let text = collection(&[feature("flat", "{}", SQUARE)]);
+    let out = ingest(
+        &[write(&dir, "flat.geojson", &text)],
+        &IngestOptions::default(),
+    )
+    .unwrap();
+    assert!(out.report.files[0].notes.is_empty());
+}
+
+#[test]
 fn crs_over_a_declared_crs_is_noted_unless_they_agree() {
     let dir = tempfile::tempdir().unwrap();
     let text = r#"{"type":"FeatureCollection","crs":{"type":"name","properties":{"name":"urn:ogc:def:crs:EPSG::28992"}},
