@@ -86,7 +86,8 @@ pub fn target_levels(n: usize, depth_divisor: f64) -> usize {
     if n < 2 || depth_divisor.is_nan() || depth_divisor <= 0.0 {
         return 1;
     }
-    (((n as f64).log2() / depth_divisor).floor() as usize).max(1)
+    // More levels than n − 1 merges could never be made (a tiny divisor asked for billions).
+    (((n as f64).log2() / depth_divisor).floor() as usize).clamp(1, n - 1)
 }
 
 /// Condenses `merges` (from [`crate::single_link`], sorted by d) over `n` buildings into levels.
@@ -721,6 +722,8 @@ mod tests {
     #[test]
     fn depth_formula_matches_the_seed_example() {
         assert_eq!(target_levels(37, 1.5), 3);
+        // Never more levels than merges: a divisor of 1e-9 asked for 10 billion.
+        assert_eq!(target_levels(1000, 1e-9), 999);
         assert_eq!(target_levels(22_186, 1.5), 9);
         assert_eq!(target_levels(1, 1.5), 1);
         assert_eq!(target_levels(2, 1.5), 1);

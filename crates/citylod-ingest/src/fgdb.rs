@@ -334,12 +334,24 @@ fn read_class(path: &Path, layer: Option<&str>, any_geometry: bool) -> Result<Ve
                     ))
                 }
                 many => {
+                    let others: Vec<String> = (0..classes.len())
+                        .filter(|k| !many.contains(k))
+                        .map(|k| format!("{} ({})", in_dataset(&classes[k].0), classes[k].2.kind_name()))
+                        .chain(unreadable.iter().map(|(n, _)| format!("{n} (not readable)")))
+                        .collect();
                     return Err(format!(
-                        "it holds {} polygon or MultiPatch feature classes; name the one to read with --layer \
-                         (feature classes: {})",
+                        "it holds {} polygon or MultiPatch feature classes, {}; name the one to read with --layer{}",
                         many.len(),
-                        holds(&classes)
-                    ))
+                        many.iter()
+                            .map(|&k| format!("{} ({})", in_dataset(&classes[k].0), classes[k].2.kind_name()))
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                        if others.is_empty() {
+                            String::new()
+                        } else {
+                            format!(" (it also holds {}, not read as buildings)", others.join(", "))
+                        }
+                    ));
                 }
             }
         }

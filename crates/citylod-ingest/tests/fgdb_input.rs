@@ -405,9 +405,10 @@ fn layers_are_chosen_by_name_and_wrong_names_list_the_feature_classes() {
     let err = read(&fixture("kinds.gdb"), None).unwrap_err().to_string();
     assert!(
         err.contains(
-            "it holds 4 polygon or MultiPatch feature classes; name the one to read with --layer"
-        ) && err.contains("blocks (polygons)")
-            && err.contains("models (MultiPatch)"),
+            "it holds 4 polygon or MultiPatch feature classes, blocks (polygons), round (polygons), models \
+             (MultiPatch), walls (MultiPatch); name the one to read with --layer (it also holds roads (lines), \
+             not read as buildings)"
+        ),
         "{err}"
     );
     let err = read(&fixture("kinds.gdb"), Some("owners"))

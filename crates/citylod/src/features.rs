@@ -507,6 +507,8 @@ fn as_text(v: &AttrValue) -> String {
         AttrValue::Null => String::new(),
         AttrValue::Bool(b) => b.to_string(),
         AttrValue::Int(i) => i.to_string(),
+        // Very large or small magnitudes in exponent form: `1e308` is not 309 digits.
+        AttrValue::Float(f) if *f != 0.0 && (f.abs() >= 1e16 || f.abs() < 1e-6) => format!("{f:e}"),
         AttrValue::Float(f) => f.to_string(),
         AttrValue::String(s) => s.clone(),
     }
@@ -540,6 +542,15 @@ fn unique_id(name: &str, used: &mut BTreeSet<String>) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn numbers_in_text_columns_are_written_short() {
+        assert_eq!(as_text(&AttrValue::Float(1e308)), "1e308");
+        assert_eq!(as_text(&AttrValue::Float(-2.5e-9)), "-2.5e-9");
+        assert_eq!(as_text(&AttrValue::Float(12.5)), "12.5");
+        assert_eq!(as_text(&AttrValue::Float(3.0)), "3");
+        assert_eq!(as_text(&AttrValue::Float(0.0)), "0");
+    }
 
     #[test]
     fn property_ids_are_safe_and_unique() {
