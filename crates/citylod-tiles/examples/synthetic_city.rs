@@ -50,6 +50,7 @@ fn main() {
                     description: None,
                     nullable: false,
                     string_no_data: None,
+                    input_name: None,
                 },
                 PropertyDef {
                     name: "height_m".into(),
@@ -57,6 +58,7 @@ fn main() {
                     description: None,
                     nullable: false,
                     string_no_data: None,
+                    input_name: None,
                 },
             ],
         }],

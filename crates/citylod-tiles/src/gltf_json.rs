@@ -364,6 +364,9 @@ pub struct ClassProperty {
     pub r#type: String,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub component_type: Option<String>,
+    /// The name to show (citylod: the input attribute's, when the property id had to differ from it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub description: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -11,7 +11,7 @@
 //!     id: "citylod".into(),
 //!     classes: vec![ClassDef {
 //!         id: "building".into(),
-//!         properties: vec![PropertyDef { name: "name".into(), kind: PropertyKind::String, description: None, nullable: false, string_no_data: None }],
+//!         properties: vec![PropertyDef { name: "name".into(), kind: PropertyKind::String, description: None, nullable: false, string_no_data: None, input_name: None }],
 //!     }],
 //! };
 //! let mesh = Mesh3d { positions: vec![[0.0, 0.0, 0.0], [5.0, 0.0, 0.0], [0.0, 5.0, 3.0]], triangles: vec![[0, 1, 2]] };

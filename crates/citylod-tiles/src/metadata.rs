@@ -60,6 +60,7 @@ pub(crate) fn schema_json(schema: &MetadataSchema, used: &[&str], descriptions: 
                     let prop = ClassProperty {
                         r#type: ty.into(),
                         component_type: ct.map(Into::into),
+                        name: p.input_name.clone(),
                         description: p.description.clone().filter(|_| descriptions),
                         no_data: (p.nullable && !no_data.is_null()).then_some(no_data),
                         ..Default::default()
@@ -363,6 +364,7 @@ mod tests {
             description: Some("what p means".into()),
             nullable,
             string_no_data: None,
+            input_name: None,
         }
     }
 
@@ -528,6 +530,7 @@ mod tests {
                     },
                     PropertyDef {
                         name: "b".into(),
+                        input_name: Some("b:levels".into()),
                         ..def(PropertyKind::UInt32, true)
                     },
                 ],
@@ -535,6 +538,9 @@ mod tests {
         };
         let inline = schema_json(&schema, &["c"], false);
         let props = &inline.classes["c"].properties;
+        // A renamed attribute keeps its input name as the property's name, in every glb.
+        assert_eq!(props["b"].name.as_deref(), Some("b:levels"));
+        assert_eq!(props["a"].name, None);
         assert_eq!(props["a"].no_data, None);
         assert_eq!(props["b"].no_data, Some(serde_json::json!(u32::MAX)));
         assert!(props.values().all(|p| p.description.is_none()));

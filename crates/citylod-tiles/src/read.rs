@@ -1955,6 +1955,7 @@ mod tests {
                     description: None,
                     nullable: true,
                     string_no_data: None,
+                    input_name: None,
                 }],
             }],
         };
@@ -2427,6 +2428,7 @@ mod volume_and_contents_tests {
                     description: None,
                     nullable: false,
                     string_no_data: None,
+                    input_name: None,
                 }],
             }],
         };

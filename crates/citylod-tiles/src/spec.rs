@@ -46,6 +46,9 @@ pub struct PropertyDef {
     /// The `noData` of a nullable STRING property; `None` is `""`. A column whose values include the empty string
     /// needs another one, or those values would read back as missing.
     pub string_no_data: Option<String>,
+    /// The attribute's name in the input when `name` had to differ from it (`building:levels` →
+    /// `building_levels`): written as the schema property's `name`, what a client may show for it.
+    pub input_name: Option<String>,
 }
 
 /// A class of features ("building", later "cluster").
@@ -188,6 +191,7 @@ mod tests {
                         description: None,
                         nullable: true,
                         string_no_data: None,
+                        input_name: None,
                     },
                     PropertyDef {
                         name: "a".into(),
@@ -195,6 +199,7 @@ mod tests {
                         description: None,
                         nullable: true,
                         string_no_data: None,
+                        input_name: None,
                     },
                     PropertyDef {
                         name: "a".into(),
@@ -202,6 +207,7 @@ mod tests {
                         description: None,
                         nullable: true,
                         string_no_data: None,
+                        input_name: None,
                     },
                 ],
             }],

@@ -367,6 +367,7 @@ mod tests {
             description: Some(format!("the {name}")),
             nullable: true,
             string_no_data: None,
+            input_name: None,
         };
         MetadataSchema {
             id: "citylod".into(),

@@ -127,6 +127,7 @@ impl BuildingTable {
                 description: Some(desc.to_string()),
                 nullable: false,
                 string_no_data: None,
+                input_name: None,
             })
             .collect();
         // Columns: the attributes at least MIN_COLUMN_SHARE of the buildings have, at most MAX_ATTRIBUTE_COLUMNS
@@ -180,12 +181,14 @@ impl BuildingTable {
                 && empty.contains(name)
                 && present.get(name).copied().unwrap_or(0) < buildings.len())
             .then(|| absent_text(buildings, name));
+            let input_name = (id != name).then(|| name.to_string());
             properties.push(PropertyDef {
                 name: id,
                 kind,
                 description,
                 nullable: true,
                 string_no_data,
+                input_name,
             });
             attrs.push((name.to_string(), kind));
         }
@@ -201,6 +204,7 @@ impl BuildingTable {
                 )),
                 nullable: true,
                 string_no_data: None,
+                input_name: None,
             });
         }
         Self {
@@ -415,6 +419,7 @@ pub fn schema(buildings: &BuildingTable) -> MetadataSchema {
                 description: Some(d.into()),
                 nullable,
                 string_no_data: None,
+                input_name: None,
             })
             .collect(),
     };
@@ -716,6 +721,15 @@ mod tests {
         assert_eq!(id_of("building:levels"), "building_levels_2");
         assert_eq!(id_of("1st"), "_1st");
         assert_eq!(id_of("source_id"), "source_id_2");
+        let input_name = |id: &str| {
+            let p = t.class.properties.iter().find(|p| p.name == id).unwrap();
+            p.input_name.clone()
+        };
+        assert_eq!(
+            input_name("building_levels_2").as_deref(),
+            Some("building:levels")
+        );
+        assert_eq!(input_name("building_levels"), None);
         let renamed = t.summary().renamed;
         assert_eq!(
             renamed.into_iter().collect::<Vec<_>>(),
