@@ -284,10 +284,6 @@ fn point_in_rings(p: Coord<f64>, rings: &Rings) -> bool {
     rings.0.iter().filter(|r| point_in_ring(p, r)).count() % 2 == 1
 }
 
-/// A proposed pair of adjacent sides. Preference: smallest angle between the sides (the paper's
-/// rule), then largest N (so that the pair that faces best wins among equals, e.g. two aligned
-/// rectangles whose corner pairs also offer their collinear short sides), then coordinates. Angles
-/// within [`ANGLE_TIE_RAD`] of each other are equal.
 /// Angles between sides closer than this are ties (rad). Two aligned rectangles whose corners face
 /// each other offer two pairs at angle 0, the facing sides (N = 1) and the collinear ones (N = 0); a
 /// city stored on a 0.1 mm grid (a File Geodatabase's 1e-9°) or reprojected turns a 10 m side by
@@ -298,6 +294,10 @@ fn point_in_rings(p: Coord<f64>, rings: &Rings) -> bool {
 /// (docs/coarse-bytes.md, session 33).
 const ANGLE_TIE_RAD: f64 = 5e-5;
 
+/// A proposed pair of adjacent sides. Preference: smallest angle between the sides (the paper's
+/// rule), then largest N (so that the pair that faces best wins among equals, e.g. two aligned
+/// rectangles whose corner pairs also offer their collinear short sides), then coordinates. Angles
+/// within [`ANGLE_TIE_RAD`] of each other are equal.
 struct Candidate {
     sa: Line<f64>,
     sb: Line<f64>,

@@ -234,16 +234,22 @@ fn read_class(path: &Path, layer: Option<&str>, any_geometry: bool) -> Result<Ve
         Some(d) => format!("{d}/{n}"),
         None => n.to_string(),
     };
+    let label =
+        |(n, _, t): &(String, String, Layout)| format!("{} ({})", in_dataset(n), t.kind_name());
+    // The classes but those at `skip` (indices), then those not readable.
+    let all_but = |classes: &[(String, String, Layout)], skip: &[usize]| -> Vec<String> {
+        (0..classes.len())
+            .filter(|k| !skip.contains(k))
+            .map(|k| label(&classes[k]))
+            .chain(
+                unreadable
+                    .iter()
+                    .map(|(n, _)| format!("{n} (not readable)")),
+            )
+            .collect()
+    };
     let holds = |classes: &[(String, String, Layout)]| {
-        let mut parts: Vec<String> = classes
-            .iter()
-            .map(|(n, _, t)| format!("{} ({})", in_dataset(n), t.kind_name()))
-            .collect();
-        parts.extend(
-            unreadable
-                .iter()
-                .map(|(n, _)| format!("{n} (not readable)")),
-        );
+        let parts = all_but(classes, &[]);
         if parts.is_empty() {
             "none".to_string()
         } else {
@@ -334,16 +340,12 @@ fn read_class(path: &Path, layer: Option<&str>, any_geometry: bool) -> Result<Ve
                     ))
                 }
                 many => {
-                    let others: Vec<String> = (0..classes.len())
-                        .filter(|k| !many.contains(k))
-                        .map(|k| format!("{} ({})", in_dataset(&classes[k].0), classes[k].2.kind_name()))
-                        .chain(unreadable.iter().map(|(n, _)| format!("{n} (not readable)")))
-                        .collect();
+                    let others = all_but(&classes, many);
                     return Err(format!(
                         "it holds {} polygon or MultiPatch feature classes, {}; name the one to read with --layer{}",
                         many.len(),
                         many.iter()
-                            .map(|&k| format!("{} ({})", in_dataset(&classes[k].0), classes[k].2.kind_name()))
+                            .map(|&k| label(&classes[k]))
                             .collect::<Vec<_>>()
                             .join(", "),
                         if others.is_empty() {

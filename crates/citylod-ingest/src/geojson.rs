@@ -108,23 +108,15 @@ pub(crate) fn read_sequence(text: &str, file_name: &str) -> Option<GeoJsonDoc> {
             .filter(|r| !r.is_empty())
             .collect()
     } else {
-        let lines: Vec<&str> = text
-            .lines()
-            .map(str::trim)
-            .filter(|l| !l.is_empty())
-            .collect();
-        #[derive(serde::Deserialize)]
-        struct Kind {
-            #[serde(rename = "type")]
-            kind: Option<String>,
-        }
-        let first_is_feature = lines.first().is_some_and(|l| {
-            serde_json::from_str::<Kind>(l).is_ok_and(|k| k.kind.as_deref() == Some("Feature"))
-        });
-        if lines.len() < 2 || !first_is_feature {
+        // Every JSON input passes here: a second non-empty line is looked for before the first is parsed, so a
+        // document on one line is not parsed twice, and one spread over lines fails on its first line, `{`.
+        let mut lines = text.lines().map(str::trim).filter(|l| !l.is_empty());
+        let (first, second) = (lines.next()?, lines.next()?);
+        let kind = serde_json::from_str::<Collection>(first).ok()?.kind;
+        if kind.as_deref() != Some("Feature") {
             return None;
         }
-        lines
+        [first, second].into_iter().chain(lines).collect()
     };
     Some(GeoJsonDoc {
         features: records

@@ -408,6 +408,10 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
                         report
                             .repaired
                             .push(issue(IssueReason::HeightValueRejected, &r.detail));
+                        *report
+                            .height_values_rejected
+                            .entry(r.name.clone())
+                            .or_default() += 1;
                     }
                     *report
                         .height_sources
@@ -417,12 +421,6 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
                         .ground_sources
                         .entry(p.heights.ground_source.as_str().into())
                         .or_default() += 1;
-                    for r in &p.heights.rejected {
-                        *report
-                            .height_values_rejected
-                            .entry(r.name.clone())
-                            .or_default() += 1;
-                    }
                     report.building_parts += usize::from(raw.is_building_part);
                     report.min_height_bases += usize::from(p.heights.base_offset_m > 0.0);
                     report.rings_reoriented += p.rings_reoriented;

@@ -121,7 +121,7 @@ impl AttrValue {
 pub fn parse_leading_number(s: &str) -> Option<f64> {
     let t = s.trim();
     let end = number_end(t);
-    if ambiguous_comma(t) {
+    if comma_before_three_digits(&t[..end]) {
         return None;
     }
     let num = t[..end].replace(',', ".");
@@ -152,7 +152,11 @@ fn number_end(t: &str) -> usize {
 /// is safe (One World Trade Center's 1,776 ft would become a 54 cm slab), so such text is not read as a number.
 pub fn ambiguous_comma(s: &str) -> bool {
     let t = s.trim();
-    let n = &t[..number_end(t)];
+    comma_before_three_digits(&t[..number_end(t)])
+}
+
+/// [`ambiguous_comma`] of the number's own characters.
+fn comma_before_three_digits(n: &str) -> bool {
     let Some((_, after)) = n.split_once(',') else {
         return false;
     };

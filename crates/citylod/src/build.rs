@@ -915,10 +915,11 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
             eprintln!("  skipped {n:>6} × {reason}");
         }
         // Heights the data gave and citylod did not use change what is drawn: say so here, not only in the report.
-        if let Some(n) = r.repaired_by_reason.get("height_value_rejected") {
+        let rejected = citylod_ingest::IssueReason::HeightValueRejected.as_str();
+        if let Some(n) = r.repaired_by_reason.get(rejected) {
             eprintln!(
                 "  {n} height value(s) not used (not a number, out of range, an ambiguous comma, a base above the \
-                 height): listed as height_value_rejected in build-report.json with each feature's id and value"
+                 height): listed as {rejected} in build-report.json with each feature's id and value"
             );
         }
         // What concerns a file as a whole (a shapefile's code page assumed, fields not read).

@@ -226,11 +226,10 @@ impl BuildingTable {
                 .flatten(),
             folded: self.folded.iter().cloned().collect(),
             renamed: self
-                .attrs
+                .class
+                .properties
                 .iter()
-                .zip(&self.class.properties[FIXED.len()..])
-                .filter(|((name, _), p)| *name != p.name)
-                .map(|((name, _), p)| (name.clone(), p.name.clone()))
+                .filter_map(|p| Some((p.input_name.clone()?, p.name.clone())))
                 .collect(),
         }
     }
