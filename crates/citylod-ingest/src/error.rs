@@ -77,6 +77,10 @@ pub enum IngestError {
     /// by the user.
     #[error("{path}: the layer's spatial reference system is undefined (srs_id -1 or 0); pass its CRS with --crs, e.g. --crs EPSG:28992")]
     GeoPackageWithoutCrs { path: PathBuf },
+    /// A `--streets` Shapefile without a `.prj` or GeoPackage layer of the undefined CRS, and neither `--streets-crs`
+    /// nor `--crs` given.
+    #[error("{path}: the street file declares no CRS (no .prj, or an undefined spatial reference system); pass it with --streets-crs, e.g. --streets-crs EPSG:26986")]
+    StreetsWithoutCrs { path: PathBuf },
     /// A CityJSON file that declares no `referenceSystem`, and no CRS was given by the user.
     #[error("{path}: the file declares no CRS (no metadata.referenceSystem); pass one with --crs, e.g. --crs EPSG:28992")]
     MissingCrs { path: PathBuf },

@@ -32,6 +32,9 @@ pub(crate) struct RawFeature {
     pub model: Option<Result<RawModel, (IssueReason, String)>>,
     /// GeoJSON positions carried a z other than 0, which is not read (a note for the file says so).
     pub z_ignored: bool,
+    /// The feature's line geometry (a shapefile PolyLine, a GeoPackage LineString or curve), in source (x, y): not
+    /// a building (`skip` says so), but what `--streets` reads from these formats.
+    pub lines: Vec<Vec<[f64; 2]>>,
 }
 
 /// What a Shapefile or GeoPackage reader hands over: the features, the faces of those holding 3D surface models

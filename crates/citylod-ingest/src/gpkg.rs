@@ -39,9 +39,16 @@ struct Layer {
     srs_id: i64,
 }
 
-/// Reads the feature table `layer` of `path` (the only one when `layer` is `None`). Errors name what is wrong with the
-/// file as a whole; one unusable row is a skipped feature.
-pub(crate) fn read(path: &Path, layer: Option<&str>) -> Result<VectorDoc, String> {
+/// What a reader wants from a GeoPackage: buildings, or street lines (`--streets`).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) enum Want {
+    Footprints,
+    Lines,
+}
+
+/// Reads the feature table `layer` of `path` (the only one when `layer` is `None`; for `Want::Lines`, else the only
+/// one of line geometries). Errors name what is wrong with the file as a whole; one unusable row is a skipped feature.
+pub(crate) fn read(path: &Path, layer: Option<&str>, want: Want) -> Result<VectorDoc, String> {
     let mut head = Vec::with_capacity(16);
     std::fs::File::open(path)
         .and_then(|f| std::io::Read::read_to_end(&mut std::io::Read::take(f, 16), &mut head))
@@ -74,7 +81,7 @@ pub(crate) fn read(path: &Path, layer: Option<&str>) -> Result<VectorDoc, String
         }
     }
     let layers = layers(&db).map_err(sql)?;
-    let chosen = choose(&layers, layer)?;
+    let chosen = choose(&layers, layer, want)?;
     if layers.len() > 1 {
         notes.push(format!(
             "layer {:?} read, of {} feature tables ({})",
@@ -164,8 +171,18 @@ fn layers(db: &Connection) -> rusqlite::Result<Vec<Layer>> {
     rows.collect()
 }
 
-/// The layer asked for, or the only one; else an error listing what there is.
-fn choose<'a>(layers: &'a [Layer], asked: Option<&str>) -> Result<&'a Layer, String> {
+/// The geometry type names of `gpkg_geometry_columns` that hold lines.
+const LINE_TYPES: [&str; 5] = [
+    "LINESTRING",
+    "MULTILINESTRING",
+    "CIRCULARSTRING",
+    "COMPOUNDCURVE",
+    "MULTICURVE",
+];
+
+/// The layer asked for, or the only one, or for lines the only one of line geometries; else an error listing what
+/// there is.
+fn choose<'a>(layers: &'a [Layer], asked: Option<&str>, want: Want) -> Result<&'a Layer, String> {
     let list = || {
         layers
             .iter()
@@ -185,11 +202,25 @@ fn choose<'a>(layers: &'a [Layer], asked: Option<&str>) -> Result<&'a Layer, Str
             })
             .ok_or_else(|| format!("no feature table {name:?} (its feature tables: {})", list())),
         (None, [one]) => Ok(one),
-        (None, _) => Err(format!(
-            "it holds {} feature tables; name the one to read with --layer (feature tables: {})",
-            layers.len(),
-            list()
-        )),
+        (None, _) => {
+            let mut lines = layers.iter().filter(|l| {
+                LINE_TYPES
+                    .iter()
+                    .any(|t| l.geometry_type.eq_ignore_ascii_case(t))
+            });
+            match (want, lines.next(), lines.next()) {
+                (Want::Lines, Some(one), None) => Ok(one),
+                _ => Err(format!(
+                    "it holds {} feature tables; name the one to read with {} (feature tables: {})",
+                    layers.len(),
+                    match want {
+                        Want::Footprints => "--layer",
+                        Want::Lines => "--streets-layer",
+                    },
+                    list()
+                )),
+            }
+        }
     }
 }
 
@@ -451,6 +482,13 @@ fn rows(
                     out.repairs.extend(repairs);
                     surfaces.push((features.len(), format!("FID {fid}"), faces));
                 }
+                Ok(Geometry::Lines(lines, name)) => {
+                    out.lines = lines;
+                    out.skip = Some((
+                        IssueReason::UnsupportedGeometry,
+                        format!("FID {fid}: {name} geometry is not a footprint"),
+                    ));
+                }
                 Err((reason, detail)) => out.skip = Some((reason, format!("FID {fid}: {detail}"))),
             },
             other => {
@@ -523,6 +561,9 @@ pub(crate) enum Geometry {
     /// The faces of a 3D surface model: a PolyhedralSurface or TIN with heights, or polygons with heights of which
     /// several stand on edge (walls).
     Surfaces(Vec<Face>, Repairs),
+    /// Lines in plan (a LineString, MultiLineString or curve, arcs approximated), with the geometry's type name:
+    /// not a building, but what `--streets` reads.
+    Lines(Vec<Vec<[f64; 2]>>, &'static str),
 }
 
 /// A GeoPackage geometry blob → the footprint's polygons or a 3D model's faces, and the repairs made reading them.
@@ -564,6 +605,9 @@ pub(crate) fn geometry(b: &[u8]) -> Result<Geometry, Skip> {
     let mut r = Wkb { b: wkb, at: 0 };
     let mut out = Out::default();
     r.geometry(0, "", &mut out)?;
+    if let Some(name) = out.line_type {
+        return Ok(Geometry::Lines(out.lines, name));
+    }
     if out.polygons.is_empty() && out.dropped.is_empty() {
         return Err((
             IssueReason::EmptyGeometry,
@@ -624,6 +668,9 @@ struct Out {
     /// Circular arcs approximated by straight segments, and the points they became.
     arcs: usize,
     arc_points: usize,
+    /// The type of a geometry of lines, whose lines (x, y) are `lines`.
+    line_type: Option<&'static str>,
+    lines: Vec<Vec<[f64; 2]>>,
 }
 
 /// Coordinates per point, and whether the third is a height (else a measure).
@@ -793,6 +840,10 @@ impl Wkb<'_> {
                 }
                 Ok(())
             }
+            2 | 5 | 8 | 9 | 11 if depth == 0 => {
+                out.line_type = Some(name);
+                self.lines(le, kind, dims, out)
+            }
             _ if depth == 0 => {
                 out.dropped.push(format!("{name} geometry"));
                 Ok(())
@@ -908,35 +959,62 @@ impl Wkb<'_> {
             let (le, k, dims) = self.header()?;
             let ring = match k {
                 2 | 8 => self.curve(le, k, dims, out)?,
-                9 => {
-                    let n = self.u32(le)?;
-                    let mut ring: Vec<[f64; 3]> = Vec::new();
-                    for j in 0..n {
-                        let (le, k, dims) = self.header()?;
-                        if k != 2 && k != 8 {
-                            return Err(self.bad_member("CompoundCurve", j, k));
-                        }
-                        let part = self.curve(le, k, dims, out)?;
-                        // Each part starts where the one before ends (GDAL refuses curves that do not).
-                        let xy = |p: Option<&[f64; 3]>| p.map(|p| [p[0], p[1]]);
-                        if ring.last().is_some() && xy(ring.last()) != xy(part.first()) {
-                            return Err((
-                                IssueReason::MalformedGeometry,
-                                format!(
-                                    "CompoundCurve part {j} does not start where part {} ends",
-                                    j - 1
-                                ),
-                            ));
-                        }
-                        ring.extend(&part[usize::from(!ring.is_empty())..]);
-                    }
-                    ring
-                }
+                9 => self.compound_curve(le, out)?,
                 _ => return Err(self.bad_member("CurvePolygon", i, k)),
             };
             polygon.push(ring);
         }
         out.add(polygon, dims.z);
+        Ok(())
+    }
+
+    /// A CompoundCurve's points (after its header): LineStrings and CircularStrings, each starting where the one
+    /// before ends.
+    fn compound_curve(&mut self, le: bool, out: &mut Out) -> Result<Vec<[f64; 3]>, Skip> {
+        let n = self.u32(le)?;
+        let mut line: Vec<[f64; 3]> = Vec::new();
+        for j in 0..n {
+            let (le, k, dims) = self.header()?;
+            if k != 2 && k != 8 {
+                return Err(self.bad_member("CompoundCurve", j, k));
+            }
+            let part = self.curve(le, k, dims, out)?;
+            // Each part starts where the one before ends (GDAL refuses curves that do not).
+            let xy = |p: Option<&[f64; 3]>| p.map(|p| [p[0], p[1]]);
+            if line.last().is_some() && xy(line.last()) != xy(part.first()) {
+                return Err((
+                    IssueReason::MalformedGeometry,
+                    format!(
+                        "CompoundCurve part {j} does not start where part {} ends",
+                        j - 1
+                    ),
+                ));
+            }
+            line.extend(&part[usize::from(!line.is_empty())..]);
+        }
+        Ok(line)
+    }
+
+    /// The lines of a LineString, CircularString or CompoundCurve (after its header), or of a MultiLineString's or
+    /// MultiCurve's members, added to `out.lines` in plan.
+    fn lines(&mut self, le: bool, kind: u32, dims: Dims, out: &mut Out) -> Result<(), Skip> {
+        let line = match kind {
+            2 | 8 => self.curve(le, kind, dims, out)?,
+            9 => self.compound_curve(le, out)?,
+            _ => {
+                let allowed: &[u32] = if kind == 5 { &[2] } else { &[2, 8, 9] };
+                let n = self.u32(le)?;
+                for i in 0..n {
+                    let (le, k, dims) = self.header()?;
+                    if !allowed.contains(&k) {
+                        return Err(self.bad_member(type_name(kind), i, k));
+                    }
+                    self.lines(le, k, dims, out)?;
+                }
+                return Ok(());
+            }
+        };
+        out.lines.push(line.iter().map(|p| [p[0], p[1]]).collect());
         Ok(())
     }
 

@@ -736,12 +736,13 @@ fn load(
         });
     }
     if gpkg::is_geopackage_name(path) {
-        let doc = gpkg::read(path, opts.layer.as_deref()).map_err(|detail| {
-            IngestError::InvalidGeoPackage {
-                path: path.into(),
-                detail,
-            }
-        })?;
+        let doc =
+            gpkg::read(path, opts.layer.as_deref(), gpkg::Want::Footprints).map_err(|detail| {
+                IngestError::InvalidGeoPackage {
+                    path: path.into(),
+                    detail,
+                }
+            })?;
         let missing = IngestError::GeoPackageWithoutCrs { path: path.into() };
         return vector_file(
             path,

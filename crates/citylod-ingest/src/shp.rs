@@ -86,6 +86,13 @@ pub(crate) fn read(path: &Path) -> Result<VectorDoc, String> {
                     out.polygons = polygons;
                     out.repairs.extend(repairs);
                 }
+                Ok(Read::Lines(lines, name)) => {
+                    out.lines = lines;
+                    out.skip = Some((
+                        IssueReason::UnsupportedGeometry,
+                        format!("{record}: {name} shape, not a polygon"),
+                    ));
+                }
                 Err((reason, detail)) => out.skip = Some((reason, format!("{record}: {detail}"))),
             }
         }
@@ -151,6 +158,8 @@ enum Read {
     Footprint(Vec<RawPolygon>, Vec<(IssueReason, String)>),
     /// A MultiPatch's faces.
     Surfaces(Vec<Face>),
+    /// A PolyLine's parts (x, y), and the shape's name for the skip a building gets: what `--streets` reads.
+    Lines(Vec<Vec<[f64; 2]>>, &'static str),
 }
 
 fn be_i32(b: &[u8], at: usize) -> Option<i32> {
@@ -260,6 +269,7 @@ fn shape(c: &[u8]) -> ShapeResult {
         (0, _) => Err((IssueReason::NoGeometry, "null shape".into())),
         (5 | 15 | 25, _) => polygon(c),
         (31, _) => multipatch(c),
+        (3 | 13 | 23, Some(name)) => polyline(c, name),
         (_, Some(name)) => Err((
             IssueReason::UnsupportedGeometry,
             format!("{name} shape, not a polygon"),
@@ -320,11 +330,10 @@ fn parts(
     Ok((points, starts))
 }
 
-/// A Polygon, PolygonZ or PolygonM record (Z and M values are not read: a footprint is flat).
-fn polygon(c: &[u8]) -> ShapeResult {
-    let (points, starts) = parts(c, "polygon", (4, 16, 0), false)?;
-    let parts = starts.len();
-    let xy = 44 + 4 * parts;
+/// The x, y points of each part of a polygon or PolyLine record (`what`), Z and M values not read.
+fn plan_parts(c: &[u8], what: &str) -> Result<Vec<Vec<[f64; 2]>>, (IssueReason, String)> {
+    let (points, starts) = parts(c, what, (4, 16, 0), false)?;
+    let xy = 44 + 4 * starts.len();
     let point = |i: usize| -> [f64; 2] {
         let at = xy + 16 * i;
         [
@@ -332,15 +341,27 @@ fn polygon(c: &[u8]) -> ShapeResult {
             le_f64(c, at + 8).unwrap_or(f64::NAN),
         ]
     };
+    Ok((0..starts.len())
+        .map(|k| {
+            let end = starts.get(k + 1).copied().unwrap_or(points);
+            (starts[k]..end).map(point).collect()
+        })
+        .collect())
+}
+
+/// A Polygon, PolygonZ or PolygonM record (Z and M values are not read: a footprint is flat).
+fn polygon(c: &[u8]) -> ShapeResult {
     let mut repairs = Vec::new();
-    let mut rings = Vec::with_capacity(parts);
-    for k in 0..parts {
-        let end = starts.get(k + 1).copied().unwrap_or(points);
-        let mut r: Vec<[f64; 2]> = (starts[k]..end).map(point).collect();
-        open_ring(&mut r, k, &mut repairs);
-        rings.push(r);
+    let mut rings = plan_parts(c, "polygon")?;
+    for (k, r) in rings.iter_mut().enumerate() {
+        open_ring(r, k, &mut repairs);
     }
     Ok(Read::Footprint(organize(rings), repairs))
+}
+
+/// A PolyLine, PolyLineZ or PolyLineM record (`name`): its parts in plan.
+fn polyline(c: &[u8], name: &'static str) -> ShapeResult {
+    Ok(Read::Lines(plan_parts(c, name)?, name))
 }
 
 /// Ring `k` of a record as an open ring: its closing point dropped, or a repair said when it had none.

@@ -1,5 +1,5 @@
-//! Street centre lines (GeoJSON LineString / MultiLineString features) mapped into the buildings' local
-//! frame, for the generalization's street barriers (DESIGN.md §3.9, seed 002 §3.2.1: buildings on opposite
+//! Street centre lines (GeoJSON LineString / MultiLineString features, Shapefile PolyLines, GeoPackage lines and
+//! curves, OpenStreetMap highway ways) mapped into the buildings' local frame, for the generalization's street barriers (DESIGN.md §3.9, seed 002 §3.2.1: buildings on opposite
 //! sides of a street are not aggregated). Every feature is used or listed as skipped with its id and reason.
 
 use crate::crs::{CoordError, Crs, DeclaredCrs};
@@ -34,70 +34,59 @@ pub struct StreetsReport {
     pub skipped: Vec<FeatureIssue>,
 }
 
-/// What a street file holds when it is a format `--streets` does not read (by extension, or by a GeoPackage's or
-/// ZIP's first bytes): a phrase for the error.
-fn other_format(path: &Path) -> Option<&'static str> {
+/// How a street file is read, from its extension or first bytes.
+enum Format {
+    Osm(crate::osm::Encoding),
+    Shapefile,
+    GeoPackage,
+    GeoJson,
+    /// A format `--streets` does not read: a phrase for the error.
+    Other(&'static str),
+}
+
+fn format(path: &Path) -> Format {
+    if let Some(encoding) = crate::osm::Encoding::of(path) {
+        return Format::Osm(encoding);
+    }
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
     match ext.as_deref() {
-        Some("shp" | "shx" | "dbf") => return Some("a Shapefile"),
-        Some("gpkg") => return Some("a GeoPackage"),
-        Some("gdb") => return Some("a File Geodatabase"),
-        _ if path.is_dir() => return Some("a folder"),
+        Some("shp") => return Format::Shapefile,
+        Some("shx" | "dbf") => return Format::Other("a part of a Shapefile other than its .shp"),
+        Some("gpkg") => return Format::GeoPackage,
+        Some("gdb") => return Format::Other("a File Geodatabase"),
+        _ if path.is_dir() => return Format::Other("a folder"),
         _ => {}
     }
     let mut head = [0u8; 16];
     let n = std::fs::File::open(path)
         .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
-        .ok()?;
+        .unwrap_or(0);
     if head[..n].starts_with(b"SQLite format 3\0") {
-        Some("an SQLite database (a GeoPackage?)")
+        Format::GeoPackage
     } else if head[..n].starts_with(b"PK\x03\x04") {
-        Some("a ZIP archive")
+        Format::Other("a ZIP archive")
     } else {
-        None
+        Format::GeoJson
     }
 }
 
-/// Reads the street lines of a GeoJSON file (a FeatureCollection, a Feature or a bare LineString /
-/// MultiLineString) and maps them into `frame`. Coordinates are in `crs` when given (`--streets-crs`), else in the
-/// CRS the file declares (legacy `crs` member), else in `fallback_crs` (the buildings' `--crs`), else RFC 7946
-/// lon/lat. Features without a line geometry, or with fewer than
-/// two distinct points, or with a coordinate that cannot be placed, are skipped and listed in the report.
-///
-/// Errors for the whole file: unreadable, not JSON, not GeoJSON, or an unknown CRS.
-pub fn read_streets(
+/// The CRS the street coordinates are read in, with where it came from: `given` (`--streets-crs`), else the one the
+/// file declares, else `fallback` (the buildings' `--crs`), else `default` (GeoJSON's RFC 7946 lon/lat; none for
+/// the formats that declare their CRS, which are refused without one).
+fn street_crs(
     path: &Path,
-    crs: Option<&str>,
-    fallback_crs: Option<&str>,
-    frame: &LocalFrame,
-) -> Result<Streets, IngestError> {
-    if let Some(encoding) = crate::osm::Encoding::of(path) {
-        return osm_streets(path, encoding, crs, frame);
-    }
-    if let Some(kind) = other_format(path) {
-        return Err(IngestError::UnknownFormat {
-            path: path.into(),
-            detail: format!(
-                "--streets reads GeoJSON or OpenStreetMap (.osm, .osm.pbf) street lines, and this is {kind}: convert \
-                 its lines to GeoJSON first (e.g. `ogr2ogr -f GeoJSON -t_srs EPSG:4326 streets.geojson {}`)",
-                path.display()
-            ),
-        });
-    }
-    let text = crate::read_text(path)?;
-    let doc: Value = serde_json::from_str(&text).map_err(|source| IngestError::Json {
-        path: path.into(),
-        line: source.line(),
-        source,
-    })?;
-    // The file's own `crs` member, read like the buildings' (name, EPSG code or OGC URN); one that names no
-    // usable CRS is an error unless --streets-crs says which.
-    let declared = match doc.get("crs").and_then(DeclaredCrs::from_geojson) {
+    given: Option<&str>,
+    declared: Option<DeclaredCrs>,
+    fallback: Option<&str>,
+    default: Option<Crs>,
+) -> Result<(Crs, String), IngestError> {
+    let declared = match declared {
         Some(DeclaredCrs::Name(n)) => Some(n),
-        Some(DeclaredCrs::NotUnderstood { member, detail }) if crs.is_none() => {
+        // One that names no usable CRS is an error unless --streets-crs says which.
+        Some(DeclaredCrs::NotUnderstood { member, detail }) if given.is_none() => {
             return Err(IngestError::CrsNotUnderstood {
                 path: path.into(),
                 member,
@@ -106,22 +95,122 @@ pub fn read_streets(
         }
         _ => None,
     };
-    let declared = declared.as_deref();
-    let (crs_name, origin) = match (crs, declared, fallback_crs) {
-        (Some(c), _, _) => (Some(c), "--streets-crs".to_string()),
-        (None, Some(d), _) => (Some(d), path.display().to_string()),
-        (None, None, Some(c)) => (Some(c), "--crs".to_string()),
-        (None, None, None) => (None, "RFC 7946 default".to_string()),
+    let (name, origin) = match (given, declared.as_deref(), fallback) {
+        (Some(c), _, _) => (c, "--streets-crs".to_string()),
+        (None, Some(d), _) => (d, path.display().to_string()),
+        (None, None, Some(c)) => (c, "--crs".to_string()),
+        (None, None, None) => {
+            return match default {
+                Some(crs) => Ok((crs, "RFC 7946 default".into())),
+                None => Err(IngestError::StreetsWithoutCrs { path: path.into() }),
+            }
+        }
     };
-    let crs = match crs_name {
-        Some(c) => Crs::parse(c).map_err(|e| IngestError::UnknownCrs {
-            origin: origin.clone(),
-            crs: c.into(),
-            detail: e.0,
-        })?,
-        None => Crs::wgs84(),
+    let crs = Crs::parse(name).map_err(|e| IngestError::UnknownCrs {
+        origin: origin.clone(),
+        crs: name.into(),
+        detail: e.0,
+    })?;
+    Ok((crs, origin))
+}
+
+/// Reads the street lines of a file and maps them into `frame`: a GeoJSON file (a FeatureCollection, a Feature or
+/// a bare LineString / MultiLineString), a Shapefile of PolyLines, a GeoPackage's line layer (`layer`, or the only
+/// feature table, or the only one of lines), or an OpenStreetMap file's highway ways. Coordinates are in `crs` when
+/// given (`--streets-crs`), else in the CRS the file declares (a GeoJSON legacy `crs` member, a `.prj`, the layer's
+/// spatial reference system), else in `fallback_crs` (the buildings' `--crs`), else, for GeoJSON, RFC 7946 lon/lat.
+/// Features without a line geometry, or with fewer than two distinct points, or with a coordinate that cannot be
+/// placed, are skipped and listed in the report.
+///
+/// Errors for the whole file: unreadable, not of a format read here, not valid as its format, no CRS or an unknown
+/// one, or `layer` given for a format without layers.
+pub fn read_streets(
+    path: &Path,
+    crs: Option<&str>,
+    layer: Option<&str>,
+    fallback_crs: Option<&str>,
+    frame: &LocalFrame,
+) -> Result<Streets, IngestError> {
+    let format = format(path);
+    if let (Some(l), Format::Osm(_) | Format::Shapefile | Format::GeoJson) = (layer, &format) {
+        return Err(IngestError::InvalidOption {
+            name: "--streets-layer",
+            detail: format!(
+                "{l} given for {}, which has no layers (only a GeoPackage's are chosen)",
+                path.display()
+            ),
+        });
+    }
+    let doc = match format {
+        Format::Osm(encoding) => return osm_streets(path, encoding, crs, frame),
+        Format::Other(kind) => {
+            return Err(IngestError::UnknownFormat {
+                path: path.into(),
+                detail: format!(
+                    "--streets reads GeoJSON, Shapefile (.shp), GeoPackage (.gpkg) or OpenStreetMap (.osm, .osm.pbf) \
+                     street lines, and this is {kind}: convert its lines to one of them first (e.g. `ogr2ogr -f \
+                     GPKG streets.gpkg {}`)",
+                    path.display()
+                ),
+            })
+        }
+        Format::Shapefile => {
+            crate::shp::read(path).map_err(|detail| IngestError::InvalidShapefile {
+                path: path.into(),
+                detail,
+            })?
+        }
+        Format::GeoPackage => crate::gpkg::read(path, layer, crate::gpkg::Want::Lines).map_err(
+            |detail| IngestError::InvalidGeoPackage {
+                path: path.into(),
+                detail,
+            },
+        )?,
+        Format::GeoJson => return geojson_streets(path, crs, fallback_crs, frame),
     };
-    let crs_used = format!("{} (from {origin})", crs.label);
+    let (crs, origin) = street_crs(path, crs, doc.declared_crs, fallback_crs, None)?;
+    let mut out = Streets::new(
+        path,
+        format!("{} (from {origin})", crs.label),
+        doc.features.len(),
+    );
+    for f in doc.features {
+        let segments = if f.lines.is_empty() {
+            Err(f.skip.unwrap_or_else(|| {
+                (
+                    IssueReason::UnsupportedGeometry,
+                    "a polygon or surface, not a street line".into(),
+                )
+            }))
+        } else {
+            lines_segments(
+                f.lines
+                    .iter()
+                    .map(|l| l.iter().map(|p| to_lon_lat(&crs, p[0], p[1]))),
+                frame,
+            )
+        };
+        out.take(f.source_id, segments);
+    }
+    Ok(out)
+}
+
+/// The streets of a GeoJSON file (see `read_streets`).
+fn geojson_streets(
+    path: &Path,
+    crs: Option<&str>,
+    fallback_crs: Option<&str>,
+    frame: &LocalFrame,
+) -> Result<Streets, IngestError> {
+    let text = crate::read_text(path)?;
+    let doc: Value = serde_json::from_str(&text).map_err(|source| IngestError::Json {
+        path: path.into(),
+        line: source.line(),
+        source,
+    })?;
+    // The file's own `crs` member, read like the buildings' (name, EPSG code or OGC URN).
+    let declared = doc.get("crs").and_then(DeclaredCrs::from_geojson);
+    let (crs, origin) = street_crs(path, crs, declared, fallback_crs, Some(Crs::wgs84()))?;
     let unknown = |detail: &str| IngestError::UnknownFormat {
         path: path.into(),
         detail: detail.into(),
@@ -145,31 +234,14 @@ pub fn read_streets(
                 )))
             }
         };
-    let file = path.display().to_string();
-    let mut out = Streets {
-        segments: Vec::new(),
-        report: StreetsReport {
-            file: file.clone(),
-            crs: crs_used,
-            features_read: features.len(),
-            features_used: 0,
-            segments: 0,
-            length_m: 0.0,
-            skipped: Vec::new(),
-        },
-    };
+    let mut out = Streets::new(
+        path,
+        format!("{} (from {origin})", crs.label),
+        features.len(),
+    );
     for (id, geometry) in features {
-        match feature_segments(geometry, &crs, frame) {
-            Ok(segs) => out.add(segs),
-            Err((reason, detail)) => out.report.skipped.push(FeatureIssue {
-                file: file.clone(),
-                feature_id: id,
-                reason,
-                detail,
-            }),
-        }
+        out.take(id, feature_segments(geometry, &crs, frame));
     }
-    out.report.segments = out.segments.len();
     Ok(out)
 }
 
@@ -195,46 +267,53 @@ fn osm_streets(
         encoding: encoding.label(),
         detail,
     })?;
-    let file = path.display().to_string();
-    let mut out = Streets {
-        segments: Vec::new(),
-        report: StreetsReport {
-            file: file.clone(),
-            crs: format!("{} (OpenStreetMap)", Crs::wgs84().label),
-            features_read: lines.len(),
-            features_used: 0,
-            segments: 0,
-            length_m: 0.0,
-            skipped: Vec::new(),
-        },
-    };
+    let crs = format!("{} (OpenStreetMap)", Crs::wgs84().label);
+    let mut out = Streets::new(path, crs, lines.len());
     for line in lines {
-        match line
+        let segments = line
             .points
-            .and_then(|p| line_segments(p.iter().map(|q| Ok((q[0], q[1]))), frame))
-        {
-            Ok(segs) => out.add(segs),
-            Err((reason, detail)) => out.report.skipped.push(FeatureIssue {
-                file: file.clone(),
-                feature_id: line.id,
-                reason,
-                detail,
-            }),
-        }
+            .and_then(|p| line_segments(p.iter().map(|q| Ok((q[0], q[1]))), frame));
+        out.take(line.id, segments);
     }
-    out.report.segments = out.segments.len();
     Ok(out)
 }
 
 impl Streets {
-    /// Takes the segments of one feature.
-    fn add(&mut self, segs: Vec<[[f64; 2]; 2]>) {
-        self.report.features_used += 1;
-        self.report.length_m += segs
-            .iter()
-            .map(|[a, b]| (b[0] - a[0]).hypot(b[1] - a[1]))
-            .sum::<f64>();
-        self.segments.extend(segs);
+    /// No streets yet, of `features` to read from `path`, in `crs` (where it came from said).
+    fn new(path: &Path, crs: String, features: usize) -> Streets {
+        Streets {
+            segments: Vec::new(),
+            report: StreetsReport {
+                file: path.display().to_string(),
+                crs,
+                features_read: features,
+                features_used: 0,
+                segments: 0,
+                length_m: 0.0,
+                skipped: Vec::new(),
+            },
+        }
+    }
+
+    /// Takes the segments of feature `id`, or lists it as skipped with the reason.
+    fn take(&mut self, id: String, segments: Result<Vec<[[f64; 2]; 2]>, Skip>) {
+        match segments {
+            Ok(segs) => {
+                self.report.features_used += 1;
+                self.report.length_m += segs
+                    .iter()
+                    .map(|[a, b]| (b[0] - a[0]).hypot(b[1] - a[1]))
+                    .sum::<f64>();
+                self.segments.extend(segs);
+                self.report.segments = self.segments.len();
+            }
+            Err((reason, detail)) => self.report.skipped.push(FeatureIssue {
+                file: self.report.file.clone(),
+                feature_id: id,
+                reason,
+                detail,
+            }),
+        }
     }
 }
 
@@ -281,28 +360,52 @@ fn feature_segments(
             ))
         }
     };
-    let mut segments = Vec::new();
-    for line in lines {
-        let pts = line.as_array().ok_or((
-            IssueReason::MalformedGeometry,
-            "line coordinates are not an array".to_string(),
-        ))?;
-        let lon_lat = pts.iter().map(|p| {
-            let xy = p
-                .as_array()
-                .filter(|a| a.len() >= 2)
-                .and_then(|a| Some((a[0].as_f64()?, a[1].as_f64()?)))
-                .ok_or((
-                    IssueReason::MalformedGeometry,
-                    format!("position {p} is not [x, y]"),
-                ))?;
-            let at = || format!("position ({}, {})", xy.0, xy.1);
-            crs.to_lon_lat(xy.0, xy.1).map_err(|e| match e {
-                CoordError::NonFinite => (IssueReason::NonFiniteCoordinate, at()),
-                CoordError::OutOfRange => (IssueReason::CoordinateOutOfRange, at()),
-                CoordError::TransformFailed => (IssueReason::TransformFailed, at()),
+    let lines = lines
+        .into_iter()
+        .map(|line| {
+            line.as_array().ok_or((
+                IssueReason::MalformedGeometry,
+                "line coordinates are not an array".to_string(),
+            ))
+        })
+        .collect::<Result<Vec<_>, Skip>>()?;
+    lines_segments(
+        lines.into_iter().map(|pts| {
+            pts.iter().map(|p| {
+                let (x, y) = p
+                    .as_array()
+                    .filter(|a| a.len() >= 2)
+                    .and_then(|a| Some((a[0].as_f64()?, a[1].as_f64()?)))
+                    .ok_or((
+                        IssueReason::MalformedGeometry,
+                        format!("position {p} is not [x, y]"),
+                    ))?;
+                to_lon_lat(crs, x, y)
             })
-        });
+        }),
+        frame,
+    )
+}
+
+/// A position in `crs` as lon/lat, or why it cannot be placed.
+fn to_lon_lat(crs: &Crs, x: f64, y: f64) -> Result<(f64, f64), Skip> {
+    let at = || format!("position ({x}, {y})");
+    crs.to_lon_lat(x, y).map_err(|e| match e {
+        CoordError::NonFinite => (IssueReason::NonFiniteCoordinate, at()),
+        CoordError::OutOfRange => (IssueReason::CoordinateOutOfRange, at()),
+        CoordError::TransformFailed => (IssueReason::TransformFailed, at()),
+    })
+}
+
+/// The segments of one feature's lines (each its points in lon/lat) in the local frame: lines without two distinct
+/// points left out, `TooFewPoints` when none has them.
+fn lines_segments<L, P>(lines: L, frame: &LocalFrame) -> Result<Vec<[[f64; 2]; 2]>, Skip>
+where
+    L: Iterator<Item = P>,
+    P: Iterator<Item = Result<(f64, f64), Skip>>,
+{
+    let mut segments = Vec::new();
+    for lon_lat in lines {
         match line_segments(lon_lat, frame) {
             Ok(s) => segments.extend(s),
             Err((IssueReason::TooFewPoints, _)) => {}
@@ -373,7 +476,7 @@ mod tests {
             ]}"#,
         );
         let frame = LocalFrame::new(4.0, 52.0, 0.0);
-        let s = read_streets(&p, None, None, &frame).unwrap();
+        let s = read_streets(&p, None, None, None, &frame).unwrap();
         let r = &s.report;
         assert_eq!((r.features_read, r.features_used, r.segments), (6, 2, 2));
         assert_eq!(r.features_read, r.features_used + r.skipped.len());
@@ -412,7 +515,7 @@ mod tests {
             "coordinates": [[84600, 447000], [84700, 447000]]}}]}"#;
         let p = write("rd.geojson", rd);
         // The declaration wins over the buildings' --crs (here lon/lat, which would read 84600° as nonsense).
-        let s = read_streets(&p, None, Some("EPSG:4326"), &frame).unwrap();
+        let s = read_streets(&p, None, None, Some("EPSG:4326"), &frame).unwrap();
         assert_eq!(s.report.features_used, 1, "{:?}", s.report.skipped);
         assert!(
             (s.report.length_m - 100.0).abs() < 0.5,
@@ -423,7 +526,7 @@ mod tests {
         assert!(a[0].hypot(a[1]) < 2000.0, "{a:?}: not near Delft");
         assert!(s.report.crs.contains("rd.geojson"), "{}", s.report.crs);
         // --streets-crs wins over the declaration: the same numbers read in EPSG:2263 (US feet) land elsewhere.
-        let s = read_streets(&p, Some("EPSG:2263"), None, &frame).unwrap();
+        let s = read_streets(&p, Some("EPSG:2263"), None, None, &frame).unwrap();
         assert_eq!(s.report.crs, "EPSG:2263 (from --streets-crs)");
         let [a, _] = s.segments[0];
         assert!(a[0].hypot(a[1]) > 1e6, "{a:?}");
@@ -434,10 +537,10 @@ mod tests {
         );
         let p = write("link.geojson", &link);
         assert!(matches!(
-            read_streets(&p, None, None, &frame),
+            read_streets(&p, None, None, None, &frame),
             Err(IngestError::CrsNotUnderstood { .. })
         ));
-        assert!(read_streets(&p, Some("EPSG:28992"), None, &frame).is_ok());
+        assert!(read_streets(&p, Some("EPSG:28992"), None, None, &frame).is_ok());
     }
 
     #[test]
@@ -448,23 +551,24 @@ mod tests {
             r#"{"type": "FeatureCollection", "features": ["#,
         );
         assert!(matches!(
-            read_streets(&p, None, None, &frame),
+            read_streets(&p, None, None, None, &frame),
             Err(IngestError::Json { .. })
         ));
         let p = write("polygon.geojson", r#"{"type": "Topology"}"#);
-        let e = read_streets(&p, None, None, &frame).unwrap_err();
+        let e = read_streets(&p, None, None, None, &frame).unwrap_err();
         assert!(e.to_string().contains("polygon.geojson"), "{e}");
         let p = write(
             "crs.geojson",
             r#"{"type": "FeatureCollection", "features": []}"#,
         );
         assert!(matches!(
-            read_streets(&p, Some("EPSG:999999"), None, &frame),
+            read_streets(&p, Some("EPSG:999999"), None, None, &frame),
             Err(IngestError::UnknownCrs { .. })
         ));
         assert!(matches!(
             read_streets(
                 Path::new("/nonexistent/streets.geojson"),
+                None,
                 None,
                 None,
                 &frame
@@ -474,27 +578,42 @@ mod tests {
     }
 
     #[test]
-    fn formats_streets_do_not_read_are_named_not_misread_as_text() {
+    fn formats_streets_do_not_read_are_named_and_broken_ones_refused_as_their_format() {
         // A Shapefile's or GeoPackage's bytes used to give "stream did not contain valid UTF-8".
         let frame = LocalFrame::new(0.0, 0.0, 0.0);
-        for (name, bytes, kind) in [
-            ("roads.shp", &b"\x00\x00\x27\x0a\xff"[..], "a Shapefile"),
-            ("roads.gpkg", b"SQLite format 3\0\x10\x00", "a GeoPackage"),
+        let dir = std::env::temp_dir().join(format!("citylod-streets-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("roads.gdb")).unwrap();
+        for (name, bytes, says) in [
+            (
+                "roads.shp",
+                &b"\x00\x00\x27\x0a\xff"[..],
+                "invalid shapefile",
+            ),
+            (
+                "roads.gpkg",
+                b"SQLite format 3\0\x10\x00",
+                "invalid GeoPackage",
+            ),
             (
                 "roads.sqlite",
                 b"SQLite format 3\0\x10\x00",
-                "an SQLite database",
+                "invalid GeoPackage",
             ),
             ("roads.zip", b"PK\x03\x04\x14\x00", "a ZIP archive"),
+            ("roads.dbf", b"\x03\x7e", "other than its .shp"),
+            ("roads.gdb", b"", "a File Geodatabase"),
         ] {
-            let dir = std::env::temp_dir().join(format!("citylod-streets-{}", std::process::id()));
-            std::fs::create_dir_all(&dir).unwrap();
             let p = dir.join(name);
-            std::fs::write(&p, bytes).unwrap();
-            let e = read_streets(&p, None, None, &frame)
+            if !p.is_dir() {
+                std::fs::write(&p, bytes).unwrap();
+            }
+            let e = read_streets(&p, None, None, None, &frame)
                 .unwrap_err()
                 .to_string();
-            assert!(e.contains(kind) && e.contains("ogr2ogr -f GeoJSON"), "{e}");
+            assert!(e.contains(says) && e.contains(name), "{e}");
+            if !says.starts_with("invalid") {
+                assert!(e.contains("ogr2ogr -f GPKG"), "{e}");
+            }
         }
     }
 }

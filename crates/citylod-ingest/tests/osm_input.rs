@@ -143,7 +143,7 @@ fn the_lower_east_side_file_gives_the_buildings_of_its_geojson_export() {
 fn the_lower_east_side_streets_are_its_highway_ways() {
     let pbf = repo_root().join("examples/nyc-les/ny-access-restriction.osm.pbf");
     let frame = LocalFrame::new(-73.99, 40.72, 0.0);
-    let s = read_streets(&pbf, None, None, &frame).unwrap();
+    let s = read_streets(&pbf, None, None, None, &frame).unwrap();
     let r = &s.report;
     assert_eq!(r.features_read, r.features_used + r.skipped.len());
     assert_eq!((r.features_read, r.features_used), (463, 430));
@@ -155,7 +155,7 @@ fn the_lower_east_side_streets_are_its_highway_ways() {
     // The GeoJSON export of the same area's roads: 32.7 km.
     assert!((30_000.0..33_000.0).contains(&r.length_m), "{}", r.length_m);
     let roads = repo_root().join("examples/nyc-les/les_roads.geojson");
-    let g = read_streets(&roads, None, None, &frame).unwrap();
+    let g = read_streets(&roads, None, None, None, &frame).unwrap();
     // Nearly every road segment of the export lies on a PBF street: its midpoint within 1 m of one.
     let near = |m: [f64; 2]| {
         s.segments.iter().any(|[a, b]| {
@@ -176,7 +176,7 @@ fn the_lower_east_side_streets_are_its_highway_ways() {
         g.segments.len()
     );
     assert!(matches!(
-        read_streets(&pbf, Some("EPSG:2263"), None, &frame),
+        read_streets(&pbf, Some("EPSG:2263"), None, None, &frame),
         Err(IngestError::InvalidOption {
             name: "--streets-crs",
             ..
@@ -462,7 +462,7 @@ fn every_encoding_gives_the_same_buildings_and_skips() {
 
     // Streets: the residential street; the proposed one and the one in a tunnel are not streets.
     let frame = LocalFrame::new(4.35, 52.01, 0.0);
-    let s = read_streets(&plain, None, None, &frame).unwrap();
+    let s = read_streets(&plain, None, None, None, &frame).unwrap();
     assert_eq!(
         (
             s.report.features_read,
@@ -556,7 +556,7 @@ fn mutated_files_give_an_error_or_buildings_never_a_panic() {
             let p = write(&dir, "m.osm.pbf", &bytes);
             let got = std::panic::catch_unwind(|| {
                 let r = read(&p);
-                let s = read_streets(&p, None, None, &frame);
+                let s = read_streets(&p, None, None, None, &frame);
                 (r.map(|o| o.report.buildings_written), s.is_ok())
             });
             match got {
@@ -627,9 +627,10 @@ fn the_lower_east_side_as_libosmium_xml_gives_what_its_pbf_gives() {
     assert_eq!(same(&read(&plain).unwrap()), same(&pbf));
     let frame = LocalFrame::new(-73.99, 40.72, 0.0);
     let (a, b) = (
-        read_streets(&plain, None, None, &frame).unwrap(),
+        read_streets(&plain, None, None, None, &frame).unwrap(),
         read_streets(
             &repo_root().join("examples/nyc-les/ny-access-restriction.osm.pbf"),
+            None,
             None,
             None,
             &frame,

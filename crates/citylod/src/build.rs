@@ -187,17 +187,23 @@ pub struct BuildArgs {
     )]
     pub landmark_max_share: f64,
 
-    /// Street centre lines (GeoJSON LineString / MultiLineString, or an OpenStreetMap file's highway ways: the
-    /// buildings' own .osm.pbf or .osm serves) as barriers: the first levels do not join
+    /// Street centre lines (GeoJSON LineString / MultiLineString, Shapefile PolyLines, a GeoPackage's lines, or an
+    /// OpenStreetMap file's highway ways: the buildings' own .osm.pbf or .osm serves) as barriers: the first levels do not join
     /// buildings on opposite sides of a street (Zhang et al. 2014). The build report says up to which level, and
     /// lists every street feature not used, with its reason. A file none of whose lines comes within 1 km of the
     /// buildings is refused (usually a CRS mix-up).
     #[arg(long, value_name = "FILE", help_heading = "Generalization")]
     pub streets: Option<PathBuf>,
 
-    /// CRS of the --streets coordinates. Default: the CRS the streets file declares, else --crs, else lon/lat.
+    /// CRS of the --streets coordinates. Default: the CRS the streets file declares (GeoJSON crs member, .prj,
+    /// GeoPackage layer), else --crs, else lon/lat for GeoJSON.
     #[arg(long, value_name = "EPSG:CODE", help_heading = "Generalization")]
     pub streets_crs: Option<String>,
+
+    /// The feature table of a --streets GeoPackage to read. Default: its only feature table, else its only table of
+    /// lines.
+    #[arg(long, value_name = "NAME", help_heading = "Generalization")]
+    pub streets_layer: Option<String>,
 
     /// With --streets: metres added to the distance of two buildings a street separates, so blocks join across
     /// a street only after the gaps of up to this width within street blocks.
@@ -734,6 +740,9 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
     if args.streets_crs.is_some() && args.streets.is_none() {
         bail!("--streets-crs is the CRS of --streets, which is not given");
     }
+    if args.streets_layer.is_some() && args.streets.is_none() {
+        bail!("--streets-layer is a layer of --streets, which is not given");
+    }
     if !args.leaves_only {
         progress.stage("generalizing");
         let t = Instant::now();
@@ -753,6 +762,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
                 let s = citylod_ingest::read_streets(
                     path,
                     args.streets_crs.as_deref(),
+                    args.streets_layer.as_deref(),
                     args.crs.as_deref(),
                     &ingested.frame,
                 )
@@ -869,7 +879,7 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
             "lambda_adjacent": args.lambda_adjacent, "depth_divisor": args.depth_divisor,
             "lambda_area": args.lambda_area, "collinear_angle_deg": args.collinear_angle,
             "landmark_min_excess_m": args.landmark_min_excess, "landmark_max_share": args.landmark_max_share,
-            "leaves_only": args.leaves_only, "streets": args.streets, "streets_crs": args.streets_crs, "street_penalty_m": args.street_penalty, "dh_px": args.dh_px, "da_px": args.da_px,
+            "leaves_only": args.leaves_only, "streets": args.streets, "streets_crs": args.streets_crs, "streets_layer": args.streets_layer, "street_penalty_m": args.street_penalty, "dh_px": args.dh_px, "da_px": args.da_px,
             "compression": format!("{:?}", args.compression).to_lowercase(),
             "max_tileset_json_bytes": args.max_tileset_json_bytes,
         }),
@@ -1125,7 +1135,7 @@ fn streets_near_buildings(
     });
     if segments.is_empty() && !buildings.is_empty() {
         bail!(
-            "it holds no usable street line (LineString or MultiLineString of at least two distinct points); \
+            "it holds no usable street line (a line of at least two distinct points); \
              every feature of it was set aside"
         );
     }

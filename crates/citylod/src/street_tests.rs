@@ -36,7 +36,8 @@ fn nyc_blocks_stay_off_the_streets_up_to_the_barrier_level() {
     )
     .expect("ingest");
     let (buildings, frame) = (ingested.buildings, ingested.frame);
-    let streets = read_streets(&example("les_roads.geojson"), None, None, &frame).expect("streets");
+    let streets =
+        read_streets(&example("les_roads.geojson"), None, None, None, &frame).expect("streets");
     assert_eq!(streets.report.features_used, 432);
     assert!(streets.report.skipped.is_empty());
     let lines = MultiLineString(

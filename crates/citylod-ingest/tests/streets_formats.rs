@@ -1,0 +1,452 @@
+//! `--streets` from a Shapefile and a GeoPackage, as city GIS teams keep their street centre lines. On real data:
+//! the bundled Lower East Side roads (432 OpenStreetMap lines) and, when ../shared/data is beside the clone, Boston's
+//! street centre lines (1,987), each written as a Shapefile of PolyLines and as a GeoPackage line layer beside a
+//! building layer, give exactly the segments their GeoJSON gives. On fixtures written byte by byte: every record or
+//! row that cannot be a street is listed with its id and reason, curves are read, the CRS comes from the file or the
+//! options in the documented order, and a GeoPackage's line layer is chosen or asked for.
+
+use citylod_ingest::{read_streets, IngestError, IssueReason, Streets};
+use citylod_model::LocalFrame;
+use citylod_testdata::geopackage::{self as gpkg, blob, Envelope, Layer, Row, Srs, Wkb};
+use citylod_testdata::shapefile::{self as shp, num, text, Field, Shape, Table};
+use rusqlite::types::Value as Sql;
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+const WGS84_PRJ: &str = r#"GEOGCS["GCS_WGS_1984",DATUM["D_WGS_1984",SPHEROID["WGS_1984",6378137.0,298.257223563]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]]"#;
+
+fn bundled_roads() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/nyc-les/les_roads.geojson")
+}
+
+/// The lines of a GeoJSON FeatureCollection of LineStrings, in its order, with each feature's name.
+fn lines_of(geojson: &Path) -> Vec<(String, Vec<[f64; 2]>)> {
+    let doc: Value = serde_json::from_str(&std::fs::read_to_string(geojson).unwrap()).unwrap();
+    doc["features"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| {
+            assert_eq!(f["geometry"]["type"], "LineString", "{f}");
+            let name = ["name", "ST_LABEL"]
+                .iter()
+                .find_map(|k| f["properties"][k].as_str())
+                .unwrap_or("")
+                .to_string();
+            let pts = f["geometry"]["coordinates"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|p| [p[0].as_f64().unwrap(), p[1].as_f64().unwrap()])
+                .collect();
+            (name, pts)
+        })
+        .collect()
+}
+
+fn line_layer(table: &str, srs_id: i64, rows: Vec<Row>) -> Layer {
+    Layer {
+        table: table.into(),
+        geometry_column: "geom".into(),
+        geometry_type: "LINESTRING".into(),
+        srs_id,
+        columns: vec![("name".into(), "TEXT".into())],
+        rows,
+    }
+}
+
+fn row(fid: i64, wkb: Option<Vec<u8>>, name: &str) -> Row {
+    Row {
+        fid,
+        geometry: wkb.map(|w| blob(4326, Envelope::Xy, false, &w)),
+        values: vec![Sql::Text(name.into())],
+    }
+}
+
+/// A building layer of one square, so that a street GeoPackage holds more than its lines.
+fn building_layer(at: [f64; 2]) -> Layer {
+    let s = 0.0001;
+    let ring = vec![
+        at,
+        [at[0] + s, at[1]],
+        [at[0] + s, at[1] + s],
+        [at[0], at[1] + s],
+        at,
+    ];
+    Layer {
+        table: "buildings".into(),
+        geometry_column: "geom".into(),
+        geometry_type: "MULTIPOLYGON".into(),
+        srs_id: 4326,
+        columns: vec![("name".into(), "TEXT".into())],
+        rows: vec![Row {
+            fid: 1,
+            geometry: Some(blob(
+                4326,
+                Envelope::Xy,
+                false,
+                &Wkb::default().multipolygon(&[vec![ring]]),
+            )),
+            values: vec![Sql::Text("a building".into())],
+        }],
+    }
+}
+
+fn frame_at(lines: &[(String, Vec<[f64; 2]>)]) -> LocalFrame {
+    let p = lines[0].1[0];
+    LocalFrame::new(p[0], p[1], 0.0)
+}
+
+/// The street file `geojson` written as a Shapefile and as a GeoPackage (every other line a MultiLineString of it),
+/// each read as --streets must give the same segments, lengths and counts.
+fn reads_alike(geojson: &Path, expected_lines: usize) {
+    let dir = tempfile::tempdir().unwrap();
+    let lines = lines_of(geojson);
+    assert_eq!(lines.len(), expected_lines);
+    let frame = frame_at(&lines);
+
+    let mut table = Table::new(vec![Field::new("name", b'C', 80, 0)]);
+    let shapes: Vec<Shape> = lines
+        .iter()
+        .map(|(name, pts)| {
+            table.push([text(name)]);
+            Shape::PolyLine(vec![pts.clone()])
+        })
+        .collect();
+    let shapefile = shp::write(
+        dir.path(),
+        "streets",
+        &shapes,
+        &table,
+        Some(WGS84_PRJ),
+        None,
+    );
+
+    let wkb = Wkb::default();
+    let rows = lines
+        .iter()
+        .enumerate()
+        .map(|(i, (name, pts))| {
+            let g = if i % 2 == 0 {
+                wkb.line(pts)
+            } else {
+                wkb.of_members(5, &[wkb.line(pts)])
+            };
+            row(i as i64 + 1, Some(g), name)
+        })
+        .collect();
+    let geopackage = dir.path().join("streets.gpkg");
+    // Beside a building layer, the only layer of lines is the one read.
+    let mut roads = line_layer("roads", 4326, rows);
+    roads.geometry_type = "MULTILINESTRING".into();
+    gpkg::write(&geopackage, &[], &[building_layer(lines[0].1[0]), roads]);
+
+    let from_json = read_streets(geojson, None, None, None, &frame).unwrap();
+    assert_eq!(from_json.report.features_read, lines.len());
+    assert!(
+        from_json.segments.len() > lines.len(),
+        "{:?}",
+        from_json.report
+    );
+    for (what, path) in [("Shapefile", &shapefile), ("GeoPackage", &geopackage)] {
+        let s =
+            read_streets(path, None, None, None, &frame).unwrap_or_else(|e| panic!("{what}: {e}"));
+        assert_eq!(s.segments, from_json.segments, "{what}");
+        assert_eq!(
+            s.report.features_read, from_json.report.features_read,
+            "{what}"
+        );
+        assert_eq!(
+            s.report.features_used, from_json.report.features_used,
+            "{what}"
+        );
+        assert_eq!(
+            s.report.skipped.len(),
+            from_json.report.skipped.len(),
+            "{what}"
+        );
+        assert!(
+            (s.report.length_m - from_json.report.length_m).abs() < 1e-6,
+            "{what}"
+        );
+        assert!(
+            s.report.crs.starts_with("EPSG:4326") && s.report.crs.contains(path.to_str().unwrap()),
+            "{what}: the CRS is the file's own: {}",
+            s.report.crs
+        );
+    }
+}
+
+#[test]
+fn the_lower_east_side_roads_read_alike_as_geojson_shapefile_and_geopackage() {
+    reads_alike(&bundled_roads(), 432);
+}
+
+#[test]
+fn bostons_street_centre_lines_read_alike_as_geojson_shapefile_and_geopackage() {
+    if let Some(p) = citylod_testdata::shared_data("boston/boston_streets.geojson") {
+        reads_alike(&p, 1987);
+    }
+}
+
+fn skipped(s: &Streets) -> Vec<(String, IssueReason, String)> {
+    s.report
+        .skipped
+        .iter()
+        .map(|i| (i.feature_id.clone(), i.reason, i.detail.clone()))
+        .collect()
+}
+
+const AT: [f64; 2] = [-73.99, 40.72];
+
+fn near(dx_m: f64, dy_m: f64) -> [f64; 2] {
+    // About a metre per 1e-5 degree here; exact values do not matter, only that they are distinct and nearby.
+    [AT[0] + dx_m * 1.3e-5, AT[1] + dy_m * 0.9e-5]
+}
+
+#[test]
+fn every_shapefile_record_that_is_not_a_street_is_listed_with_its_reason() {
+    let dir = tempfile::tempdir().unwrap();
+    let frame = LocalFrame::new(AT[0], AT[1], 0.0);
+    let square = vec![
+        near(0., 0.),
+        near(0., 9.),
+        near(9., 9.),
+        near(9., 0.),
+        near(0., 0.),
+    ];
+    let shapes = vec![
+        // 0: two parts, one of a single repeated point: the other part's one segment is kept.
+        Shape::PolyLine(vec![
+            vec![near(0., 0.), near(0., 0.)],
+            vec![near(0., 0.), near(50., 0.)],
+        ]),
+        // 1: no geometry.
+        Shape::Null,
+        // 2: a polygon, not a line.
+        Shape::Polygon(vec![square]),
+        // 3: a PolyLine whose counts do not fit its record.
+        Shape::Raw {
+            shape_type: 3,
+            content: {
+                let mut c = vec![0u8; 32];
+                c.extend(1i32.to_le_bytes());
+                c.extend(1000i32.to_le_bytes());
+                c.extend(0i32.to_le_bytes());
+                c
+            },
+        },
+        // 4: a line of one point only.
+        Shape::PolyLine(vec![vec![near(5., 5.), near(5., 5.)]]),
+        // 5: deleted in the table.
+        Shape::PolyLine(vec![vec![near(0., 10.), near(50., 10.)]]),
+        // 6: a plain line of three points.
+        Shape::PolyLine(vec![vec![near(0., 20.), near(25., 20.), near(50., 20.)]]),
+    ];
+    let mut table = Table::new(vec![Field::new("id", b'N', 9, 0)]);
+    for i in 0..shapes.len() {
+        if i == 5 {
+            table.push_deleted([num(i)]);
+        } else {
+            table.push([num(i)]);
+        }
+    }
+    let path = shp::write(dir.path(), "odd", &shapes, &table, Some(WGS84_PRJ), None);
+    let s = read_streets(&path, None, None, None, &frame).unwrap();
+    assert_eq!(s.report.features_read, 7);
+    assert_eq!(s.report.features_used, 2);
+    assert_eq!(s.segments.len(), 3, "{:?}", s.segments);
+    let got = skipped(&s);
+    let reasons: Vec<(&str, IssueReason)> =
+        got.iter().map(|(id, r, _)| (id.as_str(), *r)).collect();
+    assert_eq!(
+        reasons,
+        [
+            ("1", IssueReason::NoGeometry),
+            ("2", IssueReason::UnsupportedGeometry),
+            ("3", IssueReason::MalformedGeometry),
+            ("4", IssueReason::TooFewPoints),
+            ("5", IssueReason::DeletedRecord),
+        ]
+    );
+    assert!(got[1].2.contains("not a street line"), "{:?}", got[1]);
+    assert!(got[2].2.contains("record 4"), "{:?}", got[2]);
+}
+
+#[test]
+fn a_geopackage_line_layer_is_chosen_or_asked_for_and_its_curves_are_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let frame = LocalFrame::new(AT[0], AT[1], 0.0);
+    let w = Wkb::default();
+    let arc = w.circular_string(&[near(0., 0.), near(50., 50.), near(100., 0.)]);
+    let compound = w.of_members(
+        9,
+        &[
+            w.line(&[near(0., 30.), near(40., 30.)]),
+            w.line(&[near(40., 30.), near(40., 60.)]),
+        ],
+    );
+    let rows = vec![
+        row(
+            1,
+            Some(w.line(&[near(0., -20.), near(100., -20.)])),
+            "straight",
+        ),
+        row(2, Some(arc.clone()), "arc"),
+        row(3, Some(compound), "compound"),
+        row(
+            4,
+            Some(w.of_members(11, &[arc, w.line(&[near(0., 80.), near(10., 80.)])])),
+            "multicurve",
+        ),
+        row(5, None, "null"),
+        row(6, Some(w.point(near(1., 1.))), "point"),
+        row(
+            7,
+            Some(w.polygon(&[vec![near(0., 0.), near(0., 9.), near(9., 9.), near(0., 0.)]])),
+            "polygon",
+        ),
+        row(
+            8,
+            Some(w.of_members(5, &[w.point(near(1., 1.))])),
+            "multilinestring of a point",
+        ),
+    ];
+    let gpkg_path = dir.path().join("two.gpkg");
+    let other = line_layer(
+        "paths",
+        4326,
+        vec![row(
+            1,
+            Some(w.line(&[near(0., 200.), near(9., 200.)])),
+            "path",
+        )],
+    );
+    gpkg::write(
+        &gpkg_path,
+        &[],
+        &[line_layer("roads", 4326, rows), other, building_layer(AT)],
+    );
+
+    // Two line layers: which one is for the user to say.
+    match read_streets(&gpkg_path, None, None, None, &frame) {
+        Err(e @ IngestError::InvalidGeoPackage { .. }) => {
+            let m = e.to_string();
+            assert!(
+                m.contains("--streets-layer")
+                    && m.contains("roads (LINESTRING)")
+                    && m.contains("paths (LINESTRING)"),
+                "{m}"
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+    let s = read_streets(&gpkg_path, None, Some("roads"), None, &frame).unwrap();
+    assert_eq!(s.report.features_read, 8);
+    assert_eq!(s.report.features_used, 4, "{:?}", s.report.skipped);
+    let got = skipped(&s);
+    let ids: Vec<&str> = got.iter().map(|(id, _, _)| id.as_str()).collect();
+    assert_eq!(
+        ids,
+        ["two.gpkg#5", "two.gpkg#6", "two.gpkg#7", "two.gpkg#8"]
+    );
+    assert_eq!(got[0].1, IssueReason::NoGeometry);
+    assert_eq!(got[1].1, IssueReason::UnsupportedGeometry);
+    assert!(got[2].2.contains("not a street line"), "{:?}", got[2]);
+    assert_eq!(got[3].1, IssueReason::MalformedGeometry, "{:?}", got[3]);
+    // The arc (read twice: alone and in the MultiCurve) is approximated by many short segments.
+    assert!(s.segments.len() > 1 + 2 + 1 + 2 * 8, "{}", s.segments.len());
+    // About 110 m straight, 75 m of compound line, 11 m of line and twice a half circle of ~160 m.
+    assert!(
+        s.report.length_m > 450.0 && s.report.length_m < 600.0,
+        "{}",
+        s.report.length_m
+    );
+
+    // The other layer by name, and a layer asked of a format without layers.
+    let p = read_streets(&gpkg_path, None, Some("paths"), None, &frame).unwrap();
+    assert_eq!((p.report.features_used, p.segments.len()), (1, 1));
+    match read_streets(&bundled_roads(), None, Some("roads"), None, &frame) {
+        Err(IngestError::InvalidOption {
+            name: "--streets-layer",
+            ..
+        }) => {}
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn a_street_files_crs_is_its_own_else_the_options() {
+    let dir = tempfile::tempdir().unwrap();
+    let frame = LocalFrame::new(AT[0], AT[1], 0.0);
+    let mut table = Table::new(vec![Field::new("id", b'N', 9, 0)]);
+    table.push([num(1)]);
+    let line = Shape::PolyLine(vec![vec![near(0., 0.), near(50., 0.)]]);
+    let bare = shp::write(dir.path(), "bare", &[line.clone()], &table, None, None);
+    match read_streets(&bare, None, None, None, &frame) {
+        Err(e @ IngestError::StreetsWithoutCrs { .. }) => {
+            assert!(e.to_string().contains("--streets-crs"), "{e}")
+        }
+        other => panic!("{other:?}"),
+    }
+    let by_crs = read_streets(&bare, None, None, Some("EPSG:4326"), &frame).unwrap();
+    assert!(
+        by_crs.report.crs.ends_with("(from --crs)"),
+        "{}",
+        by_crs.report.crs
+    );
+    let by_streets_crs =
+        read_streets(&bare, Some("EPSG:4326"), None, Some("EPSG:2263"), &frame).unwrap();
+    assert!(
+        by_streets_crs.report.crs.ends_with("(from --streets-crs)"),
+        "{}",
+        by_streets_crs.report.crs
+    );
+    assert_eq!(by_crs.segments, by_streets_crs.segments);
+    // The file's own CRS comes before --crs.
+    let with_prj = shp::write(dir.path(), "prj", &[line], &table, Some(WGS84_PRJ), None);
+    let own = read_streets(&with_prj, None, None, Some("EPSG:2263"), &frame).unwrap();
+    assert_eq!(own.segments, by_crs.segments);
+
+    // A GeoPackage in a projected CRS reads as the same coordinates in a GeoJSON declaring that CRS.
+    let xy = [
+        [236_000.0, 900_000.0],
+        [236_080.0, 900_030.0],
+        [236_100.0, 900_100.0],
+    ];
+    let w = Wkb::default();
+    let g = dir.path().join("massachusetts.gpkg");
+    gpkg::write(
+        &g,
+        &[Srs::epsg(26986)],
+        &[line_layer(
+            "streets",
+            26986,
+            vec![Row {
+                fid: 1,
+                geometry: Some(blob(26986, Envelope::Xy, false, &w.line(&xy))),
+                values: vec![Sql::Text("x".into())],
+            }],
+        )],
+    );
+    let j = dir.path().join("massachusetts.geojson");
+    std::fs::write(
+        &j,
+        serde_json::json!({"type": "FeatureCollection", "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::26986"}},
+            "features": [{"type": "Feature", "properties": {}, "geometry": {"type": "LineString", "coordinates": xy}}]})
+        .to_string(),
+    )
+    .unwrap();
+    let boston = LocalFrame::new(-71.06, 42.36, 0.0);
+    let (a, b) = (
+        read_streets(&g, None, None, None, &boston).unwrap(),
+        read_streets(&j, None, None, None, &boston).unwrap(),
+    );
+    assert!(a.report.crs.starts_with("EPSG:26986"), "{}", a.report.crs);
+    assert_eq!(a.segments, b.segments);
+    assert!(
+        (a.report.length_m - (85.44 + 72.80)).abs() < 0.5,
+        "{}",
+        a.report.length_m
+    );
+}
