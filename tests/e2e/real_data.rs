@@ -624,6 +624,107 @@ fn nyc_les_with_streets_is_valid_complete_and_reports_its_barriers() {
 }
 
 #[test]
+fn nyc_les_with_its_streets_as_a_geopackage_tiles_as_with_them_as_geojson() {
+    // The bundled road lines written as a GeoPackage line layer beside a building layer, as a city GIS team keeps them.
+    use citylod_testdata::geopackage::{blob, write, Envelope, Layer, Row, Wkb};
+    use rusqlite::types::Value as Sql;
+    let dir = repo_root().join("examples/nyc-les");
+    let (buildings, roads) = (
+        dir.join("les_buildings.geojson"),
+        dir.join("les_roads.geojson"),
+    );
+    let doc = read_json(&roads);
+    let wkb = Wkb::default();
+    let rows: Vec<Row> = doc["features"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .enumerate()
+        .map(|(i, f)| {
+            let pts: Vec<[f64; 2]> = f["geometry"]["coordinates"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|p| [p[0].as_f64().unwrap(), p[1].as_f64().unwrap()])
+                .collect();
+            Row {
+                fid: i as i64 + 1,
+                geometry: Some(blob(4326, Envelope::Xy, false, &wkb.line(&pts))),
+                values: vec![Sql::Text(
+                    f["properties"]["name"].as_str().unwrap_or("").into(),
+                )],
+            }
+        })
+        .collect();
+    let layer = |table: &str, geometry_type: &str, rows: Vec<Row>| Layer {
+        table: table.into(),
+        geometry_column: "geom".into(),
+        geometry_type: geometry_type.into(),
+        srs_id: 4326,
+        columns: vec![("name".into(), "TEXT".into())],
+        rows,
+    };
+    let scratch = scratch_dir("nyc-les-streets-gpkg");
+    let gpkg = scratch.join("les.gpkg");
+    let square = vec![
+        [-73.99, 40.72],
+        [-73.9899, 40.72],
+        [-73.9899, 40.7201],
+        [-73.99, 40.72],
+    ];
+    let building = Row {
+        fid: 1,
+        geometry: Some(blob(4326, Envelope::Xy, false, &wkb.polygon(&[square]))),
+        values: vec![Sql::Text("b".into())],
+    };
+    write(
+        &gpkg,
+        &[],
+        &[
+            layer("buildings", "POLYGON", vec![building]),
+            layer("roads", "LINESTRING", rows),
+        ],
+    );
+
+    let (a, b) = (scratch.join("geojson"), scratch.join("gpkg"));
+    let from_json = build(&[&buildings], &a, &["--streets", roads.to_str().unwrap()]);
+    let from_gpkg = build(&[&buildings], &b, &["--streets", gpkg.to_str().unwrap()]);
+    let s = &from_gpkg["streets"];
+    assert_eq!(
+        (s["features_read"].as_u64(), s["features_used"].as_u64()),
+        (Some(432), Some(432)),
+        "{s}"
+    );
+    assert!(s["crs"].as_str().unwrap().starts_with("EPSG:4326"), "{s}");
+    assert_eq!(s["segments"], from_json["streets"]["segments"]);
+    assert_eq!(
+        from_gpkg["generalize"]["streets"],
+        from_json["generalize"]["streets"]
+    );
+    assert!(
+        from_gpkg["generalize"]["streets"]["merges_across"]
+            .as_u64()
+            .unwrap()
+            > 0
+    );
+    // Every tile and tileset byte alike; only the report names the other street file.
+    let tiles = |d: &Path| {
+        tree_bytes(d)
+            .into_iter()
+            .filter(|(n, _)| n != "build-report.json")
+            .collect::<Vec<_>>()
+    };
+    let (ta, tb) = (tiles(&a), tiles(&b));
+    assert!(ta.len() > 10 && ta.len() == tb.len());
+    for ((name, x), (other, y)) in ta.iter().zip(&tb) {
+        assert!(
+            name == other && x == y,
+            "{name} differs between the GeoJSON and the GeoPackage streets"
+        );
+    }
+}
+
+#[test]
 fn nyc_les_from_its_osm_pbf_is_valid_complete_and_keeps_its_streets() {
     // The OpenStreetMap file the bundled GeoJSON was converted from, as buildings and as streets.
     let pbf = repo_root().join("examples/nyc-les/ny-access-restriction.osm.pbf");

@@ -382,7 +382,14 @@ fn a_street_files_crs_is_its_own_else_the_options() {
     let mut table = Table::new(vec![Field::new("id", b'N', 9, 0)]);
     table.push([num(1)]);
     let line = Shape::PolyLine(vec![vec![near(0., 0.), near(50., 0.)]]);
-    let bare = shp::write(dir.path(), "bare", &[line.clone()], &table, None, None);
+    let bare = shp::write(
+        dir.path(),
+        "bare",
+        std::slice::from_ref(&line),
+        &table,
+        None,
+        None,
+    );
     match read_streets(&bare, None, None, None, &frame) {
         Err(e @ IngestError::StreetsWithoutCrs { .. }) => {
             assert!(e.to_string().contains("--streets-crs"), "{e}")
