@@ -165,6 +165,8 @@ fn unreadable_inputs_exit_2_with_a_clear_message() {
         // A streets file with nothing usable says so, not that its lines lie far away.
         (vec![good.display().to_string(), "--streets".into(), write(&d, "points.geojson", r#"{"type":"FeatureCollection","features":[{"type":"Feature","properties":{},"geometry":{"type":"Point","coordinates":[-73.99,40.72]}}]}"#).display().to_string()], "holds no usable street line"),
         (vec![good.display().to_string(), "--streets-crs".into(), "EPSG:28992".into()], "--streets-crs"),
+        (vec![good.display().to_string(), "--streets-layer".into(), "roads".into()], "--streets-layer is a layer of --streets"),
+        (vec![good.display().to_string(), "--streets".into(), roads.display().to_string(), "--streets-layer".into(), "roads".into()], "has no layers"),
         (vec![good.display().to_string(), "--dh-px=1e308".into()], "got 1e308"),
         (vec![good.display().to_string(), "--storey-height=1e308".into()], "--storey-height must be a number of metres from 0.1 to 1000, got 1e308"),
         (vec![good.display().to_string(), "--height-offset=-5000".into()], "--height-offset"),

@@ -37,6 +37,13 @@ pub(crate) struct RawFeature {
     pub lines: Vec<Vec<[f64; 2]>>,
 }
 
+/// What a reader of a format with several layers wants from it: buildings, or street lines (`--streets`).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) enum Want {
+    Footprints,
+    Lines,
+}
+
 /// What a Shapefile or GeoPackage reader hands over: the features, the faces of those holding 3D surface models
 /// (their footprints wait for the CRS: `surface_model::stand`), the CRS the file declares (`None`: none, or the
 /// undefined one) and what the user should know about the file as a whole.

@@ -12,7 +12,7 @@
 //! the input.
 
 use crate::crs::DeclaredCrs;
-use crate::feature::{RawFeature, RawPolygon, VectorDoc};
+use crate::feature::{RawFeature, RawPolygon, VectorDoc, Want};
 use crate::report::IssueReason;
 use crate::surface_model::{Face, Surfaces};
 use citylod_mesh::signed_area2;
@@ -152,12 +152,18 @@ pub(crate) const MEMBERS: [(&str, &str); 6] = [
 
 /// Reads the feature class `layer` of the geodatabase `dir` (the only one when `layer` is `None`). Errors name what is
 /// wrong with the geodatabase as a whole; one unusable row is a skipped feature.
-pub(crate) fn read(path: &Path, layer: Option<&str>) -> Result<VectorDoc, String> {
-    read_class(path, layer, false)
+/// `want` says which classes can be read and chosen: polygons and MultiPatch for buildings, lines for `--streets`.
+pub(crate) fn read(path: &Path, layer: Option<&str>, want: Want) -> Result<VectorDoc, String> {
+    read_class(path, layer, want, false)
 }
 
 /// [`read`], or with `any_geometry` a class of points or lines too (its rows then skipped), for tests of the rows.
-fn read_class(path: &Path, layer: Option<&str>, any_geometry: bool) -> Result<VectorDoc, String> {
+fn read_class(
+    path: &Path,
+    layer: Option<&str>,
+    want: Want,
+    any_geometry: bool,
+) -> Result<VectorDoc, String> {
     let source = Source::open(path)?;
     if !source.exists(CATALOG) {
         return Err(format!(
@@ -256,8 +262,16 @@ fn read_class(path: &Path, layer: Option<&str>, any_geometry: bool) -> Result<Ve
             parts.join(", ")
         }
     };
-    // Polygons and MultiPatch can be buildings; points, multipoints and lines cannot.
-    let buildings = |t: &Layout| matches!(t.geometry_type, 4 | 9 | 0);
+    // Polygons and MultiPatch can be buildings, lines streets; a class of any geometry (0) either.
+    let wanted = |t: &Layout| match want {
+        Want::Footprints => matches!(t.geometry_type, 4 | 9 | 0),
+        Want::Lines => matches!(t.geometry_type, 3 | 0),
+    };
+    // For messages: the classes wanted, what they are read as, and the option that names one.
+    let (kinds, role, option) = match want {
+        Want::Footprints => ("polygon or MultiPatch", "buildings", "--layer"),
+        Want::Lines => ("line", "street lines", "--streets-layer"),
+    };
     let chosen = match layer {
         Some(asked) => {
             // A class inside a feature dataset may be named with it (`Dataset/Class`, `Dataset\Class`): classes
@@ -307,7 +321,7 @@ fn read_class(path: &Path, layer: Option<&str>, any_geometry: bool) -> Result<Ve
                     )
                 } else {
                     format!(
-                        "{asked:?} is a feature dataset holding {}; name the feature class to read with --layer",
+                        "{asked:?} is a feature dataset holding {}; name the feature class to read with {option}",
                         inside.join(", ")
                     )
                 });
@@ -315,13 +329,14 @@ fn read_class(path: &Path, layer: Option<&str>, any_geometry: bool) -> Result<Ve
         }
         None => {
             let candidates: Vec<usize> = (0..classes.len())
-                .filter(|&k| buildings(&classes[k].2))
+                .filter(|&k| wanted(&classes[k].2))
                 .collect();
             match candidates.as_slice() {
                 [k] => *k,
-                [] if classes.is_empty() && unreadable.is_empty() => {
-                    return Err("a File Geodatabase without feature classes (no table with a geometry field)".into())
-                }
+                [] if classes.is_empty() && unreadable.is_empty() => return Err(
+                    "a File Geodatabase without feature classes (no table with a geometry field)"
+                        .into(),
+                ),
                 [] if classes.is_empty() => {
                     return Err(format!(
                         "no feature class could be read: {}",
@@ -335,14 +350,14 @@ fn read_class(path: &Path, layer: Option<&str>, any_geometry: bool) -> Result<Ve
                 }
                 [] => {
                     return Err(format!(
-                        "it holds no polygon or MultiPatch feature class, which buildings are (feature classes: {})",
+                        "it holds no {kinds} feature class, which {role} are (feature classes: {})",
                         holds(&classes)
                     ))
                 }
                 many => {
                     let others = all_but(&classes, many);
                     return Err(format!(
-                        "it holds {} polygon or MultiPatch feature classes, {}; name the one to read with --layer{}",
+                        "it holds {} {kinds} feature classes, {}; name the one to read with {option}{}",
                         many.len(),
                         many.iter()
                             .map(|&k| label(&classes[k]))
@@ -351,18 +366,22 @@ fn read_class(path: &Path, layer: Option<&str>, any_geometry: bool) -> Result<Ve
                         if others.is_empty() {
                             String::new()
                         } else {
-                            format!(" (it also holds {}, not read as buildings)", others.join(", "))
+                            format!(" (it also holds {}, not read as {role})", others.join(", "))
                         }
                     ));
                 }
             }
         }
     };
-    if !any_geometry && !buildings(&classes[chosen].2) {
+    if !any_geometry && !wanted(&classes[chosen].2) {
         let (n, _, t) = &classes[chosen];
         return Err(format!(
-            "feature class {n:?} holds {}; buildings are polygons or MultiPatch (feature classes: {})",
+            "feature class {n:?} holds {}; {role} are {} (feature classes: {})",
             t.kind_name(),
+            match want {
+                Want::Footprints => "polygons or MultiPatch",
+                Want::Lines => "lines",
+            },
             holds(&classes)
         ));
     }
@@ -675,6 +694,13 @@ fn features(
                     out.repairs.extend(repairs);
                 }
                 Ok(Shape::Surfaces(faces)) => surfaces.push((features.len(), name, faces)),
+                Ok(Shape::Lines(lines)) => {
+                    out.lines = lines;
+                    out.skip = Some((
+                        IssueReason::UnsupportedGeometry,
+                        format!("{name}: a line, not a polygon"),
+                    ));
+                }
                 Err((reason, detail)) => out.skip = Some((reason, format!("{name}: {detail}"))),
             },
             _ => out.skip = Some((IssueReason::NoGeometry, format!("{name}: geometry is null"))),
@@ -1276,6 +1302,8 @@ enum Shape {
     Footprint(Vec<RawPolygon>, Repairs),
     /// A MultiPatch's faces.
     Surfaces(Vec<Face>),
+    /// A polyline's parts in plan (curves followed in segments): not a building, but what `--streets` reads.
+    Lines(Vec<Vec<[f64; 2]>>),
 }
 
 /// Flags of the "general" geometry types (50–54) in the type's high bits.
@@ -1302,6 +1330,11 @@ fn shape(b: &[u8], g: &GeometryDef, multipatch_layer: bool) -> Result<Shape, Ski
         31 => (true, true, false),
         32 => (true, false, false),
         54 => (kind & HAS_Z != 0, kind & HAS_M != 0, false),
+        3 => (false, false, false),
+        10 => (true, false, false),
+        13 => (true, true, false),
+        23 => (false, true, false),
+        50 => (kind & HAS_Z != 0, kind & HAS_M != 0, kind & HAS_CURVES != 0),
         0 => return Err((IssueReason::NoGeometry, "geometry is null".into())),
         1 | 9 | 11 | 21 | 52 => {
             return Err((
@@ -1315,22 +1348,18 @@ fn shape(b: &[u8], g: &GeometryDef, multipatch_layer: bool) -> Result<Shape, Ski
                 "a multipoint, not a polygon".into(),
             ))
         }
-        3 | 10 | 13 | 23 | 50 => {
-            return Err((
-                IssueReason::UnsupportedGeometry,
-                "a line, not a polygon".into(),
-            ))
-        }
         t => return Err(malformed(format!("unknown geometry type {t}"))),
     };
     let multipatch = matches!(base, 31 | 32 | 54);
+    // A polyline is read as a polygon is, its parts kept as lines.
+    let line = matches!(base, 3 | 10 | 13 | 23 | 50);
     let faces_with_z = multipatch_layer && !multipatch && has_z && !curves;
     let short = || malformed("the geometry blob is cut short".into());
     let points = c.varuint().ok_or_else(short)?;
     if points == 0 {
         return Err((
             IssueReason::EmptyGeometry,
-            "a polygon without points".into(),
+            format!("a {} without points", if line { "line" } else { "polygon" }),
         ));
     }
     if multipatch {
@@ -1473,9 +1502,14 @@ fn shape(b: &[u8], g: &GeometryDef, multipatch_layer: bool) -> Result<Shape, Ski
         }
         // Segments starting at a ring's last point have no end in it.
         while seg.next_if(|s| s.0 < end).is_some() {}
-        crate::shp::open_ring(&mut r, k, &mut repairs);
+        if !line {
+            crate::shp::open_ring(&mut r, k, &mut repairs);
+        }
         rings.push(r);
         start = end;
+    }
+    if line {
+        return Ok(Shape::Lines(rings));
     }
     // A circle inside an even number of the row's other rings is an outer ring (clockwise, Esri's rule), inside an
     // odd number a hole.
@@ -1909,7 +1943,8 @@ mod tests {
             "hole",
             "testnotnullable",
         ] {
-            let doc = read_class(&dir, Some(name), true).unwrap_or_else(|e| panic!("{name}: {e}"));
+            let doc = read_class(&dir, Some(name), Want::Footprints, true)
+                .unwrap_or_else(|e| panic!("{name}: {e}"));
             let gdal: Vec<Reference> = serde_json::from_str(
                 &std::fs::read_to_string(fixture(&format!("arcgis.{name}.reference.json")))
                     .unwrap(),
@@ -1968,12 +2003,12 @@ mod tests {
     #[test]
     fn null_and_empty_shapes_are_skipped_with_their_reason() {
         let dir = fixture("arcgis.gdb");
-        let null = read(&dir, Some("null_polygon")).unwrap();
+        let null = read(&dir, Some("null_polygon"), Want::Footprints).unwrap();
         assert!(null
             .features
             .iter()
             .all(|f| matches!(&f.skip, Some((IssueReason::NoGeometry, d)) if d.ends_with("geometry is null"))));
-        let empty = read(&dir, Some("empty_polygonm")).unwrap();
+        let empty = read(&dir, Some("empty_polygonm"), Want::Footprints).unwrap();
         assert!(matches!(
             empty.features[0].skip,
             Some((IssueReason::EmptyGeometry | IssueReason::NoGeometry, _))

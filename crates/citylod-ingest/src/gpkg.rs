@@ -9,7 +9,7 @@
 //! it).
 
 use crate::crs::DeclaredCrs;
-use crate::feature::{RawFeature, RawPolygon, VectorDoc};
+use crate::feature::{RawFeature, RawPolygon, VectorDoc, Want};
 use crate::report::IssueReason;
 use crate::surface_model::{Face, Surfaces};
 use citylod_mesh::signed_area2;
@@ -37,13 +37,6 @@ struct Layer {
     column: String,
     geometry_type: String,
     srs_id: i64,
-}
-
-/// What a reader wants from a GeoPackage: buildings, or street lines (`--streets`).
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub(crate) enum Want {
-    Footprints,
-    Lines,
 }
 
 /// Reads the feature table `layer` of `path` (the only one when `layer` is `None`; for `Want::Lines`, else the only

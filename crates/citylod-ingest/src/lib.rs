@@ -708,12 +708,12 @@ fn load(
         });
     }
     if fgdb::is_filegdb(path) {
-        let doc = fgdb::read(path, opts.layer.as_deref()).map_err(|detail| {
-            IngestError::InvalidFileGdb {
+        let doc = fgdb::read(path, opts.layer.as_deref(), feature::Want::Footprints).map_err(
+            |detail| IngestError::InvalidFileGdb {
                 path: path.into(),
                 detail,
-            }
-        })?;
+            },
+        )?;
         let missing = IngestError::FileGdbWithoutCrs { path: path.into() };
         return vector_file(
             path,
@@ -736,13 +736,12 @@ fn load(
         });
     }
     if gpkg::is_geopackage_name(path) {
-        let doc =
-            gpkg::read(path, opts.layer.as_deref(), gpkg::Want::Footprints).map_err(|detail| {
-                IngestError::InvalidGeoPackage {
-                    path: path.into(),
-                    detail,
-                }
-            })?;
+        let doc = gpkg::read(path, opts.layer.as_deref(), feature::Want::Footprints).map_err(
+            |detail| IngestError::InvalidGeoPackage {
+                path: path.into(),
+                detail,
+            },
+        )?;
         let missing = IngestError::GeoPackageWithoutCrs { path: path.into() };
         return vector_file(
             path,

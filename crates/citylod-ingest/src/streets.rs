@@ -1,6 +1,7 @@
-//! Street centre lines (GeoJSON LineString / MultiLineString features, Shapefile PolyLines, GeoPackage lines and
-//! curves, OpenStreetMap highway ways) mapped into the buildings' local frame, for the generalization's street barriers (DESIGN.md §3.9, seed 002 §3.2.1: buildings on opposite
-//! sides of a street are not aggregated). Every feature is used or listed as skipped with its id and reason.
+//! Street centre lines (GeoJSON LineString / MultiLineString features, Shapefile PolyLines, GeoPackage and File
+//! Geodatabase lines and curves, OpenStreetMap highway ways) mapped into the buildings' local frame, for the generalization's street
+//! barriers (DESIGN.md §3.9, seed 002 §3.2.1: buildings on opposite sides of a street are not aggregated). Every
+//! feature is used or listed as skipped with its id and reason.
 
 use crate::crs::{CoordError, Crs, DeclaredCrs};
 use crate::report::{FeatureIssue, IssueReason};
@@ -39,6 +40,7 @@ enum Format {
     Osm(crate::osm::Encoding),
     Shapefile,
     GeoPackage,
+    FileGdb,
     GeoJson,
     /// A format `--streets` does not read: a phrase for the error.
     Other(&'static str),
@@ -48,6 +50,9 @@ fn format(path: &Path) -> Format {
     if let Some(encoding) = crate::osm::Encoding::of(path) {
         return Format::Osm(encoding);
     }
+    if crate::fgdb::is_filegdb(path) {
+        return Format::FileGdb;
+    }
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -56,7 +61,6 @@ fn format(path: &Path) -> Format {
         Some("shp") => return Format::Shapefile,
         Some("shx" | "dbf") => return Format::Other("a part of a Shapefile other than its .shp"),
         Some("gpkg") => return Format::GeoPackage,
-        Some("gdb") => return Format::Other("a File Geodatabase"),
         _ if path.is_dir() => return Format::Other("a folder"),
         _ => {}
     }
@@ -115,8 +119,8 @@ fn street_crs(
 }
 
 /// Reads the street lines of a file and maps them into `frame`: a GeoJSON file (a FeatureCollection, a Feature or
-/// a bare LineString / MultiLineString), a Shapefile of PolyLines, a GeoPackage's line layer (`layer`, or the only
-/// feature table, or the only one of lines), or an OpenStreetMap file's highway ways. Coordinates are in `crs` when
+/// a bare LineString / MultiLineString), a Shapefile of PolyLines, a GeoPackage's or File Geodatabase's line layer
+/// (`layer`, or the only one of lines), or an OpenStreetMap file's highway ways. Coordinates are in `crs` when
 /// given (`--streets-crs`), else in the CRS the file declares (a GeoJSON legacy `crs` member, a `.prj`, the layer's
 /// spatial reference system), else in `fallback_crs` (the buildings' `--crs`), else, for GeoJSON, RFC 7946 lon/lat.
 /// Features without a line geometry, or with fewer than two distinct points, or with a coordinate that cannot be
@@ -147,20 +151,26 @@ pub fn read_streets(
             return Err(IngestError::UnknownFormat {
                 path: path.into(),
                 detail: format!(
-                    "--streets reads GeoJSON, Shapefile (.shp), GeoPackage (.gpkg) or OpenStreetMap (.osm, .osm.pbf) \
-                     street lines, and this is {kind}: convert its lines to one of them first (e.g. `ogr2ogr -f \
+                    "--streets reads GeoJSON, Shapefile (.shp), GeoPackage (.gpkg), File Geodatabase (.gdb, .gdb.zip) \
+                     or OpenStreetMap (.osm, .osm.pbf) street lines, and this is {kind}: convert its lines to one of them first (e.g. `ogr2ogr -f \
                      GPKG streets.gpkg {}`)",
                     path.display()
                 ),
             })
         }
+        Format::FileGdb => crate::fgdb::read(path, layer, crate::feature::Want::Lines).map_err(
+            |detail| IngestError::InvalidFileGdb {
+                path: path.into(),
+                detail,
+            },
+        )?,
         Format::Shapefile => {
             crate::shp::read(path).map_err(|detail| IngestError::InvalidShapefile {
                 path: path.into(),
                 detail,
             })?
         }
-        Format::GeoPackage => crate::gpkg::read(path, layer, crate::gpkg::Want::Lines).map_err(
+        Format::GeoPackage => crate::gpkg::read(path, layer, crate::feature::Want::Lines).map_err(
             |detail| IngestError::InvalidGeoPackage {
                 path: path.into(),
                 detail,
@@ -583,25 +593,37 @@ mod tests {
         let frame = LocalFrame::new(0.0, 0.0, 0.0);
         let dir = std::env::temp_dir().join(format!("citylod-streets-{}", std::process::id()));
         std::fs::create_dir_all(dir.join("roads.gdb")).unwrap();
-        for (name, bytes, says) in [
+        std::fs::create_dir_all(dir.join("roads")).unwrap();
+        // (file, its bytes, what the error says, whether it is a format not read, with a conversion hint)
+        for (name, bytes, says, other) in [
             (
                 "roads.shp",
                 &b"\x00\x00\x27\x0a\xff"[..],
                 "invalid shapefile",
+                false,
             ),
             (
                 "roads.gpkg",
                 b"SQLite format 3\0\x10\x00",
                 "invalid GeoPackage",
+                false,
             ),
             (
                 "roads.sqlite",
                 b"SQLite format 3\0\x10\x00",
                 "invalid GeoPackage",
+                false,
             ),
-            ("roads.zip", b"PK\x03\x04\x14\x00", "a ZIP archive"),
-            ("roads.dbf", b"\x03\x7e", "other than its .shp"),
-            ("roads.gdb", b"", "a File Geodatabase"),
+            (
+                "roads.zip",
+                b"PK\x03\x04\x14\x00",
+                "File Geodatabase",
+                false,
+            ),
+            ("roads.gdb", b"", "File Geodatabase", false),
+            ("roads.kmz", b"PK\x03\x04\x14\x00", "a ZIP archive", true),
+            ("roads.dbf", b"\x03\x7e", "other than its .shp", true),
+            ("roads", b"", "a folder", true),
         ] {
             let p = dir.join(name);
             if !p.is_dir() {
@@ -611,9 +633,7 @@ mod tests {
                 .unwrap_err()
                 .to_string();
             assert!(e.contains(says) && e.contains(name), "{e}");
-            if !says.starts_with("invalid") {
-                assert!(e.contains("ogr2ogr -f GPKG"), "{e}");
-            }
+            assert_eq!(e.contains("ogr2ogr -f GPKG"), other, "{e}");
         }
     }
 }

@@ -457,3 +457,91 @@ fn a_street_files_crs_is_its_own_else_the_options() {
         a.report.length_m
     );
 }
+
+fn fgdb_fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fgdb")
+        .join(name)
+}
+
+#[test]
+fn a_file_geodatabase_written_by_gdal_gives_its_line_class_as_streets() {
+    // kinds.gdb (tests/fgdb/make_fixtures.py, GDAL's OpenFileGDB driver): blocks, curved and 3D buildings, a table,
+    // and one line class, `roads`: Main Street, 1,200 m along UTM 18N.
+    let gdb = fgdb_fixture("kinds.gdb");
+    let frame = LocalFrame::new(-74.0, 40.72, 0.0);
+    let s = read_streets(&gdb, None, None, None, &frame).unwrap();
+    assert!(s.report.crs.starts_with("EPSG:32618"), "{}", s.report.crs);
+    assert_eq!(
+        (
+            s.report.features_read,
+            s.report.features_used,
+            s.segments.len()
+        ),
+        (1, 1, 1)
+    );
+    // UTM's scale factor here is about 0.9996–1.0000: the grid's 1,200 m are that many metres on the ground.
+    assert!(
+        (s.report.length_m - 1200.0).abs() < 1.0,
+        "{}",
+        s.report.length_m
+    );
+    // An east-west street on the grid: east on the ground but for the grid's convergence (~0.65° here).
+    let [a, b] = s.segments[0];
+    let heading = (b[1] - a[1]).atan2(b[0] - a[0]).to_degrees();
+    assert!(
+        heading.abs() < 1.0 && heading.abs() > 0.3,
+        "{a:?} {b:?}: {heading}°"
+    );
+    // The same class by name; a polygon class asked for is refused with what street lines are.
+    let named = read_streets(&gdb, None, Some("roads"), None, &frame).unwrap();
+    assert_eq!(named.segments, s.segments);
+    match read_streets(&gdb, None, Some("blocks"), None, &frame) {
+        Err(e @ IngestError::InvalidFileGdb { .. }) => {
+            let m = e.to_string();
+            assert!(
+                m.contains("\"blocks\" holds polygons; street lines are lines"),
+                "{m}"
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+    // A geodatabase without line classes says so.
+    match read_streets(&fgdb_fixture("nyc-les-2263.gdb"), None, None, None, &frame) {
+        Err(e @ IngestError::InvalidFileGdb { .. }) => {
+            assert!(e.to_string().contains("no line feature class"), "{e}")
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn the_lower_east_side_roads_written_by_gdal_as_a_geodatabase_in_feet_read_as_their_geojson() {
+    // nyc-les-roads-2263.gdb: the bundled roads projected by PROJ to New York's State Plane (US survey feet) and
+    // written by GDAL's OpenFileGDB driver: read back through this reader and proj4rs, every point lands within a
+    // centimetre of the GeoJSON's.
+    let geojson = bundled_roads();
+    let frame = frame_at(&lines_of(&geojson));
+    let from_json = read_streets(&geojson, None, None, None, &frame).unwrap();
+    let s = read_streets(
+        &fgdb_fixture("nyc-les-roads-2263.gdb"),
+        None,
+        None,
+        None,
+        &frame,
+    )
+    .unwrap();
+    assert!(s.report.crs.starts_with("EPSG:2263"), "{}", s.report.crs);
+    assert_eq!(s.report.features_read, 432);
+    assert_eq!(s.report.features_used, from_json.report.features_used);
+    assert_eq!(s.segments.len(), from_json.segments.len());
+    let worst = s
+        .segments
+        .iter()
+        .flatten()
+        .zip(from_json.segments.iter().flatten())
+        .map(|(a, b)| (a[0] - b[0]).hypot(a[1] - b[1]))
+        .fold(0.0, f64::max);
+    assert!(worst < 0.01, "{worst} m");
+    assert!((s.report.length_m - from_json.report.length_m).abs() < 0.1);
+}

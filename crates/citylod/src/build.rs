@@ -187,21 +187,21 @@ pub struct BuildArgs {
     )]
     pub landmark_max_share: f64,
 
-    /// Street centre lines (GeoJSON LineString / MultiLineString, Shapefile PolyLines, a GeoPackage's lines, or an
-    /// OpenStreetMap file's highway ways: the buildings' own .osm.pbf or .osm serves) as barriers: the first levels do not join
-    /// buildings on opposite sides of a street (Zhang et al. 2014). The build report says up to which level, and
-    /// lists every street feature not used, with its reason. A file none of whose lines comes within 1 km of the
+    /// Street centre lines (GeoJSON LineString / MultiLineString, Shapefile PolyLines, a GeoPackage's or File
+    /// Geodatabase's lines, or an OpenStreetMap file's highway ways: the buildings' own .osm.pbf or .osm serves) as
+    /// barriers: the first levels do not join buildings on opposite sides of a street (Zhang et al. 2014). The build
+    /// report says up to which level, and lists every street feature not used, with its reason. A file none of whose lines comes within 1 km of the
     /// buildings is refused (usually a CRS mix-up).
     #[arg(long, value_name = "FILE", help_heading = "Generalization")]
     pub streets: Option<PathBuf>,
 
     /// CRS of the --streets coordinates. Default: the CRS the streets file declares (GeoJSON crs member, .prj,
-    /// GeoPackage layer), else --crs, else lon/lat for GeoJSON.
+    /// GeoPackage layer, geodatabase class), else --crs, else lon/lat for GeoJSON.
     #[arg(long, value_name = "EPSG:CODE", help_heading = "Generalization")]
     pub streets_crs: Option<String>,
 
-    /// The feature table of a --streets GeoPackage to read. Default: its only feature table, else its only table of
-    /// lines.
+    /// The layer of a --streets GeoPackage or File Geodatabase to read. Default: its only layer of lines (for a
+    /// GeoPackage, its only feature table if it has one).
     #[arg(long, value_name = "NAME", help_heading = "Generalization")]
     pub streets_layer: Option<String>,
 

@@ -275,6 +275,14 @@ def nyc():
     df.to_file(path, driver='OpenFileGDB', layer='buildings')
 
 
+def roads():
+    """The Lower East Side road lines, as a city keeps its street centre lines: State Plane feet, a File Geodatabase."""
+    df = gpd.read_file(os.path.join(REPO, 'examples/nyc-les/les_roads.geojson')).to_crs('EPSG:2263')
+    path = os.path.join(HERE, 'nyc-les-roads-2263.gdb')
+    shutil.rmtree(path, ignore_errors=True)
+    df.to_file(path, driver='OpenFileGDB', layer='roads')
+
+
 def reference(gdb, name):
     """GDAL's reading of a feature class: OBJECTID, attributes as GDAL's text, polygons linearized by GDAL in lon/lat
     (MultiPatch models as their faces)."""
@@ -328,6 +336,7 @@ def zips():
 
 if __name__ == '__main__':
     nyc()
+    roads()
     kinds()
     pro32()
     no_crs()
