@@ -36,12 +36,14 @@ pub enum IngestError {
         detail: String,
     },
     /// A CRS declaration in the file that names no usable CRS (a legacy GeoJSON `crs` link, an unknown
-    /// form of `crs` or `metadata.referenceSystem`), and no CRS was given by the user.
-    #[error("{path}: the {member} member is not understood: {detail}; pass the CRS with --crs, e.g. --crs EPSG:2263")]
+    /// form of `crs` or `metadata.referenceSystem`), and no CRS was given by the user with `option` (`--crs`, or
+    /// `--streets-crs` for a street file).
+    #[error("{path}: the {member} member is not understood: {detail}; pass the CRS with {option}, e.g. {option} EPSG:2263")]
     CrsNotUnderstood {
         path: PathBuf,
         member: &'static str,
         detail: String,
+        option: &'static str,
     },
     /// An ingest option out of its range (e.g. a non-positive default height).
     #[error("option {name}: {detail}")]

@@ -959,6 +959,7 @@ fn settle_crs(
                 path: path.into(),
                 member,
                 detail: detail.clone(),
+                option: "--crs",
             })
         }
         None if format == InputFormat::GeoJson => Crs::wgs84(),

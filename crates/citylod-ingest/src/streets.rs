@@ -95,6 +95,7 @@ fn street_crs(
                 path: path.into(),
                 member,
                 detail,
+                option: "--streets-crs",
             })
         }
         _ => None,
@@ -546,10 +547,12 @@ mod tests {
             r#"{"type": "link", "properties": {"href": "http://example.com/crs"}}"#,
         );
         let p = write("link.geojson", &link);
-        assert!(matches!(
-            read_streets(&p, None, None, None, &frame),
-            Err(IngestError::CrsNotUnderstood { .. })
-        ));
+        match read_streets(&p, None, None, None, &frame) {
+            Err(e @ IngestError::CrsNotUnderstood { .. }) => {
+                assert!(e.to_string().contains("with --streets-crs, e.g."), "{e}")
+            }
+            other => panic!("{other:?}"),
+        }
         assert!(read_streets(&p, Some("EPSG:28992"), None, None, &frame).is_ok());
     }
 
