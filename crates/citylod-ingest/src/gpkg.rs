@@ -39,8 +39,8 @@ struct Layer {
     srs_id: i64,
 }
 
-/// Reads the feature table `layer` of `path` (the only one when `layer` is `None`; for `Want::Lines`, else the only
-/// one of line geometries). Errors name what is wrong with the file as a whole; one unusable row is a skipped feature.
+/// Reads the feature table `layer` of `path` (when `layer` is `None`, the only one; for `Want::Lines`, the only one
+/// of lines). Errors name what is wrong with the file as a whole; one unusable row is a skipped feature.
 pub(crate) fn read(path: &Path, layer: Option<&str>, want: Want) -> Result<VectorDoc, String> {
     let mut head = Vec::with_capacity(16);
     std::fs::File::open(path)
@@ -173,8 +173,8 @@ const LINE_TYPES: [&str; 5] = [
     "MULTICURVE",
 ];
 
-/// The layer asked for, or the only one, or for lines the only one of line geometries; else an error listing what
-/// there is.
+/// The layer asked for; else for buildings the only one, for streets the only one of lines (or the only one, when its
+/// type is any geometry); else an error listing what there is.
 fn choose<'a>(layers: &'a [Layer], asked: Option<&str>, want: Want) -> Result<&'a Layer, String> {
     let list = || {
         layers
@@ -194,22 +194,30 @@ fn choose<'a>(layers: &'a [Layer], asked: Option<&str>, want: Want) -> Result<&'
                 same.next().filter(|_| same.next().is_none())
             })
             .ok_or_else(|| format!("no feature table {name:?} (its feature tables: {})", list())),
-        (None, [one]) => Ok(one),
+        (None, [one]) if want == Want::Footprints => Ok(one),
+        (None, _) if want == Want::Footprints => Err(format!(
+            "it holds {} feature tables; name the one to read with --layer (feature tables: {})",
+            layers.len(),
+            list()
+        )),
         (None, _) => {
-            let mut lines = layers.iter().filter(|l| {
-                LINE_TYPES
+            // Streets: the only table of lines; else the only table of any geometry type (which may hold lines).
+            let of = |types: &[&str]| -> Vec<&'a Layer> {
+                layers
                     .iter()
-                    .any(|t| l.geometry_type.eq_ignore_ascii_case(t))
-            });
-            match (want, lines.next(), lines.next()) {
-                (Want::Lines, Some(one), None) => Ok(one),
-                _ => Err(format!(
-                    "it holds {} feature tables; name the one to read with {} (feature tables: {})",
-                    layers.len(),
-                    match want {
-                        Want::Footprints => "--layer",
-                        Want::Lines => "--streets-layer",
-                    },
+                    .filter(|l| types.iter().any(|t| l.geometry_type.eq_ignore_ascii_case(t)))
+                    .collect()
+            };
+            match (of(&LINE_TYPES).as_slice(), layers) {
+                ([one], _) => Ok(one),
+                ([], [one]) if of(&["GEOMETRY", "GEOMETRYCOLLECTION"]).len() == 1 => Ok(one),
+                ([], _) => Err(format!(
+                    "it holds no table of lines, which street lines are (feature tables: {})",
+                    list()
+                )),
+                (many, _) => Err(format!(
+                    "it holds {} tables of lines; name the one to read with --streets-layer (feature tables: {})",
+                    many.len(),
                     list()
                 )),
             }

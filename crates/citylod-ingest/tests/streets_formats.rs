@@ -366,6 +366,15 @@ fn a_geopackage_line_layer_is_chosen_or_asked_for_and_its_curves_are_read() {
     // The other layer by name, and a layer asked of a format without layers.
     let p = read_streets(&gpkg_path, None, Some("paths"), None, &frame).unwrap();
     assert_eq!((p.report.features_used, p.segments.len()), (1, 1));
+    // A GeoPackage of buildings only is no street file.
+    let buildings = dir.path().join("buildings.gpkg");
+    gpkg::write(&buildings, &[], &[building_layer(AT)]);
+    match read_streets(&buildings, None, None, None, &frame) {
+        Err(e @ IngestError::InvalidGeoPackage { .. }) => {
+            assert!(e.to_string().contains("no table of lines"), "{e}")
+        }
+        other => panic!("{other:?}"),
+    }
     match read_streets(&bundled_roads(), None, Some("roads"), None, &frame) {
         Err(IngestError::InvalidOption {
             name: "--streets-layer",

@@ -200,8 +200,7 @@ pub struct BuildArgs {
     #[arg(long, value_name = "EPSG:CODE", help_heading = "Generalization")]
     pub streets_crs: Option<String>,
 
-    /// The layer of a --streets GeoPackage or File Geodatabase to read. Default: its only layer of lines (for a
-    /// GeoPackage, its only feature table if it has one).
+    /// The layer of a --streets GeoPackage or File Geodatabase to read. Default: its only layer of lines.
     #[arg(long, value_name = "NAME", help_heading = "Generalization")]
     pub streets_layer: Option<String>,
 
