@@ -1478,7 +1478,10 @@ fn shape(b: &[u8], g: &GeometryDef, multipatch_layer: bool) -> Result<Shape, Ski
     let mut circles = Vec::new();
     for (k, &size) in sizes.iter().enumerate() {
         let end = start + size as usize;
-        if size <= 2 && segments.iter().any(|s| s.0 == start) && xy[start] == xy[end - 1] {
+        if (1..=2).contains(&size)
+            && segments.iter().any(|s| s.0 == start)
+            && xy[start] == xy[end - 1]
+        {
             circles.push(k);
         }
         let mut r: Vec<[f64; 2]> = Vec::with_capacity(size as usize);

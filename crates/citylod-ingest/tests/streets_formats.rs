@@ -554,3 +554,113 @@ fn the_lower_east_side_roads_written_by_gdal_as_a_geodatabase_in_feet_read_as_th
     assert!(worst < 0.01, "{worst} m");
     assert!((s.report.length_m - from_json.report.length_m).abs() < 0.1);
 }
+
+/// Copies the folder `from` into `to`.
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let p = e.unwrap().path();
+        std::fs::copy(&p, to.join(p.file_name().unwrap())).unwrap();
+    }
+}
+
+#[test]
+fn broken_street_files_give_errors_or_skips_never_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let frame = LocalFrame::new(AT[0], AT[1], 0.0);
+    // Whatever happens, every feature read is used or listed.
+    let accounted = |s: &Streets| {
+        assert_eq!(
+            s.report.features_read,
+            s.report.features_used + s.report.skipped.len()
+        );
+    };
+
+    // A GeoPackage row of every line type, each cut short at every byte and each byte flipped.
+    let w = Wkb::default();
+    let arc = w.circular_string(&[near(0., 0.), near(50., 50.), near(100., 0.)]);
+    let compound = w.of_members(9, &[w.line(&[near(-40., 0.), near(0., 0.)]), arc.clone()]);
+    let whole = w.of_members(
+        11,
+        &[arc, compound, w.line(&[near(0., 80.), near(10., 80.)])],
+    );
+    let mut rows = vec![row(1, Some(whole.clone()), "whole")];
+    for n in 0..whole.len() {
+        rows.push(row(rows.len() as i64 + 1, Some(whole[..n].to_vec()), "cut"));
+        let mut b = whole.clone();
+        b[n] ^= 0xFF;
+        rows.push(row(rows.len() as i64 + 1, Some(b), "flip"));
+    }
+    let p = dir.path().join("broken.gpkg");
+    gpkg::write(&p, &[], &[line_layer("roads", 4326, rows)]);
+    let s = read_streets(&p, None, None, None, &frame).unwrap();
+    accounted(&s);
+    assert_eq!(s.report.features_read, 1 + 2 * whole.len());
+    assert!(
+        s.report
+            .skipped
+            .iter()
+            .all(|i| i.feature_id != "broken.gpkg#1"),
+        "the whole row is a street"
+    );
+    assert!(
+        s.report.features_used > 0 && s.report.skipped.len() > whole.len(),
+        "{} used, {} skipped of {}",
+        s.report.features_used,
+        s.report.skipped.len(),
+        s.report.features_read
+    );
+
+    // The geodatabase's line table and the shapefile's .shp cut and garbled: an error naming the file, or streets.
+    let gdb = fgdb_fixture("nyc-les-roads-2263.gdb");
+    let table = std::fs::read(gdb.join("a00000009.gdbtable")).unwrap();
+    let lines = lines_of(&bundled_roads());
+    let mut t = Table::new(vec![Field::new("name", b'C', 80, 0)]);
+    let shapes: Vec<Shape> = lines
+        .iter()
+        .map(|(name, pts)| {
+            t.push([text(name)]);
+            Shape::PolyLine(vec![pts.clone()])
+        })
+        .collect();
+    let shp_path = shp::write(dir.path(), "roads", &shapes, &t, Some(WGS84_PRJ), None);
+    let shp_bytes = std::fs::read(&shp_path).unwrap();
+    let frame = frame_at(&lines);
+    for (k, (original, target)) in (0..2 * 61)
+        .map(|k| {
+            if k % 2 == 0 {
+                (&table, "gdb")
+            } else {
+                (&shp_bytes, "shp")
+            }
+        })
+        .enumerate()
+    {
+        let mut b = original.clone();
+        let at = (k / 2) * b.len() / 61;
+        if k % 4 < 2 {
+            b.truncate(at.max(1));
+        } else {
+            for x in &mut b[at..(at + 256).min(original.len())] {
+                *x = x.wrapping_mul(29).wrapping_add(11);
+            }
+        }
+        let path = if target == "gdb" {
+            let copy = dir.path().join(format!("broken-{k}.gdb"));
+            copy_dir(&gdb, &copy);
+            std::fs::write(copy.join("a00000009.gdbtable"), &b).unwrap();
+            copy
+        } else {
+            std::fs::write(&shp_path, &b).unwrap();
+            shp_path.clone()
+        };
+        match read_streets(&path, None, None, None, &frame) {
+            Ok(s) => accounted(&s),
+            Err(e) => assert!(
+                e.to_string()
+                    .contains(path.file_name().unwrap().to_str().unwrap()),
+                "{e}"
+            ),
+        }
+    }
+}
