@@ -202,15 +202,11 @@ fn choose<'a>(layers: &'a [Layer], asked: Option<&str>, want: Want) -> Result<&'
         )),
         (None, _) => {
             // Streets: the only table of lines; else the only table of any geometry type (which may hold lines).
-            let of = |types: &[&str]| -> Vec<&'a Layer> {
-                layers
-                    .iter()
-                    .filter(|l| types.iter().any(|t| l.geometry_type.eq_ignore_ascii_case(t)))
-                    .collect()
-            };
-            match (of(&LINE_TYPES).as_slice(), layers) {
+            let is = |l: &Layer, types: &[&str]| types.iter().any(|t| l.geometry_type.eq_ignore_ascii_case(t));
+            let lines: Vec<&Layer> = layers.iter().filter(|l| is(l, &LINE_TYPES)).collect();
+            match (lines.as_slice(), layers) {
                 ([one], _) => Ok(one),
-                ([], [one]) if of(&["GEOMETRY", "GEOMETRYCOLLECTION"]).len() == 1 => Ok(one),
+                ([], [one]) if is(one, &["GEOMETRY", "GEOMETRYCOLLECTION"]) => Ok(one),
                 ([], _) => Err(format!(
                     "it holds no table of lines, which street lines are (feature tables: {})",
                     list()

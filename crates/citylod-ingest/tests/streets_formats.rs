@@ -92,6 +92,19 @@ fn building_layer(at: [f64; 2]) -> Layer {
     }
 }
 
+/// `lines` written as `dir/stem.shp` (PolyLines, with a name field and a WGS84 `.prj`).
+fn write_shapefile(dir: &Path, stem: &str, lines: &[(String, Vec<[f64; 2]>)]) -> PathBuf {
+    let mut table = Table::new(vec![Field::new("name", b'C', 80, 0)]);
+    let shapes: Vec<Shape> = lines
+        .iter()
+        .map(|(name, pts)| {
+            table.push([text(name)]);
+            Shape::PolyLine(vec![pts.clone()])
+        })
+        .collect();
+    shp::write(dir, stem, &shapes, &table, Some(WGS84_PRJ), None)
+}
+
 fn frame_at(lines: &[(String, Vec<[f64; 2]>)]) -> LocalFrame {
     let p = lines[0].1[0];
     LocalFrame::new(p[0], p[1], 0.0)
@@ -105,22 +118,7 @@ fn reads_alike(geojson: &Path, expected_lines: usize) {
     assert_eq!(lines.len(), expected_lines);
     let frame = frame_at(&lines);
 
-    let mut table = Table::new(vec![Field::new("name", b'C', 80, 0)]);
-    let shapes: Vec<Shape> = lines
-        .iter()
-        .map(|(name, pts)| {
-            table.push([text(name)]);
-            Shape::PolyLine(vec![pts.clone()])
-        })
-        .collect();
-    let shapefile = shp::write(
-        dir.path(),
-        "streets",
-        &shapes,
-        &table,
-        Some(WGS84_PRJ),
-        None,
-    );
+    let shapefile = write_shapefile(dir.path(), "streets", &lines);
 
     let wkb = Wkb::default();
     let rows = lines
@@ -615,15 +613,7 @@ fn broken_street_files_give_errors_or_skips_never_a_panic() {
     let gdb = fgdb_fixture("nyc-les-roads-2263.gdb");
     let table = std::fs::read(gdb.join("a00000009.gdbtable")).unwrap();
     let lines = lines_of(&bundled_roads());
-    let mut t = Table::new(vec![Field::new("name", b'C', 80, 0)]);
-    let shapes: Vec<Shape> = lines
-        .iter()
-        .map(|(name, pts)| {
-            t.push([text(name)]);
-            Shape::PolyLine(vec![pts.clone()])
-        })
-        .collect();
-    let shp_path = shp::write(dir.path(), "roads", &shapes, &t, Some(WGS84_PRJ), None);
+    let shp_path = write_shapefile(dir.path(), "roads", &lines);
     let shp_bytes = std::fs::read(&shp_path).unwrap();
     let frame = frame_at(&lines);
     for (k, (original, target)) in (0..2 * 61)
