@@ -276,19 +276,42 @@ const NOT_STREETS: [&str; 11] = [
 ];
 
 fn street_tags<K: AsRef<str>, V: AsRef<str>>(tags: &[(K, V)]) -> bool {
-    let get = |k: &str| {
+    tags.iter().any(|(k, _)| k.as_ref() == "highway") && off_ground(tags).is_none()
+}
+
+/// Why a line with these tags (OpenStreetMap's, or a street file's attributes named alike, names in any case) is no
+/// street on the ground between buildings, for the report: in a tunnel (`tunnel` set: `yes`, `building_passage`,
+/// `culvert`, or `T` / `true` / `1` as exports of OSM data write it), indoors (`indoor` set), an area (`area=yes`),
+/// or a `highway` not yet or no longer a road (`proposed`, `construction`, `abandoned`, …). `None` for a street.
+pub(crate) fn off_ground<K: AsRef<str>, V: AsRef<str>>(tags: &[(K, V)]) -> Option<String> {
+    let get = |key: &str| {
         tags.iter()
-            .find(|(t, _)| t.as_ref() == k)
-            .map(|(_, v)| v.as_ref())
+            .find(|(k, _)| k.as_ref().eq_ignore_ascii_case(key))
+            .map(|(k, v)| (k.as_ref(), v.as_ref().trim()))
     };
-    match get("highway") {
-        Some(h) if !NOT_STREETS.contains(&h) => {
-            !get("tunnel").is_some_and(tag_set)
-                && !get("indoor").is_some_and(tag_set)
-                && get("area") != Some("yes")
-        }
-        _ => false,
+    let flag = |v: &str| {
+        tag_set(v)
+            && !["f", "false", "0", "n"]
+                .iter()
+                .any(|no| v.eq_ignore_ascii_case(no))
+    };
+    if let Some((k, v)) = get("tunnel").filter(|(_, v)| flag(v)) {
+        return Some(format!(
+            "in a tunnel ({k}={v}): no barrier between the buildings above it"
+        ));
     }
+    if let Some((k, v)) = get("indoor").filter(|(_, v)| flag(v)) {
+        return Some(format!("indoors ({k}={v}), not a street between buildings"));
+    }
+    if let Some((k, v)) = get("area").filter(|(_, v)| v.eq_ignore_ascii_case("yes")) {
+        return Some(format!("an area ({k}={v}), not a street line"));
+    }
+    if let Some((k, v)) =
+        get("highway").filter(|(_, v)| NOT_STREETS.iter().any(|n| v.eq_ignore_ascii_case(n)))
+    {
+        return Some(format!("{k}={v}: not a road on the ground"));
+    }
+    None
 }
 
 /// Tagged `building` or `building:part` with a value other than `no`.

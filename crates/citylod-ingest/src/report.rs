@@ -45,6 +45,11 @@ pub enum IssueReason {
     /// A File Geodatabase row whose bytes cannot be read (the row index points outside the table, the row ends inside
     /// a field): skipped with its OBJECTID and what is wrong; the rows around it are read.
     UnreadableRow,
+    /// A `--streets` line whose attributes say it is no street on the ground between buildings, so no barrier: in
+    /// a tunnel, indoors, an area, or a road not yet or no longer built (OpenStreetMap's `tunnel`, `indoor`, `area`
+    /// and `highway` tags, also as attributes of a GeoJSON, Shapefile, GeoPackage or geodatabase line, e.g.
+    /// Geofabrik's `tunnel` = `T`). The detail names the attribute and its value.
+    NotOnGround,
     // --- repairs ---
     /// A GeoJSON ring whose last point did not repeat the first was closed.
     RingClosed,
@@ -148,6 +153,7 @@ impl IssueReason {
             Duplicate => "duplicate",
             DeletedRecord => "deleted_record",
             UnreadableRow => "unreadable_row",
+            NotOnGround => "not_on_ground",
             RingClosed => "ring_closed",
             RepeatedPointsRemoved => "repeated_points_removed",
             DegenerateHoleDropped => "degenerate_hole_dropped",

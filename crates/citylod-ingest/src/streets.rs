@@ -125,7 +125,8 @@ fn street_crs(
 /// given (`--streets-crs`), else in the CRS the file declares (a GeoJSON legacy `crs` member, a `.prj`, the layer's
 /// spatial reference system), else in `fallback_crs` (the buildings' `--crs`), else, for GeoJSON, RFC 7946 lon/lat.
 /// Features without a line geometry, or with fewer than two distinct points, or with a coordinate that cannot be
-/// placed, are skipped and listed in the report.
+/// placed, are skipped and listed in the report; so are lines whose attributes say they are not on the ground (a
+/// tunnel, …: `osm::off_ground`), which are no barriers.
 ///
 /// Errors for the whole file: unreadable, not of a format read here, not valid as its format, no CRS or an unknown
 /// one, or `layer` given for a format without layers.
@@ -200,6 +201,7 @@ pub fn read_streets(
                     .map(|l| l.iter().map(|p| to_lon_lat(&crs, p[0], p[1]))),
                 frame,
             )
+            .and_then(|segments| on_ground(attribute_tags(&f.attributes), segments))
         };
         out.take(f.source_id, segments);
     }
@@ -234,10 +236,10 @@ fn geojson_streets(
                 .ok_or_else(|| unknown("a FeatureCollection without a \"features\" array"))?
                 .iter()
                 .enumerate()
-                .map(|(i, f)| (feature_id(f, i), f.get("geometry")))
+                .map(|(i, f)| (feature_id(f, i), Some(f)))
                 .collect(),
-            "Feature" => vec![(feature_id(&doc, 0), doc.get("geometry"))],
-            "LineString" | "MultiLineString" => vec![("#0".into(), Some(&doc))],
+            "Feature" => vec![(feature_id(&doc, 0), Some(&doc))],
+            "LineString" | "MultiLineString" => vec![("#0".into(), None)],
             "" => return Err(unknown("no top-level \"type\" member")),
             other => {
                 return Err(unknown(&format!(
@@ -250,8 +252,14 @@ fn geojson_streets(
         format!("{} (from {origin})", crs.label),
         features.len(),
     );
-    for (id, geometry) in features {
-        out.take(id, feature_segments(geometry, &crs, frame));
+    for (id, feature) in features {
+        let segments = match feature {
+            Some(f) => feature_segments(f.get("geometry"), &crs, frame)
+                .and_then(|segments| on_ground(json_tags(f.get("properties")), segments)),
+            // A bare geometry.
+            None => feature_segments(Some(&doc), &crs, frame),
+        };
+        out.take(id, segments);
     }
     Ok(out)
 }
@@ -341,6 +349,60 @@ fn feature_id(f: &Value, index: usize) -> String {
 }
 
 type Skip = (IssueReason, String);
+
+/// The attributes a street line is judged by (`osm::off_ground`), as text: a flag `true` / `false` as `yes` / `no`.
+const GROUND_KEYS: [&str; 4] = ["tunnel", "indoor", "area", "highway"];
+
+fn ground_key(key: &str) -> bool {
+    GROUND_KEYS.iter().any(|k| key.eq_ignore_ascii_case(k))
+}
+
+fn attribute_tags(attributes: &citylod_model::Attributes) -> Vec<(String, String)> {
+    use citylod_model::AttrValue;
+    attributes
+        .iter()
+        .filter(|(k, _)| ground_key(k))
+        .filter_map(|(k, v)| {
+            let text = match v {
+                AttrValue::Null => return None,
+                AttrValue::Bool(b) => (if *b { "yes" } else { "no" }).to_string(),
+                AttrValue::Int(i) => i.to_string(),
+                AttrValue::Float(f) => f.to_string(),
+                AttrValue::String(s) => s.clone(),
+            };
+            Some((k.clone(), text))
+        })
+        .collect()
+}
+
+fn json_tags(properties: Option<&Value>) -> Vec<(String, String)> {
+    let Some(Value::Object(map)) = properties else {
+        return Vec::new();
+    };
+    map.iter()
+        .filter(|(k, _)| ground_key(k))
+        .filter_map(|(k, v)| {
+            let text = match v {
+                Value::Bool(b) => (if *b { "yes" } else { "no" }).to_string(),
+                Value::Number(n) => n.to_string(),
+                Value::String(s) => s.clone(),
+                _ => return None,
+            };
+            Some((k.clone(), text))
+        })
+        .collect()
+}
+
+/// `segments`, unless the line's tags say it is no street on the ground (a tunnel, …).
+fn on_ground(
+    tags: Vec<(String, String)>,
+    segments: Vec<[[f64; 2]; 2]>,
+) -> Result<Vec<[[f64; 2]; 2]>, Skip> {
+    match crate::osm::off_ground(&tags) {
+        Some(why) => Err((IssueReason::NotOnGround, why)),
+        None => Ok(segments),
+    }
+}
 
 /// The segments of one feature's line geometry in the local frame, consecutive repeated points dropped.
 fn feature_segments(

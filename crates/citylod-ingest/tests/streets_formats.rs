@@ -654,3 +654,161 @@ fn broken_street_files_give_errors_or_skips_never_a_panic() {
         }
     }
 }
+
+/// The bundled roads with tags on a few lines, as an OpenStreetMap export or Geofabrik's shapefiles write them:
+/// (line index, attribute, value as GeoJSON writes it, whether the line is still a street).
+const GROUND_TAGS: [(usize, &str, &str, bool); 10] = [
+    (3, "tunnel", r#""yes""#, false),
+    (40, "tunnel", r#""T""#, false),
+    (41, "tunnel", r#""F""#, true),
+    (77, "tunnel", r#""building_passage""#, false),
+    (78, "tunnel", r#""no""#, true),
+    (120, "TUNNEL", "true", false),
+    (121, "tunnel", "0", true),
+    (200, "highway", r#""construction""#, false),
+    (201, "indoor", r#""yes""#, false),
+    (310, "area", r#""yes""#, false),
+];
+
+#[test]
+fn street_lines_in_tunnels_or_not_built_are_listed_and_not_barriers_in_every_format() {
+    let dir = tempfile::tempdir().unwrap();
+    let lines = lines_of(&bundled_roads());
+    let frame = frame_at(&lines);
+    let tags_of = |i: usize| GROUND_TAGS.iter().filter(move |t| t.0 == i);
+    let kept: Vec<usize> = (0..lines.len())
+        .filter(|&i| tags_of(i).all(|t| t.3))
+        .collect();
+    assert_eq!(kept.len(), lines.len() - 7);
+
+    // GeoJSON: each line with its name and the tag, the values typed as given (a string, a boolean, a number).
+    let feature = |i: usize| {
+        let mut properties = serde_json::json!({ "name": lines[i].0 });
+        for (_, k, v, _) in tags_of(i) {
+            properties[*k] = serde_json::from_str(v).unwrap();
+        }
+        serde_json::json!({
+            "type": "Feature", "id": format!("road-{i}"), "properties": properties,
+            "geometry": { "type": "LineString", "coordinates": lines[i].1 },
+        })
+    };
+    let collection = |indices: &[usize]| {
+        serde_json::json!({ "type": "FeatureCollection",
+            "features": indices.iter().map(|&i| feature(i)).collect::<Vec<_>>() })
+        .to_string()
+    };
+    let tagged = dir.path().join("tagged.geojson");
+    std::fs::write(&tagged, collection(&(0..lines.len()).collect::<Vec<_>>())).unwrap();
+    let only_kept = dir.path().join("kept.geojson");
+    std::fs::write(&only_kept, collection(&kept)).unwrap();
+    let expected = read_streets(&only_kept, None, None, None, &frame).unwrap();
+    assert!(expected.report.skipped.is_empty());
+
+    // Shapefile: text fields, as Geofabrik writes `tunnel` (T / F) and OSM exports the others.
+    let fields = ["tunnel", "highway", "indoor", "area"];
+    let mut table = Table::new(
+        std::iter::once(Field::new("name", b'C', 80, 0))
+            .chain(fields.iter().map(|f| Field::new(f, b'C', 20, 0)))
+            .collect(),
+    );
+    let value_of = |i: usize, field: &str| {
+        tags_of(i)
+            .find(|t| t.1.eq_ignore_ascii_case(field))
+            .map(|t| t.2.trim_matches('"').to_string())
+            .unwrap_or_default()
+    };
+    let shapes: Vec<Shape> = (0..lines.len())
+        .map(|i| {
+            table.push(
+                std::iter::once(text(&lines[i].0))
+                    .chain(fields.iter().map(|f| text(&value_of(i, f)))),
+            );
+            Shape::PolyLine(vec![lines[i].1.clone()])
+        })
+        .collect();
+    let shapefile = shp::write(dir.path(), "roads", &shapes, &table, Some(WGS84_PRJ), None);
+
+    // GeoPackage: `tunnel` a BOOLEAN column (0 / 1, NULL where untagged), the others text.
+    let wkb = Wkb::default();
+    let mut layer = line_layer(
+        "roads",
+        4326,
+        (0..lines.len())
+            .map(|i| {
+                let mut r = row(i as i64 + 1, Some(wkb.line(&lines[i].1)), &lines[i].0);
+                let tunnel = match value_of(i, "tunnel").as_str() {
+                    "" => Sql::Null,
+                    "yes" | "T" | "true" | "building_passage" => Sql::Integer(1),
+                    _ => Sql::Integer(0),
+                };
+                r.values.push(tunnel);
+                for f in &fields[1..] {
+                    r.values.push(match value_of(i, f) {
+                        v if v.is_empty() => Sql::Null,
+                        v => Sql::Text(v),
+                    });
+                }
+                r
+            })
+            .collect(),
+    );
+    layer.columns.push(("tunnel".into(), "BOOLEAN".into()));
+    for f in &fields[1..] {
+        layer.columns.push((f.to_string(), "TEXT".into()));
+    }
+    let geopackage = dir.path().join("roads.gpkg");
+    gpkg::write(&geopackage, &[], &[layer]);
+
+    for (what, path) in [
+        ("GeoJSON", &tagged),
+        ("Shapefile", &shapefile),
+        ("GeoPackage", &geopackage),
+    ] {
+        let s = read_streets(path, None, None, None, &frame).unwrap();
+        assert_eq!(s.segments, expected.segments, "{what}");
+        assert_eq!(s.report.features_read, lines.len(), "{what}");
+        assert_eq!(s.report.features_used, kept.len(), "{what}");
+        let skips = skipped(&s);
+        assert_eq!(skips.len(), 7, "{what}: {skips:?}");
+        for (id, reason, detail) in &skips {
+            assert_eq!(*reason, IssueReason::NotOnGround, "{what}: {id}: {detail}");
+        }
+        // Each names the attribute and its value as the format keeps it (a GeoJSON or GeoPackage boolean as yes).
+        let tunnel_true = match what {
+            "GeoJSON" => "TUNNEL=yes",
+            "Shapefile" => "tunnel=true",
+            _ => "tunnel=yes",
+        };
+        let (tunnel_t, passage) = match what {
+            "GeoPackage" => ("tunnel=yes", "tunnel=yes"),
+            _ => ("tunnel=T", "tunnel=building_passage"),
+        };
+        let names = [
+            "tunnel=yes",
+            tunnel_t,
+            passage,
+            tunnel_true,
+            "highway=construction",
+            "indoor=yes",
+            "area=yes",
+        ];
+        for ((id, _, detail), name) in skips.iter().zip(names) {
+            assert!(
+                detail.contains(&format!("({name})")) || detail.starts_with(&format!("{name}:")),
+                "{what}: {id}: {detail:?} should name {name}"
+            );
+        }
+        // Ids as each format gives them: the GeoJSON `id`, the record number, the row's fid.
+        let ids: Vec<&str> = skips.iter().map(|s| s.0.as_str()).collect();
+        let expected_ids: Vec<String> = GROUND_TAGS
+            .iter()
+            .filter(|t| !t.3)
+            .map(|t| match what {
+                "GeoJSON" => format!("road-{}", t.0),
+                "Shapefile" => format!("roads.shp#{}", t.0),
+                _ => format!("roads.gpkg#{}", t.0 + 1),
+            })
+            .collect();
+        assert_eq!(ids, expected_ids, "{what}");
+    }
+}

@@ -189,9 +189,11 @@ pub struct BuildArgs {
 
     /// Street centre lines (GeoJSON LineString / MultiLineString, Shapefile PolyLines, a GeoPackage's or File
     /// Geodatabase's lines, or an OpenStreetMap file's highway ways: the buildings' own .osm.pbf or .osm serves) as
-    /// barriers: the first levels do not join buildings on opposite sides of a street (Zhang et al. 2014). The build
-    /// report says up to which level, and lists every street feature not used, with its reason. A file none of whose lines comes within 1 km of the
-    /// buildings is refused (usually a CRS mix-up).
+    /// barriers: the first levels do not join buildings on opposite sides of a street (Zhang et al. 2014). A line
+    /// whose attributes say it is not on the ground (OpenStreetMap's tags, in any format: tunnel=yes or T,
+    /// indoor=yes, area=yes, highway=construction/proposed/…) is no barrier. The build report says up to which
+    /// level, and lists every street feature not used, with its reason. A file none of whose lines comes within 1 km
+    /// of the buildings is refused (usually a CRS mix-up).
     #[arg(long, value_name = "FILE", help_heading = "Generalization")]
     pub streets: Option<PathBuf>,
 
