@@ -13,6 +13,7 @@
 
 mod extrude;
 pub mod hausdorff;
+pub mod roof;
 mod ring;
 pub mod simplify;
 pub mod topology;

@@ -1,0 +1,698 @@
+//! Buildings with pitched roofs from a footprint, its heights and a roof shape, as OpenStreetMap's Simple 3D
+//! Buildings tags describe them (`roof:shape`, `roof:height`, `roof:angle`, `roof:direction`, `roof:orientation`):
+//! a closed mesh of ground, walls up to the roof and the roof faces, each face planar, in local ENU metres.
+//!
+//! - **skillion**: one plane descending towards the roof direction, over any simple outline;
+//! - **gabled**: two planes meeting at a ridge through the middle of the outline, the gable ends walls;
+//! - **hipped**: a plane rising from every outline edge at one slope (the straight skeleton of a convex outline:
+//!   the face of an edge is where that edge is the nearest);
+//! - **pyramidal**: a triangle from every outline edge to an apex above the outline's centroid.
+//!
+//! Gabled, hipped and pyramidal roofs need a convex outline; an outline with holes or of several polygons has no
+//! pitched roof here. Those cases are errors with the reason, for the caller to keep its flat prism.
+
+use crate::simplify::triangulate_polygon_3d;
+use citylod_model::{Mesh3d, SurfaceKind};
+use geo_types::MultiPolygon;
+
+/// The shapes modelled (OpenStreetMap `roof:shape` values).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RoofShape {
+    Skillion,
+    Gabled,
+    Hipped,
+    Pyramidal,
+}
+
+impl RoofShape {
+    /// The shape an OpenStreetMap `roof:shape` value names, if modelled here.
+    pub fn from_osm(value: &str) -> Option<RoofShape> {
+        match value.trim().to_ascii_lowercase().as_str() {
+            "skillion" | "lean_to" | "shed" => Some(RoofShape::Skillion),
+            "gabled" | "pitched" => Some(RoofShape::Gabled),
+            "hipped" => Some(RoofShape::Hipped),
+            "pyramidal" => Some(RoofShape::Pyramidal),
+            _ => None,
+        }
+    }
+}
+
+/// How high the roof rises from its eaves to its top.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum RoofRise {
+    /// Metres (`roof:height`, or `roof:levels` storeys).
+    Metres(f64),
+    /// The slope in degrees (`roof:angle`): the rise over the run from the eaves to the ridge or apex.
+    AngleDeg(f64),
+    /// Nothing given: a slope of [`DEFAULT_ANGLE_DEG`], at most half of the building's height.
+    Default,
+}
+
+/// The slope of a roof whose height is not given.
+pub const DEFAULT_ANGLE_DEG: f64 = 30.0;
+
+/// A roof below this rise is flat.
+pub const MIN_RISE_M: f64 = 0.05;
+
+/// Outlines with more corners than this are not roofed (a hipped roof clips every face by every edge).
+pub const MAX_CORNERS: usize = 256;
+
+/// A pitched roof.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RoofSpec {
+    pub shape: RoofShape,
+    pub rise: RoofRise,
+    /// Compass degrees (clockwise from north) the roof's slopes face (`roof:direction`): a skillion descends
+    /// towards it, a gabled roof's ridge runs across it. Without it a skillion descends across the longest edge and
+    /// a gabled ridge runs along the longest edge.
+    pub direction_deg: Option<f64>,
+    /// A gabled ridge across the longest edge instead of along it (`roof:orientation=across`).
+    pub across: bool,
+}
+
+type P2 = [f64; 2];
+
+/// The mesh of a building of `footprint` standing from `base_z` to `base_z + height` (the top of its roof) with
+/// the roof `spec`, and the kind of every triangle; or why this roof cannot be built on this footprint.
+pub fn roofed_building(
+    footprint: &MultiPolygon<f64>,
+    base_z: f64,
+    height: f64,
+    spec: &RoofSpec,
+) -> Result<(Mesh3d, Vec<SurfaceKind>), String> {
+    let [polygon] = footprint.0.as_slice() else {
+        return Err(format!(
+            "a footprint of {} polygons has no single roof",
+            footprint.0.len()
+        ));
+    };
+    if !polygon.interiors().is_empty() {
+        return Err("a footprint with a courtyard (a hole) is not roofed".into());
+    }
+    if !(base_z.is_finite() && height.is_finite() && height > 0.0) {
+        return Err(format!("heights {base_z} + {height} m are not usable"));
+    }
+    let ring = corners(polygon.exterior().0.iter().map(|c| [c.x, c.y]).collect());
+    if ring.len() < 3 {
+        return Err("the outline has fewer than 3 corners".into());
+    }
+    if ring.len() > MAX_CORNERS {
+        return Err(format!(
+            "an outline of {} corners (more than {MAX_CORNERS})",
+            ring.len()
+        ));
+    }
+    let convex = is_convex(&ring);
+    if !convex && spec.shape != RoofShape::Skillion {
+        return Err("the outline is not convex (only a skillion roof is built on a concave one)".into());
+    }
+    let top = base_z + height;
+    let longest = longest_edge(&ring);
+    let (faces, run) = match spec.shape {
+        RoofShape::Skillion => {
+            let down = spec.direction_deg.map_or([-longest[1], longest[0]], compass);
+            skillion(&ring, down)
+        }
+        RoofShape::Gabled => {
+            let along = match spec.direction_deg {
+                Some(d) => {
+                    let c = compass(d);
+                    [-c[1], c[0]]
+                }
+                None if spec.across => [-longest[1], longest[0]],
+                None => longest,
+            };
+            gabled(&ring, along)
+        }
+        RoofShape::Hipped => hipped(&ring),
+        RoofShape::Pyramidal => pyramidal(&ring),
+    };
+    if !(run.is_finite() && run > 1e-6) {
+        return Err("the outline has no width to pitch a roof over".into());
+    }
+    let rise = match spec.rise {
+        RoofRise::Metres(m) => m,
+        RoofRise::AngleDeg(a) if a > 0.0 && a < 89.0 => a.to_radians().tan() * run,
+        RoofRise::AngleDeg(a) => return Err(format!("a roof angle of {a}° is not a slope")),
+        RoofRise::Default => (DEFAULT_ANGLE_DEG.to_radians().tan() * run).min(0.5 * height),
+    };
+    // The walls keep at least 10 cm (a roof as high as the building would meet the ground).
+    let rise = rise.min(height - 0.1);
+    if !(rise.is_finite() && rise >= MIN_RISE_M) {
+        return Err(format!(
+            "a roof rise of {} m on a building {height} m high is flat",
+            trim(rise)
+        ));
+    }
+    let eaves = top - rise;
+    let mut out = Builder::default();
+    // Roof faces: each a convex (or, for a skillion, simple) polygon of (x, y, rise share 0…1).
+    for face in &faces {
+        let pts: Vec<[f64; 3]> = face
+            .iter()
+            .map(|p| [p[0], p[1], eaves + rise * p[2]])
+            .collect();
+        out.polygon(&pts, SurfaceKind::Roof);
+    }
+    // Walls: every outline edge, split where the roof's edge above it bends (a gable's ridge), from the ground to
+    // the roof's eaves line above it.
+    let outline = roof_outline(&faces, &ring);
+    for i in 0..outline.len() {
+        let a = outline[i];
+        let b = outline[(i + 1) % outline.len()];
+        let wall = [
+            [a[0], a[1], base_z],
+            [b[0], b[1], base_z],
+            [b[0], b[1], eaves + rise * b[2]],
+            [a[0], a[1], eaves + rise * a[2]],
+        ];
+        out.polygon(&wall, SurfaceKind::Wall);
+    }
+    // The ground under the walls' feet, the points they add included.
+    let ground: Vec<[f64; 3]> = outline.iter().rev().map(|p| [p[0], p[1], base_z]).collect();
+    out.polygon(&ground, SurfaceKind::Ground);
+    Ok((
+        Mesh3d {
+            positions: out.positions,
+            triangles: out.triangles,
+        },
+        out.kinds,
+    ))
+}
+
+fn trim(m: f64) -> String {
+    let t = format!("{m:.2}");
+    t.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
+/// Compass degrees (clockwise from north) as an east-north unit vector.
+fn compass(deg: f64) -> P2 {
+    let r = deg.to_radians();
+    [r.sin(), r.cos()]
+}
+
+fn sub(a: P2, b: P2) -> P2 {
+    [a[0] - b[0], a[1] - b[1]]
+}
+
+fn dot(a: P2, b: P2) -> f64 {
+    a[0] * b[0] + a[1] * b[1]
+}
+
+fn cross(a: P2, b: P2) -> f64 {
+    a[0] * b[1] - a[1] * b[0]
+}
+
+/// The open ring's corners: no closing repeat, no repeated points, no corner turning by less than 0.5° (a vertex on a
+/// straight edge would give a hipped roof two faces for one edge).
+fn corners(mut ring: Vec<P2>) -> Vec<P2> {
+    ring.dedup_by(|a, b| (a[0] - b[0]).hypot(a[1] - b[1]) < 1e-6);
+    while ring.len() > 1 && {
+        let (f, l) = (ring[0], ring[ring.len() - 1]);
+        (f[0] - l[0]).hypot(f[1] - l[1]) < 1e-6
+    } {
+        ring.pop();
+    }
+    let min_turn = 0.5f64.to_radians().sin();
+    loop {
+        let n = ring.len();
+        if n < 3 {
+            return ring;
+        }
+        let straight = (0..n).find(|&i| {
+            let (a, b, c) = (ring[(i + n - 1) % n], ring[i], ring[(i + 1) % n]);
+            let (u, v) = (sub(b, a), sub(c, b));
+            let lu = u[0].hypot(u[1]);
+            let lv = v[0].hypot(v[1]);
+            cross(u, v).abs() <= min_turn * lu * lv && dot(u, v) > 0.0
+        });
+        match straight {
+            Some(i) => {
+                ring.remove(i);
+            }
+            None => return ring,
+        }
+    }
+}
+
+/// Every corner turns left (the ring is counter-clockwise, as footprints are).
+fn is_convex(ring: &[P2]) -> bool {
+    let n = ring.len();
+    (0..n).all(|i| {
+        let (a, b, c) = (ring[(i + n - 1) % n], ring[i], ring[(i + 1) % n]);
+        cross(sub(b, a), sub(c, b)) > 0.0
+    })
+}
+
+/// The unit direction of the longest edge.
+fn longest_edge(ring: &[P2]) -> P2 {
+    let n = ring.len();
+    let (mut best, mut len) = ([1.0, 0.0], -1.0);
+    for i in 0..n {
+        let d = sub(ring[(i + 1) % n], ring[i]);
+        let l = d[0].hypot(d[1]);
+        if l > len {
+            len = l;
+            best = [d[0] / l, d[1] / l];
+        }
+    }
+    best
+}
+
+/// A roof face: corners as (x, y, share of the rise above the eaves).
+type Face = Vec<[f64; 3]>;
+
+/// One face over the whole outline, its share of the rise 1 at the highest corner and 0 at the lowest along
+/// `down`; the run is that extent.
+fn skillion(ring: &[P2], down: P2) -> (Vec<Face>, f64) {
+    let s: Vec<f64> = ring.iter().map(|&p| dot(p, down)).collect();
+    let lo = s.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = s.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let run = hi - lo;
+    let face = ring
+        .iter()
+        .zip(&s)
+        .map(|(p, s)| [p[0], p[1], ((hi - s) / run).clamp(0.0, 1.0)])
+        .collect();
+    (vec![face], run)
+}
+
+/// Two faces either side of a ridge along `along` through the middle of the outline's extent across it; the run
+/// is half that extent.
+fn gabled(ring: &[P2], along: P2) -> (Vec<Face>, f64) {
+    let across = [-along[1], along[0]];
+    let t: Vec<f64> = ring.iter().map(|&p| dot(p, across)).collect();
+    let lo = t.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = t.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let mid = 0.5 * (lo + hi);
+    let half = 0.5 * (hi - lo);
+    let on = |t: f64| (t - mid).abs() <= 1e-9 * half.max(1.0);
+    // The outline with the ridge's ends inserted, each corner with its side (−1, 0 on the ridge, 1).
+    let n = ring.len();
+    let mut pts: Vec<(P2, i8)> = Vec::with_capacity(n + 2);
+    for i in 0..n {
+        let (a, ta) = (ring[i], t[i]);
+        let (b, tb) = (ring[(i + 1) % n], t[(i + 1) % n]);
+        pts.push((a, if on(ta) { 0 } else { (ta - mid).signum() as i8 }));
+        if !on(ta) && !on(tb) && (ta - mid) * (tb - mid) < 0.0 {
+            let f = (mid - ta) / (tb - ta);
+            pts.push(([a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])], 0));
+        }
+    }
+    let share = |p: P2, side: i8| {
+        if side == 0 {
+            1.0
+        } else {
+            (1.0 - (dot(p, across) - mid).abs() / half).clamp(0.0, 1.0)
+        }
+    };
+    let faces = [1i8, -1]
+        .iter()
+        .map(|&s| {
+            pts.iter()
+                .filter(|(_, side)| *side == s || *side == 0)
+                .map(|&(p, side)| [p[0], p[1], share(p, side)])
+                .collect::<Face>()
+        })
+        .filter(|f| f.len() >= 3)
+        .collect();
+    (faces, half)
+}
+
+/// The face of every edge: where that edge's line is the nearest of all (a convex outline's straight skeleton);
+/// each rises at one slope, so the share of the rise is the distance to its edge over the largest such distance.
+fn hipped(ring: &[P2]) -> (Vec<Face>, f64) {
+    let n = ring.len();
+    // Inward unit normals and offsets: the distance of p inside from edge i is normal_i · p − offset_i.
+    let lines: Vec<(P2, f64)> = (0..n)
+        .map(|i| {
+            let d = sub(ring[(i + 1) % n], ring[i]);
+            let l = d[0].hypot(d[1]);
+            let normal = [-d[1] / l, d[0] / l];
+            (normal, dot(normal, ring[i]))
+        })
+        .collect();
+    let dist = |i: usize, p: P2| dot(lines[i].0, p) - lines[i].1;
+    let mut faces: Vec<Vec<P2>> = Vec::with_capacity(n);
+    for i in 0..n {
+        let mut poly: Vec<P2> = ring.to_vec();
+        for j in (0..n).filter(|&j| j != i) {
+            // Keep where dist_i ≤ dist_j.
+            poly = clip(&poly, |p| dist(i, p) - dist(j, p));
+            if poly.len() < 3 {
+                break;
+            }
+        }
+        faces.push(poly);
+    }
+    let run = faces
+        .iter()
+        .enumerate()
+        .flat_map(|(i, f)| f.iter().map(move |&p| (i, p)))
+        .map(|(i, p)| dist(i, p))
+        .fold(0.0, f64::max);
+    let faces = faces
+        .into_iter()
+        .enumerate()
+        .filter(|(_, f)| f.len() >= 3 && area(f) > 1e-6)
+        .map(|(i, f)| {
+            f.iter()
+                .map(|&p| [p[0], p[1], (dist(i, p) / run).clamp(0.0, 1.0)])
+                .collect()
+        })
+        .collect();
+    (faces, run)
+}
+
+/// A triangle from every edge to the apex above the outline's centroid; the run is the apex's distance from the
+/// nearest edge line.
+fn pyramidal(ring: &[P2]) -> (Vec<Face>, f64) {
+    let n = ring.len();
+    let c = centroid(ring);
+    let run = (0..n)
+        .map(|i| {
+            let d = sub(ring[(i + 1) % n], ring[i]);
+            cross(d, sub(c, ring[i])) / d[0].hypot(d[1])
+        })
+        .fold(f64::INFINITY, f64::min);
+    let faces = (0..n)
+        .map(|i| {
+            let (a, b) = (ring[i], ring[(i + 1) % n]);
+            vec![[a[0], a[1], 0.0], [b[0], b[1], 0.0], [c[0], c[1], 1.0]]
+        })
+        .collect();
+    (faces, run)
+}
+
+fn area(ring: &[P2]) -> f64 {
+    let n = ring.len();
+    0.5 * (0..n)
+        .map(|i| cross(ring[i], ring[(i + 1) % n]))
+        .sum::<f64>()
+}
+
+fn centroid(ring: &[P2]) -> P2 {
+    let n = ring.len();
+    let o = ring[0];
+    let (mut a2, mut cx, mut cy) = (0.0, 0.0, 0.0);
+    for i in 0..n {
+        let p = sub(ring[i], o);
+        let q = sub(ring[(i + 1) % n], o);
+        let w = cross(p, q);
+        a2 += w;
+        cx += (p[0] + q[0]) * w;
+        cy += (p[1] + q[1]) * w;
+    }
+    [o[0] + cx / (3.0 * a2), o[1] + cy / (3.0 * a2)]
+}
+
+/// The part of a convex polygon where `f` ≤ 0 (`f` linear).
+fn clip(poly: &[P2], f: impl Fn(P2) -> f64) -> Vec<P2> {
+    let n = poly.len();
+    let mut out = Vec::with_capacity(n + 1);
+    for i in 0..n {
+        let (a, b) = (poly[i], poly[(i + 1) % n]);
+        let (fa, fb) = (f(a), f(b));
+        if fa <= 0.0 {
+            out.push(a);
+        }
+        if (fa < 0.0 && fb > 0.0) || (fa > 0.0 && fb < 0.0) {
+            let t = fa / (fa - fb);
+            out.push([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]);
+        }
+    }
+    out
+}
+
+/// The outline as the roof meets it: the corners in order with the points the roof faces add on its edges (a
+/// gable's ridge ends), each with its share of the rise.
+fn roof_outline(faces: &[Face], ring: &[P2]) -> Vec<[f64; 3]> {
+    let n = ring.len();
+    let mut out = Vec::new();
+    for i in 0..n {
+        let (a, b) = (ring[i], ring[(i + 1) % n]);
+        let d = sub(b, a);
+        let len2 = dot(d, d);
+        // Face corners on this edge (within 1 mm of its line, between its ends), by their place along it.
+        let mut on: Vec<(f64, [f64; 3])> = faces
+            .iter()
+            .flatten()
+            .filter_map(|&q| {
+                let p = [q[0], q[1]];
+                let t = dot(sub(p, a), d) / len2;
+                let off = cross(d, sub(p, a)).abs() / len2.sqrt();
+                (off < 1e-3 && (-1e-9..1.0 - 1e-9).contains(&t)).then_some((t, q))
+            })
+            .collect();
+        on.sort_by(|x, y| x.0.total_cmp(&y.0));
+        let mut last: Option<f64> = None;
+        for (t, q) in on {
+            if last.is_some_and(|l| (t - l) * len2.sqrt() < 1e-6) {
+                continue;
+            }
+            last = Some(t);
+            out.push(q);
+        }
+    }
+    out
+}
+
+/// Triangles of planar polygons over shared vertices.
+#[derive(Default)]
+struct Builder {
+    positions: Vec<[f64; 3]>,
+    triangles: Vec<[u32; 3]>,
+    kinds: Vec<SurfaceKind>,
+}
+
+impl Builder {
+    /// The vertex at `p`: an existing one within 1 µm, else a new one.
+    fn vertex(&mut self, p: [f64; 3]) -> u32 {
+        let near = |q: &[f64; 3]| (0..3).all(|k| (q[k] - p[k]).abs() < 1e-6);
+        match self.positions.iter().position(near) {
+            Some(i) => i as u32,
+            None => {
+                self.positions.push(p);
+                (self.positions.len() - 1) as u32
+            }
+        }
+    }
+
+    /// A planar polygon, counter-clockwise seen from outside; corners closer than 1 µm are one.
+    fn polygon(&mut self, pts: &[[f64; 3]], kind: SurfaceKind) {
+        let ids: Vec<u32> = pts.iter().map(|&p| self.vertex(p)).collect();
+        let mut ring: Vec<u32> = ids.clone();
+        ring.dedup();
+        while ring.len() > 1 && ring.first() == ring.last() {
+            ring.pop();
+        }
+        if ring.len() < 3 {
+            return;
+        }
+        let coords: Vec<[f64; 3]> = ring.iter().map(|&i| self.positions[i as usize]).collect();
+        for t in triangulate_polygon_3d(&[coords]) {
+            let t = t.map(|k| ring[k as usize]);
+            if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
+                self.triangles.push(t);
+                self.kinds.push(kind);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::topology::{mesh_report, signed_volume_m3};
+    use geo_types::{LineString, Polygon};
+
+    fn footprint(pts: &[(f64, f64)]) -> MultiPolygon<f64> {
+        MultiPolygon(vec![Polygon::new(LineString::from(pts.to_vec()), vec![])])
+    }
+
+    fn spec(shape: RoofShape, rise: RoofRise) -> RoofSpec {
+        RoofSpec {
+            shape,
+            rise,
+            direction_deg: None,
+            across: false,
+        }
+    }
+
+    /// Closed, consistently wound outwards, no degenerate triangle; the volume it returns.
+    fn closed_volume(mesh: &Mesh3d) -> f64 {
+        let r = mesh_report(mesh);
+        assert!(r.watertight && r.orientation_consistent && r.degenerate == 0, "{r:?}");
+        let v = signed_volume_m3(mesh);
+        assert!(v > 0.0, "inside out: {v}");
+        v
+    }
+
+    fn top_z(mesh: &Mesh3d) -> f64 {
+        mesh.positions.iter().map(|p| p[2]).fold(f64::MIN, f64::max)
+    }
+
+    /// Roof vertices at the top: where the ridge or apex is.
+    fn ridge(mesh: &Mesh3d, z: f64) -> Vec<[f64; 2]> {
+        let mut r: Vec<[f64; 2]> = mesh
+            .positions
+            .iter()
+            .filter(|p| (p[2] - z).abs() < 1e-9)
+            .map(|p| [p[0], p[1]])
+            .collect();
+        r.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        r
+    }
+
+    const HOUSE: [(f64, f64); 4] = [(0.0, 0.0), (12.0, 0.0), (12.0, 8.0), (0.0, 8.0)];
+
+    #[test]
+    fn a_gabled_house_has_its_ridge_along_its_long_side_and_the_volume_of_its_shape() {
+        let (mesh, kinds) = roofed_building(
+            &footprint(&HOUSE),
+            5.0,
+            10.0,
+            &spec(RoofShape::Gabled, RoofRise::Metres(4.0)),
+        )
+        .unwrap();
+        // Walls 6 m, a triangular prism of roof 4 m high over 8 m.
+        let v = closed_volume(&mesh);
+        assert!((v - (12.0 * 8.0 * 6.0 + 0.5 * 8.0 * 4.0 * 12.0)).abs() < 1e-6, "{v}");
+        assert_eq!(top_z(&mesh), 15.0);
+        assert_eq!(ridge(&mesh, 15.0), [[0.0, 4.0], [12.0, 4.0]]);
+        // Two roof planes (two triangles each), the ground (a hexagon: the gables' feet split the short sides), 4
+        // walls of which 2 gable ends (two quads each).
+        let count = |k| kinds.iter().filter(|&&x| x == k).count();
+        assert_eq!(count(SurfaceKind::Roof), 4);
+        assert_eq!(count(SurfaceKind::Ground), 4);
+        assert_eq!(count(SurfaceKind::Wall), 2 * 2 + 2 * 4);
+        // Across: the ridge along the short side.
+        let mut s = spec(RoofShape::Gabled, RoofRise::Metres(4.0));
+        s.across = true;
+        let (mesh, _) = roofed_building(&footprint(&HOUSE), 5.0, 10.0, &s).unwrap();
+        assert_eq!(ridge(&mesh, 15.0), [[6.0, 0.0], [6.0, 8.0]]);
+        assert!((closed_volume(&mesh) - (576.0 + 0.5 * 12.0 * 4.0 * 8.0)).abs() < 1e-6);
+        // roof:direction 90° (the slopes face east and west): the ridge runs north–south.
+        s.across = false;
+        s.direction_deg = Some(90.0);
+        let (mesh, _) = roofed_building(&footprint(&HOUSE), 5.0, 10.0, &s).unwrap();
+        assert_eq!(ridge(&mesh, 15.0), [[6.0, 0.0], [6.0, 8.0]]);
+    }
+
+    #[test]
+    fn a_hipped_roof_rises_from_every_edge_and_a_pyramid_to_one_apex() {
+        let (mesh, kinds) = roofed_building(
+            &footprint(&HOUSE),
+            0.0,
+            10.0,
+            &spec(RoofShape::Hipped, RoofRise::AngleDeg(45.0)),
+        )
+        .unwrap();
+        // 45° over a half-width of 4 m: 4 m; the ridge from (4, 4) to (8, 4).
+        assert!((top_z(&mesh) - 10.0).abs() < 1e-9);
+        let r = ridge(&mesh, top_z(&mesh));
+        assert_eq!(r.len(), 2);
+        assert!((r[0][0] - 4.0).abs() < 1e-9 && (r[1][0] - 8.0).abs() < 1e-9);
+        assert!(r.iter().all(|p| (p[1] - 4.0).abs() < 1e-9));
+        // Walls 6 m; the roof: a prism of 4 m over the middle 4 m, two half pyramids at the ends.
+        let roof = 0.5 * 8.0 * 4.0 * 4.0 + 2.0 * (4.0 * 8.0 * 4.0 / 3.0);
+        let v = closed_volume(&mesh);
+        assert!((v - (12.0 * 8.0 * 6.0 + roof)).abs() < 1e-6, "{v}");
+        assert_eq!(kinds.iter().filter(|&&k| k == SurfaceKind::Roof).count(), 6);
+
+        let square = [(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)];
+        for shape in [RoofShape::Hipped, RoofShape::Pyramidal] {
+            let (mesh, _) =
+                roofed_building(&footprint(&square), 0.0, 8.0, &spec(shape, RoofRise::Metres(3.0)))
+                    .unwrap();
+            assert_eq!(ridge(&mesh, 8.0), [[5.0, 5.0]], "{shape:?}");
+            let v = closed_volume(&mesh);
+            assert!((v - (500.0 + 100.0 * 3.0 / 3.0)).abs() < 1e-6, "{shape:?}: {v}");
+        }
+        // A hexagon: six faces to one apex.
+        let hex: Vec<(f64, f64)> = (0..6)
+            .map(|i| {
+                let a = std::f64::consts::PI / 3.0 * i as f64;
+                (10.0 * a.cos(), 10.0 * a.sin())
+            })
+            .collect();
+        let (mesh, kinds) =
+            roofed_building(&footprint(&hex), 0.0, 8.0, &spec(RoofShape::Hipped, RoofRise::Default))
+                .unwrap();
+        closed_volume(&mesh);
+        assert_eq!(ridge(&mesh, top_z(&mesh)).len(), 1);
+        assert_eq!(kinds.iter().filter(|&&k| k == SurfaceKind::Roof).count(), 6);
+        // 30° over the inradius 8.66 m: 5 m, more than half the height, so 4 m.
+        assert!((top_z(&mesh) - 8.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_skillion_roof_descends_towards_its_direction_over_any_outline() {
+        // An L: concave, still one plane.
+        let l = [
+            (0.0, 0.0),
+            (10.0, 0.0),
+            (10.0, 4.0),
+            (4.0, 4.0),
+            (4.0, 10.0),
+            (0.0, 10.0),
+        ];
+        let mut s = spec(RoofShape::Skillion, RoofRise::Metres(2.0));
+        s.direction_deg = Some(180.0); // descending to the south
+        let (mesh, _) = roofed_building(&footprint(&l), 1.0, 9.0, &s).unwrap();
+        let v = closed_volume(&mesh);
+        // Walls to 8 m at y = 0, to 10 m at y = 10: the mean height over each rectangle.
+        let expected = 40.0 * (7.0 + 0.4 * 2.0 / 2.0) + 24.0 * (7.0 + 2.0 * 7.0 / 10.0);
+        assert!((v - expected).abs() < 1e-6, "{v} {expected}");
+        assert_eq!(ridge(&mesh, 10.0), [[0.0, 10.0], [4.0, 10.0]]);
+    }
+
+    #[test]
+    fn outlines_without_a_pitched_roof_here_are_refused_with_the_reason() {
+        let l = [
+            (0.0, 0.0),
+            (10.0, 0.0),
+            (10.0, 4.0),
+            (4.0, 4.0),
+            (4.0, 10.0),
+            (0.0, 10.0),
+        ];
+        let gabled = spec(RoofShape::Gabled, RoofRise::Default);
+        let e = roofed_building(&footprint(&l), 0.0, 9.0, &gabled).unwrap_err();
+        assert!(e.contains("not convex"), "{e}");
+        let holed = MultiPolygon(vec![Polygon::new(
+            LineString::from(HOUSE.to_vec()),
+            vec![LineString::from(vec![(1.0, 1.0), (1.0, 2.0), (2.0, 2.0), (2.0, 1.0)])],
+        )]);
+        assert!(roofed_building(&holed, 0.0, 9.0, &gabled)
+            .unwrap_err()
+            .contains("hole"));
+        let two = MultiPolygon(vec![footprint(&HOUSE).0[0].clone(); 2]);
+        assert!(roofed_building(&two, 0.0, 9.0, &gabled).is_err());
+        let flat = spec(RoofShape::Gabled, RoofRise::Metres(0.01));
+        assert!(roofed_building(&footprint(&HOUSE), 0.0, 9.0, &flat)
+            .unwrap_err()
+            .contains("flat"));
+        for bad in [f64::NAN, f64::INFINITY, -1.0, 0.0] {
+            assert!(roofed_building(&footprint(&HOUSE), 0.0, bad, &gabled).is_err());
+            assert!(roofed_building(
+                &footprint(&HOUSE),
+                0.0,
+                9.0,
+                &spec(RoofShape::Hipped, RoofRise::AngleDeg(bad))
+            )
+            .is_err());
+        }
+        // A corner on a straight edge is no corner: the hipped roof of a rectangle with one has six faces.
+        let extra = [(0.0, 0.0), (6.0, 0.0), (12.0, 0.0), (12.0, 8.0), (0.0, 8.0)];
+        let (mesh, kinds) = roofed_building(
+            &footprint(&extra),
+            0.0,
+            9.0,
+            &spec(RoofShape::Hipped, RoofRise::Metres(3.0)),
+        )
+        .unwrap();
+        closed_volume(&mesh);
+        assert_eq!(kinds.iter().filter(|&&k| k == SurfaceKind::Roof).count(), 6);
+    }
+}
