@@ -261,3 +261,102 @@ fn a_multipatch_shapefile_builds_with_its_models() {
         v["messages"]
     );
 }
+
+/// OpenStreetMap roof shapes (`roof:shape` with `roof:height`) become LoD 2 models with `--lod 2`: on the bundled
+/// Lower East Side extract 21 building parts have a gabled, skillion or pyramidal roof, and five (onion domes, a
+/// dome) keep their prisms, listed with the reason. Their leaf tiles draw the roofs (corners at the eaves and the
+/// ridge, not only at ground and top), the prism above each claims the roof's height as its error, and the
+/// tileset is valid and passes `citylod check`.
+#[test]
+fn osm_roof_shapes_become_lod2_models_on_the_lower_east_side() {
+    let input = repo_root().join("examples/nyc-les/ny-access-restriction.osm.pbf");
+    let out = e2e_dir("les-osm-roofs");
+    let report = build(&[&input], &out, &["--lod", "2"]);
+    let errs = schema_errors("build-report.schema.json", &report);
+    assert!(errs.is_empty(), "build report: {}", errs.join("\n"));
+    assert_eq!(
+        report["ingest"]["mesh_lods"],
+        serde_json::json!({ "2": 21 })
+    );
+    assert_eq!(report["models"]["buildings"], 21, "{:#}", report["models"]);
+    let not_modelled: Vec<&str> = report["ingest"]["mesh_issues"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|i| i["detail"].as_str().unwrap())
+        .collect();
+    assert_eq!(not_modelled.len(), 5, "{not_modelled:#?}");
+    assert!(
+        not_modelled
+            .iter()
+            .all(
+                |d| (d.starts_with("roof:shape=onion") || d.starts_with("roof:shape=dome"))
+                    && d.ends_with("drawn with a flat roof")
+            ),
+        "{not_modelled:#?}"
+    );
+    // Twelve of the gabled parts are 9 m houses with roof:height 1.1: the prism stands 1.1 m off its model.
+    let median = report["models"]["prism_error_median_m"].as_f64().unwrap();
+    assert!((median - 1.1).abs() < 0.01, "{median}");
+    let ts_json = read_json(&out.join("tileset.json"));
+    let errs = schema_errors("tileset.schema.json", &ts_json);
+    assert!(errs.is_empty(), "tileset.json: {}", errs.join("\n"));
+    let v = gltf_validator(&out);
+    assert_eq!(
+        v["errors"].as_u64(),
+        Some(0),
+        "glTF-Validator: {:#}",
+        v["messages"]
+    );
+
+    // In the leaf tiles: every building once; a roofed one has corners at three or more heights (ground, eaves,
+    // ridge), a flat one at two.
+    let ts = read_tileset(&out.join("tileset.json")).expect("read back");
+    let mut leaves: BTreeMap<String, usize> = BTreeMap::new();
+    let (mut roofed, mut flat) = (0, 0);
+    for tile in ts.tiles.iter().filter(|t| t.children.is_empty()) {
+        let Some(c) = &tile.content else { continue };
+        let mut heights: Vec<std::collections::BTreeSet<i64>> =
+            vec![Default::default(); c.features.len()];
+        for (p, &f) in c.positions_local.iter().zip(&c.feature_ids) {
+            if let Some(h) = heights.get_mut(f as usize) {
+                h.insert((p[2] * 20.0).round() as i64);
+            }
+        }
+        for (row, h) in c.features.iter().zip(&heights) {
+            let Some(PropValue::Str(id)) = row.values.get("source_id") else {
+                panic!("a leaf row without source_id: {row:?}");
+            };
+            *leaves.entry(id.clone()).or_default() += 1;
+            let shape = match row.values.get("roof_shape") {
+                Some(PropValue::Str(s)) => s.as_str(),
+                _ => "",
+            };
+            if ["gabled", "skillion", "pyramidal"].contains(&shape) {
+                roofed += 1;
+                assert!(h.len() >= 3, "{id} ({shape}): corners at {h:?} (×5 cm)");
+            } else if shape.is_empty() || shape == "flat" {
+                flat += 1;
+                assert_eq!(h.len(), 2, "{id}: corners at {h:?} (×5 cm)");
+            }
+        }
+    }
+    assert_eq!(roofed, 21);
+    assert!(flat > 1300, "{flat}");
+    assert_eq!(
+        leaves.len(),
+        report["counts"]["buildings_written"].as_u64().unwrap() as usize
+    );
+    assert!(leaves.values().all(|&n| n == 1));
+
+    let check_out = e2e_dir("les-osm-roofs-check");
+    let o = citylod(&[
+        "check",
+        &out.display().to_string(),
+        "--out",
+        &check_out.display().to_string(),
+        "--quiet",
+    ]);
+    let check = read_json(&check_out.join("report.json"));
+    assert_eq!(o.status.code(), Some(0), "{:#}", check["summary"]);
+}

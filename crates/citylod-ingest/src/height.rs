@@ -164,7 +164,7 @@ impl Measure {
 
 /// A length in metres: a number without a unit (times `unit`, metres per unit), a number in metres (`28 m`), or
 /// feet and inches as OpenStreetMap allows them (`100'`, `16'4"`, `35 ft`).
-fn length_m(v: &AttrValue, unit: f64) -> Option<f64> {
+pub(crate) fn length_m(v: &AttrValue, unit: f64) -> Option<f64> {
     if let Some(m) = v.as_number() {
         let explicit_metres = matches!(v, AttrValue::String(s) if s.trim_end().ends_with(|c: char| c.is_ascii_alphabetic()));
         return Some(if explicit_metres { m } else { m * unit });

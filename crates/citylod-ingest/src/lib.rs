@@ -44,6 +44,7 @@ mod place;
 mod prj;
 mod repair;
 mod report;
+mod roofs;
 mod shp;
 mod streets;
 mod surface_model;
@@ -302,6 +303,10 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
     let mut ids_written: HashSet<String> = HashSet::new();
     let mut by_key: HashMap<u64, Vec<usize>> = HashMap::new();
     let file_labels: Vec<String> = files.iter().map(|f| f.path.display().to_string()).collect();
+    // Whether OpenStreetMap roof shapes are modelled (LoD 2 asked, or above it: then it is a fall-back).
+    let roof_lod = model_target
+        .and_then(|t| t.pick(&[lod::LodKey::TWO]))
+        .map(|(_, fell_back)| fell_back);
     // A written feature's id and attributes move into its building.
     for (file_index, (file, outs)) in files.iter_mut().zip(&outcomes).enumerate() {
         let file_label = file.path.display().to_string();
@@ -314,8 +319,19 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
                     let base_h_m = p.heights.ground_m + p.heights.base_offset_m;
                     let (footprint, base_z_m) =
                         place::to_enu(&enu_map, &p.plane, &p.footprint, base_h_m);
-                    let meshed =
+                    let mut meshed =
                         model3d::mesh(raw.model.as_ref(), p.model_lon_lat_h.as_ref(), &enu_map);
+                    if let (None, Some(fell_back)) = (&raw.model, roof_lod) {
+                        roofs::roof_model(
+                            &raw.attributes,
+                            &footprint,
+                            base_z_m,
+                            p.heights.height_m,
+                            opts,
+                            fell_back,
+                            &mut meshed,
+                        );
+                    }
                     (p, footprint, base_z_m, meshed)
                 })
             })

@@ -57,6 +57,8 @@ pub(crate) struct LodKey {
 impl LodKey {
     /// LoD 1.0, the lowest LoD that is a 3D model.
     pub const ONE: LodKey = LodKey { major: 1, minor: 0 };
+    /// LoD 2: a roof's shape (OpenStreetMap's `roof:shape` modelled by `roofs`).
+    pub const TWO: LodKey = LodKey { major: 2, minor: 0 };
 }
 
 /// `"2.2"` → (2, Some(2)), `"2"` → (2, None); `None` for anything else.

@@ -13,8 +13,8 @@
 
 mod extrude;
 pub mod hausdorff;
-pub mod roof;
 mod ring;
+pub mod roof;
 pub mod simplify;
 pub mod topology;
 

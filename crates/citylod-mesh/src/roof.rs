@@ -11,7 +11,6 @@
 //! Gabled, hipped and pyramidal roofs need a convex outline; an outline with holes or of several polygons has no
 //! pitched roof here. Those cases are errors with the reason, for the caller to keep its flat prism.
 
-use crate::simplify::triangulate_polygon_3d;
 use citylod_model::{Mesh3d, SurfaceKind};
 use geo_types::MultiPolygon;
 
@@ -104,13 +103,17 @@ pub fn roofed_building(
     }
     let convex = is_convex(&ring);
     if !convex && spec.shape != RoofShape::Skillion {
-        return Err("the outline is not convex (only a skillion roof is built on a concave one)".into());
+        return Err(
+            "the outline is not convex (only a skillion roof is built on a concave one)".into(),
+        );
     }
     let top = base_z + height;
     let longest = longest_edge(&ring);
     let (faces, run) = match spec.shape {
         RoofShape::Skillion => {
-            let down = spec.direction_deg.map_or([-longest[1], longest[0]], compass);
+            let down = spec
+                .direction_deg
+                .map_or([-longest[1], longest[0]], compass);
             skillion(&ring, down)
         }
         RoofShape::Gabled => {
@@ -145,39 +148,160 @@ pub fn roofed_building(
         ));
     }
     let eaves = top - rise;
-    let mut out = Builder::default();
-    // Roof faces: each a convex (or, for a skillion, simple) polygon of (x, y, rise share 0…1).
-    for face in &faces {
-        let pts: Vec<[f64; 3]> = face
-            .iter()
-            .map(|p| [p[0], p[1], eaves + rise * p[2]])
-            .collect();
-        out.polygon(&pts, SurfaceKind::Roof);
-    }
-    // Walls: every outline edge, split where the roof's edge above it bends (a gable's ridge), from the ground to
-    // the roof's eaves line above it.
-    let outline = roof_outline(&faces, &ring);
-    for i in 0..outline.len() {
-        let a = outline[i];
-        let b = outline[(i + 1) % outline.len()];
-        let wall = [
-            [a[0], a[1], base_z],
-            [b[0], b[1], base_z],
-            [b[0], b[1], eaves + rise * b[2]],
-            [a[0], a[1], eaves + rise * a[2]],
+    let (points, roof) = plan(&faces, &ring)
+        .ok_or_else(|| "the roof's faces could not be triangulated".to_string())?;
+    // Vertex i is point i on the roof, vertex n + i the same point on the ground.
+    let n = points.len() as u32;
+    let mut positions: Vec<[f64; 3]> = points
+        .iter()
+        .map(|p| [p[0], p[1], eaves + rise * p[2]])
+        .collect();
+    positions.extend(points.iter().map(|p| [p[0], p[1], base_z]));
+    let mut triangles: Vec<[u32; 3]> = Vec::with_capacity(roof.len() * 3);
+    let mut kinds = Vec::with_capacity(roof.len() * 3);
+    // The roof, seen from above counter-clockwise; the ground, the same triangles turned to face down.
+    for t in &roof {
+        triangles.push(*t);
+        // A triangle of the roof standing upright (between a gable's foot on its rim, in line by rounding, and its
+        // ridge) is wall.
+        let [a, b, c] = t.map(|i| positions[i as usize]);
+        let (u, v) = (
+            [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
+            [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
+        );
+        let normal = [
+            u[1] * v[2] - u[2] * v[1],
+            u[2] * v[0] - u[0] * v[2],
+            u[0] * v[1] - u[1] * v[0],
         ];
-        out.polygon(&wall, SurfaceKind::Wall);
+        let upright = normal[2].abs() < 0.1 * normal[0].hypot(normal[1]).hypot(normal[2]);
+        kinds.push(if upright {
+            SurfaceKind::Wall
+        } else {
+            SurfaceKind::Roof
+        });
+        triangles.push([t[0] + n, t[2] + n, t[1] + n]);
+        kinds.push(SurfaceKind::Ground);
     }
-    // The ground under the walls' feet, the points they add included.
-    let ground: Vec<[f64; 3]> = outline.iter().rev().map(|p| [p[0], p[1], base_z]).collect();
-    out.polygon(&ground, SurfaceKind::Ground);
+    // A wall under every edge of the roof's rim (an edge of one roof triangle only), from the ground up to the roof.
+    let mut used: std::collections::HashSet<(u32, u32)> = std::collections::HashSet::new();
+    for t in &roof {
+        for k in 0..3 {
+            used.insert((t[k], t[(k + 1) % 3]));
+        }
+    }
+    let mut rim: Vec<(u32, u32)> = used
+        .iter()
+        .copied()
+        .filter(|&(a, b)| !used.contains(&(b, a)))
+        .collect();
+    rim.sort_unstable();
+    for (a, b) in rim {
+        triangles.push([a + n, b + n, b]);
+        triangles.push([a + n, b, a]);
+        kinds.extend([SurfaceKind::Wall; 2]);
+    }
     Ok((
         Mesh3d {
-            positions: out.positions,
-            triangles: out.triangles,
+            positions,
+            triangles,
         },
-        out.kinds,
+        kinds,
     ))
+}
+
+/// Points (x, y, share of the rise) and triangles over them.
+type RoofPlan = (Vec<[f64; 3]>, Vec<[u32; 3]>);
+
+/// The roof as one triangulation: every corner of every face once (corners closer than [`WELD_M`] are one: where
+/// faces of a hipped roof meet, each face's clipping computes the point anew), with its share of the rise (the
+/// highest of its copies'), and the
+/// triangles of a Delaunay triangulation constrained by every face's edges, kept where they lie inside the outline,
+/// counter-clockwise from above. One triangulation for all faces leaves no crack where two faces' corners differ by
+/// rounding, and its rim is the walls' top. `None` if the triangulation fails.
+fn plan(faces: &[Face], ring: &[P2]) -> Option<RoofPlan> {
+    use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
+    let o = ring[0];
+    let mut points: Vec<[f64; 3]> = Vec::new();
+    let mut cdt: ConstrainedDelaunayTriangulation<Point2<f64>> =
+        ConstrainedDelaunayTriangulation::new();
+    // Spade's vertex → point.
+    let mut of_handle: Vec<u32> = Vec::new();
+    let mut handles = Vec::new();
+    let mut face_handles = Vec::with_capacity(faces.len());
+    for face in faces {
+        let mut hs = Vec::with_capacity(face.len());
+        for q in face {
+            let near = points
+                .iter()
+                .position(|p| (p[0] - q[0]).abs() < WELD_M && (p[1] - q[1]).abs() < WELD_M);
+            let i = match near {
+                Some(i) => {
+                    // The highest share among a point's copies: the ridge or apex reaches the top exactly.
+                    points[i][2] = points[i][2].max(q[2]);
+                    i
+                }
+                None => {
+                    points.push(*q);
+                    let h = cdt.insert(Point2::new(q[0] - o[0], q[1] - o[1])).ok()?;
+                    if of_handle.len() <= h.index() {
+                        of_handle.resize(h.index() + 1, u32::MAX);
+                    }
+                    if of_handle[h.index()] == u32::MAX {
+                        of_handle[h.index()] = (points.len() - 1) as u32;
+                    }
+                    handles.push(h);
+                    points.len() - 1
+                }
+            };
+            hs.push(handles[i]);
+        }
+        face_handles.push(hs);
+    }
+    for hs in &face_handles {
+        for k in 0..hs.len() {
+            let (a, b) = (hs[k], hs[(k + 1) % hs.len()]);
+            if a != b {
+                cdt.try_add_constraint(a, b);
+            }
+        }
+    }
+    let outline: Vec<P2> = ring.iter().map(|p| sub(*p, o)).collect();
+    let mut triangles = Vec::new();
+    for f in cdt.inner_faces() {
+        let vs = f.vertices();
+        let ps = vs.map(|v| [v.position().x, v.position().y]);
+        let c = [
+            (ps[0][0] + ps[1][0] + ps[2][0]) / 3.0,
+            (ps[0][1] + ps[1][1] + ps[2][1]) / 3.0,
+        ];
+        if !inside(&outline, c) {
+            continue;
+        }
+        let ids = vs.map(|v| of_handle.get(v.fix().index()).copied().unwrap_or(u32::MAX));
+        if ids.contains(&u32::MAX) {
+            // A point spade added where two constraints cross: faces that overlap.
+            return None;
+        }
+        triangles.push(ids);
+    }
+    Some((points, triangles))
+}
+
+/// Whether `p` is inside the ring (even-odd).
+fn inside(ring: &[P2], p: P2) -> bool {
+    let n = ring.len();
+    let mut inside = false;
+    for i in 0..n {
+        let (a, b) = (ring[i], ring[(i + 1) % n]);
+        if (a[1] > p[1]) != (b[1] > p[1]) {
+            let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
+            if p[0] < x {
+                inside = !inside;
+            }
+        }
+    }
+    inside
 }
 
 fn trim(m: f64) -> String {
@@ -354,7 +478,7 @@ fn hipped(ring: &[P2]) -> (Vec<Face>, f64) {
     let faces = faces
         .into_iter()
         .enumerate()
-        .filter(|(_, f)| f.len() >= 3 && area(f) > 1e-6)
+        .filter(|(_, f)| f.len() >= 3)
         .map(|(i, f)| {
             f.iter()
                 .map(|&p| [p[0], p[1], (dist(i, p) / run).clamp(0.0, 1.0)])
@@ -382,13 +506,6 @@ fn pyramidal(ring: &[P2]) -> (Vec<Face>, f64) {
         })
         .collect();
     (faces, run)
-}
-
-fn area(ring: &[P2]) -> f64 {
-    let n = ring.len();
-    0.5 * (0..n)
-        .map(|i| cross(ring[i], ring[(i + 1) % n]))
-        .sum::<f64>()
 }
 
 fn centroid(ring: &[P2]) -> P2 {
@@ -424,81 +541,8 @@ fn clip(poly: &[P2], f: impl Fn(P2) -> f64) -> Vec<P2> {
     out
 }
 
-/// The outline as the roof meets it: the corners in order with the points the roof faces add on its edges (a
-/// gable's ridge ends), each with its share of the rise.
-fn roof_outline(faces: &[Face], ring: &[P2]) -> Vec<[f64; 3]> {
-    let n = ring.len();
-    let mut out = Vec::new();
-    for i in 0..n {
-        let (a, b) = (ring[i], ring[(i + 1) % n]);
-        let d = sub(b, a);
-        let len2 = dot(d, d);
-        // Face corners on this edge (within 1 mm of its line, between its ends), by their place along it.
-        let mut on: Vec<(f64, [f64; 3])> = faces
-            .iter()
-            .flatten()
-            .filter_map(|&q| {
-                let p = [q[0], q[1]];
-                let t = dot(sub(p, a), d) / len2;
-                let off = cross(d, sub(p, a)).abs() / len2.sqrt();
-                (off < 1e-3 && (-1e-9..1.0 - 1e-9).contains(&t)).then_some((t, q))
-            })
-            .collect();
-        on.sort_by(|x, y| x.0.total_cmp(&y.0));
-        let mut last: Option<f64> = None;
-        for (t, q) in on {
-            if last.is_some_and(|l| (t - l) * len2.sqrt() < 1e-6) {
-                continue;
-            }
-            last = Some(t);
-            out.push(q);
-        }
-    }
-    out
-}
-
-/// Triangles of planar polygons over shared vertices.
-#[derive(Default)]
-struct Builder {
-    positions: Vec<[f64; 3]>,
-    triangles: Vec<[u32; 3]>,
-    kinds: Vec<SurfaceKind>,
-}
-
-impl Builder {
-    /// The vertex at `p`: an existing one within 1 µm, else a new one.
-    fn vertex(&mut self, p: [f64; 3]) -> u32 {
-        let near = |q: &[f64; 3]| (0..3).all(|k| (q[k] - p[k]).abs() < 1e-6);
-        match self.positions.iter().position(near) {
-            Some(i) => i as u32,
-            None => {
-                self.positions.push(p);
-                (self.positions.len() - 1) as u32
-            }
-        }
-    }
-
-    /// A planar polygon, counter-clockwise seen from outside; corners closer than 1 µm are one.
-    fn polygon(&mut self, pts: &[[f64; 3]], kind: SurfaceKind) {
-        let ids: Vec<u32> = pts.iter().map(|&p| self.vertex(p)).collect();
-        let mut ring: Vec<u32> = ids.clone();
-        ring.dedup();
-        while ring.len() > 1 && ring.first() == ring.last() {
-            ring.pop();
-        }
-        if ring.len() < 3 {
-            return;
-        }
-        let coords: Vec<[f64; 3]> = ring.iter().map(|&i| self.positions[i as usize]).collect();
-        for t in triangulate_polygon_3d(&[coords]) {
-            let t = t.map(|k| ring[k as usize]);
-            if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
-                self.triangles.push(t);
-                self.kinds.push(kind);
-            }
-        }
-    }
-}
+/// Corners of roof faces closer than this are one point.
+const WELD_M: f64 = 1e-4;
 
 #[cfg(test)]
 mod tests {
@@ -522,7 +566,10 @@ mod tests {
     /// Closed, consistently wound outwards, no degenerate triangle; the volume it returns.
     fn closed_volume(mesh: &Mesh3d) -> f64 {
         let r = mesh_report(mesh);
-        assert!(r.watertight && r.orientation_consistent && r.degenerate == 0, "{r:?}");
+        assert!(
+            r.watertight && r.orientation_consistent && r.degenerate == 0,
+            "{r:?}"
+        );
         let v = signed_volume_m3(mesh);
         assert!(v > 0.0, "inside out: {v}");
         v
@@ -557,7 +604,10 @@ mod tests {
         .unwrap();
         // Walls 6 m, a triangular prism of roof 4 m high over 8 m.
         let v = closed_volume(&mesh);
-        assert!((v - (12.0 * 8.0 * 6.0 + 0.5 * 8.0 * 4.0 * 12.0)).abs() < 1e-6, "{v}");
+        assert!(
+            (v - (12.0 * 8.0 * 6.0 + 0.5 * 8.0 * 4.0 * 12.0)).abs() < 1e-6,
+            "{v}"
+        );
         assert_eq!(top_z(&mesh), 15.0);
         assert_eq!(ridge(&mesh, 15.0), [[0.0, 4.0], [12.0, 4.0]]);
         // Two roof planes (two triangles each), the ground (a hexagon: the gables' feet split the short sides), 4
@@ -602,12 +652,19 @@ mod tests {
 
         let square = [(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)];
         for shape in [RoofShape::Hipped, RoofShape::Pyramidal] {
-            let (mesh, _) =
-                roofed_building(&footprint(&square), 0.0, 8.0, &spec(shape, RoofRise::Metres(3.0)))
-                    .unwrap();
+            let (mesh, _) = roofed_building(
+                &footprint(&square),
+                0.0,
+                8.0,
+                &spec(shape, RoofRise::Metres(3.0)),
+            )
+            .unwrap();
             assert_eq!(ridge(&mesh, 8.0), [[5.0, 5.0]], "{shape:?}");
             let v = closed_volume(&mesh);
-            assert!((v - (500.0 + 100.0 * 3.0 / 3.0)).abs() < 1e-6, "{shape:?}: {v}");
+            assert!(
+                (v - (500.0 + 100.0 * 3.0 / 3.0)).abs() < 1e-6,
+                "{shape:?}: {v}"
+            );
         }
         // A hexagon: six faces to one apex.
         let hex: Vec<(f64, f64)> = (0..6)
@@ -616,9 +673,13 @@ mod tests {
                 (10.0 * a.cos(), 10.0 * a.sin())
             })
             .collect();
-        let (mesh, kinds) =
-            roofed_building(&footprint(&hex), 0.0, 8.0, &spec(RoofShape::Hipped, RoofRise::Default))
-                .unwrap();
+        let (mesh, kinds) = roofed_building(
+            &footprint(&hex),
+            0.0,
+            8.0,
+            &spec(RoofShape::Hipped, RoofRise::Default),
+        )
+        .unwrap();
         closed_volume(&mesh);
         assert_eq!(ridge(&mesh, top_z(&mesh)).len(), 1);
         assert_eq!(kinds.iter().filter(|&&k| k == SurfaceKind::Roof).count(), 6);
@@ -662,7 +723,12 @@ mod tests {
         assert!(e.contains("not convex"), "{e}");
         let holed = MultiPolygon(vec![Polygon::new(
             LineString::from(HOUSE.to_vec()),
-            vec![LineString::from(vec![(1.0, 1.0), (1.0, 2.0), (2.0, 2.0), (2.0, 1.0)])],
+            vec![LineString::from(vec![
+                (1.0, 1.0),
+                (1.0, 2.0),
+                (2.0, 2.0),
+                (2.0, 1.0),
+            ])],
         )]);
         assert!(roofed_building(&holed, 0.0, 9.0, &gabled)
             .unwrap_err()
@@ -694,5 +760,87 @@ mod tests {
         .unwrap();
         closed_volume(&mesh);
         assert_eq!(kinds.iter().filter(|&&k| k == SurfaceKind::Roof).count(), 6);
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(1000))]
+        /// Any convex outline (corners on an ellipse, some nearly in line) gets, for every shape and direction, a
+        /// closed mesh whose volume lies between the prism to its eaves and the prism to its top.
+        #[test]
+        fn every_convex_outline_gets_a_closed_roof(
+            angles in proptest::collection::vec(0.0f64..std::f64::consts::TAU, 3..40),
+            a in 3.0f64..60.0,
+            b in 3.0f64..60.0,
+            turn in 0.0f64..180.0,
+            rise in 0.1f64..15.0,
+            direction in proptest::option::of(0.0f64..360.0),
+            across in proptest::bool::ANY,
+        ) {
+            let mut angles = angles;
+            angles.sort_by(f64::total_cmp);
+            angles.dedup_by(|x, y| (*x - *y).abs() < 1e-3);
+            let (s, c) = turn.to_radians().sin_cos();
+            let pts: Vec<(f64, f64)> = angles
+                .iter()
+                .map(|t| {
+                    let (x, y) = (a * t.cos(), b * t.sin());
+                    (1000.0 + c * x - s * y, -500.0 + s * x + c * y)
+                })
+                .collect();
+            let fp = footprint(&pts);
+            let ring: Vec<[f64; 2]> = pts.iter().map(|&(x, y)| [x, y]).collect();
+            let area = crate::ring::signed_area2(&ring) / 2.0;
+            for shape in [RoofShape::Skillion, RoofShape::Gabled, RoofShape::Hipped, RoofShape::Pyramidal] {
+                let spec = RoofSpec { shape, rise: RoofRise::Metres(rise), direction_deg: direction, across };
+                let built = roofed_building(&fp, 2.0, 20.0, &spec);
+                // A sliver of an outline (all corners on a short arc) may have too few corners left once those
+                // nearly in line are merged; anything wider is roofed.
+                if area < 1.0 {
+                    continue;
+                }
+                let (mesh, kinds) = built.map_err(|e| proptest::test_runner::TestCaseError::fail(format!("{shape:?}: {e}")))?;
+                proptest::prop_assert_eq!(kinds.len(), mesh.triangles.len());
+                let r = mesh_report(&mesh);
+                proptest::prop_assert!(r.watertight && r.orientation_consistent, "{:?}: {:?}", shape, r);
+                let v = signed_volume_m3(&mesh);
+                let eaves = area * (20.0 - rise);
+                proptest::prop_assert!(v > eaves - 1e-6 * area && v < area * 20.0 + 1e-6 * area,
+                    "{:?}: volume {} outside ({}, {})", shape, v, eaves, area * 20.0);
+                proptest::prop_assert!((top_z(&mesh) - 22.0).abs() < 1e-6, "{:?}", shape);
+            }
+        }
+
+        /// A skillion roof over any star-shaped outline (concave, corners at random radii) is closed too.
+        #[test]
+        fn every_star_shaped_outline_gets_a_closed_skillion(
+            corners in proptest::collection::vec((0.0f64..std::f64::consts::TAU, 2.0f64..40.0), 3..30),
+            rise in 0.1f64..15.0,
+            direction in 0.0f64..360.0,
+        ) {
+            let mut corners = corners;
+            corners.sort_by(|a, b| a.0.total_cmp(&b.0));
+            corners.dedup_by(|x, y| (x.0 - y.0).abs() < 1e-2);
+            // Star-shaped around the origin (so simple) only when no angular gap reaches half a turn.
+            let n = corners.len();
+            if n < 3 || (0..n).any(|i| {
+                let next = if i + 1 < n { corners[i + 1].0 } else { corners[0].0 + std::f64::consts::TAU };
+                next - corners[i].0 >= 0.95 * std::f64::consts::PI
+            }) {
+                return Ok(());
+            }
+            let pts: Vec<(f64, f64)> = corners.iter().map(|(t, r)| (r * t.cos(), r * t.sin())).collect();
+            let ring: Vec<[f64; 2]> = pts.iter().map(|&(x, y)| [x, y]).collect();
+            let area = crate::ring::signed_area2(&ring) / 2.0;
+            if pts.len() < 3 || area < 1.0 {
+                return Ok(());
+            }
+            let spec = RoofSpec { shape: RoofShape::Skillion, rise: RoofRise::Metres(rise), direction_deg: Some(direction), across: false };
+            let (mesh, _) = roofed_building(&footprint(&pts), 0.0, 20.0, &spec)
+                .map_err(proptest::test_runner::TestCaseError::fail)?;
+            let r = mesh_report(&mesh);
+            proptest::prop_assert!(r.watertight && r.orientation_consistent, "{:?}", r);
+            let v = signed_volume_m3(&mesh);
+            proptest::prop_assert!(v > area * (20.0 - rise) * (1.0 - 1e-9) && v < area * 20.0 * (1.0 + 1e-9), "{} of {}", v, area);
+        }
     }
 }

@@ -1,0 +1,260 @@
+//! Pitched roofs from OpenStreetMap's Simple 3D Buildings tags (`roof:shape`, `roof:height`, `roof:levels`,
+//! `roof:angle`, `roof:direction`, `roof:orientation`), in whatever format the tags come (an OSM file, its export to
+//! GeoJSON, GeoPackage or Shapefile): with `--lod 2` (or `highest`, or a 2.x) a building whose `roof:shape` is
+//! skillion, gabled, hipped or pyramidal gets a 3D model of LoD 2 — walls up to the eaves, the roof up to the
+//! building's height — and is drawn with it at full detail, its prism and the simplified model above it as for a
+//! CityJSON LoD2 building. Other shapes, and outlines a shape cannot be pitched over, keep the flat prism, listed
+//! in the report's mesh issues with the reason.
+
+use crate::model3d::Meshed;
+use crate::report::IssueReason;
+use citylod_mesh::roof::{roofed_building, RoofRise, RoofShape, RoofSpec};
+use citylod_model::{AttrValue, Attributes, BuildingModel, Footprint};
+
+/// The LoD a modelled roof is written as (`mesh_lods` in the report).
+pub(crate) const ROOF_LOD: &str = "2";
+
+/// Gives `meshed` the roofed model of a building tagged with a pitched `roof:shape`, or lists why it keeps a flat
+/// roof; nothing for a building without `roof:shape` or with a flat one. `fell_back`: LoD 2 is below the LoD asked.
+pub(crate) fn roof_model(
+    attrs: &Attributes,
+    footprint: &Footprint,
+    base_z_m: f64,
+    height_m: f64,
+    opts: &crate::IngestOptions,
+    fell_back: bool,
+    meshed: &mut Meshed,
+) {
+    let Some(shape_value) = text(attrs, "roof:shape") else {
+        return;
+    };
+    if matches!(shape_value.to_ascii_lowercase().as_str(), "flat" | "") {
+        return;
+    }
+    let flat = |why: String| {
+        (
+            IssueReason::ModelMissing,
+            format!("roof:shape={shape_value}: {why}; drawn with a flat roof"),
+        )
+    };
+    let Some(shape) = RoofShape::from_osm(&shape_value) else {
+        meshed.issues.push(flat(
+            "this shape is not modelled (skillion, gabled, hipped and pyramidal are)".into(),
+        ));
+        return;
+    };
+    let mut rejected = Vec::new();
+    let mut value =
+        |name: &str, metres: &dyn Fn(&AttrValue) -> Option<f64>, ok: &dyn Fn(f64) -> bool| {
+            let v = attrs.get(name).filter(|v| !matches!(v, AttrValue::Null))?;
+            match metres(v).filter(|m| m.is_finite() && ok(*m)) {
+                Some(m) => Some(m),
+                None => {
+                    rejected.push(format!("{name} = {}", shown(v)));
+                    None
+                }
+            }
+        };
+    let rise = value(
+        "roof:height",
+        &|v| crate::height::length_m(v, opts.height_unit_m.unwrap_or(1.0)),
+        &|m| m >= 0.0,
+    )
+    .map(RoofRise::Metres)
+    .or_else(|| {
+        value("roof:levels", &|v| v.as_number(), &|n| n >= 0.0)
+            .map(|n| RoofRise::Metres(n * opts.storey_height_m))
+    })
+    .or_else(|| {
+        value("roof:angle", &|v| v.as_number(), &|a| a > 0.0 && a < 89.0).map(RoofRise::AngleDeg)
+    })
+    .unwrap_or(RoofRise::Default);
+    let direction_deg = value("roof:direction", &|v| direction(v), &|_| true);
+    let across = text(attrs, "roof:orientation").is_some_and(|o| o.eq_ignore_ascii_case("across"));
+    if !rejected.is_empty() {
+        meshed.issues.push((
+            IssueReason::HeightValueRejected,
+            format!(
+                "{}: not usable for the roof, which takes the next rule",
+                rejected.join(", ")
+            ),
+        ));
+    }
+    let spec = RoofSpec {
+        shape,
+        rise,
+        direction_deg,
+        across,
+    };
+    match roofed_building(footprint, base_z_m, height_m, &spec) {
+        Ok((mesh, surfaces)) => {
+            meshed.model = Some(BuildingModel {
+                mesh,
+                surfaces,
+                lod: ROOF_LOD.into(),
+            });
+            meshed.fell_back = fell_back;
+        }
+        Err(why) => meshed.issues.push(flat(why)),
+    }
+}
+
+fn text(attrs: &Attributes, name: &str) -> Option<String> {
+    match attrs.get(name)? {
+        AttrValue::String(s) => Some(s.trim().to_string()),
+        _ => None,
+    }
+}
+
+fn shown(v: &AttrValue) -> String {
+    match v {
+        AttrValue::String(s) => format!("{s:?}"),
+        AttrValue::Int(i) => i.to_string(),
+        AttrValue::Float(f) => f.to_string(),
+        AttrValue::Bool(b) => b.to_string(),
+        AttrValue::Null => "null".into(),
+    }
+}
+
+/// `roof:direction` as compass degrees: a number, or a compass point (`N`, `NNE`, …, `NW`).
+fn direction(v: &AttrValue) -> Option<f64> {
+    if let Some(d) = v.as_number() {
+        return Some(d.rem_euclid(360.0));
+    }
+    const POINTS: [&str; 16] = [
+        "N", "NNE", "NE", "ENE", "E", "ESE", "SE", "SSE", "S", "SSW", "SW", "WSW", "W", "WNW",
+        "NW", "NNW",
+    ];
+    let AttrValue::String(s) = v else {
+        return None;
+    };
+    POINTS
+        .iter()
+        .position(|p| p.eq_ignore_ascii_case(s.trim()))
+        .map(|i| i as f64 * 22.5)
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::{ingest, IngestOptions, Ingested, IssueReason};
+    use citylod_mesh::topology::mesh_report;
+    use serde_json::{json, Value};
+
+    /// A 12 m × 8 m building at the `i`-th place of a row, as an OpenStreetMap export to GeoJSON writes it.
+    fn house(i: usize, tags: Value) -> Value {
+        let (lon, lat) = (4.0 + i as f64 * 0.001, 52.0);
+        let (dx, dy) = (12.0 / 68_600.0, 8.0 / 111_250.0);
+        let mut properties = json!({ "building": "house", "height": "10" });
+        for (k, v) in tags.as_object().unwrap() {
+            properties[k] = v.clone();
+        }
+        json!({ "type": "Feature", "id": format!("way/{i}"), "properties": properties, "geometry": {
+            "type": "Polygon",
+            "coordinates": [[[lon, lat], [lon + dx, lat], [lon + dx, lat + dy], [lon, lat + dy], [lon, lat]]] } })
+    }
+
+    fn run(features: Vec<Value>, lod: Option<&str>) -> Ingested {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("osm-export.geojson");
+        std::fs::write(
+            &p,
+            json!({ "type": "FeatureCollection", "features": features }).to_string(),
+        )
+        .unwrap();
+        let opts = IngestOptions {
+            lod: lod.map(|l| l.parse().unwrap()),
+            ..Default::default()
+        };
+        let out = ingest(&[p], &opts).unwrap();
+        out.report.check_invariants().unwrap();
+        out
+    }
+
+    /// Distinct heights of a building's model corners above its base, in cm.
+    fn levels(out: &Ingested, i: usize) -> Vec<i64> {
+        let b = &out.buildings[i];
+        let m = b
+            .mesh
+            .as_ref()
+            .unwrap_or_else(|| panic!("{} has no model", b.source_id));
+        assert!(mesh_report(&m.mesh).watertight, "{}", b.source_id);
+        let mut z: Vec<i64> = m
+            .mesh
+            .positions
+            .iter()
+            .map(|p| ((p[2] - b.base_z_m) * 100.0).round() as i64)
+            .collect();
+        z.sort_unstable();
+        z.dedup();
+        z
+    }
+
+    #[test]
+    fn roof_tags_of_an_osm_export_give_each_building_its_roof() {
+        let features = vec![
+            house(0, json!({ "roof:shape": "gabled", "roof:height": "3" })),
+            house(1, json!({ "roof:shape": "hipped", "roof:levels": "1" })),
+            house(
+                2,
+                json!({ "roof:shape": "skillion", "roof:angle": "20", "roof:direction": "NE" }),
+            ),
+            house(3, json!({ "roof:shape": "dome" })),
+            house(4, json!({ "roof:shape": "gabled", "roof:height": "steep" })),
+            house(5, json!({ "roof:shape": "flat" })),
+            house(6, json!({})),
+            house(
+                7,
+                json!({ "roof:shape": "pyramidal", "roof:height": "12 m" }),
+            ),
+        ];
+        let out = run(features.clone(), Some("2"));
+        // Gabled: eaves at 7 m, ridge at 10 m.
+        assert_eq!(levels(&out, 0), [0, 700, 1000]);
+        // One roof storey of the default 3 m.
+        assert_eq!(levels(&out, 1), [0, 700, 1000]);
+        // A skillion at 20° descending towards the north-east: the corners at several heights, the highest the top.
+        let z = levels(&out, 2);
+        assert_eq!((z[0], *z.last().unwrap()), (0, 1000));
+        assert!(
+            z.len() >= 4,
+            "a skillion towards NE has corners at several heights: {z:?}"
+        );
+        // A 12 m roof on a 10 m building keeps 10 cm of wall.
+        assert_eq!(levels(&out, 7), [0, 10, 1000]);
+        for i in [3, 5, 6] {
+            assert!(out.buildings[i].mesh.is_none(), "{i}");
+        }
+        // Steep is no height: the default 30° over the 4 m half width, 2.31 m.
+        assert_eq!(levels(&out, 4), [0, 769, 1000]);
+        let issues: Vec<(&str, IssueReason, &str)> = out
+            .report
+            .mesh_issues
+            .iter()
+            .map(|i| (i.feature_id.as_str(), i.reason, i.detail.as_str()))
+            .collect();
+        assert_eq!(issues.len(), 2, "{issues:#?}");
+        assert_eq!(issues[0].0, "way/3");
+        assert_eq!(issues[0].1, IssueReason::ModelMissing);
+        assert!(issues[0]
+            .2
+            .starts_with("roof:shape=dome: this shape is not modelled"));
+        assert_eq!(
+            (issues[1].0, issues[1].1),
+            ("way/4", IssueReason::HeightValueRejected)
+        );
+        assert!(
+            issues[1].2.contains("roof:height = \"steep\""),
+            "{}",
+            issues[1].2
+        );
+        assert_eq!(out.report.mesh_lods.get("2"), Some(&5));
+
+        // Roofs are LoD 2: none without --lod or at LoD 1.x; at 2.2 they are the fall-back below it.
+        for lod in [None, Some("1.2")] {
+            let out = run(features.clone(), lod);
+            assert!(out.buildings.iter().all(|b| b.mesh.is_none()), "{lod:?}");
+        }
+        let out = run(features, Some("2.2"));
+        assert_eq!(out.report.mesh_lod_fallbacks, 5);
+    }
+}
