@@ -134,7 +134,8 @@ pub fn roofed_building(
         return Err("the outline has no width to pitch a roof over".into());
     }
     let rise = match spec.rise {
-        RoofRise::Metres(m) => m,
+        RoofRise::Metres(m) if m.is_finite() => m,
+        RoofRise::Metres(m) => return Err(format!("a roof height of {m} m")),
         RoofRise::AngleDeg(a) if a > 0.0 && a < 89.0 => a.to_radians().tan() * run,
         RoofRise::AngleDeg(a) => return Err(format!("a roof angle of {a}° is not a slope")),
         RoofRise::Default => (DEFAULT_ANGLE_DEG.to_radians().tan() * run).min(0.5 * height),
@@ -149,6 +150,7 @@ pub fn roofed_building(
     }
     let eaves = top - rise;
     let (points, roof) = plan(&faces, &ring)
+        .filter(|(_, roof)| !roof.is_empty())
         .ok_or_else(|| "the roof's faces could not be triangulated".to_string())?;
     // Vertex i is point i on the roof, vertex n + i the same point on the ground.
     let n = points.len() as u32;
@@ -741,6 +743,8 @@ mod tests {
             .contains("flat"));
         for bad in [f64::NAN, f64::INFINITY, -1.0, 0.0] {
             assert!(roofed_building(&footprint(&HOUSE), 0.0, bad, &gabled).is_err());
+            let metres = spec(RoofShape::Gabled, RoofRise::Metres(bad));
+            assert!(roofed_building(&footprint(&HOUSE), 0.0, 9.0, &metres).is_err());
             assert!(roofed_building(
                 &footprint(&HOUSE),
                 0.0,
