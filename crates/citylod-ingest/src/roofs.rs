@@ -1,6 +1,7 @@
 //! Pitched roofs from OpenStreetMap's Simple 3D Buildings tags (`roof:shape`, `roof:height`, `roof:levels`,
 //! `roof:angle`, `roof:direction`, `roof:orientation`), in whatever format the tags come (an OSM file, its export to
-//! GeoJSON, GeoPackage or Shapefile): with `--lod 2` (or `highest`, or a 2.x) a building whose `roof:shape` is
+//! GeoJSON, GeoPackage or Shapefile, with names as GDAL launders them, `roof_shape`, or cut to a shapefile's 10
+//! characters, `roof:heigh`): with `--lod 2` (or `highest`, or a 2.x) a building whose `roof:shape` is
 //! skillion, gabled, hipped or pyramidal gets a 3D model of LoD 2 — walls up to the eaves, the roof up to the
 //! building's height — and is drawn with it at full detail, its prism and the simplified model above it as for a
 //! CityJSON LoD2 building. Other shapes, and outlines a shape cannot be pitched over, keep the flat prism, listed
@@ -46,7 +47,7 @@ pub(crate) fn roof_model(
     let mut rejected = Vec::new();
     let mut value =
         |name: &str, metres: &dyn Fn(&AttrValue) -> Option<f64>, ok: &dyn Fn(f64) -> bool| {
-            let v = attrs.get(name).filter(|v| !matches!(v, AttrValue::Null))?;
+            let v = tag(attrs, name)?;
             match metres(v).filter(|m| m.is_finite() && ok(*m)) {
                 Some(m) => Some(m),
                 None => {
@@ -99,8 +100,24 @@ pub(crate) fn roof_model(
     }
 }
 
+/// The value of OSM tag `key`, as GeoJSON and OSM files keep it (`roof:height`), as GDAL launders it for other
+/// formats (`roof_height`), or as shapefile writers cut either to 10 characters (`roof:heigh`, `roof_heigh`).
+fn tag<'a>(attrs: &'a Attributes, key: &str) -> Option<&'a AttrValue> {
+    let laundered = key.replace(':', "_");
+    let cut = |k: &str| k.chars().take(10).collect::<String>();
+    [
+        key.to_string(),
+        laundered.clone(),
+        cut(key),
+        cut(&laundered),
+    ]
+    .iter()
+    .find_map(|k| attrs.get(k))
+    .filter(|v| !matches!(v, AttrValue::Null))
+}
+
 fn text(attrs: &Attributes, name: &str) -> Option<String> {
-    match attrs.get(name)? {
+    match tag(attrs, name)? {
         AttrValue::String(s) => Some(s.trim().to_string()),
         _ => None,
     }
@@ -206,6 +223,8 @@ mod tests {
                 7,
                 json!({ "roof:shape": "pyramidal", "roof:height": "12 m" }),
             ),
+            // As GDAL launders OSM keys, and as a shapefile cuts them.
+            house(8, json!({ "roof_shape": "hipped", "roof_heigh": 2.5 })),
         ];
         let out = run(features.clone(), Some("2"));
         // Gabled: eaves at 7 m, ridge at 10 m.
@@ -221,6 +240,7 @@ mod tests {
         );
         // A 12 m roof on a 10 m building keeps 10 cm of wall.
         assert_eq!(levels(&out, 7), [0, 10, 1000]);
+        assert_eq!(levels(&out, 8), [0, 750, 1000]);
         for i in [3, 5, 6] {
             assert!(out.buildings[i].mesh.is_none(), "{i}");
         }
@@ -247,7 +267,7 @@ mod tests {
             "{}",
             issues[1].2
         );
-        assert_eq!(out.report.mesh_lods.get("2"), Some(&5));
+        assert_eq!(out.report.mesh_lods.get("2"), Some(&6));
 
         // Roofs are LoD 2: none without --lod or at LoD 1.x; at 2.2 they are the fall-back below it.
         for lod in [None, Some("1.2")] {
@@ -255,6 +275,6 @@ mod tests {
             assert!(out.buildings.iter().all(|b| b.mesh.is_none()), "{lod:?}");
         }
         let out = run(features, Some("2.2"));
-        assert_eq!(out.report.mesh_lod_fallbacks, 5);
+        assert_eq!(out.report.mesh_lod_fallbacks, 6);
     }
 }
