@@ -2,7 +2,7 @@
 //! `roof:angle`, `roof:direction`, `roof:orientation`), in whatever format the tags come (an OSM file, its export to
 //! GeoJSON, GeoPackage or Shapefile, with names as GDAL launders them, `roof_shape`, or cut to a shapefile's 10
 //! characters, `roof:heigh`): with `--lod 2` (or `highest`, or a 2.x) a building whose `roof:shape` is
-//! skillion, gabled, hipped or pyramidal gets a 3D model of LoD 2 — walls up to the eaves, the roof up to the
+//! skillion, gabled, hipped, pyramidal, dome or onion (drawn as a dome) gets a 3D model of LoD 2 — walls up to the eaves, the roof up to the
 //! building's height — and is drawn with it at full detail, its prism and the simplified model above it as for a
 //! CityJSON LoD2 building. Other shapes, and outlines a shape cannot be pitched over, keep the flat prism, listed
 //! in the report's mesh issues with the reason.
@@ -40,7 +40,8 @@ pub(crate) fn roof_model(
     };
     let Some(shape) = RoofShape::from_osm(&shape_value) else {
         meshed.issues.push(flat(
-            "this shape is not modelled (skillion, gabled, hipped and pyramidal are)".into(),
+            "this shape is not modelled (skillion, gabled, hipped, pyramidal, dome and onion are)"
+                .into(),
         ));
         return;
     };
@@ -215,7 +216,7 @@ mod tests {
                 2,
                 json!({ "roof:shape": "skillion", "roof:angle": "20", "roof:direction": "NE" }),
             ),
-            house(3, json!({ "roof:shape": "dome" })),
+            house(3, json!({ "roof:shape": "gambrel" })),
             house(4, json!({ "roof:shape": "gabled", "roof:height": "steep" })),
             house(5, json!({ "roof:shape": "flat" })),
             house(6, json!({})),
@@ -225,6 +226,7 @@ mod tests {
             ),
             // As GDAL launders OSM keys, and as a shapefile cuts them.
             house(8, json!({ "roof_shape": "hipped", "roof_heigh": 2.5 })),
+            house(9, json!({ "roof:shape": "onion", "roof:height": 4 })),
         ];
         let out = run(features.clone(), Some("2"));
         // Gabled: eaves at 7 m, ridge at 10 m.
@@ -241,6 +243,13 @@ mod tests {
         // A 12 m roof on a 10 m building keeps 10 cm of wall.
         assert_eq!(levels(&out, 7), [0, 10, 1000]);
         assert_eq!(levels(&out, 8), [0, 750, 1000]);
+        // An onion as a dome: eaves at 6 m, then the bands of a quarter circle to the top.
+        let z = levels(&out, 9);
+        assert_eq!(
+            (z[1], z.len(), *z.last().unwrap()),
+            (600, 2 + 6, 1000),
+            "{z:?}"
+        );
         for i in [3, 5, 6] {
             assert!(out.buildings[i].mesh.is_none(), "{i}");
         }
@@ -257,7 +266,7 @@ mod tests {
         assert_eq!(issues[0].1, IssueReason::ModelMissing);
         assert!(issues[0]
             .2
-            .starts_with("roof:shape=dome: this shape is not modelled"));
+            .starts_with("roof:shape=gambrel: this shape is not modelled"));
         assert_eq!(
             (issues[1].0, issues[1].1),
             ("way/4", IssueReason::HeightValueRejected)
@@ -267,7 +276,7 @@ mod tests {
             "{}",
             issues[1].2
         );
-        assert_eq!(out.report.mesh_lods.get("2"), Some(&6));
+        assert_eq!(out.report.mesh_lods.get("2"), Some(&7));
 
         // Roofs are LoD 2: none without --lod or at LoD 1.x; at 2.2 they are the fall-back below it.
         for lod in [None, Some("1.2")] {
@@ -275,6 +284,6 @@ mod tests {
             assert!(out.buildings.iter().all(|b| b.mesh.is_none()), "{lod:?}");
         }
         let out = run(features, Some("2.2"));
-        assert_eq!(out.report.mesh_lod_fallbacks, 6);
+        assert_eq!(out.report.mesh_lod_fallbacks, 7);
     }
 }

@@ -6,9 +6,11 @@
 //! - **gabled**: two planes meeting at a ridge through the middle of the outline, the gable ends walls;
 //! - **hipped**: a plane rising from every outline edge at one slope (the straight skeleton of a convex outline:
 //!   the face of an edge is where that edge is the nearest);
-//! - **pyramidal**: a triangle from every outline edge to an apex above the outline's centroid.
+//! - **pyramidal**: a triangle from every outline edge to an apex above the outline's centroid;
+//! - **dome** (also for an onion, whose bulge beyond the walls is not drawn): the outline shrunk towards its centroid
+//!   in [`DOME_BANDS`] bands whose heights follow a quarter circle (an ellipse when the rise is not the radius).
 //!
-//! Gabled, hipped and pyramidal roofs need a convex outline; an outline with holes or of several polygons has no
+//! Gabled, hipped, pyramidal and dome roofs need a convex outline; an outline with holes or of several polygons has no
 //! pitched roof here. Those cases are errors with the reason, for the caller to keep its flat prism.
 
 use citylod_model::{Mesh3d, SurfaceKind};
@@ -21,6 +23,8 @@ pub enum RoofShape {
     Gabled,
     Hipped,
     Pyramidal,
+    /// A dome over a convex outline: the outline shrunk towards its centroid in bands, as a quarter circle rises.
+    Dome,
 }
 
 impl RoofShape {
@@ -31,6 +35,8 @@ impl RoofShape {
             "gabled" | "pitched" => Some(RoofShape::Gabled),
             "hipped" => Some(RoofShape::Hipped),
             "pyramidal" => Some(RoofShape::Pyramidal),
+            // An onion's bulge beyond its walls cannot stand on them: drawn as the dome under it.
+            "dome" | "onion" => Some(RoofShape::Dome),
             _ => None,
         }
     }
@@ -129,6 +135,7 @@ pub fn roofed_building(
         }
         RoofShape::Hipped => hipped(&ring),
         RoofShape::Pyramidal => pyramidal(&ring),
+        RoofShape::Dome => dome(&ring),
     };
     if !(run.is_finite() && run > 1e-6) {
         return Err("the outline has no width to pitch a roof over".into());
@@ -138,6 +145,8 @@ pub fn roofed_building(
         RoofRise::Metres(m) => return Err(format!("a roof height of {m} m")),
         RoofRise::AngleDeg(a) if a > 0.0 && a < 89.0 => a.to_radians().tan() * run,
         RoofRise::AngleDeg(a) => return Err(format!("a roof angle of {a}° is not a slope")),
+        // A dome as high as it is wide; other roofs at the default slope.
+        RoofRise::Default if spec.shape == RoofShape::Dome => run.min(0.5 * height),
         RoofRise::Default => (DEFAULT_ANGLE_DEG.to_radians().tan() * run).min(0.5 * height),
     };
     // The walls keep at least 10 cm (a roof as high as the building would meet the ground).
@@ -510,6 +519,43 @@ fn pyramidal(ring: &[P2]) -> (Vec<Face>, f64) {
     (faces, run)
 }
 
+/// Bands of a dome.
+pub const DOME_BANDS: usize = 6;
+
+/// Bands between copies of the outline shrunk towards its centroid by cos θ and raised by sin θ of the rise, θ in
+/// [`DOME_BANDS`] equal steps to 90° (the last band's triangles meet at the apex); the run is the apex's distance
+/// from the nearest edge line. A band's face between two copies of an edge is a trapezoid, so planar.
+fn dome(ring: &[P2]) -> (Vec<Face>, f64) {
+    let n = ring.len();
+    let c = centroid(ring);
+    let (_, run) = pyramidal(ring);
+    let copy = |j: usize, p: P2| {
+        let t = std::f64::consts::FRAC_PI_2 * j as f64 / DOME_BANDS as f64;
+        let (up, inward) = if j == DOME_BANDS {
+            (1.0, 0.0)
+        } else {
+            t.sin_cos()
+        };
+        [
+            c[0] + inward * (p[0] - c[0]),
+            c[1] + inward * (p[1] - c[1]),
+            up,
+        ]
+    };
+    let mut faces = Vec::with_capacity(n * DOME_BANDS);
+    for j in 0..DOME_BANDS {
+        for i in 0..n {
+            let (a, b) = (ring[i], ring[(i + 1) % n]);
+            faces.push(if j + 1 == DOME_BANDS {
+                vec![copy(j, a), copy(j, b), copy(j + 1, a)]
+            } else {
+                vec![copy(j, a), copy(j, b), copy(j + 1, b), copy(j + 1, a)]
+            });
+        }
+    }
+    (faces, run)
+}
+
 fn centroid(ring: &[P2]) -> P2 {
     let n = ring.len();
     let o = ring[0];
@@ -690,6 +736,50 @@ mod tests {
     }
 
     #[test]
+    fn a_dome_rises_as_a_quarter_circle_to_its_apex() {
+        // A 48-gon of radius 10 m: inradius 9.98 m, the default dome as high as that.
+        let round: Vec<(f64, f64)> = (0..48)
+            .map(|i| {
+                let a = std::f64::consts::TAU * i as f64 / 48.0;
+                (10.0 * a.cos(), 10.0 * a.sin())
+            })
+            .collect();
+        let (mesh, kinds) = roofed_building(
+            &footprint(&round),
+            0.0,
+            30.0,
+            &spec(RoofShape::Dome, RoofRise::Default),
+        )
+        .unwrap();
+        let r = 10.0 * (std::f64::consts::PI / 48.0).cos();
+        assert!((top_z(&mesh) - 30.0).abs() < 1e-9);
+        let apex = ridge(&mesh, 30.0);
+        assert!(
+            apex.len() == 1 && apex[0][0].hypot(apex[0][1]) < 1e-9,
+            "{apex:?}"
+        );
+        // Walls to 30 − r, then about a hemisphere of the outline's area: (2/3)·A·r, the bands a little less.
+        let area = 0.5 * 48.0 * 100.0 * (std::f64::consts::TAU / 48.0).sin();
+        let v = closed_volume(&mesh) - area * (30.0 - r);
+        let hemisphere = 2.0 / 3.0 * area * r;
+        assert!(
+            v < hemisphere && v > 0.95 * hemisphere,
+            "{v} against {hemisphere}"
+        );
+        // Every band of every edge is roof: 48 × (5 trapezoids of 2 triangles + 1 apex triangle).
+        assert_eq!(
+            kinds.iter().filter(|&&k| k == SurfaceKind::Roof).count(),
+            48 * 11
+        );
+        // A corner's copies rise on a quarter circle: at 30° of it, half the rise at cos 30° of the way in.
+        let (x, z) = (10.0 * (30f64).to_radians().cos(), 30.0 - r + r * 0.5);
+        assert!(mesh
+            .positions
+            .iter()
+            .any(|p| (p[0] - x).abs() < 1e-9 && p[1].abs() < 1e-9 && (p[2] - z).abs() < 1e-9));
+    }
+
+    #[test]
     fn a_skillion_roof_descends_towards_its_direction_over_any_outline() {
         // An L: concave, still one plane.
         let l = [
@@ -794,7 +884,7 @@ mod tests {
             let fp = footprint(&pts);
             let ring: Vec<[f64; 2]> = pts.iter().map(|&(x, y)| [x, y]).collect();
             let area = crate::ring::signed_area2(&ring) / 2.0;
-            for shape in [RoofShape::Skillion, RoofShape::Gabled, RoofShape::Hipped, RoofShape::Pyramidal] {
+            for shape in [RoofShape::Skillion, RoofShape::Gabled, RoofShape::Hipped, RoofShape::Pyramidal, RoofShape::Dome] {
                 let spec = RoofSpec { shape, rise: RoofRise::Metres(rise), direction_deg: direction, across };
                 let built = roofed_building(&fp, 2.0, 20.0, &spec);
                 // A sliver of an outline (all corners on a short arc) may have too few corners left once those

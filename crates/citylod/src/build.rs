@@ -105,9 +105,10 @@ pub struct BuildArgs {
     /// of 3D surface models (PolyhedralSurface, TIN, or MultiPolygon Z with walls, as 3DBAG's 3D layers) has one
     /// model per row, a shapefile or File Geodatabase one per MultiPatch: any value takes it (counted as
     /// `GeoPackage 3D`, `MultiPatch`). A building tagged as OpenStreetMap does (an .osm/.osm.pbf file, or its
-    /// export to GeoJSON, GeoPackage or Shapefile) with roof:shape skillion, gabled, hipped or pyramidal gets, at
+    /// export to GeoJSON, GeoPackage or Shapefile) with roof:shape skillion, gabled, hipped, pyramidal, dome or onion (as a dome) gets, at
     /// `2`, a 2.x or `highest`, an LoD 2 model of its roof (roof:height, else roof:levels × --storey-height, else
-    /// roof:angle, else a 30° slope up to half its height; roof:direction, roof:orientation); other shapes, and
+    /// roof:angle, else a 30° slope — a dome as high as wide — up to half its height; roof:direction,
+    /// roof:orientation); other shapes, and
     /// outlines with holes or (but for skillion) not convex, stay prisms, listed with the reason. Other polygons
     /// ignore it.
     #[arg(long, value_name = "LOD", help_heading = "3D buildings")]
