@@ -3,14 +3,15 @@
 //! a closed mesh of ground, walls up to the roof and the roof faces, each face planar, in local ENU metres.
 //!
 //! - **skillion**: one plane descending towards the roof direction, over any simple outline;
-//! - **gabled**: two planes meeting at a ridge through the middle of the outline, the gable ends walls;
+//! - **gabled**: two planes meeting at a ridge through the middle of the outline, the gable ends walls, over any
+//!   simple outline;
 //! - **hipped**: a plane rising from every outline edge at one slope (the straight skeleton of a convex outline:
 //!   the face of an edge is where that edge is the nearest);
 //! - **pyramidal**: a triangle from every outline edge to an apex above the outline's centroid;
 //! - **dome** (also for an onion, whose bulge beyond the walls is not drawn): the outline shrunk towards its centroid
 //!   in [`DOME_BANDS`] bands whose heights follow a quarter circle (an ellipse when the rise is not the radius).
 //!
-//! Gabled, hipped, pyramidal and dome roofs need a convex outline; an outline with holes or of several polygons has no
+//! Hipped, pyramidal and dome roofs need a convex outline; an outline with holes or of several polygons has no
 //! pitched roof here. Those cases are errors with the reason, for the caller to keep its flat prism.
 
 use citylod_model::{Mesh3d, SurfaceKind};
@@ -107,10 +108,11 @@ pub fn roofed_building(
             ring.len()
         ));
     }
-    let convex = is_convex(&ring);
-    if !convex && spec.shape != RoofShape::Skillion {
+    let pitched_anyhow = matches!(spec.shape, RoofShape::Skillion | RoofShape::Gabled);
+    if !pitched_anyhow && !is_convex(&ring) {
         return Err(
-            "the outline is not convex (only a skillion roof is built on a concave one)".into(),
+            "the outline is not convex (only skillion and gabled roofs are built on a concave one)"
+                .into(),
         );
     }
     let top = base_z + height;
@@ -412,8 +414,9 @@ fn skillion(ring: &[P2], down: P2) -> (Vec<Face>, f64) {
     (vec![face], run)
 }
 
-/// Two faces either side of a ridge along `along` through the middle of the outline's extent across it; the run
-/// is half that extent.
+/// The roof falling from a ridge along `along` through the middle of the outline's extent across it to both sides
+/// (the ridge across the whole outline, as Simple 3D Buildings renderers draw a gabled roof over a concave one);
+/// the run is half that extent. Faces: the outline with the ridge's ends inserted, and the ridge's pieces.
 fn gabled(ring: &[P2], along: P2) -> (Vec<Face>, f64) {
     let across = [-along[1], along[0]];
     let t: Vec<f64> = ring.iter().map(|&p| dot(p, across)).collect();
@@ -441,16 +444,24 @@ fn gabled(ring: &[P2], along: P2) -> (Vec<Face>, f64) {
             (1.0 - (dot(p, across) - mid).abs() / half).clamp(0.0, 1.0)
         }
     };
-    let faces = [1i8, -1]
+    // The outline, and the ridge as its pieces inside the outline (a concave outline's ridge line may leave it and
+    // come back); the triangulation keeps each triangle on one side of the ridge, where the roof is one plane.
+    let mut faces: Vec<Face> = vec![pts
         .iter()
-        .map(|&s| {
-            pts.iter()
-                .filter(|(_, side)| *side == s || *side == 0)
-                .map(|&(p, side)| [p[0], p[1], share(p, side)])
-                .collect::<Face>()
-        })
-        .filter(|f| f.len() >= 3)
+        .map(|&(p, side)| [p[0], p[1], share(p, side)])
+        .collect()];
+    let mut on_ridge: Vec<(f64, P2)> = pts
+        .iter()
+        .filter(|(_, side)| *side == 0)
+        .map(|&(p, _)| (dot(p, along), p))
         .collect();
+    on_ridge.sort_by(|x, y| x.0.total_cmp(&y.0));
+    for w in on_ridge.windows(2) {
+        let (p, q) = (w[0].1, w[1].1);
+        if inside(ring, [0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1])]) {
+            faces.push(vec![[p[0], p[1], 1.0], [q[0], q[1], 1.0]]);
+        }
+    }
     (faces, half)
 }
 
@@ -780,6 +791,35 @@ mod tests {
     }
 
     #[test]
+    fn a_gabled_roof_over_an_l_has_one_ridge_through_the_middle() {
+        let l = [
+            (0.0, 0.0),
+            (10.0, 0.0),
+            (10.0, 4.0),
+            (4.0, 4.0),
+            (4.0, 10.0),
+            (0.0, 10.0),
+        ];
+        let (mesh, _) = roofed_building(
+            &footprint(&l),
+            0.0,
+            10.0,
+            &spec(RoofShape::Gabled, RoofRise::Metres(2.0)),
+        )
+        .unwrap();
+        // The ridge along the longest edge (x) at y = 5, inside the L from x = 0 to 4; the wing east of it slopes
+        // from 80 % of the rise at y = 4 to the eaves at y = 0.
+        assert_eq!(ridge(&mesh, 10.0), [[0.0, 5.0], [4.0, 5.0]]);
+        let v = closed_volume(&mesh);
+        let roof = 4.0 * 2.0 * 5.0 + 6.0 * 2.0 * 1.6;
+        assert!((v - (64.0 * 8.0 + roof)).abs() < 1e-6, "{v}");
+        assert!(mesh
+            .positions
+            .iter()
+            .any(|p| p[0] == 10.0 && p[1] == 4.0 && (p[2] - 9.6).abs() < 1e-9));
+    }
+
+    #[test]
     fn a_skillion_roof_descends_towards_its_direction_over_any_outline() {
         // An L: concave, still one plane.
         let l = [
@@ -811,8 +851,11 @@ mod tests {
             (0.0, 10.0),
         ];
         let gabled = spec(RoofShape::Gabled, RoofRise::Default);
-        let e = roofed_building(&footprint(&l), 0.0, 9.0, &gabled).unwrap_err();
-        assert!(e.contains("not convex"), "{e}");
+        for shape in [RoofShape::Hipped, RoofShape::Pyramidal, RoofShape::Dome] {
+            let e = roofed_building(&footprint(&l), 0.0, 9.0, &spec(shape, RoofRise::Default))
+                .unwrap_err();
+            assert!(e.contains("not convex"), "{e}");
+        }
         let holed = MultiPolygon(vec![Polygon::new(
             LineString::from(HOUSE.to_vec()),
             vec![LineString::from(vec![
@@ -904,9 +947,9 @@ mod tests {
             }
         }
 
-        /// A skillion roof over any star-shaped outline (concave, corners at random radii) is closed too.
+        /// Skillion and gabled roofs over any star-shaped outline (concave, corners at random radii) are closed too.
         #[test]
-        fn every_star_shaped_outline_gets_a_closed_skillion(
+        fn every_star_shaped_outline_gets_a_closed_skillion_and_gabled_roof(
             corners in proptest::collection::vec((0.0f64..std::f64::consts::TAU, 2.0f64..40.0), 3..30),
             rise in 0.1f64..15.0,
             direction in 0.0f64..360.0,
@@ -928,13 +971,15 @@ mod tests {
             if pts.len() < 3 || area < 1.0 {
                 return Ok(());
             }
-            let spec = RoofSpec { shape: RoofShape::Skillion, rise: RoofRise::Metres(rise), direction_deg: Some(direction), across: false };
-            let (mesh, _) = roofed_building(&footprint(&pts), 0.0, 20.0, &spec)
-                .map_err(proptest::test_runner::TestCaseError::fail)?;
-            let r = mesh_report(&mesh);
-            proptest::prop_assert!(r.watertight && r.orientation_consistent, "{:?}", r);
-            let v = signed_volume_m3(&mesh);
-            proptest::prop_assert!(v > area * (20.0 - rise) * (1.0 - 1e-9) && v < area * 20.0 * (1.0 + 1e-9), "{} of {}", v, area);
+            for shape in [RoofShape::Skillion, RoofShape::Gabled] {
+                let spec = RoofSpec { shape, rise: RoofRise::Metres(rise), direction_deg: Some(direction), across: false };
+                let (mesh, _) = roofed_building(&footprint(&pts), 0.0, 20.0, &spec)
+                    .map_err(proptest::test_runner::TestCaseError::fail)?;
+                let r = mesh_report(&mesh);
+                proptest::prop_assert!(r.watertight && r.orientation_consistent, "{:?}: {:?}", shape, r);
+                let v = signed_volume_m3(&mesh);
+                proptest::prop_assert!(v > area * (20.0 - rise) * (1.0 - 1e-9) && v < area * 20.0 * (1.0 + 1e-9), "{:?}: {} of {}", shape, v, area);
+            }
         }
     }
 }
