@@ -2,17 +2,17 @@
 //! Buildings tags describe them (`roof:shape`, `roof:height`, `roof:angle`, `roof:direction`, `roof:orientation`):
 //! a closed mesh of ground, walls up to the roof and the roof faces, each face planar, in local ENU metres.
 //!
-//! - **skillion**: one plane descending towards the roof direction, over any simple outline;
+//! - **skillion**: one plane descending towards the roof direction, over any outline and its courtyards;
 //! - **gabled**: two planes meeting at a ridge through the middle of the outline, the gable ends walls, over any
-//!   simple outline;
+//!   outline and its courtyards;
 //! - **hipped**: a plane rising from every outline edge at one slope (the straight skeleton of a convex outline:
 //!   the face of an edge is where that edge is the nearest);
 //! - **pyramidal**: a triangle from every outline edge to an apex above the outline's centroid;
 //! - **dome** (also for an onion, whose bulge beyond the walls is not drawn): the outline shrunk towards its centroid
 //!   in [`DOME_BANDS`] bands whose heights follow a quarter circle (an ellipse when the rise is not the radius).
 //!
-//! Hipped, pyramidal and dome roofs need a convex outline; an outline with holes or of several polygons has no
-//! pitched roof here. Those cases are errors with the reason, for the caller to keep its flat prism.
+//! Hipped, pyramidal and dome roofs need a convex outline without courtyards; a footprint of several polygons has
+//! no pitched roof here. Those cases are errors with the reason, for the caller to keep its flat prism.
 
 use citylod_model::{Mesh3d, SurfaceKind};
 use geo_types::MultiPolygon;
@@ -92,13 +92,18 @@ pub fn roofed_building(
             footprint.0.len()
         ));
     };
-    if !polygon.interiors().is_empty() {
-        return Err("a footprint with a courtyard (a hole) is not roofed".into());
-    }
     if !(base_z.is_finite() && height.is_finite() && height > 0.0) {
         return Err(format!("heights {base_z} + {height} m are not usable"));
     }
     let ring = corners(polygon.exterior().0.iter().map(|c| [c.x, c.y]).collect());
+    // The outline and its courtyards: a skillion or gabled roof spans them, the others need a convex outline.
+    let mut rings = vec![ring.clone()];
+    for hole in polygon.interiors() {
+        let h = corners(hole.0.iter().map(|c| [c.x, c.y]).collect());
+        if h.len() >= 3 {
+            rings.push(h);
+        }
+    }
     if ring.len() < 3 {
         return Err("the outline has fewer than 3 corners".into());
     }
@@ -109,11 +114,22 @@ pub fn roofed_building(
         ));
     }
     let pitched_anyhow = matches!(spec.shape, RoofShape::Skillion | RoofShape::Gabled);
+    if !pitched_anyhow && rings.len() > 1 {
+        return Err(
+            "a footprint with a courtyard (a hole) takes only a skillion or gabled roof".into(),
+        );
+    }
     if !pitched_anyhow && !is_convex(&ring) {
         return Err(
             "the outline is not convex (only skillion and gabled roofs are built on a concave one)"
                 .into(),
         );
+    }
+    let corner_count: usize = rings.iter().map(Vec::len).sum();
+    if corner_count > MAX_CORNERS {
+        return Err(format!(
+            "an outline of {corner_count} corners with its courtyards (more than {MAX_CORNERS})"
+        ));
     }
     let top = base_z + height;
     let longest = longest_edge(&ring);
@@ -122,7 +138,7 @@ pub fn roofed_building(
             let down = spec
                 .direction_deg
                 .map_or([-longest[1], longest[0]], compass);
-            skillion(&ring, down)
+            skillion(&rings, down)
         }
         RoofShape::Gabled => {
             let along = match spec.direction_deg {
@@ -133,7 +149,7 @@ pub fn roofed_building(
                 None if spec.across => [-longest[1], longest[0]],
                 None => longest,
             };
-            gabled(&ring, along)
+            gabled(&rings, along)
         }
         RoofShape::Hipped => hipped(&ring),
         RoofShape::Pyramidal => pyramidal(&ring),
@@ -160,7 +176,7 @@ pub fn roofed_building(
         ));
     }
     let eaves = top - rise;
-    let (points, roof) = plan(&faces, &ring)
+    let (points, roof) = plan(&faces, &rings)
         .filter(|(_, roof)| !roof.is_empty())
         .ok_or_else(|| "the roof's faces could not be triangulated".to_string())?;
     // Vertex i is point i on the roof, vertex n + i the same point on the ground.
@@ -232,9 +248,9 @@ type RoofPlan = (Vec<[f64; 3]>, Vec<[u32; 3]>);
 /// triangles of a Delaunay triangulation constrained by every face's edges, kept where they lie inside the outline,
 /// counter-clockwise from above. One triangulation for all faces leaves no crack where two faces' corners differ by
 /// rounding, and its rim is the walls' top. `None` if the triangulation fails.
-fn plan(faces: &[Face], ring: &[P2]) -> Option<RoofPlan> {
+fn plan(faces: &[Face], rings: &[Vec<P2>]) -> Option<RoofPlan> {
     use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
-    let o = ring[0];
+    let o = rings[0][0];
     let mut points: Vec<[f64; 3]> = Vec::new();
     let mut cdt: ConstrainedDelaunayTriangulation<Point2<f64>> =
         ConstrainedDelaunayTriangulation::new();
@@ -279,7 +295,10 @@ fn plan(faces: &[Face], ring: &[P2]) -> Option<RoofPlan> {
             }
         }
     }
-    let outline: Vec<P2> = ring.iter().map(|p| sub(*p, o)).collect();
+    let outline: Vec<Vec<P2>> = rings
+        .iter()
+        .map(|r| r.iter().map(|p| sub(*p, o)).collect())
+        .collect();
     let mut triangles = Vec::new();
     for f in cdt.inner_faces() {
         let vs = f.vertices();
@@ -301,16 +320,18 @@ fn plan(faces: &[Face], ring: &[P2]) -> Option<RoofPlan> {
     Some((points, triangles))
 }
 
-/// Whether `p` is inside the ring (even-odd).
-fn inside(ring: &[P2], p: P2) -> bool {
-    let n = ring.len();
+/// Whether `p` is inside the rings (even-odd: inside the outline, outside its courtyards).
+fn inside(rings: &[Vec<P2>], p: P2) -> bool {
     let mut inside = false;
-    for i in 0..n {
-        let (a, b) = (ring[i], ring[(i + 1) % n]);
-        if (a[1] > p[1]) != (b[1] > p[1]) {
-            let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
-            if p[0] < x {
-                inside = !inside;
+    for ring in rings {
+        let n = ring.len();
+        for i in 0..n {
+            let (a, b) = (ring[i], ring[(i + 1) % n]);
+            if (a[1] > p[1]) != (b[1] > p[1]) {
+                let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
+                if p[0] < x {
+                    inside = !inside;
+                }
             }
         }
     }
@@ -399,66 +420,77 @@ fn longest_edge(ring: &[P2]) -> P2 {
 /// A roof face: corners as (x, y, share of the rise above the eaves).
 type Face = Vec<[f64; 3]>;
 
-/// One face over the whole outline, its share of the rise 1 at the highest corner and 0 at the lowest along
-/// `down`; the run is that extent.
-fn skillion(ring: &[P2], down: P2) -> (Vec<Face>, f64) {
-    let s: Vec<f64> = ring.iter().map(|&p| dot(p, down)).collect();
+/// One plane over the whole outline (its rings the faces), its share of the rise 1 at the highest corner and 0 at
+/// the lowest along `down`; the run is that extent.
+fn skillion(rings: &[Vec<P2>], down: P2) -> (Vec<Face>, f64) {
+    let s: Vec<f64> = rings[0].iter().map(|&p| dot(p, down)).collect();
     let lo = s.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = s.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let run = hi - lo;
-    let face = ring
+    let faces = rings
         .iter()
-        .zip(&s)
-        .map(|(p, s)| [p[0], p[1], ((hi - s) / run).clamp(0.0, 1.0)])
+        .map(|r| {
+            r.iter()
+                .map(|&p| [p[0], p[1], ((hi - dot(p, down)) / run).clamp(0.0, 1.0)])
+                .collect()
+        })
         .collect();
-    (vec![face], run)
+    (faces, run)
 }
 
 /// The roof falling from a ridge along `along` through the middle of the outline's extent across it to both sides
 /// (the ridge across the whole outline, as Simple 3D Buildings renderers draw a gabled roof over a concave one);
-/// the run is half that extent. Faces: the outline with the ridge's ends inserted, and the ridge's pieces.
-fn gabled(ring: &[P2], along: P2) -> (Vec<Face>, f64) {
+/// the run is half that extent. Faces: the rings with the ridge's crossings inserted, and the ridge's pieces.
+fn gabled(rings: &[Vec<P2>], along: P2) -> (Vec<Face>, f64) {
     let across = [-along[1], along[0]];
-    let t: Vec<f64> = ring.iter().map(|&p| dot(p, across)).collect();
-    let lo = t.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = t.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let t = |p: P2| dot(p, across);
+    let lo = rings[0].iter().map(|&p| t(p)).fold(f64::INFINITY, f64::min);
+    let hi = rings[0]
+        .iter()
+        .map(|&p| t(p))
+        .fold(f64::NEG_INFINITY, f64::max);
     let mid = 0.5 * (lo + hi);
     let half = 0.5 * (hi - lo);
     let on = |t: f64| (t - mid).abs() <= 1e-9 * half.max(1.0);
-    // The outline with the ridge's ends inserted, each corner with its side (−1, 0 on the ridge, 1).
-    let n = ring.len();
-    let mut pts: Vec<(P2, i8)> = Vec::with_capacity(n + 2);
-    for i in 0..n {
-        let (a, ta) = (ring[i], t[i]);
-        let (b, tb) = (ring[(i + 1) % n], t[(i + 1) % n]);
-        pts.push((a, if on(ta) { 0 } else { (ta - mid).signum() as i8 }));
-        if !on(ta) && !on(tb) && (ta - mid) * (tb - mid) < 0.0 {
-            let f = (mid - ta) / (tb - ta);
-            pts.push(([a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])], 0));
-        }
-    }
     let share = |p: P2, side: i8| {
         if side == 0 {
             1.0
         } else {
-            (1.0 - (dot(p, across) - mid).abs() / half).clamp(0.0, 1.0)
+            (1.0 - (t(p) - mid).abs() / half).clamp(0.0, 1.0)
         }
     };
-    // The outline, and the ridge as its pieces inside the outline (a concave outline's ridge line may leave it and
-    // come back); the triangulation keeps each triangle on one side of the ridge, where the roof is one plane.
-    let mut faces: Vec<Face> = vec![pts
-        .iter()
-        .map(|&(p, side)| [p[0], p[1], share(p, side)])
-        .collect()];
-    let mut on_ridge: Vec<(f64, P2)> = pts
-        .iter()
-        .filter(|(_, side)| *side == 0)
-        .map(|&(p, _)| (dot(p, along), p))
-        .collect();
+    // Each ring with the ridge's crossings inserted, each corner with its side (−1, 0 on the ridge, 1).
+    let mut faces: Vec<Face> = Vec::with_capacity(rings.len() + 1);
+    let mut on_ridge: Vec<(f64, P2)> = Vec::new();
+    for ring in rings {
+        let n = ring.len();
+        let mut pts: Vec<(P2, i8)> = Vec::with_capacity(n + 2);
+        for i in 0..n {
+            let (a, b) = (ring[i], ring[(i + 1) % n]);
+            let (ta, tb) = (t(a), t(b));
+            pts.push((a, if on(ta) { 0 } else { (ta - mid).signum() as i8 }));
+            if !on(ta) && !on(tb) && (ta - mid) * (tb - mid) < 0.0 {
+                let f = (mid - ta) / (tb - ta);
+                pts.push(([a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])], 0));
+            }
+        }
+        on_ridge.extend(
+            pts.iter()
+                .filter(|(_, side)| *side == 0)
+                .map(|&(p, _)| (dot(p, along), p)),
+        );
+        faces.push(
+            pts.iter()
+                .map(|&(p, side)| [p[0], p[1], share(p, side)])
+                .collect(),
+        );
+    }
+    // The ridge as its pieces inside the outline (a concave outline's ridge line may leave it and come back, a
+    // courtyard interrupts it); the triangulation keeps each triangle on one side of the ridge, one plane.
     on_ridge.sort_by(|x, y| x.0.total_cmp(&y.0));
     for w in on_ridge.windows(2) {
         let (p, q) = (w[0].1, w[1].1);
-        if inside(ring, [0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1])]) {
+        if inside(rings, [0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1])]) {
             faces.push(vec![[p[0], p[1], 1.0], [q[0], q[1], 1.0]]);
         }
     }
@@ -820,6 +852,38 @@ mod tests {
     }
 
     #[test]
+    fn a_courtyard_building_gets_a_gabled_or_skillion_roof_around_its_courtyard() {
+        let block = MultiPolygon(vec![Polygon::new(
+            LineString::from(vec![(0.0, 0.0), (20.0, 0.0), (20.0, 20.0), (0.0, 20.0)]),
+            vec![LineString::from(vec![
+                (6.0, 6.0),
+                (6.0, 14.0),
+                (14.0, 14.0),
+                (14.0, 6.0),
+            ])],
+        )]);
+        let (mesh, _) = roofed_building(
+            &block,
+            0.0,
+            10.0,
+            &spec(RoofShape::Gabled, RoofRise::Metres(2.0)),
+        )
+        .unwrap();
+        // The ridge at y = 10, broken by the courtyard: four ends at the top.
+        assert_eq!(
+            ridge(&mesh, 10.0),
+            [[0.0, 10.0], [6.0, 10.0], [14.0, 10.0], [20.0, 10.0]]
+        );
+        // Walls to 8 m over 336 m², the roof's 400 m³ over the whole square less 102.4 over the courtyard.
+        let v = closed_volume(&mesh);
+        assert!((v - (336.0 * 8.0 + 400.0 - 102.4)).abs() < 1e-6, "{v}");
+        let mut s = spec(RoofShape::Skillion, RoofRise::Metres(2.0));
+        s.direction_deg = Some(0.0); // descending to the north
+        let (mesh, _) = roofed_building(&block, 0.0, 10.0, &s).unwrap();
+        assert!((closed_volume(&mesh) - 336.0 * 9.0).abs() < 1e-6);
+    }
+
+    #[test]
     fn a_skillion_roof_descends_towards_its_direction_over_any_outline() {
         // An L: concave, still one plane.
         let l = [
@@ -865,9 +929,14 @@ mod tests {
                 (2.0, 1.0),
             ])],
         )]);
-        assert!(roofed_building(&holed, 0.0, 9.0, &gabled)
-            .unwrap_err()
-            .contains("hole"));
+        assert!(roofed_building(
+            &holed,
+            0.0,
+            9.0,
+            &spec(RoofShape::Hipped, RoofRise::Default)
+        )
+        .unwrap_err()
+        .contains("hole"));
         let two = MultiPolygon(vec![footprint(&HOUSE).0[0].clone(); 2]);
         assert!(roofed_building(&two, 0.0, 9.0, &gabled).is_err());
         let flat = spec(RoofShape::Gabled, RoofRise::Metres(0.01));
@@ -953,6 +1022,7 @@ mod tests {
             corners in proptest::collection::vec((0.0f64..std::f64::consts::TAU, 2.0f64..40.0), 3..30),
             rise in 0.1f64..15.0,
             direction in 0.0f64..360.0,
+            courtyard in proptest::bool::ANY,
         ) {
             let mut corners = corners;
             corners.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -967,13 +1037,27 @@ mod tests {
             }
             let pts: Vec<(f64, f64)> = corners.iter().map(|(t, r)| (r * t.cos(), r * t.sin())).collect();
             let ring: Vec<[f64; 2]> = pts.iter().map(|&(x, y)| [x, y]).collect();
-            let area = crate::ring::signed_area2(&ring) / 2.0;
+            let mut area = crate::ring::signed_area2(&ring) / 2.0;
             if pts.len() < 3 || area < 1.0 {
                 return Ok(());
             }
+            let mut fp = footprint(&pts);
+            // A square courtyard around the origin, within the disc the outline holds (the nearest edge line).
+            let nearest = (0..n)
+                .map(|i| {
+                    let (a, b) = (ring[i], ring[(i + 1) % n]);
+                    let d = sub(b, a);
+                    cross(d, [-a[0], -a[1]]).abs() / d[0].hypot(d[1])
+                })
+                .fold(f64::INFINITY, f64::min);
+            if courtyard && nearest > 1.0 {
+                let h = 0.5 * nearest / std::f64::consts::SQRT_2;
+                fp.0[0].interiors_push(vec![(-h, -h), (-h, h), (h, h), (h, -h), (-h, -h)]);
+                area -= 4.0 * h * h;
+            }
             for shape in [RoofShape::Skillion, RoofShape::Gabled] {
                 let spec = RoofSpec { shape, rise: RoofRise::Metres(rise), direction_deg: Some(direction), across: false };
-                let (mesh, _) = roofed_building(&footprint(&pts), 0.0, 20.0, &spec)
+                let (mesh, _) = roofed_building(&fp, 0.0, 20.0, &spec)
                     .map_err(proptest::test_runner::TestCaseError::fail)?;
                 let r = mesh_report(&mesh);
                 proptest::prop_assert!(r.watertight && r.orientation_consistent, "{:?}: {:?}", shape, r);

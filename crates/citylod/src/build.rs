@@ -109,7 +109,7 @@ pub struct BuildArgs {
     /// `2`, a 2.x or `highest`, an LoD 2 model of its roof (roof:height, else roof:levels × --storey-height, else
     /// roof:angle, else a 30° slope — a dome as high as wide — up to half its height; roof:direction,
     /// roof:orientation); other shapes, and
-    /// outlines with holes or (but for skillion and gabled) not convex, stay prisms, listed with the reason. Other polygons
+    /// outlines with holes or not convex (but for skillion and gabled roofs, which span any), stay prisms, listed with the reason. Other polygons
     /// ignore it.
     #[arg(long, value_name = "LOD", help_heading = "3D buildings")]
     pub lod: Option<String>,
