@@ -283,7 +283,8 @@ impl<'h> LodTree<'h> {
     /// simplified model's, holding a tile of the full models (error 0); just the full models' tile when the simplifier
     /// changed none of them. Buildings without a model get a tile of their prisms (exact, error 0) beside the chain,
     /// instead of being repeated in each of its tiles (OpenStreetMap input with a few roofed buildings among many:
-    /// the Lower East Side's 26 of 1,407). Empty when none of them has a model.
+    /// the Lower East Side's 26 of 1,407); `lift_prism_leaves` then moves it up beside the prisms' tile. Empty when
+    /// none of them has a model.
     fn model_chain(&self, ids: Vec<BuildingId>) -> Vec<TileSpec<TileRef>> {
         let (ids, prisms): (Vec<BuildingId>, Vec<BuildingId>) = ids
             .into_iter()
@@ -682,7 +683,7 @@ impl<'h> LodTree<'h> {
                     .collect(),
             )
         };
-        let root = assemble(
+        let mut root = assemble(
             &packing,
             &errors,
             &TileContent {
@@ -690,6 +691,7 @@ impl<'h> LodTree<'h> {
                 below_buildings: &below,
             },
         );
+        lift_prism_leaves(&mut root);
         let summary = (0..h.levels.len())
             .map(|level| {
                 let tiles: Vec<usize> = (0..packing.tiles.len())
@@ -739,12 +741,48 @@ impl<'h> LodTree<'h> {
     }
 }
 
+/// Moves the leaf of modelless prisms that [`LodTree::model_chain`] hangs under a tile of buildings up beside that
+/// tile, which then holds only the buildings with a 3D model (heading their chain): a building without a model is
+/// written once below the blocks, not in its tile and again in the leaf. The root keeps its leaf below it (a tree
+/// needs one root).
+fn lift_prism_leaves(tile: &mut TileSpec<TileRef>) {
+    let mut children = Vec::with_capacity(tile.children.len());
+    for mut child in std::mem::take(&mut tile.children) {
+        lift_prism_leaves(&mut child);
+        // A tile of buildings: its children are its model chain (and the leaf); a block tile's children are tiles of
+        // the packing (and, once lifted, leaves that stay where they are).
+        let heads_chain = child
+            .children
+            .iter()
+            .any(|c| matches!(c.features, TileRef::Models { .. }));
+        if let (TileRef::Packed(i), true) = (&child.features, heads_chain) {
+            let i = *i;
+            let leaf = child
+                .children
+                .iter()
+                .position(|c| matches!(c.features, TileRef::Buildings(_)));
+            if let Some(k) = leaf {
+                let leaf = child.children.remove(k);
+                child.features = TileRef::PackedModelled(i);
+                children.push(child);
+                children.push(leaf);
+                continue;
+            }
+        }
+        children.push(child);
+    }
+    tile.children = children;
+}
+
 /// What a tile of the tree [`LodTree::tiles`] plans holds, made into features only when the writer encodes the tile
 /// ([`TilePlan::features`]), so a city's meshes are not held twice: a million buildings need ~1.5 GB less.
 #[derive(Debug, Clone, PartialEq)]
 pub enum TileRef {
     /// Tile `i` of the packing: the nodes it draws (its own, or a rough block's descendants in its stead).
     Packed(usize),
+    /// Tile `i` of the packing, a tile of buildings, with only those that have a 3D model: the others' prisms are in a
+    /// leaf tile beside it (`lift_prism_leaves`).
+    PackedModelled(usize),
     /// The 3D models of these buildings below their prisms' tile: `full`, or simplified (the prism for a building
     /// without a model).
     Models { ids: Vec<BuildingId>, full: bool },
@@ -806,13 +844,20 @@ impl TilePlan<'_> {
                     )
                 })
                 .collect(),
-            TileRef::Packed(i) => {
+            TileRef::Packed(i) | TileRef::PackedModelled(i) => {
                 let Some(lv) = &self.levels else {
                     return Vec::new();
                 };
+                let modelled_only = matches!(r, TileRef::PackedModelled(_));
                 let t = &lv.packing.tiles[*i];
                 t.drawn
                     .iter()
+                    .filter(|&&(level, n)| {
+                        !modelled_only
+                            || level != 0
+                            || tree.models[lv.h.levels[0].nodes[n.0 as usize].members[0].0 as usize]
+                                .is_some()
+                    })
                     .flat_map(|&(level, n)| self.node_features(lv, t.level, level, n))
                     .collect()
             }
