@@ -92,6 +92,17 @@ pub(crate) struct Heights {
     pub rejected: Vec<Rejected>,
 }
 
+/// An attribute value as the report quotes a rejected one: text in quotes, `null` for none.
+pub(crate) fn shown(v: Option<&AttrValue>) -> String {
+    match v {
+        Some(AttrValue::String(t)) => format!("{t:?}"),
+        Some(AttrValue::Int(i)) => i.to_string(),
+        Some(AttrValue::Float(f)) => f.to_string(),
+        Some(AttrValue::Bool(b)) => b.to_string(),
+        Some(AttrValue::Null) | None => "null".into(),
+    }
+}
+
 /// An attribute a rule reached that was present and not used, with what it held and why (for the report).
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Rejected {
@@ -101,16 +112,9 @@ pub(crate) struct Rejected {
 
 impl Rejected {
     fn new(name: &str, v: Option<&AttrValue>, why: &str) -> Self {
-        let shown = match v {
-            Some(AttrValue::String(t)) => format!("{t:?}"),
-            Some(AttrValue::Int(i)) => i.to_string(),
-            Some(AttrValue::Float(f)) => f.to_string(),
-            Some(AttrValue::Bool(b)) => b.to_string(),
-            Some(AttrValue::Null) | None => "null".into(),
-        };
         Rejected {
             name: name.to_string(),
-            detail: format!("{name} = {shown}: {why}"),
+            detail: format!("{name} = {}: {why}", shown(v)),
         }
     }
 

@@ -215,11 +215,7 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
     }
     // OSM's building:part tag, in whatever format it comes (a GeoJSON property, a GeoPackage or .dbf column).
     for raw in files.iter_mut().flat_map(|f| f.features.iter_mut()) {
-        // `building_p`: the name as shapefile writers cut it to 10 characters; `building_part`: as GDAL writes it where
-        // a name may not hold a colon (File Geodatabase, PostgreSQL).
-        let part = ["building:part", "building_part", "building_p"]
-            .iter()
-            .find_map(|k| raw.attributes.get(k));
+        let part = osm::exported_tag(&raw.attributes, "building:part");
         raw.is_building_part = match part {
             None | Some(AttrValue::Null | AttrValue::Bool(false)) => false,
             Some(AttrValue::String(v)) => osm::tag_set(v),

@@ -314,6 +314,22 @@ pub(crate) fn off_ground<K: AsRef<str>, V: AsRef<str>>(tags: &[(K, V)]) -> Optio
     None
 }
 
+/// The value of OSM tag `key` in a feature's attributes, as GeoJSON and OSM files keep it (`building:part`), as GDAL
+/// writes it where a name may not hold a colon (`building_part`: File Geodatabase, PostgreSQL), or as shapefile
+/// writers cut either to 10 characters (`building:p`, `building_p`).
+pub(crate) fn exported_tag<'a>(attrs: &'a Attributes, key: &str) -> Option<&'a AttrValue> {
+    let laundered = key.replace(':', "_");
+    let cut = |k: &str| k.chars().take(10).collect::<String>();
+    [
+        key.to_string(),
+        laundered.clone(),
+        cut(key),
+        cut(&laundered),
+    ]
+    .iter()
+    .find_map(|k| attrs.get(k))
+}
+
 /// Tagged `building` or `building:part` with a value other than `no`.
 pub(crate) fn building_tags<K: AsRef<str>, V: AsRef<str>>(tags: &[(K, V)]) -> bool {
     tags.iter()

@@ -8,6 +8,7 @@
 //! in the report's mesh issues with the reason.
 
 use crate::model3d::Meshed;
+use crate::osm::exported_tag as tag;
 use crate::report::IssueReason;
 use citylod_mesh::roof::{roofed_building, RoofRise, RoofShape, RoofSpec};
 use citylod_model::{AttrValue, Attributes, BuildingModel, Footprint};
@@ -48,11 +49,11 @@ pub(crate) fn roof_model(
     let mut rejected = Vec::new();
     let mut value =
         |name: &str, metres: &dyn Fn(&AttrValue) -> Option<f64>, ok: &dyn Fn(f64) -> bool| {
-            let v = tag(attrs, name)?;
+            let v = tag(attrs, name).filter(|v| !matches!(v, AttrValue::Null))?;
             match metres(v).filter(|m| m.is_finite() && ok(*m)) {
                 Some(m) => Some(m),
                 None => {
-                    rejected.push(format!("{name} = {}", shown(v)));
+                    rejected.push(format!("{name} = {}", crate::height::shown(Some(v))));
                     None
                 }
             }
@@ -101,36 +102,10 @@ pub(crate) fn roof_model(
     }
 }
 
-/// The value of OSM tag `key`, as GeoJSON and OSM files keep it (`roof:height`), as GDAL launders it for other
-/// formats (`roof_height`), or as shapefile writers cut either to 10 characters (`roof:heigh`, `roof_heigh`).
-fn tag<'a>(attrs: &'a Attributes, key: &str) -> Option<&'a AttrValue> {
-    let laundered = key.replace(':', "_");
-    let cut = |k: &str| k.chars().take(10).collect::<String>();
-    [
-        key.to_string(),
-        laundered.clone(),
-        cut(key),
-        cut(&laundered),
-    ]
-    .iter()
-    .find_map(|k| attrs.get(k))
-    .filter(|v| !matches!(v, AttrValue::Null))
-}
-
 fn text(attrs: &Attributes, name: &str) -> Option<String> {
     match tag(attrs, name)? {
         AttrValue::String(s) => Some(s.trim().to_string()),
         _ => None,
-    }
-}
-
-fn shown(v: &AttrValue) -> String {
-    match v {
-        AttrValue::String(s) => format!("{s:?}"),
-        AttrValue::Int(i) => i.to_string(),
-        AttrValue::Float(f) => f.to_string(),
-        AttrValue::Bool(b) => b.to_string(),
-        AttrValue::Null => "null".into(),
     }
 }
 

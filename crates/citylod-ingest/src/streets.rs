@@ -254,8 +254,10 @@ fn geojson_streets(
     );
     for (id, feature) in features {
         let segments = match feature {
-            Some(f) => feature_segments(f.get("geometry"), &crs, frame)
-                .and_then(|segments| on_ground(json_tags(f.get("properties")), segments)),
+            Some(f) => feature_segments(f.get("geometry"), &crs, frame).and_then(|segments| {
+                let properties = crate::feature::attributes(f.get("properties"));
+                on_ground(attribute_tags(&properties), segments)
+            }),
             // A bare geometry.
             None => feature_segments(Some(&doc), &crs, frame),
         };
@@ -369,24 +371,6 @@ fn attribute_tags(attributes: &citylod_model::Attributes) -> Vec<(String, String
                 AttrValue::Int(i) => i.to_string(),
                 AttrValue::Float(f) => f.to_string(),
                 AttrValue::String(s) => s.clone(),
-            };
-            Some((k.clone(), text))
-        })
-        .collect()
-}
-
-fn json_tags(properties: Option<&Value>) -> Vec<(String, String)> {
-    let Some(Value::Object(map)) = properties else {
-        return Vec::new();
-    };
-    map.iter()
-        .filter(|(k, _)| ground_key(k))
-        .filter_map(|(k, v)| {
-            let text = match v {
-                Value::Bool(b) => (if *b { "yes" } else { "no" }).to_string(),
-                Value::Number(n) => n.to_string(),
-                Value::String(s) => s.clone(),
-                _ => return None,
             };
             Some((k.clone(), text))
         })

@@ -14,6 +14,7 @@
 //! Hipped, pyramidal and dome roofs need a convex outline without courtyards; a footprint of several polygons has
 //! no pitched roof here. Those cases are errors with the reason, for the caller to keep its flat prism.
 
+use crate::simplify::polygon::inside_even_odd;
 use citylod_model::{Mesh3d, SurfaceKind};
 use geo_types::MultiPolygon;
 
@@ -307,7 +308,7 @@ fn plan(faces: &[Face], rings: &[Vec<P2>]) -> Option<RoofPlan> {
             (ps[0][0] + ps[1][0] + ps[2][0]) / 3.0,
             (ps[0][1] + ps[1][1] + ps[2][1]) / 3.0,
         ];
-        if !inside(&outline, c) {
+        if !inside_even_odd(&outline, c) {
             continue;
         }
         let ids = vs.map(|v| of_handle.get(v.fix().index()).copied().unwrap_or(u32::MAX));
@@ -318,24 +319,6 @@ fn plan(faces: &[Face], rings: &[Vec<P2>]) -> Option<RoofPlan> {
         triangles.push(ids);
     }
     Some((points, triangles))
-}
-
-/// Whether `p` is inside the rings (even-odd: inside the outline, outside its courtyards).
-fn inside(rings: &[Vec<P2>], p: P2) -> bool {
-    let mut inside = false;
-    for ring in rings {
-        let n = ring.len();
-        for i in 0..n {
-            let (a, b) = (ring[i], ring[(i + 1) % n]);
-            if (a[1] > p[1]) != (b[1] > p[1]) {
-                let x = a[0] + (p[1] - a[1]) / (b[1] - a[1]) * (b[0] - a[0]);
-                if p[0] < x {
-                    inside = !inside;
-                }
-            }
-        }
-    }
-    inside
 }
 
 fn trim(m: f64) -> String {
@@ -490,7 +473,7 @@ fn gabled(rings: &[Vec<P2>], along: P2) -> (Vec<Face>, f64) {
     on_ridge.sort_by(|x, y| x.0.total_cmp(&y.0));
     for w in on_ridge.windows(2) {
         let (p, q) = (w[0].1, w[1].1);
-        if inside(rings, [0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1])]) {
+        if inside_even_odd(rings, [0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1])]) {
             faces.push(vec![[p[0], p[1], 1.0], [q[0], q[1], 1.0]]);
         }
     }
@@ -546,13 +529,7 @@ fn hipped(ring: &[P2]) -> (Vec<Face>, f64) {
 /// nearest edge line.
 fn pyramidal(ring: &[P2]) -> (Vec<Face>, f64) {
     let n = ring.len();
-    let c = centroid(ring);
-    let run = (0..n)
-        .map(|i| {
-            let d = sub(ring[(i + 1) % n], ring[i]);
-            cross(d, sub(c, ring[i])) / d[0].hypot(d[1])
-        })
-        .fold(f64::INFINITY, f64::min);
+    let (c, run) = apex(ring);
     let faces = (0..n)
         .map(|i| {
             let (a, b) = (ring[i], ring[(i + 1) % n]);
@@ -560,6 +537,20 @@ fn pyramidal(ring: &[P2]) -> (Vec<Face>, f64) {
         })
         .collect();
     (faces, run)
+}
+
+/// The outline's centroid, under a pyramid's or dome's apex, and its distance from the nearest edge line (the run
+/// of the roof's slope; not positive when the centroid is not inside).
+fn apex(ring: &[P2]) -> (P2, f64) {
+    let n = ring.len();
+    let c = centroid(ring);
+    let run = (0..n)
+        .map(|i| {
+            let d = sub(ring[(i + 1) % n], ring[i]);
+            cross(d, sub(c, ring[i])) / d[0].hypot(d[1])
+        })
+        .fold(f64::INFINITY, f64::min);
+    (c, run)
 }
 
 /// Bands of a dome.
@@ -570,8 +561,7 @@ pub const DOME_BANDS: usize = 6;
 /// from the nearest edge line. A band's face between two copies of an edge is a trapezoid, so planar.
 fn dome(ring: &[P2]) -> (Vec<Face>, f64) {
     let n = ring.len();
-    let c = centroid(ring);
-    let (_, run) = pyramidal(ring);
+    let (c, run) = apex(ring);
     let copy = |j: usize, p: P2| {
         let t = std::f64::consts::FRAC_PI_2 * j as f64 / DOME_BANDS as f64;
         let (up, inward) = if j == DOME_BANDS {

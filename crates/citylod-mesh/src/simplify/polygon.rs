@@ -143,7 +143,8 @@ fn signed_area(r: &[[f64; 2]]) -> f64 {
         / 2.0
 }
 
-fn inside_even_odd(rings: &[Vec<[f64; 2]>], p: [f64; 2]) -> bool {
+/// Whether `p` is inside the rings by the even-odd rule (inside an outer ring, outside its holes).
+pub(crate) fn inside_even_odd(rings: &[Vec<[f64; 2]>], p: [f64; 2]) -> bool {
     let mut inside = false;
     for r in rings {
         for i in 0..r.len() {
