@@ -395,3 +395,58 @@ fn osm_roof_shapes_become_lod2_models_on_the_lower_east_side() {
     let check = read_json(&check_out.join("report.json"));
     assert_eq!(o.status.code(), Some(0), "{:#}", check["summary"]);
 }
+
+/// CityGML becomes the same kind of tileset as CityJSON: Zürich's LoD 2 buildings of thematic surfaces and
+/// BuildingParts (CityGML 1.0, CH1903) with `--lod 2` get the model chain, valid glbs and a passing check; Delft's
+/// 3dfier LoD 1 tile (CityGML 2.0) builds as prisms of its footprints.
+#[test]
+fn citygml_files_build_valid_tilesets() {
+    let dir = repo_root().join("crates/citylod-ingest/tests/citygml");
+    let out = e2e_dir("zurich-citygml");
+    let report = build(
+        &[&dir.join("zurich-lod2-citygml1.xml")],
+        &out,
+        &["--lod", "2"],
+    );
+    let errs = schema_errors("build-report.schema.json", &report);
+    assert!(errs.is_empty(), "build report: {}", errs.join("\n"));
+    assert_eq!(report["ingest"]["files"][0]["format"], "city_gml");
+    assert_eq!(report["counts"]["buildings_written"], 4);
+    assert_eq!(report["ingest"]["mesh_lods"], serde_json::json!({ "2": 4 }));
+    assert_eq!(report["models"]["buildings"], 4, "{:#}", report["models"]);
+    let ts_json = read_json(&out.join("tileset.json"));
+    let errs = schema_errors("tileset.schema.json", &ts_json);
+    assert!(errs.is_empty(), "tileset.json: {}", errs.join("\n"));
+    let v = gltf_validator(&out);
+    assert_eq!(
+        v["errors"].as_u64(),
+        Some(0),
+        "glTF-Validator: {:#}",
+        v["messages"]
+    );
+    let check_out = e2e_dir("zurich-citygml-check");
+    let o = citylod(&[
+        "check",
+        &out.display().to_string(),
+        "--out",
+        &check_out.display().to_string(),
+        "--quiet",
+    ]);
+    let check = read_json(&check_out.join("report.json"));
+    assert_eq!(o.status.code(), Some(0), "{:#}", check["summary"]);
+
+    let out = e2e_dir("delft-citygml");
+    let report = build(&[&dir.join("delft-citygml2.xml")], &out, &[]);
+    assert_eq!(report["counts"]["buildings_written"], 3);
+    assert_eq!(
+        report["ingest"]["height_sources"],
+        serde_json::json!({ "known_attribute": 3 })
+    );
+    let v = gltf_validator(&out);
+    assert_eq!(
+        v["errors"].as_u64(),
+        Some(0),
+        "glTF-Validator: {:#}",
+        v["messages"]
+    );
+}

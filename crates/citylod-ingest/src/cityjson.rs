@@ -256,6 +256,16 @@ fn read_with_vertices(
     );
 }
 
+/// [`read_with_vertices`] for objects that hold no geometry instances (CityGML's, converted).
+pub(crate) fn read_objects_with_vertices(
+    objects: &Map<String, Value>,
+    vertices: Result<Vec<[f64; 3]>, (IssueReason, String)>,
+    model_target: Option<Target>,
+    out: &mut CityDoc,
+) {
+    read_with_vertices(objects, vertices, &Templates::default(), model_target, out);
+}
+
 fn parents(o: &Value) -> Vec<&str> {
     match (o.get("parents"), o.get("parent")) {
         (Some(Value::Array(a)), _) => a.iter().filter_map(Value::as_str).collect(),

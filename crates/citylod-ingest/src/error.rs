@@ -67,6 +67,10 @@ pub enum IngestError {
         encoding: &'static str,
         detail: String,
     },
+    /// A CityGML file that cannot be read as one (not well-formed XML, a root other than `CityModel`, a DOCTYPE, an
+    /// encoding this reader does not know).
+    #[error("{path}: invalid CityGML: {detail}")]
+    InvalidCityGml { path: PathBuf, detail: String },
     /// A File Geodatabase that cannot be read as one (no catalog, a table cut short or of an unknown layout, several
     /// feature classes and no `--layer`, a layer that is not there).
     #[error("{path}: File Geodatabase: {detail}")]

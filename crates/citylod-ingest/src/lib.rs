@@ -25,6 +25,7 @@
 //! # Ok::<(), citylod_ingest::IngestError>(())
 //! ```
 
+mod citygml;
 mod cityjson;
 mod crs;
 mod error;
@@ -686,6 +687,53 @@ fn vector_file(
     })
 }
 
+/// A CityGML file read, its CRS settled and, in a projected CRS in feet, its heights taken in feet too.
+fn citygml_file(
+    path: &Path,
+    opts: &IngestOptions,
+    model_target: Option<lod::Target>,
+) -> Result<LoadedFile, IngestError> {
+    let gml = citygml::read(path, model_target).map_err(|detail| IngestError::InvalidCityGml {
+        path: path.into(),
+        detail,
+    })?;
+    let mut doc = gml.doc;
+    let mut notes = gml.notes;
+    let (crs, crs_note) = settle_crs(
+        path,
+        &opts.crs,
+        doc.declared_crs.take(),
+        InputFormat::CityGml,
+    )?;
+    notes.extend(crs_note);
+    // GML gives one CRS for all three coordinates: in a projected CRS in feet (a US State Plane), z is in feet too.
+    let unit = crs.linear_unit_m();
+    if !crs.is_lon_lat() && (unit - 1.0).abs() > 1e-9 {
+        for f in &mut doc.features {
+            f.footprint_min_z = f.footprint_min_z.map(|z| z * unit);
+            f.top_z = f.top_z.map(|z| z * unit);
+            if let Some(Ok(m)) = &mut f.model {
+                for p in &mut m.positions_src {
+                    p[2] *= unit;
+                }
+            }
+        }
+        notes.push(format!(
+            "z is in the CRS's unit ({unit} m), as GML gives one CRS for x, y and z: heights were converted to metres"
+        ));
+    }
+    notes.extend(feet_note(&crs, &doc.features, opts));
+    Ok(LoadedFile {
+        path: path.into(),
+        format: InputFormat::CityGml,
+        crs,
+        version: None,
+        non_building_objects: doc.non_building_objects,
+        features: doc.features,
+        notes,
+    })
+}
+
 /// Reads, detects and parses one file, and settles its CRS.
 fn load(
     path: &Path,
@@ -774,6 +822,9 @@ fn load(
                 "this is SQLite's {what} beside a GeoPackage; give the .gpkg as the input"
             ),
         });
+    }
+    if citygml::is_citygml(path) {
+        return citygml_file(path, opts, model_target);
     }
     if let Some(encoding) = osm::Encoding::of(path) {
         let doc = osm::read(path).map_err(|detail| IngestError::InvalidOsm {

@@ -65,6 +65,11 @@ pub enum IssueReason {
     SelfIntersection,
     /// Overlapping or edge-sharing polygons of one multi-polygon were merged by union.
     OverlappingPartsMerged,
+    /// A CityGML geometry (a `lod2Solid`, a thematic surface's `lod3MultiSurface`, …) that could not be read — an
+    /// `xlink:href` to no element of its member, a `posList` whose count is no multiple of its dimension, a GML type
+    /// the reader does not know — was left out; the building is built from its other geometries. The detail names
+    /// the element, its line and why. A building with no geometry left is skipped (`malformed_geometry`).
+    GeometryNotRead,
     /// Members of a GeoJSON GeometryCollection that are not polygonal (Point, LineString, …) were
     /// dropped; its polygons make the footprint.
     NonPolygonMemberDropped,
@@ -154,6 +159,7 @@ impl IssueReason {
             DeletedRecord => "deleted_record",
             UnreadableRow => "unreadable_row",
             NotOnGround => "not_on_ground",
+            GeometryNotRead => "geometry_not_read",
             RingClosed => "ring_closed",
             RepeatedPointsRemoved => "repeated_points_removed",
             DegenerateHoleDropped => "degenerate_hole_dropped",
@@ -206,6 +212,7 @@ pub enum InputFormat {
     FileGeodatabase,
     OsmPbf,
     OsmXml,
+    CityGml,
 }
 
 /// What happened to one input file.

@@ -1,0 +1,1403 @@
+//! CityGML 1.0, 2.0 and 3.0 reader (`.gml`, `.citygml`, `.xml`, also gzip-compressed): the city model's
+//! Buildings with their BuildingParts, their attributes and their geometry, handed to the CityJSON reader's
+//! building rules ([`crate::cityjson`]) so that both formats give a building the same footprint, heights and 3D
+//! model.
+//!
+//! The file is scanned once as a stream of XML events ([`quick_xml`]) to find the top-level members
+//! (`cityObjectMember`, `featureMember`); each member is then read as a small tree on its own (`roxmltree`), so a
+//! file of any size costs its text and one member's tree. A member's geometry becomes a CityJSON city object:
+//! - `lod0FootPrint` (a `GroundSurface` at LoD 0), `lod0RoofEdge` (a `RoofSurface`, never the footprint), 3.0's
+//!   `lod0MultiSurface`;
+//! - `lodNSolid`, `lodNMultiSurface`, `lodNCompositeSurface` (N = 1–4) and the thematic surfaces of `boundedBy`
+//!   (1.0, 2.0) or `boundary` (3.0) — RoofSurface, WallSurface, GroundSurface, …, with their openings — whose
+//!   `lodNMultiSurface` give each polygon its semantic type. A solid's polygons are often `xlink:href`s to those
+//!   of the thematic surfaces: they take their types. One geometry per LoD: the solid when there is one, else the
+//!   multi-surface and the thematic surfaces together;
+//! - GML's Polygon, Triangle, Rectangle, OrientableSurface (a `-` orientation turns its rings), CompositeSurface,
+//!   MultiSurface, Surface patches, TriangulatedSurface and Tin, Solid, CompositeSolid and MultiSolid, with
+//!   coordinates as `posList`, `pos` or GML 2's `coordinates`, in the `srsDimension` they declare (3 by default).
+//!
+//! Attributes: `gml:name` and `gml:description`, every simple element of the building (`class`, `function`,
+//! `measuredHeight` in metres whatever its `uom`, `storeysAboveGround`, `yearOfConstruction`, ADE elements with a
+//! text value …), generic attributes (1.0/2.0 `gen:stringAttribute` … and sets as `SET.NAME`; 3.0
+//! `gen:genericAttribute`), external references as `externalReference:SYSTEM`, the first address's fields as
+//! `address.FIELD`. The CRS is the `srsName` of the model's envelope, else of the first member that names one; the
+//! usual spellings (EPSG codes and URNs, compound URNs, the German AdV's `urn:adv:crs:…`, Switzerland's CH1903 and
+//! CH1903+) are read.
+//! A geometry that cannot be read (an `xlink:href` to nothing in its member, an odd coordinate count, a GML type not
+//! above) is left out and listed as `geometry_not_read` with its element's line; a building with nothing left is
+//! skipped as `malformed_geometry`.
+
+use crate::cityjson::{self, CityDoc};
+use crate::crs::{Crs, DeclaredCrs};
+use crate::lod::Target;
+use crate::report::IssueReason;
+use quick_xml::events::Event;
+use rayon::prelude::*;
+use roxmltree::Node;
+use serde_json::{json, Map, Value};
+use std::collections::HashMap;
+use std::io::Read;
+use std::path::Path;
+
+/// Text read at most (after decompression): 8 GiB.
+const MAX_TEXT: u64 = 8 << 30;
+/// CityGML nests some twenty elements deep; a member is read as a tree, so deeper nesting is refused first.
+const MAX_DEPTH: usize = 256;
+/// `xlink:href`s followed in a row at most (a reference to a reference …; a cycle ends here).
+const MAX_HOPS: usize = 16;
+
+/// A CityGML file's buildings, as a CityJSON document's, and what concerns the file as a whole.
+pub(crate) struct GmlDoc {
+    pub doc: CityDoc,
+    pub notes: Vec<String>,
+}
+
+/// A file whose first element (within its first 64 KiB, inflated when gzip-compressed) is a `CityModel`.
+pub(crate) fn is_citygml(path: &Path) -> bool {
+    let Ok(file) = std::fs::File::open(path) else {
+        return false;
+    };
+    let mut head = Vec::new();
+    let mut raw = Vec::new();
+    if file.take(64 * 1024).read_to_end(&mut raw).is_err() {
+        return false;
+    }
+    if raw.starts_with(&[0x1f, 0x8b]) {
+        let _ = flate2::read::MultiGzDecoder::new(&raw[..])
+            .take(64 * 1024)
+            .read_to_end(&mut head);
+    } else {
+        head = raw;
+    }
+    root_name(&head).is_some_and(|n| n.rsplit(':').next() == Some("CityModel"))
+}
+
+/// The name of the first element of an XML text's head: after a byte-order mark, the declaration, comments,
+/// processing instructions and a DOCTYPE.
+fn root_name(head: &[u8]) -> Option<&str> {
+    let mut rest = head.strip_prefix(b"\xef\xbb\xbf").unwrap_or(head);
+    loop {
+        let at = rest.iter().position(|b| !b.is_ascii_whitespace())?;
+        rest = &rest[at..];
+        let skip_to = |end: &[u8], from: usize| -> Option<usize> {
+            rest.get(from..)?
+                .windows(end.len())
+                .position(|w| w == end)
+                .map(|p| from + p + end.len())
+        };
+        if rest.starts_with(b"<?") {
+            rest = &rest[skip_to(b"?>", 2)?..];
+        } else if rest.starts_with(b"<!--") {
+            rest = &rest[skip_to(b"-->", 4)?..];
+        } else if rest.starts_with(b"<!") {
+            // A DOCTYPE, its internal subset in brackets holding `>`s of its own.
+            let close = rest.iter().position(|b| *b == b'>')?;
+            let from = match rest[..close].iter().position(|b| *b == b'[') {
+                Some(open) => skip_to(b"]", open)?,
+                None => 0,
+            };
+            rest = &rest[from + rest[from..].iter().position(|b| *b == b'>')? + 1..];
+        } else if rest.starts_with(b"<") {
+            let name = &rest[1..];
+            let end = name
+                .iter()
+                .position(|b| b.is_ascii_whitespace() || *b == b'>' || *b == b'/')?;
+            return std::str::from_utf8(&name[..end]).ok();
+        } else {
+            return None;
+        }
+    }
+}
+
+/// Reads the buildings of a CityGML file; `Err` (a detail) when the file is not CityGML or not well-formed XML.
+pub(crate) fn read(path: &Path, model_target: Option<Target>) -> Result<GmlDoc, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read the file: {e}"))?;
+    let text = decode(bytes)?;
+    let file_name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    read_text(&text, &file_name, model_target)
+}
+
+/// The file's text: gzip inflated, a byte-order mark dropped, and an encoding the XML declaration names other than
+/// UTF-8 (ISO-8859-1, Windows-1252, …) decoded.
+fn decode(bytes: Vec<u8>) -> Result<String, String> {
+    let bytes = if bytes.starts_with(&[0x1f, 0x8b]) {
+        let mut out = Vec::new();
+        flate2::read::MultiGzDecoder::new(&bytes[..])
+            .take(MAX_TEXT + 1)
+            .read_to_end(&mut out)
+            .map_err(|e| format!("cannot decompress (gzip): {e}"))?;
+        out
+    } else {
+        bytes
+    };
+    if bytes.len() as u64 > MAX_TEXT {
+        return Err("over 8 GiB of XML, more than this reader holds: split the file".into());
+    }
+    let bytes = match bytes.strip_prefix(b"\xef\xbb\xbf") {
+        Some(rest) => rest.to_vec(),
+        None => bytes,
+    };
+    let label = declared_encoding(&bytes);
+    match label.as_deref() {
+        None => {}
+        Some(l) if l.eq_ignore_ascii_case("utf-8") || l.eq_ignore_ascii_case("utf8") => {}
+        Some(l) => {
+            let enc = encoding_rs::Encoding::for_label(l.as_bytes()).ok_or_else(|| {
+                format!(
+                    "the XML declaration names the encoding {l:?}, which this reader does not know"
+                )
+            })?;
+            let (text, _, bad) = enc.decode(&bytes);
+            if bad {
+                return Err(format!(
+                    "bytes that are not {l} text, as the XML declaration says it is"
+                ));
+            }
+            return Ok(text.into_owned());
+        }
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let line = e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count() + 1;
+        format!(
+            "not UTF-8 text: byte {at} (line {line}) is 0x{:02X}, and the XML declaration names no other encoding",
+            e.as_bytes()[at]
+        )
+    })
+}
+
+/// The `encoding` of an XML declaration at the start of `bytes`.
+fn declared_encoding(bytes: &[u8]) -> Option<String> {
+    let head = &bytes[..bytes.len().min(512)];
+    let end = head.windows(2).position(|w| w == b"?>")?;
+    let decl = std::str::from_utf8(&head[..end]).ok()?;
+    let decl = decl.trim_start().strip_prefix("<?xml")?;
+    let at = decl.find("encoding")?;
+    let rest = decl[at + "encoding".len()..]
+        .trim_start()
+        .strip_prefix('=')?
+        .trim_start();
+    let quote = rest.chars().next().filter(|c| *c == '"' || *c == '\'')?;
+    let value = &rest[1..];
+    Some(value[..value.find(quote)?].to_string())
+}
+
+/// One top-level element of the model: where it is in the text, its line and its local name.
+struct Span {
+    start: usize,
+    end: usize,
+    line: usize,
+    name: String,
+}
+
+/// The top-level elements of a CityModel and its start tag's attributes (for its namespace declarations).
+fn split(text: &str) -> Result<(Vec<Span>, String), String> {
+    let mut reader = quick_xml::Reader::from_str(text);
+    let mut depth = 0usize;
+    let mut spans = Vec::new();
+    let mut root_attrs = String::new();
+    let mut open: Option<(usize, String)> = None;
+    let mut line = 1usize;
+    let mut counted = 0usize;
+    let mut line_at = |pos: usize| {
+        line += text.as_bytes()[counted..pos]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count();
+        counted = pos;
+        line
+    };
+    loop {
+        let before = reader.buffer_position() as usize;
+        let event = reader.read_event().map_err(|e| {
+            let at = reader.error_position() as usize;
+            format!(
+                "not well-formed XML at line {}: {e}",
+                text.as_bytes()[..at.min(text.len())]
+                    .iter()
+                    .filter(|&&b| b == b'\n')
+                    .count()
+                    + 1
+            )
+        })?;
+        match event {
+            Event::Start(e) => {
+                if depth == 0 {
+                    if e.local_name().as_ref() != "CityModel" {
+                        return Err(format!(
+                            "not CityGML: the document is <{}>, not <CityModel>",
+                            e.name().as_ref()
+                        ));
+                    }
+                    root_attrs = e.attributes_raw().to_string();
+                } else if depth == 1 {
+                    let name = e.local_name().as_ref().to_string();
+                    open = Some((before, name));
+                }
+                depth += 1;
+                if depth > MAX_DEPTH {
+                    return Err(format!(
+                        "elements nested more than {MAX_DEPTH} deep (at line {}); CityGML nests about twenty",
+                        line_at(before)
+                    ));
+                }
+            }
+            Event::End(_) => {
+                depth -= 1;
+                if depth == 1 {
+                    if let Some((start, name)) = open.take() {
+                        let end = reader.buffer_position() as usize;
+                        let line = line_at(start);
+                        spans.push(Span {
+                            start,
+                            end,
+                            line,
+                            name,
+                        });
+                    }
+                }
+            }
+            Event::Empty(e) if depth == 0 => {
+                if e.local_name().as_ref() != "CityModel" {
+                    return Err(format!(
+                        "not CityGML: the document is <{}>, not <CityModel>",
+                        e.name().as_ref()
+                    ));
+                }
+                return Ok((spans, String::new()));
+            }
+            Event::DocType(_) => {
+                return Err(
+                    "a DOCTYPE, which CityGML does not have (refused: its entities could expand without end)"
+                        .into(),
+                )
+            }
+            Event::Eof => {
+                if depth > 0 {
+                    return Err("not well-formed XML: the document ends inside an element (the file is cut short)".into());
+                }
+                if root_attrs.is_empty() && spans.is_empty() {
+                    return Err("no XML element in the file".into());
+                }
+                return Ok((spans, root_attrs));
+            }
+            _ => {}
+        }
+    }
+}
+
+/// What one top-level member gave.
+#[derive(Default)]
+struct MemberOut {
+    doc: Option<CityDoc>,
+    non_building: usize,
+    srs: Option<String>,
+    /// Simple-typed children the attribute rules could not read (complex ADE elements, …), by name.
+    not_attributes: Vec<String>,
+    error: Option<String>,
+}
+
+pub(crate) fn read_text(
+    text: &str,
+    file_name: &str,
+    model_target: Option<Target>,
+) -> Result<GmlDoc, String> {
+    let (spans, root_attrs) = split(text)?;
+    let version = version_of(&root_attrs);
+    let wrap = |s: &Span| {
+        format!(
+            "<citylod-member {root_attrs}>{}</citylod-member>",
+            &text[s.start..s.end]
+        )
+    };
+    // The model's own envelope names the CRS for every member.
+    let mut model_srs = None;
+    for s in spans.iter().filter(|s| s.name == "boundedBy") {
+        let wrapped = wrap(s);
+        if let Ok(doc) = roxmltree::Document::parse(&wrapped) {
+            model_srs = doc
+                .descendants()
+                .find_map(|n| n.attribute("srsName").map(str::to_string));
+        }
+    }
+    let members: Vec<(usize, &Span)> = spans
+        .iter()
+        .filter(|s| {
+            matches!(
+                s.name.as_str(),
+                "cityObjectMember" | "featureMember" | "featureMembers"
+            )
+        })
+        .enumerate()
+        .collect();
+    let outs: Vec<MemberOut> = members
+        .par_iter()
+        .map(|(i, s)| read_member(&wrap(s), s.line, *i, file_name, model_target))
+        .collect();
+    let mut doc = CityDoc {
+        features: Vec::new(),
+        declared_crs: None,
+        version: version.clone(),
+        non_building_objects: 0,
+    };
+    let mut notes = Vec::new();
+    if let Some(v) = &version {
+        notes.push(format!("CityGML {v}"));
+    }
+    let mut member_srs: Vec<(String, usize)> = Vec::new();
+    let mut not_attributes: Vec<(String, usize)> = Vec::new();
+    for out in outs {
+        if let Some(e) = out.error {
+            return Err(e);
+        }
+        doc.non_building_objects += out.non_building;
+        if let Some(s) = out.srs {
+            match member_srs.iter_mut().find(|(n, _)| *n == s) {
+                Some((_, c)) => *c += 1,
+                None => member_srs.push((s, 1)),
+            }
+        }
+        for n in out.not_attributes {
+            match not_attributes.iter_mut().find(|(k, _)| *k == n) {
+                Some((_, c)) => *c += 1,
+                None => not_attributes.push((n, 1)),
+            }
+        }
+        if let Some(d) = out.doc {
+            doc.features.extend(d.features);
+            doc.non_building_objects += d.non_building_objects;
+        }
+    }
+    let srs = model_srs.or_else(|| member_srs.first().map(|(s, _)| s.clone()));
+    if let Some(s) = &srs {
+        let (declared, note) = declared_crs(s);
+        doc.declared_crs = Some(declared);
+        notes.extend(note);
+        let others: Vec<String> = member_srs
+            .iter()
+            .filter(|(n, _)| n != s)
+            .map(|(n, c)| format!("{n} ({c} member(s))"))
+            .collect();
+        if !others.is_empty() {
+            notes.push(format!(
+                "members name other CRSs than {s}, which was used for all: {}",
+                others.join(", ")
+            ));
+        }
+    }
+    if !not_attributes.is_empty() {
+        not_attributes.sort();
+        notes.push(format!(
+            "elements not read (neither attributes nor the building's geometry): {}",
+            not_attributes
+                .iter()
+                .map(|(n, c)| format!("{n} ({c} building(s))"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+    Ok(GmlDoc { doc, notes })
+}
+
+/// The CityGML version of the model's namespaces (`http://www.opengis.net/citygml/2.0` → `2.0`).
+fn version_of(root_attrs: &str) -> Option<String> {
+    let at = root_attrs.find("http://www.opengis.net/citygml/")?
+        + "http://www.opengis.net/citygml/".len();
+    let rest = &root_attrs[at..];
+    let v: String = rest
+        .chars()
+        .take_while(|c| c.is_ascii_digit() || *c == '.')
+        .collect();
+    (!v.is_empty()).then_some(v)
+}
+
+/// A `srsName` as a CRS declaration, with a note when it was read by its name rather than an EPSG code.
+fn declared_crs(srs: &str) -> (DeclaredCrs, Option<String>) {
+    let s = srs.trim();
+    let upper = s.to_ascii_uppercase();
+    // A compound URN (`urn:ogc:def:crs,crs:EPSG::25832,crs:EPSG::7837`): its first, horizontal, part.
+    if upper.contains("EPSG") {
+        let first = s
+            .split(',')
+            .find(|p| p.to_ascii_uppercase().contains("EPSG"))
+            .unwrap_or(s);
+        return (DeclaredCrs::Name(first.trim().to_string()), None);
+    }
+    // The German surveying authorities' names (AdV), `urn:adv:crs:HORIZONTAL*VERTICAL`, and Switzerland's.
+    const NAMED: &[(&str, u32)] = &[
+        ("ETRS89_UTM32", 25832),
+        ("ETRS89_UTM33", 25833),
+        ("ETRS89_UTM31", 25831),
+        ("DE_DHDN_3GK2", 31466),
+        ("DE_DHDN_3GK3", 31467),
+        ("DE_DHDN_3GK4", 31468),
+        ("DE_DHDN_3GK5", 31469),
+        ("DE_42/83_3GK4", 2398),
+        ("DE_42/83_3GK5", 2399),
+        ("ETRS89_3GK3", 5677),
+        ("ETRS89_3GK4", 5678),
+        ("ETRS89_3GK5", 5679),
+        ("CH1903+", 2056),
+        ("CH1903+_LV95", 2056),
+        ("LV95", 2056),
+        ("CH1903", 21781),
+        ("CH1903_LV03", 21781),
+        ("LV03", 21781),
+    ];
+    let name = upper.strip_prefix("URN:ADV:CRS:").unwrap_or(&upper);
+    let horizontal = name.split('*').next().unwrap_or(name).trim();
+    if let Some((n, code)) = NAMED.iter().find(|(n, _)| *n == horizontal) {
+        return (
+            DeclaredCrs::Name(format!("EPSG:{code}")),
+            Some(format!("the srsName {s:?} was read as EPSG:{code} ({n})")),
+        );
+    }
+    match Crs::parse(s) {
+        Ok(_) => (DeclaredCrs::Name(s.to_string()), None),
+        Err(e) => (
+            DeclaredCrs::NotUnderstood {
+                member: "srsName",
+                detail: format!("{s:?}: {}", e.0),
+            },
+            None,
+        ),
+    }
+}
+
+/// Reads one top-level member (wrapped in an element carrying the model's namespace declarations).
+fn read_member(
+    wrapped: &str,
+    line: usize,
+    index: usize,
+    file_name: &str,
+    model_target: Option<Target>,
+) -> MemberOut {
+    let mut out = MemberOut::default();
+    let doc = match roxmltree::Document::parse(wrapped) {
+        Ok(d) => d,
+        Err(e) => {
+            out.error = Some(format!(
+                "the member at line {line} is not well-formed XML: {e}"
+            ));
+            return out;
+        }
+    };
+    let Some(member) = doc.root_element().first_element_child() else {
+        return out;
+    };
+    out.srs = member
+        .descendants()
+        .find_map(|n| n.attribute("srsName").map(str::to_string));
+    let ids: HashMap<&str, Node> = member
+        .descendants()
+        .filter_map(|n| gml_id(n).map(|id| (id, n)))
+        .collect();
+    let mut city = CityDoc {
+        features: Vec::new(),
+        declared_crs: None,
+        version: None,
+        non_building_objects: 0,
+    };
+    for (k, object) in member.children().filter(Node::is_element).enumerate() {
+        let kind = object.tag_name().name();
+        if kind != "Building" && kind != "BuildingPart" {
+            out.non_building += 1;
+            continue;
+        }
+        let key = gml_id(object).map(str::to_string).unwrap_or_else(|| {
+            if k == 0 {
+                format!("{file_name}#{index}")
+            } else {
+                format!("{file_name}#{index}.{k}")
+            }
+        });
+        let mut conv = Converter {
+            ids: &ids,
+            base_line: line,
+            vertices: Vec::new(),
+            index: HashMap::new(),
+            objects: Map::new(),
+            problems: Vec::new(),
+            not_attributes: Vec::new(),
+        };
+        conv.object(object, key, None);
+        let Converter {
+            vertices,
+            objects,
+            problems,
+            not_attributes,
+            ..
+        } = conv;
+        out.not_attributes.extend(not_attributes);
+        let no_geometry = objects.values().all(|o| {
+            o.get("geometry")
+                .and_then(Value::as_array)
+                .is_none_or(|g| g.is_empty())
+        });
+        let vertices = match problems.first() {
+            Some((_, p)) if no_geometry => Err((IssueReason::MalformedGeometry, p.clone())),
+            _ => Ok(vertices),
+        };
+        let first = city.features.len();
+        cityjson::read_objects_with_vertices(&objects, vertices, model_target, &mut city);
+        for f in &mut city.features[first..] {
+            if f.skip.is_none() {
+                f.repairs.extend(
+                    problems
+                        .iter()
+                        .map(|(_, p)| (IssueReason::GeometryNotRead, p.clone())),
+                );
+            }
+        }
+    }
+    out.doc = Some(city);
+    out
+}
+
+/// The `gml:id` of an element.
+fn gml_id<'a>(n: Node<'a, '_>) -> Option<&'a str> {
+    n.attributes()
+        .find(|a| {
+            a.name() == "id"
+                && a.namespace()
+                    .is_some_and(|ns| ns.contains("opengis.net/gml"))
+        })
+        .map(|a| a.value())
+}
+
+/// The target of an `xlink:href` on an element, `None` without one.
+fn href<'a>(n: Node<'a, '_>) -> Option<&'a str> {
+    n.attributes()
+        .find(|a| a.name() == "href" && a.namespace() == Some("http://www.w3.org/1999/xlink"))
+        .map(|a| a.value())
+}
+
+type Ring = Vec<[f64; 3]>;
+
+/// A polygon read from GML: its rings (open) and the `gml:id` of its element, which semantics are looked up by.
+struct Poly {
+    rings: Vec<Ring>,
+    id: Option<String>,
+}
+
+/// A geometry property's content.
+enum Geom {
+    /// Shells of polygons (a Solid: exterior first).
+    Solid(Vec<Vec<Poly>>),
+    Surfaces(Vec<Poly>),
+}
+
+/// The thematic surface types of buildings (CityGML's names are CityJSON's), openings included.
+const THEMATIC: &[&str] = &[
+    "RoofSurface",
+    "WallSurface",
+    "GroundSurface",
+    "ClosureSurface",
+    "OuterCeilingSurface",
+    "OuterFloorSurface",
+    "FloorSurface",
+    "CeilingSurface",
+    "InteriorWallSurface",
+    "Window",
+    "Door",
+];
+
+/// One building's (or part's) geometry by LoD, before it becomes CityJSON.
+#[derive(Default)]
+struct ByLod {
+    solids: Vec<Vec<Vec<Poly>>>,
+    surfaces: Vec<(Poly, Option<&'static str>)>,
+    thematic: Vec<(Poly, &'static str)>,
+}
+
+struct Converter<'m, 'a, 'input> {
+    ids: &'m HashMap<&'a str, Node<'a, 'input>>,
+    /// The file's line of the member's first line.
+    base_line: usize,
+    vertices: Vec<[f64; 3]>,
+    index: HashMap<[u64; 3], usize>,
+    objects: Map<String, Value>,
+    /// Geometries not read: (object key, what and why).
+    problems: Vec<(String, String)>,
+    not_attributes: Vec<String>,
+}
+
+impl<'a, 'input> Converter<'_, 'a, 'input> {
+    /// Adds the city object `e` (a Building or BuildingPart) under `key`, and its parts after it.
+    fn object(&mut self, e: Node<'a, 'input>, key: String, parent: Option<&str>) {
+        let mut attributes = Map::new();
+        let mut lods: [ByLod; 5] = Default::default();
+        let mut parts: Vec<Node> = Vec::new();
+        for c in e.children().filter(Node::is_element) {
+            let name = c.tag_name().name();
+            if let Some((lod, kind)) = geometry_property(name) {
+                match self.geometry(c) {
+                    Ok(Geom::Solid(shells)) if kind == Kind::Solid => lods[lod].solids.push(shells),
+                    Ok(Geom::Solid(shells)) => lods[lod]
+                        .surfaces
+                        .extend(shells.into_iter().flatten().map(|p| (p, None))),
+                    Ok(Geom::Surfaces(polys)) => {
+                        let semantic = match kind {
+                            Kind::Footprint => Some("GroundSurface"),
+                            Kind::RoofEdge => Some("RoofSurface"),
+                            _ => None,
+                        };
+                        lods[lod]
+                            .surfaces
+                            .extend(polys.into_iter().map(|p| (p, semantic)));
+                    }
+                    Err(why) => self.problem(&key, c, why),
+                }
+                continue;
+            }
+            match name {
+                "boundedBy" | "boundary" if !is_gml(c) => {
+                    for s in c.children().filter(Node::is_element) {
+                        self.thematic(s, &key, &mut lods, 0);
+                    }
+                }
+                "consistsOfBuildingPart" | "buildingPart" => {
+                    parts.extend(
+                        c.children()
+                            .filter(|p| p.is_element() && p.tag_name().name() == "BuildingPart"),
+                    );
+                }
+                // The envelope: where the building is, which its geometry says.
+                "boundedBy" => {}
+                _ => attribute(c, &mut attributes, &mut self.not_attributes),
+            }
+        }
+        let geometry: Vec<Value> = lods
+            .into_iter()
+            .enumerate()
+            .filter_map(|(lod, g)| self.emit(lod, g))
+            .collect();
+        let mut object = Map::new();
+        object.insert(
+            "type".into(),
+            Value::from(if e.tag_name().name() == "BuildingPart" {
+                "BuildingPart"
+            } else {
+                "Building"
+            }),
+        );
+        object.insert("attributes".into(), Value::Object(attributes));
+        object.insert("geometry".into(), Value::Array(geometry));
+        if let Some(p) = parent {
+            object.insert("parents".into(), json!([p]));
+        }
+        let mut children = Vec::new();
+        let mut part_keys = Vec::new();
+        for (i, p) in parts.iter().enumerate() {
+            let mut k = gml_id(*p)
+                .map(str::to_string)
+                .unwrap_or_else(|| format!("{key}/part{}", i + 1));
+            while self.objects.contains_key(&k) || k == key || part_keys.contains(&k) {
+                k.push('\'');
+            }
+            children.push(Value::from(k.clone()));
+            part_keys.push(k);
+        }
+        if !children.is_empty() {
+            object.insert("children".into(), Value::Array(children));
+        }
+        self.objects.insert(key.clone(), Value::Object(object));
+        for (p, k) in parts.into_iter().zip(part_keys) {
+            self.object(p, k, Some(&key));
+        }
+    }
+
+    fn problem(&mut self, key: &str, at: Node, why: String) {
+        let line = at.document().text_pos_at(at.range().start).row as usize + self.base_line - 1;
+        self.problems.push((
+            key.to_string(),
+            format!(
+                "{} (line {line}) of {key} not read: {why}",
+                at.tag_name().name()
+            ),
+        ));
+    }
+
+    /// A thematic surface (`RoofSurface`, …) and the openings in it: their `lodNMultiSurface`s.
+    fn thematic(&mut self, s: Node<'a, 'input>, key: &str, lods: &mut [ByLod; 5], depth: usize) {
+        let Some(&kind) = THEMATIC.iter().find(|t| **t == s.tag_name().name()) else {
+            return;
+        };
+        for c in s.children().filter(Node::is_element) {
+            let name = c.tag_name().name();
+            if let Some((lod, _)) = geometry_property(name) {
+                match self.geometry(c) {
+                    Ok(g) => {
+                        let polys: Vec<Poly> = match g {
+                            Geom::Solid(shells) => shells.into_iter().flatten().collect(),
+                            Geom::Surfaces(p) => p,
+                        };
+                        lods[lod]
+                            .thematic
+                            .extend(polys.into_iter().map(|p| (p, kind)));
+                    }
+                    Err(why) => self.problem(key, c, why),
+                }
+            } else if (name == "opening" || name == "filling") && depth < 4 {
+                for o in c.children().filter(Node::is_element) {
+                    self.thematic(o, key, lods, depth + 1);
+                }
+            }
+        }
+    }
+
+    /// The content of a geometry property element (inline or by `xlink:href`).
+    fn geometry(&self, property: Node<'a, 'input>) -> Result<Geom, String> {
+        let g = self.target(property)?.ok_or("empty: no geometry inside")?;
+        match g.tag_name().name() {
+            "Solid" => Ok(Geom::Solid(self.solid(g)?)),
+            "CompositeSolid" | "MultiSolid" => {
+                let mut shells = Vec::new();
+                for m in g.children().filter(Node::is_element) {
+                    match m.tag_name().name() {
+                        "solidMember" => {
+                            if let Some(s) = self.target(m)? {
+                                shells.extend(self.solid_of(s)?);
+                            }
+                        }
+                        "solidMembers" => {
+                            for s in m.children().filter(Node::is_element) {
+                                shells.extend(self.solid_of(s)?);
+                            }
+                        }
+                        _ => {}
+                    }
+                }
+                Ok(Geom::Solid(shells))
+            }
+            _ => {
+                let mut polys = Vec::new();
+                self.surfaces(g, 0, &mut polys)?;
+                Ok(Geom::Surfaces(polys))
+            }
+        }
+    }
+
+    fn solid_of(&self, s: Node<'a, 'input>) -> Result<Vec<Vec<Poly>>, String> {
+        if s.tag_name().name() != "Solid" {
+            return Err(format!(
+                "a solid member is a {}, not a Solid",
+                s.tag_name().name()
+            ));
+        }
+        self.solid(s)
+    }
+
+    /// A Solid's shells: its exterior, then its interiors (cavities).
+    fn solid(&self, s: Node<'a, 'input>) -> Result<Vec<Vec<Poly>>, String> {
+        let mut shells = Vec::new();
+        for side in ["exterior", "interior"] {
+            for b in s
+                .children()
+                .filter(|c| c.is_element() && c.tag_name().name() == side)
+            {
+                if let Some(shell) = self.target(b)? {
+                    let mut polys = Vec::new();
+                    self.surfaces(shell, 0, &mut polys)?;
+                    shells.push(polys);
+                }
+            }
+        }
+        if shells.is_empty() {
+            return Err("a Solid without an exterior shell".into());
+        }
+        Ok(shells)
+    }
+
+    /// The element a property holds: its `xlink:href` target in this member, else its first child element.
+    fn target(&self, property: Node<'a, 'input>) -> Result<Option<Node<'a, 'input>>, String> {
+        let mut n = property;
+        for _ in 0..MAX_HOPS {
+            let Some(h) = href(n) else {
+                return Ok(n.first_element_child());
+            };
+            let id = h.strip_prefix('#').ok_or_else(|| {
+                format!("xlink:href {h:?} points outside this file's member (only #id references are read)")
+            })?;
+            let t = *self.ids.get(id).ok_or_else(|| {
+                format!("xlink:href {h:?}: no element with that gml:id in this member")
+            })?;
+            if href(t).is_none() {
+                return Ok(Some(t));
+            }
+            n = t;
+        }
+        Err(format!(
+            "xlink:hrefs chained more than {MAX_HOPS} deep (a cycle?)"
+        ))
+    }
+
+    /// The polygons of a surface element, in order.
+    fn surfaces(
+        &self,
+        g: Node<'a, 'input>,
+        depth: usize,
+        out: &mut Vec<Poly>,
+    ) -> Result<(), String> {
+        if depth > 32 {
+            return Err("surfaces nested more than 32 deep".into());
+        }
+        let name = g.tag_name().name();
+        match name {
+            "Polygon" | "Triangle" | "Rectangle" | "PolygonPatch" => {
+                out.push(self.polygon(g)?);
+                Ok(())
+            }
+            "OrientableSurface" => {
+                let base = g
+                    .children()
+                    .find(|c| c.is_element() && c.tag_name().name() == "baseSurface")
+                    .ok_or("an OrientableSurface without a baseSurface")?;
+                let target = self.target(base)?.ok_or("an empty baseSurface")?;
+                let first = out.len();
+                self.surfaces(target, depth + 1, out)?;
+                if g.attribute("orientation") == Some("-") {
+                    for p in &mut out[first..] {
+                        for r in &mut p.rings {
+                            r.reverse();
+                        }
+                    }
+                }
+                Ok(())
+            }
+            "MultiSurface"
+            | "CompositeSurface"
+            | "Shell"
+            | "Surface"
+            | "TriangulatedSurface"
+            | "Tin"
+            | "PolyhedralSurface" => {
+                for m in g.children().filter(Node::is_element) {
+                    match m.tag_name().name() {
+                        "surfaceMember" | "baseSurface" => {
+                            if let Some(t) = self.target(m)? {
+                                self.surfaces(t, depth + 1, out)?;
+                            }
+                        }
+                        "surfaceMembers" | "patches" | "trianglePatches" | "polygonPatches" => {
+                            for t in m.children().filter(Node::is_element) {
+                                self.surfaces(t, depth + 1, out)?;
+                            }
+                        }
+                        _ => {}
+                    }
+                }
+                Ok(())
+            }
+            other => Err(format!("a {other}, not a surface this reader reads")),
+        }
+    }
+
+    fn polygon(&self, p: Node<'a, 'input>) -> Result<Poly, String> {
+        let mut rings = Vec::new();
+        for side in [
+            ["exterior", "outerBoundaryIs"],
+            ["interior", "innerBoundaryIs"],
+        ] {
+            for b in p
+                .children()
+                .filter(|c| c.is_element() && side.contains(&c.tag_name().name()))
+            {
+                let ring = self.target(b)?.ok_or("an empty polygon boundary")?;
+                if ring.tag_name().name() != "LinearRing" {
+                    return Err(format!(
+                        "a polygon boundary is a {}, not a LinearRing",
+                        ring.tag_name().name()
+                    ));
+                }
+                rings.push(self.ring(ring)?);
+            }
+            if rings.is_empty() {
+                return Err(format!(
+                    "a {} without an exterior ring",
+                    p.tag_name().name()
+                ));
+            }
+        }
+        Ok(Poly {
+            rings,
+            id: gml_id(p).map(str::to_string),
+        })
+    }
+
+    /// A LinearRing's points (`posList`, `pos`, `coordinates` or `pointProperty`), open.
+    fn ring(&self, r: Node<'a, 'input>) -> Result<Ring, String> {
+        let mut pts: Ring = Vec::new();
+        for c in r.children().filter(Node::is_element) {
+            match c.tag_name().name() {
+                "posList" => {
+                    let dim = dimension(c)?;
+                    let nums = numbers(c.text().unwrap_or(""), "posList")?;
+                    if nums.len() % dim != 0 {
+                        return Err(format!(
+                            "a posList of {} numbers, not a multiple of its dimension {dim}",
+                            nums.len()
+                        ));
+                    }
+                    pts.extend(
+                        nums.chunks(dim)
+                            .map(|p| [p[0], p[1], if dim == 3 { p[2] } else { 0.0 }]),
+                    );
+                }
+                "pos" => pts.push(point(c)?),
+                "pointProperty" | "pointRep" => {
+                    let pt = c
+                        .descendants()
+                        .find(|d| d.is_element() && d.tag_name().name() == "pos")
+                        .ok_or(
+                            "a pointProperty without a pos (references to points are not read)",
+                        )?;
+                    pts.push(point(pt)?);
+                }
+                "coordinates" => {
+                    let cs = c.attribute("cs").unwrap_or(",");
+                    let ts = c.attribute("ts").unwrap_or(" ");
+                    let decimal = c.attribute("decimal").unwrap_or(".");
+                    for tuple in c
+                        .text()
+                        .unwrap_or("")
+                        .split(|ch: char| ts.contains(ch) || (ts == " " && ch.is_whitespace()))
+                        .filter(|t| !t.is_empty())
+                    {
+                        let v: Vec<f64> = tuple
+                            .split(cs)
+                            .map(|x| x.trim().replace(decimal, ".").parse::<f64>())
+                            .collect::<Result<_, _>>()
+                            .map_err(|_| format!("coordinates {tuple:?} are not numbers"))?;
+                        match v[..] {
+                            [x, y] => pts.push([x, y, 0.0]),
+                            [x, y, z] => pts.push([x, y, z]),
+                            _ => {
+                                return Err(format!("coordinates {tuple:?} are not 2 or 3 numbers"))
+                            }
+                        }
+                    }
+                }
+                _ => {}
+            }
+        }
+        if pts.iter().flatten().any(|v| !v.is_finite()) {
+            return Err("a coordinate that is not a finite number".into());
+        }
+        if pts.len() >= 2 && pts.first() == pts.last() {
+            pts.pop();
+        }
+        Ok(pts)
+    }
+
+    fn vertex(&mut self, p: [f64; 3]) -> usize {
+        let key = p.map(|v| (v + 0.0).to_bits());
+        let next = self.vertices.len();
+        *self.index.entry(key).or_insert_with(|| {
+            self.vertices.push(p);
+            next
+        })
+    }
+
+    fn boundary(&mut self, p: &Poly) -> Value {
+        Value::Array(
+            p.rings
+                .iter()
+                .map(|r| Value::Array(r.iter().map(|v| Value::from(self.vertex(*v))).collect()))
+                .collect(),
+        )
+    }
+
+    /// One LoD's geometry as a CityJSON geometry: its solids (their polygons typed by the thematic surfaces they
+    /// share a `gml:id` with), else its surfaces and thematic surfaces together.
+    fn emit(&mut self, lod: usize, g: ByLod) -> Option<Value> {
+        let kinds: HashMap<&str, &str> = g
+            .thematic
+            .iter()
+            .filter_map(|(p, k)| p.id.as_deref().map(|id| (id, *k)))
+            .collect();
+        let mut types: Vec<String> = Vec::new();
+        let mut type_index = |t: Option<&str>| -> Value {
+            match t {
+                None => Value::Null,
+                Some(t) => Value::from(match types.iter().position(|k| *k == t) {
+                    Some(i) => i,
+                    None => {
+                        types.push(t.to_string());
+                        types.len() - 1
+                    }
+                }),
+            }
+        };
+        let lod_text = lod.to_string();
+        let mut out = Map::new();
+        if lod > 0 && !g.solids.is_empty() {
+            let shells: Vec<&Vec<Poly>> = g.solids.iter().flatten().collect();
+            let mut boundaries = Vec::new();
+            let mut values = Vec::new();
+            for shell in &shells {
+                boundaries.push(Value::Array(
+                    shell.iter().map(|p| self.boundary(p)).collect(),
+                ));
+                values.push(Value::Array(
+                    shell
+                        .iter()
+                        .map(|p| type_index(p.id.as_deref().and_then(|id| kinds.get(id).copied())))
+                        .collect(),
+                ));
+            }
+            // Several solids (or a CompositeSolid) as one solid of all their shells would make cavities of the
+            // others: each becomes a solid of its own in a MultiSolid.
+            if g.solids.len() == 1 {
+                out.insert("type".into(), "Solid".into());
+                out.insert("boundaries".into(), Value::Array(boundaries));
+                out.insert("semantics_values".into(), Value::Array(values));
+            } else {
+                let mut b = Vec::new();
+                let mut v = Vec::new();
+                let mut at = 0;
+                for solid in &g.solids {
+                    b.push(Value::Array(boundaries[at..at + solid.len()].to_vec()));
+                    v.push(Value::Array(values[at..at + solid.len()].to_vec()));
+                    at += solid.len();
+                }
+                out.insert("type".into(), "MultiSolid".into());
+                out.insert("boundaries".into(), Value::Array(b));
+                out.insert("semantics_values".into(), Value::Array(v));
+            }
+        } else {
+            let mut polys: Vec<(&Poly, Option<&str>)> = g
+                .surfaces
+                .iter()
+                .map(|(p, t)| {
+                    (
+                        p,
+                        t.or_else(|| p.id.as_deref().and_then(|id| kinds.get(id).copied())),
+                    )
+                })
+                .collect();
+            let listed: std::collections::HashSet<&str> = g
+                .surfaces
+                .iter()
+                .filter_map(|(p, _)| p.id.as_deref())
+                .collect();
+            polys.extend(
+                g.thematic
+                    .iter()
+                    .filter(|(p, _)| p.id.as_deref().is_none_or(|id| !listed.contains(id)))
+                    .map(|(p, k)| (p, Some(*k))),
+            );
+            if polys.is_empty() {
+                return None;
+            }
+            let boundaries: Vec<Value> = polys.iter().map(|(p, _)| self.boundary(p)).collect();
+            let values: Vec<Value> = polys.iter().map(|(_, t)| type_index(*t)).collect();
+            out.insert("type".into(), "MultiSurface".into());
+            out.insert("boundaries".into(), Value::Array(boundaries));
+            out.insert("semantics_values".into(), Value::Array(values));
+        }
+        out.insert("lod".into(), Value::from(lod_text));
+        let values = out.remove("semantics_values").expect("set above");
+        if !types.is_empty() {
+            out.insert(
+                "semantics".into(),
+                json!({
+                    "surfaces": types.iter().map(|t| json!({"type": t})).collect::<Vec<_>>(),
+                    "values": values,
+                }),
+            );
+        }
+        Some(Value::Object(out))
+    }
+}
+
+#[derive(PartialEq, Eq, Clone, Copy)]
+enum Kind {
+    Solid,
+    Surfaces,
+    Footprint,
+    RoofEdge,
+}
+
+/// A geometry property's LoD and kind by its local name: `lod2Solid`, `lod1MultiSurface`, `lod0FootPrint`, …
+fn geometry_property(name: &str) -> Option<(usize, Kind)> {
+    match name {
+        "lod0FootPrint" => return Some((0, Kind::Footprint)),
+        "lod0RoofEdge" => return Some((0, Kind::RoofEdge)),
+        _ => {}
+    }
+    let rest = name.strip_prefix("lod")?;
+    let lod = rest.chars().next()?.to_digit(10)? as usize;
+    if lod > 4 {
+        return None;
+    }
+    match &rest[1..] {
+        "Solid" | "MultiSolid" => Some((lod, Kind::Solid)),
+        "MultiSurface" | "CompositeSurface" | "Surface" => Some((lod, Kind::Surfaces)),
+        _ => None,
+    }
+}
+
+/// GML's own `boundedBy` (an envelope), not a building's thematic surfaces.
+fn is_gml(n: Node) -> bool {
+    n.tag_name()
+        .namespace()
+        .is_some_and(|ns| ns.contains("opengis.net/gml"))
+}
+
+/// A `srsDimension` from the element or its ancestors (2 or 3), 3 when none is given.
+fn dimension(n: Node) -> Result<usize, String> {
+    match n.ancestors().find_map(|a| a.attribute("srsDimension")) {
+        None => Ok(3),
+        Some(d) => match d.trim() {
+            "2" => Ok(2),
+            "3" => Ok(3),
+            other => Err(format!("srsDimension {other:?}: only 2 and 3 are read")),
+        },
+    }
+}
+
+fn numbers(text: &str, what: &str) -> Result<Vec<f64>, String> {
+    text.split_ascii_whitespace()
+        .map(|t| {
+            t.parse::<f64>()
+                .map_err(|_| format!("{what} holds {t:?}, which is not a number"))
+        })
+        .collect()
+}
+
+fn point(pos: Node) -> Result<[f64; 3], String> {
+    match numbers(pos.text().unwrap_or(""), "pos")?[..] {
+        [x, y] => Ok([x, y, 0.0]),
+        [x, y, z] => Ok([x, y, z]),
+        ref v => Err(format!("a pos of {} numbers", v.len())),
+    }
+}
+
+/// Metres per unit of a `uom` (`#m`, `m`, `urn:adv:uom:m`, UCUM's `[ft_i]`, …); `None` for one not known.
+fn metres_per(uom: Option<&str>) -> Option<f64> {
+    let u = uom.unwrap_or("m").trim();
+    let u = u.rsplit([':', '#']).next().unwrap_or(u);
+    match u {
+        "" | "m" | "metre" | "meter" | "metres" | "meters" => Some(1.0),
+        "ft" | "[ft_i]" | "foot" | "feet" => Some(0.3048),
+        "[ft_us]" | "us-ft" | "ftUS" => Some(1200.0 / 3937.0),
+        "cm" => Some(0.01),
+        "mm" => Some(0.001),
+        _ => None,
+    }
+}
+
+/// Elements holding a count or a year, read as whole numbers.
+const WHOLE: &[&str] = &[
+    "storeysAboveGround",
+    "storeysBelowGround",
+    "yearOfConstruction",
+    "yearOfDemolition",
+];
+
+/// Reads one child element of a building as attributes: `gml:name`, simple elements, generic attributes, external
+/// references, the address. Elements with structure this reader does not know are named in `skipped`.
+fn attribute(c: Node, out: &mut Map<String, Value>, skipped: &mut Vec<String>) {
+    let name = c.tag_name().name();
+    let text = || c.text().map(str::trim).unwrap_or("").to_string();
+    match name {
+        "stringAttribute"
+        | "intAttribute"
+        | "doubleAttribute"
+        | "dateAttribute"
+        | "uriAttribute"
+        | "measureAttribute"
+        | "genericAttributeSet"
+        | "genericAttribute" => {
+            generic(c, "", out);
+            return;
+        }
+        "externalReference" => {
+            let system = child_text(c, "informationSystem").unwrap_or_default();
+            let object = c
+                .children()
+                .find(|x| x.is_element() && x.tag_name().name() == "externalObject");
+            let value = object
+                .and_then(|o| child_text(o, "name").or_else(|| child_text(o, "uri")))
+                .or_else(|| child_text(c, "externalObject"))
+                .unwrap_or_default();
+            // A register's name (`EGID`, `GID`) names the attribute; a longer one (a file path, a URL) stays with
+            // the value.
+            let short =
+                !system.is_empty() && system.len() <= 32 && !system.contains(['/', '\\', ' ', ':']);
+            if short {
+                put(
+                    out,
+                    format!("externalReference:{system}"),
+                    Value::from(value),
+                );
+            } else if system.is_empty() {
+                put(out, "externalReference".into(), Value::from(value));
+            } else {
+                put(
+                    out,
+                    "externalReference".into(),
+                    Value::from(format!("{system}: {value}")),
+                );
+            }
+            return;
+        }
+        "address" => {
+            if out.keys().any(|k| k.starts_with("address.")) {
+                return;
+            }
+            for leaf in c
+                .descendants()
+                .filter(|d| d.is_element() && !d.children().any(|x| x.is_element()))
+            {
+                let t = leaf.text().map(str::trim).unwrap_or("");
+                if !t.is_empty() {
+                    put(
+                        out,
+                        format!("address.{}", leaf.tag_name().name()),
+                        Value::from(t),
+                    );
+                }
+            }
+            return;
+        }
+        "height" if c.children().any(|x| x.is_element()) => {
+            // 3.0: <con:height><con:Height> highReference, lowReference, status, value </con:Height></con:height>
+            let h = c.first_element_child().unwrap_or(c);
+            let high = child_text(h, "highReference").unwrap_or_default();
+            let low = child_text(h, "lowReference").unwrap_or_default();
+            let value = h
+                .children()
+                .find(|x| x.is_element() && x.tag_name().name() == "value");
+            if let Some(v) = value {
+                let m = v
+                    .text()
+                    .and_then(|t| t.trim().parse::<f64>().ok())
+                    .zip(metres_per(v.attribute("uom")))
+                    .map(|(x, f)| x * f);
+                let key = if high == "highestPoint" && low == "lowestGroundPoint" {
+                    "measuredHeight".to_string()
+                } else {
+                    format!("height.{high}.{low}")
+                };
+                put(
+                    out,
+                    key,
+                    m.map(Value::from)
+                        .unwrap_or_else(|| Value::from(v.text().unwrap_or("").trim())),
+                );
+            }
+            return;
+        }
+        _ => {}
+    }
+    if c.children().any(|x| x.is_element()) {
+        if !skipped.iter().any(|s| s == name) {
+            skipped.push(name.to_string());
+        }
+        return;
+    }
+    let t = text();
+    let value = if name == "measuredHeight" {
+        match (t.parse::<f64>(), metres_per(c.attribute("uom"))) {
+            (Ok(x), Some(f)) => Value::from(x * f),
+            _ => Value::from(t),
+        }
+    } else if WHOLE.contains(&name) {
+        t.parse::<i64>()
+            .map(Value::from)
+            .unwrap_or_else(|_| Value::from(t))
+    } else {
+        Value::from(t)
+    };
+    put(out, name.to_string(), value);
+}
+
+/// Generic attributes of CityGML 1.0/2.0 (`gen:stringAttribute name="N"` with `gen:value`, sets) and 3.0
+/// (`gen:genericAttribute` holding a `gen:StringAttribute` … with `gen:name` and `gen:value`); a set's members are
+/// named `SET.NAME`.
+fn generic(c: Node, prefix: &str, out: &mut Map<String, Value>) {
+    let (element, name) = match c.tag_name().name() {
+        "genericAttribute" => match c.first_element_child() {
+            Some(inner) => (inner, child_text(inner, "name")),
+            None => return,
+        },
+        _ => (c, c.attribute("name").map(str::to_string)),
+    };
+    let Some(name) = name else { return };
+    let key = format!("{prefix}{name}");
+    let kind = element.tag_name().name();
+    if kind.eq_ignore_ascii_case("genericAttributeSet") {
+        let inner_prefix = format!("{key}.");
+        let holder = element
+            .children()
+            .find(|x| x.is_element() && x.tag_name().name() == "value")
+            .unwrap_or(element);
+        for m in holder.children().filter(Node::is_element) {
+            if m.tag_name().name() != "name" {
+                generic(m, &inner_prefix, out);
+            }
+        }
+        return;
+    }
+    let Some(v) = element
+        .children()
+        .find(|x| x.is_element() && x.tag_name().name() == "value")
+    else {
+        return;
+    };
+    let t = v.text().map(str::trim).unwrap_or("").to_string();
+    let value = match kind.to_ascii_lowercase().as_str() {
+        "intattribute" => t
+            .parse::<i64>()
+            .map(Value::from)
+            .unwrap_or_else(|_| Value::from(t)),
+        "doubleattribute" | "measureattribute" => t
+            .parse::<f64>()
+            .ok()
+            .and_then(|x| serde_json::Number::from_f64(x).map(Value::Number))
+            .unwrap_or_else(|| Value::from(t)),
+        _ => Value::from(t),
+    };
+    put(out, key, value);
+}
+
+fn child_text(n: Node, name: &str) -> Option<String> {
+    n.children()
+        .find(|c| c.is_element() && c.tag_name().name() == name)
+        .and_then(|c| c.text())
+        .map(|t| t.trim().to_string())
+}
+
+/// Sets an attribute; a name given again (several `gml:name`s) keeps every value, joined with "; ".
+fn put(out: &mut Map<String, Value>, key: String, value: Value) {
+    match out.get_mut(&key) {
+        Some(Value::String(s)) => {
+            let more = match &value {
+                Value::String(v) => v.clone(),
+                v => v.to_string(),
+            };
+            s.push_str("; ");
+            s.push_str(&more);
+        }
+        Some(old) => {
+            let joined = format!(
+                "{}; {}",
+                old,
+                match &value {
+                    Value::String(v) => v.clone(),
+                    v => v.to_string(),
+                }
+            );
+            *old = Value::from(joined);
+        }
+        None => {
+            out.insert(key, value);
+        }
+    }
+}
