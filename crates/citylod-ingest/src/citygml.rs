@@ -111,14 +111,19 @@ fn root_name(head: &[u8]) -> Option<&str> {
 }
 
 /// Reads the buildings of a CityGML file; `Err` (a detail) when the file is not CityGML or not well-formed XML.
-pub(crate) fn read(path: &Path, model_target: Option<Target>) -> Result<GmlDoc, String> {
+/// `given_crs` is the user's `--crs`, which decides the axis order as a declared CRS would.
+pub(crate) fn read(
+    path: &Path,
+    model_target: Option<Target>,
+    given_crs: Option<&str>,
+) -> Result<GmlDoc, String> {
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read the file: {e}"))?;
     let text = decode(bytes)?;
     let file_name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    read_text(&text, &file_name, model_target)
+    read_text(&text, &file_name, model_target, given_crs)
 }
 
 /// The file's text: gzip inflated, a byte-order mark dropped, and an encoding the XML declaration names other than
@@ -305,6 +310,7 @@ pub(crate) fn read_text(
     text: &str,
     file_name: &str,
     model_target: Option<Target>,
+    given_crs: Option<&str>,
 ) -> Result<GmlDoc, String> {
     let (spans, root_attrs) = split(text)?;
     let version = version_of(&root_attrs);
@@ -314,14 +320,16 @@ pub(crate) fn read_text(
             &text[s.start..s.end]
         )
     };
-    // The model's own envelope names the CRS for every member.
+    // The model's own envelope names the CRS for every member; without one, the first member's geometry does.
     let mut model_srs = None;
+    let mut first_x = None;
     for s in spans.iter().filter(|s| s.name == "boundedBy") {
         let wrapped = wrap(s);
         if let Ok(doc) = roxmltree::Document::parse(&wrapped) {
             model_srs = doc
                 .descendants()
                 .find_map(|n| n.attribute("srsName").map(str::to_string));
+            first_x = first_coordinate(&doc);
         }
     }
     let members: Vec<(usize, &Span)> = spans
@@ -334,9 +342,26 @@ pub(crate) fn read_text(
         })
         .enumerate()
         .collect();
+    if let Some((_, s)) = members
+        .first()
+        .filter(|_| model_srs.is_none() || first_x.is_none())
+    {
+        let wrapped = wrap(s);
+        if let Ok(doc) = roxmltree::Document::parse(&wrapped) {
+            model_srs = model_srs.or_else(|| {
+                doc.descendants()
+                    .find_map(|n| n.attribute("srsName").map(str::to_string))
+            });
+            first_x = first_x.or_else(|| first_coordinate(&doc));
+        }
+    }
+    let (swap, axis_note) = match given_crs.or(model_srs.as_deref()) {
+        Some(name) => latitude_first(name, first_x),
+        None => (false, None),
+    };
     let outs: Vec<MemberOut> = members
         .par_iter()
-        .map(|(i, s)| read_member(&wrap(s), s.line, *i, file_name, model_target))
+        .map(|(i, s)| read_member(&wrap(s), s.line, *i, file_name, model_target, swap))
         .collect();
     let mut doc = CityDoc {
         features: Vec::new(),
@@ -348,6 +373,7 @@ pub(crate) fn read_text(
     if let Some(v) = &version {
         notes.push(format!("CityGML {v}"));
     }
+    notes.extend(axis_note);
     let mut member_srs: Vec<(String, usize)> = Vec::new();
     let mut not_attributes: Vec<(String, usize)> = Vec::new();
     for out in outs {
@@ -468,13 +494,55 @@ fn declared_crs(srs: &str) -> (DeclaredCrs, Option<String>) {
     }
 }
 
-/// Reads one top-level member (wrapped in an element carrying the model's namespace declarations).
+/// The first number of the first coordinates in a tree (an envelope's corner, a `pos`, a `posList`).
+fn first_coordinate(doc: &roxmltree::Document) -> Option<f64> {
+    doc.descendants()
+        .filter(|n| {
+            matches!(
+                n.tag_name().name(),
+                "lowerCorner" | "upperCorner" | "pos" | "posList"
+            )
+        })
+        .find_map(|n| n.text()?.split_ascii_whitespace().next()?.parse().ok())
+}
+
+/// Whether coordinates in the CRS `name` come latitude first: EPSG defines its geographic CRSs (4326, 4258,
+/// JGD2011's 6668 and 6697, …) with latitude first, and GML follows the CRS's own axis order. A first coordinate
+/// beyond ±90 cannot be a latitude: such a file is read longitude first, and the note says so.
+fn latitude_first(name: &str, first_x: Option<f64>) -> (bool, Option<String>) {
+    let DeclaredCrs::Name(n) = declared_crs(name).0 else {
+        return (false, None);
+    };
+    let geographic = Crs::parse(&n).is_ok_and(|c| c.is_lon_lat());
+    if !geographic || !n.to_ascii_uppercase().contains("EPSG") {
+        return (false, None);
+    }
+    match first_x {
+        Some(x) if x.abs() > 90.0 => (
+            false,
+            Some(format!(
+                "coordinates read as longitude, latitude: {n} puts latitude first, but the first coordinate ({x}) \
+                 cannot be a latitude"
+            )),
+        ),
+        _ => (
+            true,
+            Some(format!(
+                "coordinates read as latitude, longitude, the axis order EPSG gives {n}"
+            )),
+        ),
+    }
+}
+
+/// Reads one top-level member (wrapped in an element carrying the model's namespace declarations); `swap`: its
+/// coordinates come latitude first.
 fn read_member(
     wrapped: &str,
     line: usize,
     index: usize,
     file_name: &str,
     model_target: Option<Target>,
+    swap: bool,
 ) -> MemberOut {
     let mut out = MemberOut::default();
     let doc = match roxmltree::Document::parse(wrapped) {
@@ -518,6 +586,7 @@ fn read_member(
         let mut conv = Converter {
             ids: &ids,
             base_line: line,
+            swap,
             vertices: Vec::new(),
             index: HashMap::new(),
             objects: Map::new(),
@@ -618,6 +687,8 @@ struct Converter<'m, 'a, 'input> {
     ids: &'m HashMap<&'a str, Node<'a, 'input>>,
     /// The file's line of the member's first line.
     base_line: usize,
+    /// Coordinates come latitude first: x and y are swapped as they are read.
+    swap: bool,
     vertices: Vec<[f64; 3]>,
     index: HashMap<[u64; 3], usize>,
     objects: Map<String, Value>,
@@ -990,6 +1061,11 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
         }
         if pts.len() >= 2 && pts.first() == pts.last() {
             pts.pop();
+        }
+        if self.swap {
+            for p in &mut pts {
+                p.swap(0, 1);
+            }
         }
         Ok(pts)
     }

@@ -693,9 +693,11 @@ fn citygml_file(
     opts: &IngestOptions,
     model_target: Option<lod::Target>,
 ) -> Result<LoadedFile, IngestError> {
-    let gml = citygml::read(path, model_target).map_err(|detail| IngestError::InvalidCityGml {
-        path: path.into(),
-        detail,
+    let gml = citygml::read(path, model_target, opts.crs.as_deref()).map_err(|detail| {
+        IngestError::InvalidCityGml {
+            path: path.into(),
+            detail,
+        }
     })?;
     let mut doc = gml.doc;
     let mut notes = gml.notes;

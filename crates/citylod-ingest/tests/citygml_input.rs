@@ -718,3 +718,91 @@ fn den_haag_as_citygml_gives_the_buildings_its_cityjson_gives() {
         );
     }
 }
+
+/// A 10 m box at Tokyo Station in a geographic CRS, its coordinates in the order `order` gives ("latlon", "lonlat").
+fn tokyo(srs: &str, order: &str) -> String {
+    let (lat0, lon0): (f64, f64) = (35.6812, 139.7671);
+    let (dlat, dlon) = (
+        10.0 / 111_000.0,
+        10.0 / (111_000.0 * lat0.to_radians().cos()),
+    );
+    let corners = [
+        (0.0, 0.0),
+        (0.0, dlon),
+        (dlat, dlon),
+        (dlat, 0.0),
+        (0.0, 0.0),
+    ];
+    let ring = |z: f64| -> String {
+        corners
+            .iter()
+            .map(|(a, b)| {
+                let (lat, lon) = (lat0 + a, lon0 + b);
+                if order == "latlon" {
+                    format!("{lat} {lon} {z}")
+                } else {
+                    format!("{lon} {lat} {z}")
+                }
+            })
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    format!(
+        r#"<CityModel xmlns="http://www.opengis.net/citygml/2.0" xmlns:bldg="http://www.opengis.net/citygml/building/2.0"
+ xmlns:gml="http://www.opengis.net/gml"><cityObjectMember><bldg:Building gml:id="T1">
+ <bldg:measuredHeight uom="m">30</bldg:measuredHeight>
+ <bldg:lod0FootPrint><gml:MultiSurface srsName="{srs}" srsDimension="3"><gml:surfaceMember><gml:Polygon><gml:exterior><gml:LinearRing>
+ <gml:posList>{}</gml:posList></gml:LinearRing></gml:exterior></gml:Polygon></gml:surfaceMember></gml:MultiSurface></bldg:lod0FootPrint>
+ </bldg:Building></cityObjectMember></CityModel>"#,
+        ring(3.0)
+    )
+}
+
+#[test]
+fn geographic_crs_coordinates_come_latitude_first_as_epsg_orders_them() {
+    let dir = tempfile::tempdir().unwrap();
+    for (srs, order, note) in [
+        // Japan's PLATEAU: JGD2011 + height, latitude first.
+        (
+            "http://www.opengis.net/def/crs/EPSG/0/6697",
+            "latlon",
+            "latitude, longitude",
+        ),
+        (
+            "urn:ogc:def:crs:EPSG::4326",
+            "latlon",
+            "latitude, longitude",
+        ),
+        // Longitude first in a file that names EPSG:4326: 139.8 cannot be a latitude.
+        ("EPSG:4326", "lonlat", "cannot be a latitude"),
+    ] {
+        let p = dir.path().join("tokyo.gml");
+        std::fs::write(&p, tokyo(srs, order)).unwrap();
+        let out = read(&p, &IngestOptions::default()).unwrap();
+        let f = &out.report.files[0];
+        assert!(
+            f.notes.iter().any(|n| n.contains(note)),
+            "{srs}: {:?}",
+            f.notes
+        );
+        assert_eq!(out.buildings.len(), 1, "{srs}: {:?}", out.report.skipped);
+        let b = &out.buildings[0];
+        assert!(
+            (b.area_m2() - 100.0).abs() < 1.0,
+            "{srs}: {} m²",
+            b.area_m2()
+        );
+        assert!(
+            (out.frame.origin_lon_deg - 139.767).abs() < 0.001,
+            "{srs}: {:?}",
+            out.frame
+        );
+        assert!(
+            (out.frame.origin_lat_deg - 35.681).abs() < 0.001,
+            "{srs}: {:?}",
+            out.frame
+        );
+        assert!((b.height_m - 30.0).abs() < 1e-9);
+        assert!((out.frame.origin_h_m - 3.0).abs() < 1e-9);
+    }
+}
