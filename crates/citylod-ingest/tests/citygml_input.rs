@@ -558,105 +558,6 @@ fn broken_files_are_refused_with_the_reason_and_none_panics() {
     }
 }
 
-/// Writes a CityJSON document's buildings as CityGML 2.0 the way the 3D City Database exports them: each
-/// BuildingPart's LoD 2 solid as `xlink:href`s to the polygons of its thematic surfaces (`boundedBy`).
-fn cityjson_as_citygml(doc: &serde_json::Value) -> String {
-    let t = &doc["transform"];
-    let scale: Vec<f64> = (0..3).map(|i| t["scale"][i].as_f64().unwrap()).collect();
-    let shift: Vec<f64> = (0..3)
-        .map(|i| t["translate"][i].as_f64().unwrap())
-        .collect();
-    let vertices: Vec<[f64; 3]> = doc["vertices"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| std::array::from_fn(|i| v[i].as_f64().unwrap() * scale[i] + shift[i]))
-        .collect();
-    let objects = doc["CityObjects"].as_object().unwrap();
-    let ring_text = |r: &serde_json::Value| -> String {
-        let pts: Vec<[f64; 3]> = r
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|i| vertices[i.as_u64().unwrap() as usize])
-            .collect();
-        pos_list_text(&pts)
-    };
-    let object = |key: &str, o: &serde_json::Value, out: &mut String| {
-        for g in o["geometry"].as_array().into_iter().flatten() {
-            assert_eq!(g["type"], "Solid");
-            let types = &g["semantics"]["surfaces"];
-            let mut refs = String::new();
-            for (s, (surface, value)) in g["boundaries"][0]
-                .as_array()
-                .unwrap()
-                .iter()
-                .zip(g["semantics"]["values"][0].as_array().unwrap())
-                .enumerate()
-            {
-                let kind = types[value.as_u64().unwrap() as usize]["type"]
-                    .as_str()
-                    .unwrap();
-                let id = format!("{key}_{s}");
-                let rings = surface.as_array().unwrap();
-                let interiors: String = rings[1..]
-                    .iter()
-                    .map(|r| {
-                        format!(
-                            "<gml:interior><gml:LinearRing><gml:posList>{}</gml:posList></gml:LinearRing></gml:interior>",
-                            ring_text(r)
-                        )
-                    })
-                    .collect();
-                out.push_str(&format!(
-                    "<bldg:boundedBy><bldg:{kind}><bldg:lod2MultiSurface><gml:MultiSurface><gml:surfaceMember>\
-                     <gml:Polygon gml:id=\"{id}\"><gml:exterior><gml:LinearRing><gml:posList>{}</gml:posList>\
-                     </gml:LinearRing></gml:exterior>{interiors}</gml:Polygon></gml:surfaceMember></gml:MultiSurface>\
-                     </bldg:lod2MultiSurface></bldg:{kind}></bldg:boundedBy>\n",
-                    ring_text(&rings[0])
-                ));
-                refs.push_str(&format!("<gml:surfaceMember xlink:href=\"#{id}\"/>"));
-            }
-            out.push_str(&format!(
-                "<bldg:lod2Solid><gml:Solid><gml:exterior><gml:CompositeSurface>{refs}</gml:CompositeSurface>\
-                 </gml:exterior></gml:Solid></bldg:lod2Solid>\n"
-            ));
-        }
-    };
-    let mut out = String::from(
-        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<CityModel xmlns=\"http://www.opengis.net/citygml/2.0\" \
-         xmlns:bldg=\"http://www.opengis.net/citygml/building/2.0\" xmlns:gml=\"http://www.opengis.net/gml\" \
-         xmlns:xlink=\"http://www.w3.org/1999/xlink\" xmlns:dem=\"http://www.opengis.net/citygml/relief/2.0\">\n\
-         <gml:boundedBy><gml:Envelope srsName=\"urn:ogc:def:crs,crs:EPSG::28992,crs:EPSG::5109\" srsDimension=\"3\">\
-         <gml:lowerCorner>0 0 0</gml:lowerCorner><gml:upperCorner>1 1 1</gml:upperCorner></gml:Envelope></gml:boundedBy>\n",
-    );
-    for (key, o) in objects {
-        match o["type"].as_str().unwrap() {
-            "Building" => {
-                out.push_str(&format!(
-                    "<cityObjectMember><bldg:Building gml:id=\"{key}\">\n"
-                ));
-                object(key, o, &mut out);
-                for c in o["children"].as_array().into_iter().flatten() {
-                    let c = c.as_str().unwrap();
-                    out.push_str(&format!(
-                        "<bldg:consistsOfBuildingPart><bldg:BuildingPart gml:id=\"{c}\">\n"
-                    ));
-                    object(c, &objects[c], &mut out);
-                    out.push_str("</bldg:BuildingPart></bldg:consistsOfBuildingPart>\n");
-                }
-                out.push_str("</bldg:Building></cityObjectMember>\n");
-            }
-            "BuildingPart" => {}
-            _ => out.push_str(&format!(
-                "<cityObjectMember><dem:TINRelief gml:id=\"{key}\"/></cityObjectMember>\n"
-            )),
-        }
-    }
-    out.push_str("</CityModel>\n");
-    out
-}
-
 #[test]
 fn den_haag_as_citygml_gives_the_buildings_its_cityjson_gives() {
     let Some(path) = citylod_testdata::shared_data("denhaag-lod2/DenHaag_01.json") else {
@@ -666,7 +567,10 @@ fn den_haag_as_citygml_gives_the_buildings_its_cityjson_gives() {
         serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let gml = dir.path().join("denhaag.gml");
-    std::fs::write(&gml, cityjson_as_citygml(&doc)).unwrap();
+    let mut text = Vec::new();
+    let srs = "urn:ogc:def:crs,crs:EPSG::28992,crs:EPSG::5109";
+    citylod_testdata::citygml::from_cityjson(&doc, 1, 0.0, srs, &mut text).unwrap();
+    std::fs::write(&gml, text).unwrap();
     let from_json = read(
         &path,
         &IngestOptions {

@@ -5,6 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
+pub mod citygml;
 pub mod fgdb;
 pub mod geopackage;
 pub mod osm_pbf;
