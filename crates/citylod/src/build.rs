@@ -22,19 +22,22 @@ pub struct BuildArgs {
     /// (.gpkg, one feature table: see --layer), Esri File Geodatabase (a .gdb folder or a .zip holding one, one
     /// feature class: see --layer), OpenStreetMap PBF or XML (.osm.pbf, .osm, .osm.gz: ways and multipolygon relations tagged building
     /// or building:part, their tags as attributes), CityJSON (.city.json, .json) or CityJSONSeq (.city.jsonl,
-    /// .jsonl).
+    /// .jsonl), CityGML 1.0, 2.0 or 3.0 (.gml, .xml, .citygml, or gzip-compressed: Buildings with their
+    /// BuildingParts, their solids, surfaces and thematic surfaces, attributes and generic attributes).
     #[arg(required = true, value_name = "INPUT", help_heading = "Input")]
     pub inputs: Vec<PathBuf>,
 
     /// CRS of the input coordinates, e.g. EPSG:28992. Default: WGS84 lon/lat for GeoJSON (RFC 7946), the .prj's
     /// CRS for a Shapefile (its EPSG code, or the EPSG CRS matching an Esri .prj's parameters), the layer's spatial
     /// reference system for a GeoPackage, the geometry field's spatial reference for a File Geodatabase (identified
-    /// as a .prj's), the file's `referenceSystem` for CityJSON. OpenStreetMap data is always WGS84 lon/lat.
+    /// as a .prj's), the file's `referenceSystem` for CityJSON, the envelope's `srsName` for CityGML (EPSG codes and
+    /// URNs, compound URNs, the AdV's urn:adv:crs names, CH1903; a geographic CRS's coordinates latitude first, as EPSG
+    /// orders them). OpenStreetMap data is always WGS84 lon/lat.
     #[arg(long, value_name = "EPSG:CODE", help_heading = "Input")]
     pub crs: Option<String>,
 
     /// Attribute holding each building's id (for every format; e.g. BIN, BLDG_ID). Default: GeoJSON's `id` (or
-    /// `id`, `@id`, OSM's type/id in its properties), a CityJSON object's key, a Shapefile's `id` field, else
+    /// `id`, `@id`, OSM's type/id in its properties), a CityJSON object's key, a CityGML object's gml:id, a Shapefile's `id` field, else
     /// FILE#INDEX. Features without a value there keep that default id, listed as repairs.
     #[arg(long, value_name = "NAME", help_heading = "Input")]
     pub id_attr: Option<String>,
@@ -96,7 +99,7 @@ pub struct BuildArgs {
     #[arg(long, value_enum, default_value_t = GeoidArg::None, help_heading = "Input")]
     pub geoid: GeoidArg,
 
-    /// Read the 3D geometry of CityJSON buildings at this LoD (`2.2`, `2`, `1.3`, … or `highest`) and give every
+    /// Read the 3D geometry of CityJSON and CityGML buildings at this LoD (`2.2`, `2`, `1.3`, … or `highest`) and give every
     /// building a chain of detail below its footprint prism: the full model (error 0), a simplified model and the
     /// prism, each with its measured error (sampled two-sided Hausdorff distance to the full model, metres).
     /// `2` means the highest 2.x a building has; a building without the LoD asked uses its highest LoD below it, one
