@@ -53,16 +53,64 @@ pub(crate) struct GmlDoc {
     pub notes: Vec<String>,
 }
 
-/// A file whose first element (within its first 64 KiB, inflated when gzip-compressed) is a `CityModel`.
+/// The members of a ZIP archive that may be CityGML files (`.gml`, `.xml`, `.citygml`, gzip-compressed too), in
+/// name order, when the archive holds no File Geodatabase; macOS's resource forks left out.
+fn zip_members(archive: &crate::zip::Archive) -> Vec<&crate::zip::Member> {
+    let lower = |m: &crate::zip::Member| m.name.to_ascii_lowercase();
+    if archive
+        .members
+        .iter()
+        .any(|m| lower(m).ends_with(".gdbtable"))
+    {
+        return Vec::new();
+    }
+    let mut out: Vec<&crate::zip::Member> = archive
+        .members
+        .iter()
+        .filter(|m| {
+            let n = lower(m);
+            let n = n.strip_suffix(".gz").unwrap_or(&n);
+            !n.starts_with("__macosx/")
+                && !n.rsplit('/').next().unwrap_or("").starts_with("._")
+                && [".gml", ".xml", ".citygml"].iter().any(|e| n.ends_with(e))
+        })
+        .collect();
+    out.sort_by(|a, b| a.name.cmp(&b.name));
+    out
+}
+
+pub(crate) fn is_zip(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("zip"))
+        && path.is_file()
+}
+
+/// A file whose first element (within its first 64 KiB, inflated when gzip-compressed) is a `CityModel`; or a ZIP
+/// archive whose first `.gml`/`.xml` member is such a file (as city models are downloaded, tiles in one archive).
 pub(crate) fn is_citygml(path: &Path) -> bool {
+    if is_zip(path) {
+        let Ok(archive) = crate::zip::Archive::open(path) else {
+            return false;
+        };
+        return zip_members(&archive).first().is_some_and(|m| {
+            archive
+                .read(m, Some(64 * 1024))
+                .is_ok_and(starts_citygml)
+        });
+    }
     let Ok(file) = std::fs::File::open(path) else {
         return false;
     };
-    let mut head = Vec::new();
     let mut raw = Vec::new();
     if file.take(64 * 1024).read_to_end(&mut raw).is_err() {
         return false;
     }
+    starts_citygml(raw)
+}
+
+/// The head of a file (gzip-compressed or not) opens a `CityModel`.
+fn starts_citygml(raw: Vec<u8>) -> bool {
+    let mut head = Vec::new();
     if raw.starts_with(&[0x1f, 0x8b]) {
         let _ = flate2::read::MultiGzDecoder::new(&raw[..])
             .take(64 * 1024)
@@ -124,6 +172,31 @@ pub(crate) fn read(
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     read_text(&text, &file_name, model_target, given_crs)
+}
+
+/// Every CityGML member of a ZIP archive, one after the other (one member's text in memory at a time), each as a
+/// file of its own: its name in the archive and what it holds.
+pub(crate) fn read_zip(
+    path: &Path,
+    model_target: Option<Target>,
+    given_crs: Option<&str>,
+) -> Result<Vec<(String, GmlDoc)>, String> {
+    let archive = crate::zip::Archive::open(path)?;
+    let members = zip_members(&archive);
+    if members.is_empty() {
+        return Err("the archive holds no .gml or .xml file".into());
+    }
+    members
+        .iter()
+        .map(|m| {
+            let text =
+                decode(archive.read(m, None)?).map_err(|e| format!("member {}: {e}", m.name))?;
+            let name = m.name.rsplit('/').next().unwrap_or(&m.name);
+            let doc = read_text(&text, name, model_target, given_crs)
+                .map_err(|e| format!("member {}: {e}", m.name))?;
+            Ok((m.name.clone(), doc))
+        })
+        .collect()
 }
 
 /// The file's text: gzip inflated, a byte-order mark dropped, and an encoding the XML declaration names other than

@@ -210,7 +210,10 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
     let mut files: Vec<LoadedFile> = paths
         .par_iter()
         .map(|p| load(p, opts, model_target))
-        .collect::<Result<_, _>>()?;
+        .collect::<Result<Vec<Vec<LoadedFile>>, _>>()?
+        .into_iter()
+        .flatten()
+        .collect();
     if let Some(name) = &opts.id_attr {
         ids_from_attribute(&mut files, name)?;
     }
@@ -687,18 +690,35 @@ fn vector_file(
     })
 }
 
-/// A CityGML file read, its CRS settled and, in a projected CRS in feet, its heights taken in feet too.
-fn citygml_file(
+/// The files an input holds: itself, or each CityGML file of a ZIP archive of them (as city models are downloaded,
+/// tiles in one archive; each is reported as `ARCHIVE/MEMBER` with its own CRS).
+fn load(
     path: &Path,
     opts: &IngestOptions,
     model_target: Option<lod::Target>,
+) -> Result<Vec<LoadedFile>, IngestError> {
+    if citygml::is_zip(path) && citygml::is_citygml(path) {
+        let members =
+            citygml::read_zip(path, model_target, opts.crs.as_deref()).map_err(|detail| {
+                IngestError::InvalidCityGml {
+                    path: path.into(),
+                    detail,
+                }
+            })?;
+        return members
+            .into_iter()
+            .map(|(name, gml)| citygml_file(&path.join(name), gml, opts))
+            .collect();
+    }
+    load_one(path, opts, model_target).map(|f| vec![f])
+}
+
+/// A CityGML file read, its CRS settled and, in a projected CRS in feet, its heights taken in feet too.
+fn citygml_file(
+    path: &Path,
+    gml: citygml::GmlDoc,
+    opts: &IngestOptions,
 ) -> Result<LoadedFile, IngestError> {
-    let gml = citygml::read(path, model_target, opts.crs.as_deref()).map_err(|detail| {
-        IngestError::InvalidCityGml {
-            path: path.into(),
-            detail,
-        }
-    })?;
     let mut doc = gml.doc;
     let mut notes = gml.notes;
     let (crs, crs_note) = settle_crs(
@@ -737,7 +757,7 @@ fn citygml_file(
 }
 
 /// Reads, detects and parses one file, and settles its CRS.
-fn load(
+fn load_one(
     path: &Path,
     opts: &IngestOptions,
     model_target: Option<lod::Target>,
@@ -768,6 +788,15 @@ fn load(
             path: path.into(),
             detail: format!("this is a shapefile's {what}; give its .shp as the input"),
         });
+    }
+    if citygml::is_citygml(path) {
+        let gml = citygml::read(path, model_target, opts.crs.as_deref()).map_err(|detail| {
+            IngestError::InvalidCityGml {
+                path: path.into(),
+                detail,
+            }
+        })?;
+        return citygml_file(path, gml, opts);
     }
     if fgdb::is_filegdb(path) {
         let doc = fgdb::read(path, opts.layer.as_deref(), feature::Want::Footprints).map_err(
@@ -824,9 +853,6 @@ fn load(
                 "this is SQLite's {what} beside a GeoPackage; give the .gpkg as the input"
             ),
         });
-    }
-    if citygml::is_citygml(path) {
-        return citygml_file(path, opts, model_target);
     }
     if let Some(encoding) = osm::Encoding::of(path) {
         let doc = osm::read(path).map_err(|detail| IngestError::InvalidOsm {

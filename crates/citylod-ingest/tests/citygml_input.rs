@@ -710,3 +710,48 @@ fn geographic_crs_coordinates_come_latitude_first_as_epsg_orders_them() {
         assert!((out.frame.origin_h_m - 3.0).abs() < 1e-9);
     }
 }
+
+#[test]
+fn a_zip_archive_of_citygml_tiles_reads_each_as_a_file() {
+    let out = read(&fixture("tiles.zip"), &lod2()).unwrap();
+    let r = &out.report;
+    r.check_invariants().unwrap();
+    // Each tile a file of its own, in name order, with its CRS; the README and the resource fork not read.
+    let files: Vec<(String, String, usize)> = r
+        .files
+        .iter()
+        .map(|f| (f.path.clone(), f.crs.clone(), f.buildings_written))
+        .collect();
+    assert_eq!(files.len(), 2, "{files:?}");
+    assert!(
+        files[0].0.ends_with("tiles.zip/tiles/zurich-a.gml"),
+        "{files:?}"
+    );
+    assert!(
+        files[1].0.ends_with("tiles.zip/tiles/zurich-b.gml.gz"),
+        "{files:?}"
+    );
+    for f in &files {
+        assert_eq!((f.1.as_str(), f.2), ("EPSG:21781", 2), "{files:?}");
+    }
+    // The same buildings, footprints, heights and models as the file read whole.
+    let whole = read(&fixture("zurich-lod2-citygml1.xml"), &lod2()).unwrap();
+    let key = |o: &Ingested| {
+        let mut v: Vec<(String, u64, u64, usize)> = o
+            .buildings
+            .iter()
+            .map(|b| {
+                (
+                    b.source_id.clone(),
+                    (b.area_m2() * 1e4).round() as u64,
+                    (b.height_m * 1e6).round() as u64,
+                    b.mesh.as_ref().map_or(0, |m| m.mesh.triangles.len()),
+                )
+            })
+            .collect();
+        v.sort();
+        v
+    };
+    assert_eq!(key(&out), key(&whole));
+    assert_eq!(out.frame, whole.frame);
+}

@@ -22,8 +22,9 @@ pub struct BuildArgs {
     /// (.gpkg, one feature table: see --layer), Esri File Geodatabase (a .gdb folder or a .zip holding one, one
     /// feature class: see --layer), OpenStreetMap PBF or XML (.osm.pbf, .osm, .osm.gz: ways and multipolygon relations tagged building
     /// or building:part, their tags as attributes), CityJSON (.city.json, .json) or CityJSONSeq (.city.jsonl,
-    /// .jsonl), CityGML 1.0, 2.0 or 3.0 (.gml, .xml, .citygml, or gzip-compressed: Buildings with their
-    /// BuildingParts, their solids, surfaces and thematic surfaces, attributes and generic attributes).
+    /// .jsonl), CityGML 1.0, 2.0 or 3.0 (.gml, .xml, .citygml, gzip-compressed, or a .zip of such tiles:
+    /// Buildings with their BuildingParts, their solids, surfaces and thematic surfaces, attributes and generic
+    /// attributes).
     #[arg(required = true, value_name = "INPUT", help_heading = "Input")]
     pub inputs: Vec<PathBuf>,
 
