@@ -4,8 +4,10 @@
 //! model.
 //!
 //! The file is scanned once as a stream of XML events ([`quick_xml`]) to find the top-level members
-//! (`cityObjectMember`, `featureMember`); each member is then read as a small tree on its own (`roxmltree`), so a
-//! file of any size costs its text and one member's tree. A member's geometry becomes a CityJSON city object:
+//! (`cityObjectMember`, `featureMember`); each member's text is then fetched by its position and read as a small tree
+//! of its own (`roxmltree`), a batch of members at a time in parallel, so a file of any size costs one batch of text
+//! besides its buildings (a gzip-compressed file, a ZIP member or a file in another encoding than UTF-8 is held
+//! whole, inflated or decoded). A member's geometry becomes a CityJSON city object:
 //! - `lod0FootPrint` (a `GroundSurface` at LoD 0), `lod0RoofEdge` (a `RoofSurface`, never the footprint), 3.0's
 //!   `lod0MultiSurface`;
 //! - `lodNSolid`, `lodNMultiSurface`, `lodNCompositeSurface` (N = 1–4) and the thematic surfaces of `boundedBy`
@@ -92,11 +94,9 @@ pub(crate) fn is_citygml(path: &Path) -> bool {
         let Ok(archive) = crate::zip::Archive::open(path) else {
             return false;
         };
-        return zip_members(&archive).first().is_some_and(|m| {
-            archive
-                .read(m, Some(64 * 1024))
-                .is_ok_and(starts_citygml)
-        });
+        return zip_members(&archive)
+            .first()
+            .is_some_and(|m| archive.read(m, Some(64 * 1024)).is_ok_and(starts_citygml));
     }
     let Ok(file) = std::fs::File::open(path) else {
         return false;
@@ -165,13 +165,47 @@ pub(crate) fn read(
     model_target: Option<Target>,
     given_crs: Option<&str>,
 ) -> Result<GmlDoc, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read the file: {e}"))?;
-    let text = decode(bytes)?;
     let file_name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    read_text(&text, &file_name, model_target, given_crs)
+    let open = || std::fs::File::open(path).map_err(|e| format!("cannot read the file: {e}"));
+    let mut head = Vec::new();
+    open()?
+        .take(512)
+        .read_to_end(&mut head)
+        .map_err(|e| format!("cannot read the file: {e}"))?;
+    let utf8 = declared_encoding(head.strip_prefix(b"\xef\xbb\xbf").unwrap_or(&head))
+        .is_none_or(|l| l.eq_ignore_ascii_case("utf-8") || l.eq_ignore_ascii_case("utf8"));
+    if head.starts_with(&[0x1f, 0x8b]) || !utf8 {
+        // Inflated, or decoded to UTF-8, in memory.
+        let bytes = std::fs::read(path).map_err(|e| format!("cannot read the file: {e}"))?;
+        let text = decode(bytes)?;
+        return read_text(&text, &file_name, model_target, given_crs);
+    }
+    // Streamed: the events from one handle, each member's text fetched by position from another.
+    let base: u64 = if head.starts_with(b"\xef\xbb\xbf") {
+        3
+    } else {
+        0
+    };
+    let mut events = std::io::BufReader::with_capacity(1 << 20, open()?);
+    let mut texts = open()?;
+    std::io::Seek::seek(&mut events, std::io::SeekFrom::Start(base))
+        .map_err(|e| format!("cannot read the file: {e}"))?;
+    read_stream(
+        events,
+        |from, to| {
+            let mut out = vec![0u8; to - from];
+            std::io::Seek::seek(&mut texts, std::io::SeekFrom::Start(base + from as u64))
+                .and_then(|_| texts.read_exact(&mut out))
+                .map_err(|e| format!("cannot read the file: {e}"))?;
+            Ok(out)
+        },
+        &file_name,
+        model_target,
+        given_crs,
+    )
 }
 
 /// Every CityGML member of a ZIP archive, one after the other (one member's text in memory at a time), each as a
@@ -264,110 +298,6 @@ fn declared_encoding(bytes: &[u8]) -> Option<String> {
     Some(value[..value.find(quote)?].to_string())
 }
 
-/// One top-level element of the model: where it is in the text, its line and its local name.
-struct Span {
-    start: usize,
-    end: usize,
-    line: usize,
-    name: String,
-}
-
-/// The top-level elements of a CityModel and its start tag's attributes (for its namespace declarations).
-fn split(text: &str) -> Result<(Vec<Span>, String), String> {
-    let mut reader = quick_xml::Reader::from_str(text);
-    let mut depth = 0usize;
-    let mut spans = Vec::new();
-    let mut root_attrs = String::new();
-    let mut open: Option<(usize, String)> = None;
-    let mut line = 1usize;
-    let mut counted = 0usize;
-    let mut line_at = |pos: usize| {
-        line += text.as_bytes()[counted..pos]
-            .iter()
-            .filter(|&&b| b == b'\n')
-            .count();
-        counted = pos;
-        line
-    };
-    loop {
-        let before = reader.buffer_position() as usize;
-        let event = reader.read_event().map_err(|e| {
-            let at = reader.error_position() as usize;
-            format!(
-                "not well-formed XML at line {}: {e}",
-                text.as_bytes()[..at.min(text.len())]
-                    .iter()
-                    .filter(|&&b| b == b'\n')
-                    .count()
-                    + 1
-            )
-        })?;
-        match event {
-            Event::Start(e) => {
-                if depth == 0 {
-                    if e.local_name().as_ref() != "CityModel" {
-                        return Err(format!(
-                            "not CityGML: the document is <{}>, not <CityModel>",
-                            e.name().as_ref()
-                        ));
-                    }
-                    root_attrs = e.attributes_raw().to_string();
-                } else if depth == 1 {
-                    let name = e.local_name().as_ref().to_string();
-                    open = Some((before, name));
-                }
-                depth += 1;
-                if depth > MAX_DEPTH {
-                    return Err(format!(
-                        "elements nested more than {MAX_DEPTH} deep (at line {}); CityGML nests about twenty",
-                        line_at(before)
-                    ));
-                }
-            }
-            Event::End(_) => {
-                depth -= 1;
-                if depth == 1 {
-                    if let Some((start, name)) = open.take() {
-                        let end = reader.buffer_position() as usize;
-                        let line = line_at(start);
-                        spans.push(Span {
-                            start,
-                            end,
-                            line,
-                            name,
-                        });
-                    }
-                }
-            }
-            Event::Empty(e) if depth == 0 => {
-                if e.local_name().as_ref() != "CityModel" {
-                    return Err(format!(
-                        "not CityGML: the document is <{}>, not <CityModel>",
-                        e.name().as_ref()
-                    ));
-                }
-                return Ok((spans, String::new()));
-            }
-            Event::DocType(_) => {
-                return Err(
-                    "a DOCTYPE, which CityGML does not have (refused: its entities could expand without end)"
-                        .into(),
-                )
-            }
-            Event::Eof => {
-                if depth > 0 {
-                    return Err("not well-formed XML: the document ends inside an element (the file is cut short)".into());
-                }
-                if root_attrs.is_empty() && spans.is_empty() {
-                    return Err("no XML element in the file".into());
-                }
-                return Ok((spans, root_attrs));
-            }
-            _ => {}
-        }
-    }
-}
-
 /// What one top-level member gave.
 #[derive(Default)]
 struct MemberOut {
@@ -379,63 +309,193 @@ struct MemberOut {
     error: Option<String>,
 }
 
+/// Member text gathered before it is read in parallel: members are read a batch at a time, so a file of any size
+/// holds one batch's text besides what its buildings become.
+const BATCH_BYTES: usize = 64 << 20;
+
+/// What the scan has found so far of the model as a whole.
+#[derive(Default)]
+struct Model {
+    root_attrs: String,
+    srs: Option<String>,
+    first_x: Option<f64>,
+    /// The axis order, decided with the first batch of members: (latitude first, the note saying so).
+    axes: Option<(bool, Option<String>)>,
+}
+
+/// Reads a CityGML file's text: the whole of it in memory (gzip-compressed files, ZIP members, files in an encoding
+/// other than UTF-8).
 pub(crate) fn read_text(
     text: &str,
     file_name: &str,
     model_target: Option<Target>,
     given_crs: Option<&str>,
 ) -> Result<GmlDoc, String> {
-    let (spans, root_attrs) = split(text)?;
-    let version = version_of(&root_attrs);
-    let wrap = |s: &Span| {
-        format!(
-            "<citylod-member {root_attrs}>{}</citylod-member>",
-            &text[s.start..s.end]
-        )
+    let bytes = text.as_bytes();
+    read_stream(
+        bytes,
+        |from, to| Ok(bytes[from..to].to_vec()),
+        file_name,
+        model_target,
+        given_crs,
+    )
+}
+
+/// Scans the XML of `reader` as a stream of events for the model's top-level elements; each one's text is fetched
+/// with `bytes_of(from, to)` (the same bytes, by position) and read as a tree of its own, a batch at a time.
+fn read_stream<R: std::io::BufRead>(
+    reader: R,
+    mut bytes_of: impl FnMut(usize, usize) -> Result<Vec<u8>, String>,
+    file_name: &str,
+    model_target: Option<Target>,
+    given_crs: Option<&str>,
+) -> Result<GmlDoc, String> {
+    let mut reader = quick_xml::Reader::from_reader(reader);
+    let mut buf = Vec::new();
+    let mut depth = 0usize;
+    let mut open: Option<(usize, String)> = None;
+    let mut model = Model::default();
+    let mut seen_root = false;
+    // Lines: counted in the bytes fetched, up to `counted`.
+    let mut line = 1usize;
+    let mut counted = 0usize;
+    let newlines = |b: &[u8]| b.iter().filter(|&&c| c == b'\n').count();
+    let mut batch: Vec<(usize, String, usize)> = Vec::new();
+    let mut batch_bytes = 0usize;
+    let mut members = 0usize;
+    let mut outs: Vec<MemberOut> = Vec::new();
+    let mut flush = |batch: &mut Vec<(usize, String, usize)>, model: &mut Model| {
+        let (swap, _) = model
+            .axes
+            .get_or_insert_with(|| {
+                if let Some((_, first, _)) = batch.first() {
+                    if model.srs.is_none() || model.first_x.is_none() {
+                        if let Ok(doc) = roxmltree::Document::parse(first) {
+                            model.srs = model.srs.take().or_else(|| srs_name(&doc));
+                            model.first_x = model.first_x.or_else(|| first_coordinate(&doc));
+                        }
+                    }
+                }
+                match given_crs.or(model.srs.as_deref()) {
+                    Some(name) => latitude_first(name, model.first_x),
+                    None => (false, None),
+                }
+            })
+            .clone();
+        let read: Vec<MemberOut> = batch
+            .par_iter()
+            .map(|(i, text, line)| read_member(text, *line, *i, file_name, model_target, swap))
+            .collect();
+        outs.extend(read);
+        batch.clear();
     };
-    // The model's own envelope names the CRS for every member; without one, the first member's geometry does.
-    let mut model_srs = None;
-    let mut first_x = None;
-    for s in spans.iter().filter(|s| s.name == "boundedBy") {
-        let wrapped = wrap(s);
-        if let Ok(doc) = roxmltree::Document::parse(&wrapped) {
-            model_srs = doc
-                .descendants()
-                .find_map(|n| n.attribute("srsName").map(str::to_string));
-            first_x = first_coordinate(&doc);
+    loop {
+        buf.clear();
+        let before = reader.buffer_position() as usize;
+        let event = match reader.read_event_into(&mut buf) {
+            Ok(e) => e,
+            Err(e) => {
+                let at = reader.error_position() as usize;
+                let line = bytes_of(counted, at.max(counted)).map_or(line, |b| line + newlines(&b));
+                return Err(format!("not well-formed XML at line {line}: {e}"));
+            }
+        };
+        match event {
+            Event::Start(e) => {
+                if depth == 0 {
+                    if seen_root {
+                        return Err("not well-formed XML: a second element after the CityModel".into());
+                    }
+                    if e.local_name().as_ref() != "CityModel" {
+                        return Err(format!(
+                            "not CityGML: the document is <{}>, not <CityModel>",
+                            e.name().as_ref()
+                        ));
+                    }
+                    seen_root = true;
+                    model.root_attrs = e.attributes_raw().to_string();
+                } else if depth == 1 {
+                    open = Some((before, e.local_name().as_ref().to_string()));
+                }
+                depth += 1;
+                if depth > MAX_DEPTH {
+                    let line = bytes_of(counted, before).map_or(line, |b| line + newlines(&b));
+                    return Err(format!(
+                        "elements nested more than {MAX_DEPTH} deep (at line {line}); CityGML nests about twenty"
+                    ));
+                }
+            }
+            Event::End(_) => {
+                depth -= 1;
+                if depth != 1 {
+                    continue;
+                }
+                let Some((start, name)) = open.take() else {
+                    continue;
+                };
+                let end = reader.buffer_position() as usize;
+                let chunk = bytes_of(counted, end)?;
+                let gap = start - counted;
+                line += newlines(&chunk[..gap]);
+                let member_line = line;
+                line += newlines(&chunk[gap..]);
+                counted = end;
+                let text = std::str::from_utf8(&chunk[gap..])
+                    .map_err(|_| format!("not UTF-8 text in the element at line {member_line}"))?;
+                let wrapped = format!(
+                    "<citylod-member {}>{text}</citylod-member>",
+                    model.root_attrs
+                );
+                match name.as_str() {
+                    // The model's own envelope names the CRS for every member.
+                    "boundedBy" if members == 0 => {
+                        if let Ok(doc) = roxmltree::Document::parse(&wrapped) {
+                            model.srs = srs_name(&doc);
+                            model.first_x = first_coordinate(&doc);
+                        }
+                    }
+                    "cityObjectMember" | "featureMember" | "featureMembers" => {
+                        batch_bytes += wrapped.len();
+                        batch.push((members, wrapped, member_line));
+                        members += 1;
+                        if batch_bytes > BATCH_BYTES {
+                            flush(&mut batch, &mut model);
+                            batch_bytes = 0;
+                        }
+                    }
+                    _ => {}
+                }
+            }
+            Event::Empty(e) if depth == 0 => {
+                if e.local_name().as_ref() != "CityModel" {
+                    return Err(format!(
+                        "not CityGML: the document is <{}>, not <CityModel>",
+                        e.name().as_ref()
+                    ));
+                }
+                seen_root = true;
+            }
+            Event::DocType(_) => {
+                return Err(
+                    "a DOCTYPE, which CityGML does not have (refused: its entities could expand without end)"
+                        .into(),
+                )
+            }
+            Event::Eof => {
+                if depth > 0 {
+                    return Err("not well-formed XML: the document ends inside an element (the file is cut short)".into());
+                }
+                if !seen_root {
+                    return Err("no XML element in the file".into());
+                }
+                break;
+            }
+            _ => {}
         }
     }
-    let members: Vec<(usize, &Span)> = spans
-        .iter()
-        .filter(|s| {
-            matches!(
-                s.name.as_str(),
-                "cityObjectMember" | "featureMember" | "featureMembers"
-            )
-        })
-        .enumerate()
-        .collect();
-    if let Some((_, s)) = members
-        .first()
-        .filter(|_| model_srs.is_none() || first_x.is_none())
-    {
-        let wrapped = wrap(s);
-        if let Ok(doc) = roxmltree::Document::parse(&wrapped) {
-            model_srs = model_srs.or_else(|| {
-                doc.descendants()
-                    .find_map(|n| n.attribute("srsName").map(str::to_string))
-            });
-            first_x = first_x.or_else(|| first_coordinate(&doc));
-        }
-    }
-    let (swap, axis_note) = match given_crs.or(model_srs.as_deref()) {
-        Some(name) => latitude_first(name, first_x),
-        None => (false, None),
-    };
-    let outs: Vec<MemberOut> = members
-        .par_iter()
-        .map(|(i, s)| read_member(&wrap(s), s.line, *i, file_name, model_target, swap))
-        .collect();
+    flush(&mut batch, &mut model);
+    drop(flush);
+    let version = version_of(&model.root_attrs);
     let mut doc = CityDoc {
         features: Vec::new(),
         declared_crs: None,
@@ -446,7 +506,7 @@ pub(crate) fn read_text(
     if let Some(v) = &version {
         notes.push(format!("CityGML {v}"));
     }
-    notes.extend(axis_note);
+    notes.extend(model.axes.and_then(|(_, note)| note));
     let mut member_srs: Vec<(String, usize)> = Vec::new();
     let mut not_attributes: Vec<(String, usize)> = Vec::new();
     for out in outs {
@@ -471,7 +531,9 @@ pub(crate) fn read_text(
             doc.non_building_objects += d.non_building_objects;
         }
     }
-    let srs = model_srs.or_else(|| member_srs.first().map(|(s, _)| s.clone()));
+    let srs = model
+        .srs
+        .or_else(|| member_srs.first().map(|(s, _)| s.clone()));
     if let Some(s) = &srs {
         let (declared, note) = declared_crs(s);
         doc.declared_crs = Some(declared);
@@ -565,6 +627,12 @@ fn declared_crs(srs: &str) -> (DeclaredCrs, Option<String>) {
             None,
         ),
     }
+}
+
+/// The first `srsName` in a tree.
+fn srs_name(doc: &roxmltree::Document) -> Option<String> {
+    doc.descendants()
+        .find_map(|n| n.attribute("srsName").map(str::to_string))
 }
 
 /// The first number of the first coordinates in a tree (an envelope's corner, a `pos`, a `posList`).

@@ -322,7 +322,8 @@ fn pos_list_text(ring: &[[f64; 3]]) -> String {
 /// A CityGML 3.0 model in ISO-8859-1 near Cologne (ETRS89 / UTM 32 by the AdV's name): B1 a gabled house whose
 /// lod2Solid refers to its thematic surfaces' polygons (one through a reversed OrientableSurface), B2 a box whose
 /// broken lod3 geometry is left out, B3 with only a reference to nothing, and a road.
-fn citygml3() -> Vec<u8> {
+/// In ISO-8859-1 as its declaration says, or (`latin1` false) in UTF-8 with a byte-order mark and no declaration.
+fn citygml3(latin1: bool) -> Vec<u8> {
     let (x0, y0, z0) = (356_000.0, 5_645_000.0, 50.0);
     let house = gabled_house(x0, y0, z0);
     let mut boundary = String::new();
@@ -412,6 +413,10 @@ fn citygml3() -> Vec<u8> {
 "##,
         box = bx(20.0, 0.0, 7.5),
     );
+    if !latin1 {
+        let text = text.replacen("<?xml version=\"1.0\" encoding=\"ISO-8859-1\"?>", "", 1);
+        return [&b"\xef\xbb\xbf"[..], text.as_bytes()].concat();
+    }
     let (bytes, _, bad) = encoding_rs::WINDOWS_1252.encode(&text);
     assert!(!bad);
     bytes.into_owned()
@@ -421,12 +426,15 @@ fn citygml3() -> Vec<u8> {
 fn citygml3_in_latin1_with_references_orientation_and_broken_geometry() {
     let dir = tempfile::tempdir().unwrap();
     let plain = dir.path().join("model.gml");
-    std::fs::write(&plain, citygml3()).unwrap();
+    std::fs::write(&plain, citygml3(true)).unwrap();
     let gz = dir.path().join("model.gml.gz");
     let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
-    enc.write_all(&citygml3()).unwrap();
+    enc.write_all(&citygml3(true)).unwrap();
     std::fs::write(&gz, enc.finish().unwrap()).unwrap();
-    for path in [&plain, &gz] {
+    // UTF-8 with a byte-order mark: read as a stream, where the others are read whole.
+    let utf8 = dir.path().join("model-utf8.gml");
+    std::fs::write(&utf8, citygml3(false)).unwrap();
+    for path in [&plain, &gz, &utf8] {
         let out = read(path, &lod2()).unwrap();
         let r = &out.report;
         r.check_invariants().unwrap();
