@@ -494,7 +494,6 @@ fn read_stream<R: std::io::BufRead>(
         }
     }
     flush(&mut batch, &mut model);
-    drop(flush);
     let version = version_of(&model.root_attrs);
     let mut doc = CityDoc {
         features: Vec::new(),
