@@ -763,3 +763,101 @@ fn a_zip_archive_of_citygml_tiles_reads_each_as_a_file() {
     assert_eq!(key(&out), key(&whole));
     assert_eq!(out.frame, whole.frame);
 }
+
+#[test]
+fn z_in_a_crs_in_feet_is_in_feet_and_measured_heights_follow_their_uom() {
+    // A 30 ft × 30 ft LoD1 box 100 ft high in New York's State Plane (US survey feet), as NYC's 3D building model
+    // gives z; and one whose measuredHeight says 50 ft.
+    let (x0, y0) = (987_000.0, 201_000.0);
+    let solid = |dx: f64, h: f64| -> String {
+        let p = |a: f64, b: f64, z: f64| format!("{} {} {}", x0 + dx + a, y0 + b, z);
+        let faces = [
+            [
+                p(0., 0., 10.),
+                p(0., 30., 10.),
+                p(30., 30., 10.),
+                p(30., 0., 10.),
+            ],
+            [
+                p(0., 0., 10. + h),
+                p(30., 0., 10. + h),
+                p(30., 30., 10. + h),
+                p(0., 30., 10. + h),
+            ],
+            [
+                p(0., 0., 10.),
+                p(30., 0., 10.),
+                p(30., 0., 10. + h),
+                p(0., 0., 10. + h),
+            ],
+            [
+                p(30., 0., 10.),
+                p(30., 30., 10.),
+                p(30., 30., 10. + h),
+                p(30., 0., 10. + h),
+            ],
+            [
+                p(30., 30., 10.),
+                p(0., 30., 10.),
+                p(0., 30., 10. + h),
+                p(30., 30., 10. + h),
+            ],
+            [
+                p(0., 30., 10.),
+                p(0., 0., 10.),
+                p(0., 0., 10. + h),
+                p(0., 30., 10. + h),
+            ],
+        ];
+        faces
+            .iter()
+            .map(|f| {
+                format!(
+                    "<gml:surfaceMember><gml:Polygon><gml:exterior><gml:LinearRing><gml:posList>{} {}</gml:posList>\
+                     </gml:LinearRing></gml:exterior></gml:Polygon></gml:surfaceMember>",
+                    f.join(" "),
+                    f[0]
+                )
+            })
+            .collect()
+    };
+    let text = format!(
+        r#"<CityModel xmlns="http://www.opengis.net/citygml/2.0" xmlns:bldg="http://www.opengis.net/citygml/building/2.0"
+ xmlns:gml="http://www.opengis.net/gml">
+ <gml:boundedBy><gml:Envelope srsName="EPSG:2263"><gml:lowerCorner>0 0 0</gml:lowerCorner><gml:upperCorner>1 1 1</gml:upperCorner></gml:Envelope></gml:boundedBy>
+ <cityObjectMember><bldg:Building gml:id="A"><bldg:lod1Solid><gml:Solid><gml:exterior><gml:CompositeSurface>{}</gml:CompositeSurface></gml:exterior></gml:Solid></bldg:lod1Solid></bldg:Building></cityObjectMember>
+ <cityObjectMember><bldg:Building gml:id="B"><bldg:measuredHeight uom="ft">50</bldg:measuredHeight>
+  <bldg:lod1Solid><gml:Solid><gml:exterior><gml:CompositeSurface>{}</gml:CompositeSurface></gml:exterior></gml:Solid></bldg:lod1Solid></bldg:Building></cityObjectMember>
+</CityModel>"#,
+        solid(0.0, 100.0),
+        solid(60.0, 100.0)
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("nyc.gml");
+    std::fs::write(&p, text).unwrap();
+    let out = read(&p, &IngestOptions::default()).unwrap();
+    let f = &out.report.files[0];
+    assert!(
+        f.notes.iter().any(|n| n.contains("z is in the CRS's unit")),
+        "{:?}",
+        f.notes
+    );
+    let us_ft = 1200.0 / 3937.0;
+    let by_id: HashMap<&str, &citylod_model::Building> = out
+        .buildings
+        .iter()
+        .map(|b| (b.source_id.as_str(), b))
+        .collect();
+    let a = by_id["A"];
+    assert_eq!(a.height_source, HeightSource::Geometry);
+    assert!((a.height_m - 100.0 * us_ft).abs() < 1e-6, "{}", a.height_m);
+    assert!(
+        (a.area_m2() - (30.0 * us_ft).powi(2)).abs() < 0.1,
+        "{}",
+        a.area_m2()
+    );
+    assert!((out.frame.origin_h_m - 10.0 * us_ft).abs() < 1e-6);
+    let b = by_id["B"];
+    assert_eq!(b.height_source, HeightSource::KnownAttribute);
+    assert!((b.height_m - 50.0 * 0.3048).abs() < 1e-9, "{}", b.height_m);
+}
