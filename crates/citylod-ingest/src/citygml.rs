@@ -1063,7 +1063,8 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
                 out.push(self.polygon(g)?);
                 Ok(())
             }
-            "OrientableSurface" => {
+            // CityGML 1.0's TexturedSurface is an OrientableSurface with its appearance.
+            "OrientableSurface" | "TexturedSurface" => {
                 let base = g
                     .children()
                     .find(|c| c.is_element() && c.tag_name().name() == "baseSurface")
@@ -1615,5 +1616,91 @@ fn put(out: &mut Map<String, Value>, key: String, value: Value) {
         None => {
             out.insert(key, value);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn model(body: &str) -> String {
+        format!(
+            "<CityModel xmlns=\"http://www.opengis.net/citygml/1.0\" xmlns:bldg=\"http://www.opengis.net/citygml/building/1.0\" \
+             xmlns:tex=\"http://www.opengis.net/citygml/texturedsurface/1.0\" xmlns:gml=\"http://www.opengis.net/gml\" \
+             xmlns:xlink=\"http://www.w3.org/1999/xlink\"><cityObjectMember><bldg:Building gml:id=\"B\">{body}\
+             </bldg:Building></cityObjectMember></CityModel>"
+        )
+    }
+
+    #[test]
+    fn a_textured_surface_is_its_base_surface_turned_as_its_orientation_says() {
+        // A ground surface whose ring is listed counter-clockwise seen from above (facing up), turned by the
+        // TexturedSurface's "-" to face down, out of the building, as a ground surface does.
+        let text = model(
+            "<bldg:boundedBy><bldg:GroundSurface><bldg:lod2MultiSurface><gml:MultiSurface><gml:surfaceMember>\
+             <tex:TexturedSurface orientation=\"-\"><gml:baseSurface><gml:Polygon><gml:exterior><gml:LinearRing>\
+             <gml:posList>0 0 0 10 0 0 10 10 0 0 10 0 0 0 0</gml:posList></gml:LinearRing></gml:exterior>\
+             </gml:Polygon></gml:baseSurface></tex:TexturedSurface></gml:surfaceMember></gml:MultiSurface>\
+             </bldg:lod2MultiSurface></bldg:GroundSurface></bldg:boundedBy>\
+             <bldg:boundedBy><bldg:RoofSurface><bldg:lod2MultiSurface><gml:MultiSurface><gml:surfaceMember>\
+             <gml:Polygon><gml:exterior><gml:LinearRing><gml:posList>0 0 5 10 0 5 10 10 5 0 10 5 0 0 5</gml:posList>\
+             </gml:LinearRing></gml:exterior></gml:Polygon></gml:surfaceMember></gml:MultiSurface></bldg:lod2MultiSurface>\
+             </bldg:RoofSurface></bldg:boundedBy>",
+        );
+        let gml = read_text(&text, "t.gml", None, None).unwrap();
+        let f = &gml.doc.features[0];
+        assert!(f.skip.is_none(), "{:?}", f.skip);
+        assert!(f.repairs.is_empty(), "{:?}", f.repairs);
+        assert_eq!(
+            f.polygons[0][0],
+            vec![[0.0, 10.0], [10.0, 10.0], [10.0, 0.0], [0.0, 0.0]]
+        );
+        assert_eq!((f.footprint_min_z, f.top_z), (Some(0.0), Some(5.0)));
+    }
+
+    #[test]
+    fn srs_names_as_cities_write_them() {
+        let name = |s: &str| match declared_crs(s).0 {
+            DeclaredCrs::Name(n) => Crs::parse(&n).map(|c| c.label).unwrap_or(n),
+            DeclaredCrs::NotUnderstood { detail, .. } => format!("?{detail}"),
+        };
+        assert_eq!(
+            name("urn:ogc:def:crs,crs:EPSG::25832,crs:EPSG::7837"),
+            "EPSG:25832"
+        );
+        assert_eq!(
+            name("urn:adv:crs:ETRS89_UTM32*DE_DHHN2016_NH"),
+            "EPSG:25832"
+        );
+        assert_eq!(name("urn:adv:crs:DE_DHDN_3GK3*DE_DHHN92_NH"), "EPSG:31467");
+        assert_eq!(name("CH1903+"), "EPSG:2056");
+        assert_eq!(name("CH1903"), "EPSG:21781");
+        assert_eq!(
+            name("http://www.opengis.net/def/crs/EPSG/0/6697"),
+            "EPSG:6697"
+        );
+        assert_eq!(name("EPSG:7415"), "EPSG:7415 (horizontal EPSG:28992)");
+        assert!(name("urn:adv:crs:Somewhere").starts_with('?'));
+        // Latitude first for EPSG's geographic CRSs only, unless the data says otherwise.
+        assert!(latitude_first("urn:ogc:def:crs:EPSG::4326", Some(52.0)).0);
+        assert!(!latitude_first("urn:ogc:def:crs:EPSG::4326", Some(139.0)).0);
+        assert!(!latitude_first("urn:ogc:def:crs:OGC:1.3:CRS84", Some(52.0)).0);
+        assert!(!latitude_first("EPSG:28992", Some(52.0)).0);
+    }
+
+    #[test]
+    fn units_of_measure() {
+        for (uom, m) in [
+            (None, 1.0),
+            (Some("#m"), 1.0),
+            (Some("urn:adv:uom:m"), 1.0),
+            (Some("urn:ogc:def:uom:UCUM::[ft_i]"), 0.3048),
+            (Some("ft"), 0.3048),
+            (Some("[ft_us]"), 1200.0 / 3937.0),
+            (Some("cm"), 0.01),
+        ] {
+            assert_eq!(metres_per(uom), Some(m), "{uom:?}");
+        }
+        assert_eq!(metres_per(Some("furlong")), None);
     }
 }
