@@ -5,14 +5,15 @@
 //! - **skillion**: one plane descending towards the roof direction, over any outline and its courtyards;
 //! - **gabled**: two planes meeting at a ridge through the middle of the outline, the gable ends walls, over any
 //!   outline and its courtyards;
-//! - **hipped**: a plane rising from every outline edge at one slope (the straight skeleton of a convex outline:
-//!   the face of an edge is where that edge is the nearest);
+//! - **hipped**: a plane rising from every outline edge at one slope: the straight skeleton (for a convex outline
+//!   the face of an edge is where that edge is the nearest; for a concave one the outline is shrunk from event to
+//!   event, [`skeleton`]);
 //! - **pyramidal**: a triangle from every outline edge to an apex above the outline's centroid;
 //! - **dome** (also for an onion, whose bulge beyond the walls is not drawn): the outline shrunk towards its centroid
 //!   in [`DOME_BANDS`] bands whose heights follow a quarter circle (an ellipse when the rise is not the radius).
 //!
-//! Hipped, pyramidal and dome roofs need a convex outline without courtyards; a footprint of several polygons has
-//! no pitched roof here. Those cases are errors with the reason, for the caller to keep its flat prism.
+//! Hipped roofs need an outline without courtyards, pyramidal and dome roofs a convex one; a footprint of several
+//! polygons has no pitched roof here. Those cases are errors with the reason, for the caller to keep its flat prism.
 
 use crate::simplify::polygon::inside_even_odd;
 use citylod_model::{Mesh3d, SurfaceKind};
@@ -120,10 +121,9 @@ pub fn roofed_building(
             "a footprint with a courtyard (a hole) takes only a skillion or gabled roof".into(),
         );
     }
-    if !pitched_anyhow && !is_convex(&ring) {
+    if matches!(spec.shape, RoofShape::Pyramidal | RoofShape::Dome) && !is_convex(&ring) {
         return Err(
-            "the outline is not convex (only skillion and gabled roofs are built on a concave one)"
-                .into(),
+            "the outline is not convex (pyramidal and dome roofs need a convex one)".into(),
         );
     }
     let corner_count: usize = rings.iter().map(Vec::len).sum();
@@ -152,7 +152,9 @@ pub fn roofed_building(
             };
             gabled(&rings, along)
         }
-        RoofShape::Hipped => hipped(&ring),
+        RoofShape::Hipped if is_convex(&ring) => hipped(&ring),
+        RoofShape::Hipped => skeleton(&ring)
+            .ok_or_else(|| "the outline's straight skeleton could not be built".to_string())?,
         RoofShape::Pyramidal => pyramidal(&ring),
         RoofShape::Dome => dome(&ring),
     };
@@ -523,6 +525,263 @@ fn hipped(ring: &[P2]) -> (Vec<Face>, f64) {
         })
         .collect();
     (faces, run)
+}
+
+/// An edge line of the shrinking outline at time t: the points p with `normal · p = offset + t` (`normal` the unit
+/// normal pointing inside). Every edge moves inwards at unit speed, so t is the distance travelled: the height of
+/// the hipped roof above it, in units of the run.
+#[derive(Clone, Copy, Debug)]
+struct Wave {
+    normal: P2,
+    offset: f64,
+}
+
+impl Wave {
+    /// The corner of `a` followed by `b` at time t, and its velocity; `None` for parallel lines.
+    fn corner(a: Wave, b: Wave, t: f64) -> Option<(P2, P2)> {
+        let det = cross(a.normal, b.normal);
+        if det.abs() < 1e-9 {
+            return None;
+        }
+        let solve = |ra: f64, rb: f64| {
+            [
+                (ra * b.normal[1] - rb * a.normal[1]) / det,
+                (a.normal[0] * rb - b.normal[0] * ra) / det,
+            ]
+        };
+        Some((solve(a.offset + t, b.offset + t), solve(1.0, 1.0)))
+    }
+
+    /// The edge's direction along the outline (counter-clockwise, inside on the left).
+    fn along(self) -> P2 {
+        [self.normal[1], -self.normal[0]]
+    }
+}
+
+/// Distances under this are one point, in the wavefront's events (m).
+const WAVE_EPS: f64 = 1e-7;
+
+/// The hipped roof of any simple outline without courtyards: the straight skeleton, built by shrinking the outline
+/// — every edge moving inwards at one speed — from event to event: an edge shrinking to nothing (its neighbours then
+/// meet), a reflex corner reaching another edge (the outline splits in two there). Between two events every edge
+/// sweeps a trapezoid of its own plane; those bands are the faces, their corners' share of the rise the time at
+/// them over the time the last part of the outline vanishes (the run). `None` when the events do not end (a
+/// degenerate outline), for the caller to keep a flat roof.
+fn skeleton(ring: &[P2]) -> Option<(Vec<Face>, f64)> {
+    let n = ring.len();
+    let mut cycles: Vec<Vec<Wave>> = vec![(0..n)
+        .map(|i| {
+            let d = sub(ring[(i + 1) % n], ring[i]);
+            let l = d[0].hypot(d[1]);
+            let normal = [-d[1] / l, d[0] / l];
+            Wave {
+                normal,
+                offset: dot(normal, ring[i]),
+            }
+        })
+        .collect()];
+    // Corner k of a cycle joins line k − 1 and line k.
+    let corners_at = |c: &[Wave], t: f64| -> Option<Vec<(P2, P2)>> {
+        let m = c.len();
+        (0..m)
+            .map(|k| Wave::corner(c[(k + m - 1) % m], c[k], t))
+            .collect()
+    };
+    let mut bands: Vec<Vec<[f64; 3]>> = Vec::new();
+    let mut t = 0.0;
+    for _ in 0..(8 * n + 32) {
+        cycles = settle(cycles, t)?;
+        if cycles.is_empty() {
+            let faces = bands
+                .into_iter()
+                .map(|f| {
+                    f.into_iter()
+                        .map(|[x, y, z]| [x, y, (z / t).clamp(0.0, 1.0)])
+                        .collect()
+                })
+                .collect();
+            return Some((with_t_junctions(faces), t));
+        }
+        // The next event of any cycle.
+        let mut next = f64::INFINITY;
+        for c in &cycles {
+            let m = c.len();
+            let cs = corners_at(c, t)?;
+            for k in 0..m {
+                let (p, w) = cs[k];
+                let (q, v) = cs[(k + 1) % m];
+                // Edge k, from corner k to corner k + 1, shrinking to nothing.
+                let d = c[k].along();
+                let (len, rate) = (dot(d, sub(q, p)), dot(d, sub(w, v)));
+                if rate > 1e-12 {
+                    next = next.min(t + len.max(0.0) / rate);
+                }
+                // Reflex corner k reaching edge j.
+                if cross(c[(k + m - 1) % m].along(), c[k].along()) < 0.0 {
+                    for j in (0..m).filter(|&j| j != k && (j + 1) % m != k && j != (k + m - 1) % m)
+                    {
+                        let approach = dot(c[j].normal, w) - 1.0;
+                        if approach >= -1e-12 {
+                            continue;
+                        }
+                        // The corner's distance inside edge j's line: a corner behind the line (outside the
+                        // edge's half-plane) only draws away from it.
+                        let gap = dot(c[j].normal, p) - c[j].offset - t;
+                        if gap < -WAVE_EPS {
+                            continue;
+                        }
+                        let te = t + gap.max(0.0) / -approach;
+                        if te < next {
+                            let hit = [p[0] + (te - t) * w[0], p[1] + (te - t) * w[1]];
+                            let (a, _) = Wave::corner(c[(j + m - 1) % m], c[j], te)?;
+                            let (b, _) = Wave::corner(c[j], c[(j + 1) % m], te)?;
+                            let dj = c[j].along();
+                            let s = dot(dj, sub(hit, a));
+                            if s >= -WAVE_EPS && s <= dot(dj, sub(b, a)) + WAVE_EPS {
+                                next = te;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        if !next.is_finite() {
+            return None;
+        }
+        // Every edge's band from t to the event.
+        for c in &cycles {
+            let m = c.len();
+            let (from, to) = (corners_at(c, t)?, corners_at(c, next)?);
+            for k in 0..m {
+                let (a, b) = (from[k].0, from[(k + 1) % m].0);
+                let (bb, aa) = (to[(k + 1) % m].0, to[k].0);
+                bands.push(vec![
+                    [a[0], a[1], t],
+                    [b[0], b[1], t],
+                    [bb[0], bb[1], next],
+                    [aa[0], aa[1], next],
+                ]);
+            }
+        }
+        t = next;
+    }
+    None
+}
+
+/// Faces with every other face's corner that lies inside one of their edges added to that edge: where the outline
+/// split, the split point lies on the edge of a band below it, and the triangulation needs it as a corner of both
+/// (a constraint passing through a point it does not end at is refused).
+fn with_t_junctions(faces: Vec<Face>) -> Vec<Face> {
+    let points: Vec<[f64; 3]> = faces.iter().flatten().copied().collect();
+    faces
+        .iter()
+        .map(|f| {
+            let mut out = Vec::with_capacity(f.len());
+            for k in 0..f.len() {
+                let (a, b) = (f[k], f[(k + 1) % f.len()]);
+                out.push(a);
+                let d = [b[0] - a[0], b[1] - a[1]];
+                let len2 = dot(d, d);
+                if len2 < WELD_M * WELD_M {
+                    continue;
+                }
+                let mut inside: Vec<(f64, [f64; 3])> = points
+                    .iter()
+                    .filter_map(|p| {
+                        let q = [p[0] - a[0], p[1] - a[1]];
+                        let s = dot(q, d) / len2;
+                        let off = cross(d, q).abs() / len2.sqrt();
+                        let len = len2.sqrt();
+                        (off < 0.1 * WELD_M && s * len > WELD_M && (1.0 - s) * len > WELD_M)
+                            .then(|| (s, [p[0], p[1], a[2] + s * (b[2] - a[2])]))
+                    })
+                    .collect();
+                inside.sort_by(|x, y| x.0.total_cmp(&y.0));
+                inside.dedup_by(|x, y| (x.0 - y.0).abs() * len2.sqrt() < WELD_M);
+                out.extend(inside.into_iter().map(|(_, p)| p));
+            }
+            out
+        })
+        .collect()
+}
+
+/// The cycles at time t after its events: edges of no length dropped (their neighbours meet), a reflex corner on
+/// another edge splitting its cycle in two, cycles of no area gone. `None` for parallel neighbours that do not
+/// meet (a degenerate outline).
+fn settle(mut cycles: Vec<Vec<Wave>>, t: f64) -> Option<Vec<Vec<Wave>>> {
+    let mut out = Vec::new();
+    'cycles: while let Some(mut c) = cycles.pop() {
+        loop {
+            let m = c.len();
+            if m < 3 {
+                continue 'cycles;
+            }
+            // Neighbours on one line: a corner that is no corner (the same direction: one edge) or a spike of no
+            // width (opposite directions: both go).
+            let parallel =
+                (0..m).find(|&k| cross(c[(k + m - 1) % m].normal, c[k].normal).abs() < 1e-9);
+            if let Some(k) = parallel {
+                let prev = (k + m - 1) % m;
+                if dot(c[prev].normal, c[k].normal) > 0.0 {
+                    c.remove(k);
+                } else {
+                    let (hi, lo) = (prev.max(k), prev.min(k));
+                    c.remove(hi);
+                    c.remove(lo);
+                }
+                continue;
+            }
+            let cs: Vec<P2> = (0..m)
+                .map(|k| Wave::corner(c[(k + m - 1) % m], c[k], t).map(|x| x.0))
+                .collect::<Option<_>>()?;
+            // An edge of no length (or turned over: it passed its event).
+            let gone = (0..m).find(|&k| dot(c[k].along(), sub(cs[(k + 1) % m], cs[k])) <= WAVE_EPS);
+            if let Some(k) = gone {
+                c.remove(k);
+                continue;
+            }
+            let area: f64 = (0..m).map(|k| cross(cs[k], cs[(k + 1) % m])).sum::<f64>() / 2.0;
+            if area <= WAVE_EPS * WAVE_EPS {
+                continue 'cycles;
+            }
+            // A reflex corner k lying on edge j: two cycles, lines k ..= j and j ..= k − 1.
+            let mut split = None;
+            'find: for k in 0..m {
+                if cross(c[(k + m - 1) % m].along(), c[k].along()) >= 0.0 {
+                    continue;
+                }
+                for j in (0..m).filter(|&j| j != k && (j + 1) % m != k && j != (k + m - 1) % m) {
+                    let dj = c[j].along();
+                    let off = dot(c[j].normal, cs[k]) - c[j].offset - t;
+                    let s = dot(dj, sub(cs[k], cs[j]));
+                    if off.abs() <= 1e3 * WAVE_EPS
+                        && s >= -WAVE_EPS
+                        && s <= dot(dj, sub(cs[(j + 1) % m], cs[j])) + WAVE_EPS
+                    {
+                        split = Some((k, j));
+                        break 'find;
+                    }
+                }
+            }
+            let Some((k, j)) = split else {
+                out.push(c);
+                continue 'cycles;
+            };
+            let walk = |from: usize, to: usize| {
+                let mut v = vec![c[from]];
+                let mut i = from;
+                while i != to {
+                    i = (i + 1) % m;
+                    v.push(c[i]);
+                }
+                v
+            };
+            cycles.push(walk(k, j));
+            c = walk(j, (k + m - 1) % m);
+        }
+    }
+    out.reverse();
+    Some(out)
 }
 
 /// A triangle from every edge to the apex above the outline's centroid; the run is the apex's distance from the
@@ -905,7 +1164,7 @@ mod tests {
             (0.0, 10.0),
         ];
         let gabled = spec(RoofShape::Gabled, RoofRise::Default);
-        for shape in [RoofShape::Hipped, RoofShape::Pyramidal, RoofShape::Dome] {
+        for shape in [RoofShape::Pyramidal, RoofShape::Dome] {
             let e = roofed_building(&footprint(&l), 0.0, 9.0, &spec(shape, RoofRise::Default))
                 .unwrap_err();
             assert!(e.contains("not convex"), "{e}");
@@ -958,6 +1217,111 @@ mod tests {
         assert_eq!(kinds.iter().filter(|&&k| k == SurfaceKind::Roof).count(), 6);
     }
 
+    /// The slopes (rise over run) of a mesh's roof triangles and their smallest height in plan (m): a hipped roof's
+    /// slopes are all one, but for the corners' welding within [`WELD_M`], which tilts a triangle by up to about
+    /// 2 · WELD_M over its smallest height.
+    fn roof_slopes(mesh: &Mesh3d, kinds: &[SurfaceKind]) -> Vec<(f64, f64)> {
+        mesh.triangles
+            .iter()
+            .zip(kinds)
+            .filter(|(_, k)| **k == SurfaceKind::Roof)
+            .filter_map(|(t, _)| {
+                let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
+                let (u, v) = (
+                    [b[0] - a[0], b[1] - a[1], b[2] - a[2]],
+                    [c[0] - a[0], c[1] - a[1], c[2] - a[2]],
+                );
+                let n = [
+                    u[1] * v[2] - u[2] * v[1],
+                    u[2] * v[0] - u[0] * v[2],
+                    u[0] * v[1] - u[1] * v[0],
+                ];
+                let longest = [(a, b), (b, c), (c, a)]
+                    .iter()
+                    .map(|(p, q)| (p[0] - q[0]).hypot(p[1] - q[1]))
+                    .fold(0.0, f64::max);
+                let altitude = n[2].abs() / longest;
+                (altitude > 1e-3).then(|| (n[0].hypot(n[1]) / n[2].abs(), altitude))
+            })
+            .collect()
+    }
+
+    /// The volume under a roof plan of faces (shares of the rise times `run`): the roof's own volume above its eaves.
+    fn roof_volume(faces: &[Face], run: f64, ring: &[P2]) -> f64 {
+        let (points, triangles) = plan(faces, &[ring.to_vec()]).unwrap();
+        triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| points[i as usize]);
+                let area = cross(
+                    sub([b[0], b[1]], [a[0], a[1]]),
+                    sub([c[0], c[1]], [a[0], a[1]]),
+                ) / 2.0;
+                area * run * (a[2] + b[2] + c[2]) / 3.0
+            })
+            .sum()
+    }
+
+    #[test]
+    fn a_hipped_l_is_its_straight_skeleton() {
+        // Arms 10 m wide: every edge rises at 45° (rise 5 m over the run of 5 m) and the wavefront at time t is the
+        // L shrunk by t, of area 2(20 − 2t)(10 − 2t) − (10 − 2t)², so the roof holds ∫₀⁵ that dt = 2000/3 m³.
+        let l = [
+            (0.0, 0.0),
+            (20.0, 0.0),
+            (20.0, 10.0),
+            (10.0, 10.0),
+            (10.0, 20.0),
+            (0.0, 20.0),
+        ];
+        let (faces, run) = skeleton(&l.map(|(x, y)| [x, y])).unwrap();
+        assert!((run - 5.0).abs() < 1e-9, "{run}");
+        assert!((roof_volume(&faces, run, &l.map(|(x, y)| [x, y])) - 2000.0 / 3.0).abs() < 1e-6);
+        let (mesh, kinds) = roofed_building(
+            &footprint(&l),
+            0.0,
+            10.0,
+            &spec(RoofShape::Hipped, RoofRise::Metres(5.0)),
+        )
+        .unwrap();
+        let v = closed_volume(&mesh);
+        assert!((v - (300.0 * 5.0 + 2000.0 / 3.0)).abs() < 1e-6, "{v}");
+        assert!((top_z(&mesh) - 10.0).abs() < 1e-9);
+        // The ridge: from the middle of each arm's end to the corner square's middle, level at 10 m.
+        assert_eq!(ridge(&mesh, 10.0), [[5.0, 5.0], [5.0, 15.0], [15.0, 5.0]]);
+        assert!(kinds.contains(&SurfaceKind::Roof));
+    }
+
+    #[test]
+    fn the_skeleton_of_a_convex_outline_is_its_nearest_edge_roof() {
+        let outlines: [&[P2]; 4] = [
+            &[[0.0, 0.0], [12.0, 0.0], [12.0, 8.0], [0.0, 8.0]],
+            &[[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]],
+            &[
+                [0.0, 0.0],
+                [9.0, -2.0],
+                [14.0, 5.0],
+                [8.0, 12.0],
+                [-1.0, 7.0],
+            ],
+            &[
+                [0.0, 0.0],
+                [30.0, 0.0],
+                [31.0, 3.0],
+                [29.0, 9.0],
+                [2.0, 11.0],
+                [-2.0, 5.0],
+            ],
+        ];
+        for ring in outlines {
+            let (a, run_a) = hipped(ring);
+            let (b, run_b) = skeleton(ring).unwrap();
+            assert!((run_a - run_b).abs() < 1e-9, "{ring:?}: {run_a} {run_b}");
+            let (va, vb) = (roof_volume(&a, run_a, ring), roof_volume(&b, run_b, ring));
+            assert!((va - vb).abs() < 1e-6 * va, "{ring:?}: {va} {vb}");
+        }
+    }
+
     proptest::proptest! {
         #![proptest_config(proptest::prelude::ProptestConfig::with_cases(1000))]
         /// Any convex outline (corners on an ellipse, some nearly in line) gets, for every shape and direction, a
@@ -1006,7 +1370,8 @@ mod tests {
             }
         }
 
-        /// Skillion and gabled roofs over any star-shaped outline (concave, corners at random radii) are closed too.
+        /// Skillion, gabled and hipped roofs over any star-shaped outline (concave, corners at random radii) are
+        /// closed too.
         #[test]
         fn every_star_shaped_outline_gets_a_closed_skillion_and_gabled_roof(
             corners in proptest::collection::vec((0.0f64..std::f64::consts::TAU, 2.0f64..40.0), 3..30),
@@ -1045,14 +1410,35 @@ mod tests {
                 fp.0[0].interiors_push(vec![(-h, -h), (-h, h), (h, h), (h, -h), (-h, -h)]);
                 area -= 4.0 * h * h;
             }
-            for shape in [RoofShape::Skillion, RoofShape::Gabled] {
+            // Hipped over the outline without its courtyard: the straight skeleton of a concave outline.
+            let shapes: &[RoofShape] = if courtyard && nearest > 1.0 {
+                &[RoofShape::Skillion, RoofShape::Gabled]
+            } else {
+                &[RoofShape::Skillion, RoofShape::Gabled, RoofShape::Hipped]
+            };
+            for &shape in shapes {
                 let spec = RoofSpec { shape, rise: RoofRise::Metres(rise), direction_deg: Some(direction), across: false };
                 let (mesh, _) = roofed_building(&fp, 0.0, 20.0, &spec)
-                    .map_err(proptest::test_runner::TestCaseError::fail)?;
+                    .map_err(|e| proptest::test_runner::TestCaseError::fail(format!("{shape:?}: {e}")))?;
                 let r = mesh_report(&mesh);
                 proptest::prop_assert!(r.watertight && r.orientation_consistent, "{:?}: {:?}", shape, r);
                 let v = signed_volume_m3(&mesh);
                 proptest::prop_assert!(v > area * (20.0 - rise) * (1.0 - 1e-9) && v < area * 20.0 * (1.0 + 1e-9), "{:?}: {} of {}", shape, v, area);
+                proptest::prop_assert!((top_z(&mesh) - 20.0).abs() < 1e-6, "{:?}", shape);
+                if shape == RoofShape::Hipped {
+                    // Every face rises from its edge at the one slope of a straight skeleton's roof.
+                    let (mesh, kinds) = roofed_building(&fp, 0.0, 20.0, &spec).expect("built above");
+                    // The one slope, from the roof triangle least tilted by welding (the widest).
+                    let slopes = roof_slopes(&mesh, &kinds);
+                    let (slope, _) = slopes.iter().copied().fold((0.0, 0.0), |m, x| if x.1 > m.1 { x } else { m });
+                    for (s, altitude) in slopes {
+                        // Corners moved by up to WELD_M in plan and in height tilt a triangle by about
+                        // (1 + slope) · 2 · WELD_M over its smallest height.
+                        let allowed = (1.0 + slope) * 2.0 * WELD_M / altitude + 1e-9;
+                        proptest::prop_assert!((s - slope).abs() <= allowed,
+                            "slope {} against {} (height {} m)", s, slope, altitude);
+                    }
+                }
             }
         }
     }
