@@ -6,14 +6,14 @@
 //! - **gabled**: two planes meeting at a ridge through the middle of the outline, the gable ends walls, over any
 //!   outline and its courtyards;
 //! - **hipped**: a plane rising from every outline edge at one slope: the straight skeleton (for a convex outline
-//!   the face of an edge is where that edge is the nearest; for a concave one the outline is shrunk from event to
-//!   event, [`skeleton`]);
+//!   the face of an edge is where that edge is the nearest; for a concave one, or one with courtyards, the outline is
+//!   shrunk and the courtyards grown from event to event, [`skeleton`]);
 //! - **pyramidal**: a triangle from every outline edge to an apex above the outline's centroid;
 //! - **dome** (also for an onion, whose bulge beyond the walls is not drawn): the outline shrunk towards its centroid
 //!   in [`DOME_BANDS`] bands whose heights follow a quarter circle (an ellipse when the rise is not the radius).
 //!
-//! Hipped roofs need an outline without courtyards, pyramidal and dome roofs a convex one; a footprint of several
-//! polygons has no pitched roof here. Those cases are errors with the reason, for the caller to keep its flat prism.
+//! Pyramidal and dome roofs need a convex outline without courtyards; a footprint of several polygons has no
+//! pitched roof here. Those cases are errors with the reason, for the caller to keep its flat prism.
 
 use crate::simplify::polygon::inside_even_odd;
 use citylod_model::{Mesh3d, SurfaceKind};
@@ -115,11 +115,8 @@ pub fn roofed_building(
             ring.len()
         ));
     }
-    let pitched_anyhow = matches!(spec.shape, RoofShape::Skillion | RoofShape::Gabled);
-    if !pitched_anyhow && rings.len() > 1 {
-        return Err(
-            "a footprint with a courtyard (a hole) takes only a skillion or gabled roof".into(),
-        );
+    if matches!(spec.shape, RoofShape::Pyramidal | RoofShape::Dome) && rings.len() > 1 {
+        return Err("a footprint with a courtyard (a hole) takes no pyramidal or dome roof".into());
     }
     if matches!(spec.shape, RoofShape::Pyramidal | RoofShape::Dome) && !is_convex(&ring) {
         return Err(
@@ -152,8 +149,8 @@ pub fn roofed_building(
             };
             gabled(&rings, along)
         }
-        RoofShape::Hipped if is_convex(&ring) => hipped(&ring),
-        RoofShape::Hipped => skeleton(&ring)
+        RoofShape::Hipped if rings.len() == 1 && is_convex(&ring) => hipped(&ring),
+        RoofShape::Hipped => skeleton(&rings)
             .ok_or_else(|| "the outline's straight skeleton could not be built".to_string())?,
         RoofShape::Pyramidal => pyramidal(&ring),
         RoofShape::Dome => dome(&ring),
@@ -561,25 +558,39 @@ impl Wave {
 /// Distances under this are one point, in the wavefront's events (m).
 const WAVE_EPS: f64 = 1e-7;
 
-/// The hipped roof of any simple outline without courtyards: the straight skeleton, built by shrinking the outline
-/// — every edge moving inwards at one speed — from event to event: an edge shrinking to nothing (its neighbours then
-/// meet), a reflex corner reaching another edge (the outline splits in two there). Between two events every edge
+/// The hipped roof of any simple outline and its courtyards (`rings`: the outline first): the straight skeleton,
+/// built by moving every edge into the building at one speed — the outline shrinking, the courtyards growing — from
+/// event to event: an edge shrinking to nothing (its neighbours then meet), a reflex corner reaching another edge
+/// (its wavefront splits in two there, or two wavefronts, a courtyard's and the outline's, join). Between two events every edge
 /// sweeps a trapezoid of its own plane; those bands are the faces, their corners' share of the rise the time at
 /// them over the time the last part of the outline vanishes (the run). `None` when the events do not end (a
 /// degenerate outline), for the caller to keep a flat roof.
-fn skeleton(ring: &[P2]) -> Option<(Vec<Face>, f64)> {
-    let n = ring.len();
-    let mut cycles: Vec<Vec<Wave>> = vec![(0..n)
-        .map(|i| {
-            let d = sub(ring[(i + 1) % n], ring[i]);
-            let l = d[0].hypot(d[1]);
-            let normal = [-d[1] / l, d[0] / l];
-            Wave {
-                normal,
-                offset: dot(normal, ring[i]),
-            }
-        })
-        .collect()];
+fn skeleton(rings: &[Vec<P2>]) -> Option<(Vec<Face>, f64)> {
+    // The outline counter-clockwise, its courtyards clockwise: the building on the left of every edge.
+    let lines = |ring: &[P2], outer: bool| -> Vec<Wave> {
+        let mut ring = ring.to_vec();
+        if (crate::ring::signed_area2(&ring) > 0.0) != outer {
+            ring.reverse();
+        }
+        let n = ring.len();
+        (0..n)
+            .map(|i| {
+                let d = sub(ring[(i + 1) % n], ring[i]);
+                let l = d[0].hypot(d[1]);
+                let normal = [-d[1] / l, d[0] / l];
+                Wave {
+                    normal,
+                    offset: dot(normal, ring[i]),
+                }
+            })
+            .collect()
+    };
+    let mut cycles: Vec<Vec<Wave>> = rings
+        .iter()
+        .enumerate()
+        .map(|(i, r)| lines(r, i == 0))
+        .collect();
+    let n: usize = rings.iter().map(Vec::len).sum();
     // Corner k of a cycle joins line k − 1 and line k.
     let corners_at = |c: &[Wave], t: f64| -> Option<Vec<(P2, P2)>> {
         let m = c.len();
@@ -604,7 +615,7 @@ fn skeleton(ring: &[P2]) -> Option<(Vec<Face>, f64)> {
         }
         // The next event of any cycle.
         let mut next = f64::INFINITY;
-        for c in &cycles {
+        for (ci, c) in cycles.iter().enumerate() {
             let m = c.len();
             let cs = corners_at(c, t)?;
             for k in 0..m {
@@ -616,26 +627,31 @@ fn skeleton(ring: &[P2]) -> Option<(Vec<Face>, f64)> {
                 if rate > 1e-12 {
                     next = next.min(t + len.max(0.0) / rate);
                 }
-                // Reflex corner k reaching edge j.
-                if cross(c[(k + m - 1) % m].along(), c[k].along()) < 0.0 {
-                    for j in (0..m).filter(|&j| j != k && (j + 1) % m != k && j != (k + m - 1) % m)
-                    {
-                        let approach = dot(c[j].normal, w) - 1.0;
+                // Reflex corner k reaching edge j of its own cycle or another's.
+                if cross(c[(k + m - 1) % m].along(), c[k].along()) >= 0.0 {
+                    continue;
+                }
+                for (di, d) in cycles.iter().enumerate() {
+                    let md = d.len();
+                    for j in (0..md).filter(|&j| {
+                        di != ci || (j != k && (j + 1) % m != k && j != (k + m - 1) % m)
+                    }) {
+                        let approach = dot(d[j].normal, w) - 1.0;
                         if approach >= -1e-12 {
                             continue;
                         }
                         // The corner's distance inside edge j's line: a corner behind the line (outside the
                         // edge's half-plane) only draws away from it.
-                        let gap = dot(c[j].normal, p) - c[j].offset - t;
+                        let gap = dot(d[j].normal, p) - d[j].offset - t;
                         if gap < -WAVE_EPS {
                             continue;
                         }
                         let te = t + gap.max(0.0) / -approach;
                         if te < next {
                             let hit = [p[0] + (te - t) * w[0], p[1] + (te - t) * w[1]];
-                            let (a, _) = Wave::corner(c[(j + m - 1) % m], c[j], te)?;
-                            let (b, _) = Wave::corner(c[j], c[(j + 1) % m], te)?;
-                            let dj = c[j].along();
+                            let (a, _) = Wave::corner(d[(j + md - 1) % md], d[j], te)?;
+                            let (b, _) = Wave::corner(d[j], d[(j + 1) % md], te)?;
+                            let dj = d[j].along();
                             let s = dot(dj, sub(hit, a));
                             if s >= -WAVE_EPS && s <= dot(dj, sub(b, a)) + WAVE_EPS {
                                 next = te;
@@ -706,9 +722,60 @@ fn with_t_junctions(faces: Vec<Face>) -> Vec<Face> {
 }
 
 /// The cycles at time t after its events: edges of no length dropped (their neighbours meet), a reflex corner on
-/// another edge splitting its cycle in two, cycles of no area gone. `None` for parallel neighbours that do not
-/// meet (a degenerate outline).
-fn settle(mut cycles: Vec<Vec<Wave>>, t: f64) -> Option<Vec<Vec<Wave>>> {
+/// another edge of its cycle splitting the cycle in two, or on an edge of another cycle (a courtyard's growing
+/// wavefront meeting the outline's) joining the two, cycles of no area gone. `None` for parallel neighbours that do
+/// not meet (a degenerate outline).
+fn settle(cycles: Vec<Vec<Wave>>, t: f64) -> Option<Vec<Vec<Wave>>> {
+    let mut out = settle_each(cycles, t)?;
+    // Corner k of cycle a on edge j of cycle b: one cycle, a's lines from k round to k − 1, then b's from j round
+    // to j again (its two pieces).
+    while let Some((a, k, b, j)) = meeting(&out, t)? {
+        let (ca, cb) = (&out[a], &out[b]);
+        let mut joined: Vec<Wave> = (0..ca.len()).map(|i| ca[(k + i) % ca.len()]).collect();
+        joined.extend((0..=cb.len()).map(|i| cb[(j + i) % cb.len()]));
+        out.remove(a.max(b));
+        out.remove(a.min(b));
+        out.extend(settle_each(vec![joined], t)?);
+    }
+    Some(out)
+}
+
+/// A reflex corner of one cycle lying on an edge of another: (cycle, corner, other cycle, edge).
+fn meeting(cycles: &[Vec<Wave>], t: f64) -> Option<Option<(usize, usize, usize, usize)>> {
+    let corners: Vec<Vec<P2>> = cycles
+        .iter()
+        .map(|c| {
+            let m = c.len();
+            (0..m)
+                .map(|k| Wave::corner(c[(k + m - 1) % m], c[k], t).map(|x| x.0))
+                .collect::<Option<Vec<P2>>>()
+        })
+        .collect::<Option<_>>()?;
+    for (a, c) in cycles.iter().enumerate() {
+        let m = c.len();
+        for k in (0..m).filter(|&k| cross(c[(k + m - 1) % m].along(), c[k].along()) < 0.0) {
+            let p = corners[a][k];
+            for (b, d) in cycles.iter().enumerate().filter(|&(b, _)| b != a) {
+                let md = d.len();
+                for j in 0..md {
+                    let dj = d[j].along();
+                    let off = dot(d[j].normal, p) - d[j].offset - t;
+                    let s = dot(dj, sub(p, corners[b][j]));
+                    if off.abs() <= 1e3 * WAVE_EPS
+                        && s >= -WAVE_EPS
+                        && s <= dot(dj, sub(corners[b][(j + 1) % md], corners[b][j])) + WAVE_EPS
+                    {
+                        return Some(Some((a, k, b, j)));
+                    }
+                }
+            }
+        }
+    }
+    Some(None)
+}
+
+/// [`settle`] within each cycle: its edges of no length, its splits, its area.
+fn settle_each(mut cycles: Vec<Vec<Wave>>, t: f64) -> Option<Vec<Vec<Wave>>> {
     let mut out = Vec::new();
     'cycles: while let Some(mut c) = cycles.pop() {
         loop {
@@ -740,8 +807,9 @@ fn settle(mut cycles: Vec<Vec<Wave>>, t: f64) -> Option<Vec<Vec<Wave>>> {
                 c.remove(k);
                 continue;
             }
+            // A courtyard's cycle runs clockwise (negative area) and grows; an outline's shrinks to nothing.
             let area: f64 = (0..m).map(|k| cross(cs[k], cs[(k + 1) % m])).sum::<f64>() / 2.0;
-            if area <= WAVE_EPS * WAVE_EPS {
+            if area.abs() <= WAVE_EPS * WAVE_EPS {
                 continue 'cycles;
             }
             // A reflex corner k lying on edge j: two cycles, lines k ..= j and j ..= k − 1.
@@ -1178,14 +1246,10 @@ mod tests {
                 (2.0, 1.0),
             ])],
         )]);
-        assert!(roofed_building(
-            &holed,
-            0.0,
-            9.0,
-            &spec(RoofShape::Hipped, RoofRise::Default)
-        )
-        .unwrap_err()
-        .contains("hole"));
+        for shape in [RoofShape::Pyramidal, RoofShape::Dome] {
+            let e = roofed_building(&holed, 0.0, 9.0, &spec(shape, RoofRise::Default)).unwrap_err();
+            assert!(e.contains("hole"), "{e}");
+        }
         let two = MultiPolygon(vec![footprint(&HOUSE).0[0].clone(); 2]);
         assert!(roofed_building(&two, 0.0, 9.0, &gabled).is_err());
         let flat = spec(RoofShape::Gabled, RoofRise::Metres(0.01));
@@ -1274,7 +1338,7 @@ mod tests {
             (10.0, 20.0),
             (0.0, 20.0),
         ];
-        let (faces, run) = skeleton(&l.map(|(x, y)| [x, y])).unwrap();
+        let (faces, run) = skeleton(&[l.map(|(x, y)| [x, y]).to_vec()]).unwrap();
         assert!((run - 5.0).abs() < 1e-9, "{run}");
         assert!((roof_volume(&faces, run, &l.map(|(x, y)| [x, y])) - 2000.0 / 3.0).abs() < 1e-6);
         let (mesh, kinds) = roofed_building(
@@ -1290,6 +1354,58 @@ mod tests {
         // The ridge: from the middle of each arm's end to the corner square's middle, level at 10 m.
         assert_eq!(ridge(&mesh, 10.0), [[5.0, 5.0], [5.0, 15.0], [15.0, 5.0]]);
         assert!(kinds.contains(&SurfaceKind::Roof));
+    }
+
+    #[test]
+    fn a_hipped_courtyard_block_rises_from_its_street_and_its_courtyard() {
+        // A 30 m square around a 10 m courtyard: a ring 10 m wide whose wavefront at time t has the area
+        // (30 − 2t)² − (10 + 2t)², so the roof holds ∫₀⁵ that dt = 2000 m³ at 45°, its ridge a square 20 m wide.
+        let outer = [(0.0, 0.0), (30.0, 0.0), (30.0, 30.0), (0.0, 30.0)];
+        let court = vec![
+            (10.0, 10.0),
+            (10.0, 20.0),
+            (20.0, 20.0),
+            (20.0, 10.0),
+            (10.0, 10.0),
+        ];
+        let mut fp = footprint(&outer);
+        fp.0[0].interiors_push(court);
+        let rings = [
+            outer.map(|(x, y)| [x, y]).to_vec(),
+            vec![[10.0, 10.0], [10.0, 20.0], [20.0, 20.0], [20.0, 10.0]],
+        ];
+        let (faces, run) = skeleton(&rings).unwrap();
+        assert!((run - 5.0).abs() < 1e-9, "{run}");
+        let (mesh, kinds) = roofed_building(
+            &fp,
+            0.0,
+            10.0,
+            &spec(RoofShape::Hipped, RoofRise::Metres(5.0)),
+        )
+        .unwrap();
+        let v = closed_volume(&mesh);
+        assert!((v - (800.0 * 5.0 + 2000.0)).abs() < 1e-6, "{v}");
+        assert_eq!(
+            ridge(&mesh, 10.0),
+            [[5.0, 5.0], [5.0, 25.0], [25.0, 5.0], [25.0, 25.0]]
+        );
+        assert!(kinds.contains(&SurfaceKind::Roof));
+        // The faces' own volume, under the plan of the outline with its courtyard.
+        let (points, triangles) = plan(&faces, &rings).unwrap();
+        let under: f64 = triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| points[i as usize]);
+                cross(
+                    sub([b[0], b[1]], [a[0], a[1]]),
+                    sub([c[0], c[1]], [a[0], a[1]]),
+                ) / 2.0
+                    * run
+                    * (a[2] + b[2] + c[2])
+                    / 3.0
+            })
+            .sum();
+        assert!((under - 2000.0).abs() < 1e-6, "{under}");
     }
 
     #[test]
@@ -1315,7 +1431,7 @@ mod tests {
         ];
         for ring in outlines {
             let (a, run_a) = hipped(ring);
-            let (b, run_b) = skeleton(ring).unwrap();
+            let (b, run_b) = skeleton(&[ring.to_vec()]).unwrap();
             assert!((run_a - run_b).abs() < 1e-9, "{ring:?}: {run_a} {run_b}");
             let (va, vb) = (roof_volume(&a, run_a, ring), roof_volume(&b, run_b, ring));
             assert!((va - vb).abs() < 1e-6 * va, "{ring:?}: {va} {vb}");
@@ -1370,8 +1486,8 @@ mod tests {
             }
         }
 
-        /// Skillion, gabled and hipped roofs over any star-shaped outline (concave, corners at random radii) are
-        /// closed too.
+        /// Skillion, gabled and hipped roofs over any star-shaped outline (concave, corners at random radii), with or
+        /// without a courtyard, are closed too; every face of a hipped roof rises at its one slope.
         #[test]
         fn every_star_shaped_outline_gets_a_closed_skillion_and_gabled_roof(
             corners in proptest::collection::vec((0.0f64..std::f64::consts::TAU, 2.0f64..40.0), 3..30),
@@ -1410,13 +1526,8 @@ mod tests {
                 fp.0[0].interiors_push(vec![(-h, -h), (-h, h), (h, h), (h, -h), (-h, -h)]);
                 area -= 4.0 * h * h;
             }
-            // Hipped over the outline without its courtyard: the straight skeleton of a concave outline.
-            let shapes: &[RoofShape] = if courtyard && nearest > 1.0 {
-                &[RoofShape::Skillion, RoofShape::Gabled]
-            } else {
-                &[RoofShape::Skillion, RoofShape::Gabled, RoofShape::Hipped]
-            };
-            for &shape in shapes {
+            // Hipped: the straight skeleton of a concave outline and its courtyard.
+            for shape in [RoofShape::Skillion, RoofShape::Gabled, RoofShape::Hipped] {
                 let spec = RoofSpec { shape, rise: RoofRise::Metres(rise), direction_deg: Some(direction), across: false };
                 let (mesh, _) = roofed_building(&fp, 0.0, 20.0, &spec)
                     .map_err(|e| proptest::test_runner::TestCaseError::fail(format!("{shape:?}: {e}")))?;

@@ -112,9 +112,9 @@ pub struct BuildArgs {
     /// export to GeoJSON, GeoPackage or Shapefile) with roof:shape skillion, gabled, hipped, pyramidal, dome or onion (as a dome) gets, at
     /// `2`, a 2.x or `highest`, an LoD 2 model of its roof (roof:height, else roof:levels × --storey-height, else
     /// roof:angle, else a 30° slope — a dome as high as wide — up to half its height; roof:direction,
-    /// roof:orientation; a hipped roof over any outline is its straight skeleton); other shapes, pyramids and domes
-    /// on outlines that are not convex, and courtyards under other roofs than skillion and gabled, stay prisms,
-    /// listed with the reason. Other polygons
+    /// roof:orientation; a hipped roof over any outline and its courtyards is its straight skeleton); other shapes,
+    /// and pyramids and domes on outlines that are not convex or have courtyards, stay prisms, listed with the
+    /// reason. Other polygons
     /// ignore it.
     #[arg(long, value_name = "LOD", help_heading = "3D buildings")]
     pub lod: Option<String>,
