@@ -4,7 +4,7 @@
 //! model.
 //!
 //! The file is scanned once as a stream of XML events ([`quick_xml`]) to find the top-level members
-//! (`cityObjectMember`, `featureMember`); each member's text is then fetched by its position and read as a small tree
+//! (`cityObjectMember`; a WFS FeatureCollection's `member` and `featureMember`); each member's text is then fetched by its position and read as a small tree
 //! of its own (`roxmltree`), a batch of members at a time in parallel, so a file of any size costs one batch of text
 //! besides its buildings (a gzip-compressed file, a ZIP member or a file in another encoding than UTF-8 is held
 //! whole, inflated or decoded). A member's geometry becomes a CityJSON city object:
@@ -118,12 +118,22 @@ fn starts_citygml(raw: Vec<u8>) -> bool {
     } else {
         head = raw;
     }
-    root_name(&head).is_some_and(|n| n.rsplit(':').next() == Some("CityModel"))
+    root_tag(&head).is_some_and(|(name, tag)| is_root(name, tag))
 }
 
-/// The name of the first element of an XML text's head: after a byte-order mark, the declaration, comments,
-/// processing instructions and a DOCTYPE.
-fn root_name(head: &[u8]) -> Option<&str> {
+/// A CityGML document's root: a `CityModel`, or a WFS answer's `FeatureCollection` declaring a CityGML namespace
+/// (its `wfs:member`s holding the buildings).
+fn is_root(name: &str, tag: &str) -> bool {
+    match name.rsplit(':').next() {
+        Some("CityModel") => true,
+        Some("FeatureCollection") => tag.contains("http://www.opengis.net/citygml/"),
+        _ => false,
+    }
+}
+
+/// The name and the start tag of the first element of an XML text's head: after a byte-order mark, the
+/// declaration, comments, processing instructions and a DOCTYPE.
+fn root_tag(head: &[u8]) -> Option<(&str, &str)> {
     let mut rest = head.strip_prefix(b"\xef\xbb\xbf").unwrap_or(head);
     loop {
         let at = rest.iter().position(|b| !b.is_ascii_whitespace())?;
@@ -151,7 +161,11 @@ fn root_name(head: &[u8]) -> Option<&str> {
             let end = name
                 .iter()
                 .position(|b| b.is_ascii_whitespace() || *b == b'>' || *b == b'/')?;
-            return std::str::from_utf8(&name[..end]).ok();
+            let tag_end = rest.iter().position(|b| *b == b'>').unwrap_or(rest.len());
+            return Some((
+                std::str::from_utf8(&name[..end]).ok()?,
+                std::str::from_utf8(&rest[..tag_end]).ok()?,
+            ));
         } else {
             return None;
         }
@@ -406,9 +420,10 @@ fn read_stream<R: std::io::BufRead>(
                     if seen_root {
                         return Err("not well-formed XML: a second element after the CityModel".into());
                     }
-                    if e.local_name().as_ref() != "CityModel" {
+                    if !is_root(e.name().as_ref(), e.attributes_raw()) {
                         return Err(format!(
-                            "not CityGML: the document is <{}>, not <CityModel>",
+                            "not CityGML: the document is <{}>, not <CityModel> (or a WFS FeatureCollection of \
+                             CityGML)",
                             e.name().as_ref()
                         ));
                     }
@@ -454,7 +469,8 @@ fn read_stream<R: std::io::BufRead>(
                             model.first_x = first_coordinate(&doc);
                         }
                     }
-                    "cityObjectMember" | "featureMember" | "featureMembers" => {
+                    // `member` and `featureMember(s)`: a WFS answer's.
+                    "cityObjectMember" | "featureMember" | "featureMembers" | "member" => {
                         batch_bytes += wrapped.len();
                         batch.push((members, wrapped, member_line));
                         members += 1;
@@ -467,7 +483,7 @@ fn read_stream<R: std::io::BufRead>(
                 }
             }
             Event::Empty(e) if depth == 0 => {
-                if e.local_name().as_ref() != "CityModel" {
+                if !is_root(e.name().as_ref(), e.attributes_raw()) {
                     return Err(format!(
                         "not CityGML: the document is <{}>, not <CityModel>",
                         e.name().as_ref()

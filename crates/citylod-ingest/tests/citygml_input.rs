@@ -861,3 +861,45 @@ fn z_in_a_crs_in_feet_is_in_feet_and_measured_heights_follow_their_uom() {
     assert_eq!(b.height_source, HeightSource::KnownAttribute);
     assert!((b.height_m - 50.0 * 0.3048).abs() < 1e-9, "{}", b.height_m);
 }
+
+#[test]
+fn a_wfs_answer_of_citygml_buildings_is_read() {
+    // What a WFS 2.0 GetFeature request for CityGML buildings answers (the 3D City Database's WFS, GeoServer's
+    // CityGML output): a FeatureCollection whose members are the buildings.
+    let text = r#"<?xml version="1.0" encoding="UTF-8"?>
+<wfs:FeatureCollection xmlns:wfs="http://www.opengis.net/wfs/2.0" xmlns:gml="http://www.opengis.net/gml"
+ xmlns:bldg="http://www.opengis.net/citygml/building/2.0" numberMatched="2" numberReturned="2">
+ <wfs:member><bldg:Building gml:id="W1"><bldg:measuredHeight uom="m">12</bldg:measuredHeight>
+  <bldg:lod0FootPrint><gml:MultiSurface srsName="EPSG:25832"><gml:surfaceMember><gml:Polygon><gml:exterior>
+  <gml:LinearRing><gml:posList srsDimension="3">356000 5645000 50 356010 5645000 50 356010 5645010 50 356000 5645010 50 356000 5645000 50</gml:posList>
+  </gml:LinearRing></gml:exterior></gml:Polygon></gml:surfaceMember></gml:MultiSurface></bldg:lod0FootPrint>
+ </bldg:Building></wfs:member>
+ <wfs:member><bldg:Building gml:id="W2"><bldg:measuredHeight uom="m">6</bldg:measuredHeight>
+  <bldg:lod0FootPrint><gml:MultiSurface><gml:surfaceMember><gml:Polygon><gml:exterior>
+  <gml:LinearRing><gml:posList srsDimension="3">356020 5645000 50 356030 5645000 50 356030 5645010 50 356020 5645010 50 356020 5645000 50</gml:posList>
+  </gml:LinearRing></gml:exterior></gml:Polygon></gml:surfaceMember></gml:MultiSurface></bldg:lod0FootPrint>
+ </bldg:Building></wfs:member>
+</wfs:FeatureCollection>
+"#;
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("answer.xml");
+    std::fs::write(&p, text).unwrap();
+    let out = read(&p, &IngestOptions::default()).unwrap();
+    assert_eq!(out.report.files[0].format, InputFormat::CityGml);
+    assert_eq!(out.report.files[0].crs, "EPSG:25832");
+    let mut got: Vec<(String, f64)> = out
+        .buildings
+        .iter()
+        .map(|b| (b.source_id.clone(), b.height_m))
+        .collect();
+    got.sort_by(|a, b| a.0.cmp(&b.0));
+    assert_eq!(got, vec![("W1".to_string(), 12.0), ("W2".to_string(), 6.0)]);
+    // A FeatureCollection of something else is no CityGML: the XML reader that is left (OpenStreetMap's) refuses it.
+    std::fs::write(
+        &p,
+        r#"<wfs:FeatureCollection xmlns:wfs="http://www.opengis.net/wfs/2.0"><wfs:member/></wfs:FeatureCollection>"#,
+    )
+    .unwrap();
+    let e = read(&p, &IngestOptions::default()).unwrap_err();
+    assert!(matches!(e, IngestError::InvalidOsm { .. }), "{e}");
+}
