@@ -92,7 +92,7 @@ fn bench_build_kept(
     runs: usize,
 ) -> Result<Option<PathBuf>> {
     if let Some(missing) = inputs.iter().find(|p| !p.exists()) {
-        println!("{name:<28} skipped: {} not found", missing.display());
+        println!("{name:<44} skipped: {} not found", missing.display());
         return Ok(None);
     }
     let out = std::env::temp_dir().join(format!("citylod-bench-{}-{name}", std::process::id()));
@@ -111,7 +111,7 @@ fn bench_build_kept(
     let bytes = report["tiles"]["glb_bytes"].as_u64().unwrap_or(0);
     let t = median(times);
     println!(
-        "{name:<28} {n:>9} buildings  {t:>7.3} s (median of {runs})  {:>9.0} buildings/s  peak RSS {:>7.1} MB  glb {:>6.1} MB",
+        "{name:<44} {n:>9} buildings  {t:>7.3} s (median of {runs})  {:>9.0} buildings/s  peak RSS {:>7.1} MB  glb {:>6.1} MB",
         n as f64 / t,
         rss.iter().cloned().fold(0.0, f64::max),
         bytes as f64 / 1e6
@@ -329,7 +329,7 @@ fn main() -> Result<()> {
         built?;
     } else {
         println!(
-            "{:<28} skipped: {} not found",
+            "{:<44} skipped: {} not found",
             "den haag ×20 (CityGML 2.0)",
             den_haag.display()
         );

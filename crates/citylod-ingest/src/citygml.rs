@@ -764,7 +764,7 @@ fn read_member(
                 .is_none_or(|g| g.is_empty())
         });
         let vertices = match problems.first() {
-            Some((_, p)) if no_geometry => Err((IssueReason::MalformedGeometry, p.clone())),
+            Some(p) if no_geometry => Err((IssueReason::MalformedGeometry, p.clone())),
             _ => Ok(vertices),
         };
         let first = city.features.len();
@@ -774,7 +774,7 @@ fn read_member(
                 f.repairs.extend(
                     problems
                         .iter()
-                        .map(|(_, p)| (IssueReason::GeometryNotRead, p.clone())),
+                        .map(|p| (IssueReason::GeometryNotRead, p.clone())),
                 );
             }
         }
@@ -848,8 +848,8 @@ struct Converter<'m, 'a, 'input> {
     vertices: Vec<[f64; 3]>,
     index: HashMap<[u64; 3], usize>,
     objects: Map<String, Value>,
-    /// Geometries not read: (object key, what and why).
-    problems: Vec<(String, String)>,
+    /// Geometries not read: what (of which object) and why.
+    problems: Vec<String>,
     not_attributes: Vec<String>,
 }
 
@@ -940,12 +940,9 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
 
     fn problem(&mut self, key: &str, at: Node, why: String) {
         let line = at.document().text_pos_at(at.range().start).row as usize + self.base_line - 1;
-        self.problems.push((
-            key.to_string(),
-            format!(
-                "{} (line {line}) of {key} not read: {why}",
-                at.tag_name().name()
-            ),
+        self.problems.push(format!(
+            "{} (line {line}) of {key} not read: {why}",
+            at.tag_name().name()
         ));
     }
 
