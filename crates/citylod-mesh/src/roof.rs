@@ -591,13 +591,6 @@ fn skeleton(rings: &[Vec<P2>]) -> Option<(Vec<Face>, f64)> {
         .map(|(i, r)| lines(r, i == 0))
         .collect();
     let n: usize = rings.iter().map(Vec::len).sum();
-    // Corner k of a cycle joins line k − 1 and line k.
-    let corners_at = |c: &[Wave], t: f64| -> Option<Vec<(P2, P2)>> {
-        let m = c.len();
-        (0..m)
-            .map(|k| Wave::corner(c[(k + m - 1) % m], c[k], t))
-            .collect()
-    };
     let mut bands: Vec<Vec<[f64; 3]>> = Vec::new();
     let mut t = 0.0;
     for _ in 0..(8 * n + 32) {
@@ -628,7 +621,7 @@ fn skeleton(rings: &[Vec<P2>]) -> Option<(Vec<Face>, f64)> {
                     next = next.min(t + len.max(0.0) / rate);
                 }
                 // Reflex corner k reaching edge j of its own cycle or another's.
-                if cross(c[(k + m - 1) % m].along(), c[k].along()) >= 0.0 {
+                if !reflex(c, k) {
                     continue;
                 }
                 for (di, d) in cycles.iter().enumerate() {
@@ -651,9 +644,7 @@ fn skeleton(rings: &[Vec<P2>]) -> Option<(Vec<Face>, f64)> {
                             let hit = [p[0] + (te - t) * w[0], p[1] + (te - t) * w[1]];
                             let (a, _) = Wave::corner(d[(j + md - 1) % md], d[j], te)?;
                             let (b, _) = Wave::corner(d[j], d[(j + 1) % md], te)?;
-                            let dj = d[j].along();
-                            let s = dot(dj, sub(hit, a));
-                            if s >= -WAVE_EPS && s <= dot(dj, sub(b, a)) + WAVE_EPS {
+                            if on_edge(d[j], a, b, hit, te) {
                                 next = te;
                             }
                         }
@@ -740,31 +731,42 @@ fn settle(cycles: Vec<Vec<Wave>>, t: f64) -> Option<Vec<Vec<Wave>>> {
     Some(out)
 }
 
+/// The corners of a cycle at time t, and their velocities: corner k joins line k − 1 and line k. `None` for
+/// parallel neighbours.
+fn corners_at(c: &[Wave], t: f64) -> Option<Vec<(P2, P2)>> {
+    let m = c.len();
+    (0..m)
+        .map(|k| Wave::corner(c[(k + m - 1) % m], c[k], t))
+        .collect()
+}
+
+/// Corner k of a cycle turns right: it cuts into the building.
+fn reflex(c: &[Wave], k: usize) -> bool {
+    let m = c.len();
+    cross(c[(k + m - 1) % m].along(), c[k].along()) < 0.0
+}
+
+/// Point p lies at time t on the edge of `line` from corner a to corner b.
+fn on_edge(line: Wave, a: P2, b: P2, p: P2, t: f64) -> bool {
+    let d = line.along();
+    let off = dot(line.normal, p) - line.offset - t;
+    let s = dot(d, sub(p, a));
+    off.abs() <= 1e3 * WAVE_EPS && s >= -WAVE_EPS && s <= dot(d, sub(b, a)) + WAVE_EPS
+}
+
 /// A reflex corner of one cycle lying on an edge of another: (cycle, corner, other cycle, edge).
 fn meeting(cycles: &[Vec<Wave>], t: f64) -> Option<Option<(usize, usize, usize, usize)>> {
-    let corners: Vec<Vec<P2>> = cycles
+    let corners: Vec<Vec<(P2, P2)>> = cycles
         .iter()
-        .map(|c| {
-            let m = c.len();
-            (0..m)
-                .map(|k| Wave::corner(c[(k + m - 1) % m], c[k], t).map(|x| x.0))
-                .collect::<Option<Vec<P2>>>()
-        })
+        .map(|c| corners_at(c, t))
         .collect::<Option<_>>()?;
     for (a, c) in cycles.iter().enumerate() {
-        let m = c.len();
-        for k in (0..m).filter(|&k| cross(c[(k + m - 1) % m].along(), c[k].along()) < 0.0) {
-            let p = corners[a][k];
+        for k in (0..c.len()).filter(|&k| reflex(c, k)) {
+            let p = corners[a][k].0;
             for (b, d) in cycles.iter().enumerate().filter(|&(b, _)| b != a) {
                 let md = d.len();
                 for j in 0..md {
-                    let dj = d[j].along();
-                    let off = dot(d[j].normal, p) - d[j].offset - t;
-                    let s = dot(dj, sub(p, corners[b][j]));
-                    if off.abs() <= 1e3 * WAVE_EPS
-                        && s >= -WAVE_EPS
-                        && s <= dot(dj, sub(corners[b][(j + 1) % md], corners[b][j])) + WAVE_EPS
-                    {
+                    if on_edge(d[j], corners[b][j].0, corners[b][(j + 1) % md].0, p, t) {
                         return Some(Some((a, k, b, j)));
                     }
                 }
@@ -798,9 +800,7 @@ fn settle_each(mut cycles: Vec<Vec<Wave>>, t: f64) -> Option<Vec<Vec<Wave>>> {
                 }
                 continue;
             }
-            let cs: Vec<P2> = (0..m)
-                .map(|k| Wave::corner(c[(k + m - 1) % m], c[k], t).map(|x| x.0))
-                .collect::<Option<_>>()?;
+            let cs: Vec<P2> = corners_at(&c, t)?.into_iter().map(|x| x.0).collect();
             // An edge of no length (or turned over: it passed its event).
             let gone = (0..m).find(|&k| dot(c[k].along(), sub(cs[(k + 1) % m], cs[k])) <= WAVE_EPS);
             if let Some(k) = gone {
@@ -814,18 +814,9 @@ fn settle_each(mut cycles: Vec<Vec<Wave>>, t: f64) -> Option<Vec<Vec<Wave>>> {
             }
             // A reflex corner k lying on edge j: two cycles, lines k ..= j and j ..= k − 1.
             let mut split = None;
-            'find: for k in 0..m {
-                if cross(c[(k + m - 1) % m].along(), c[k].along()) >= 0.0 {
-                    continue;
-                }
+            'find: for k in (0..m).filter(|&k| reflex(&c, k)) {
                 for j in (0..m).filter(|&j| j != k && (j + 1) % m != k && j != (k + m - 1) % m) {
-                    let dj = c[j].along();
-                    let off = dot(c[j].normal, cs[k]) - c[j].offset - t;
-                    let s = dot(dj, sub(cs[k], cs[j]));
-                    if off.abs() <= 1e3 * WAVE_EPS
-                        && s >= -WAVE_EPS
-                        && s <= dot(dj, sub(cs[(j + 1) % m], cs[j])) + WAVE_EPS
-                    {
+                    if on_edge(c[j], cs[j], cs[(j + 1) % m], cs[k], t) {
                         split = Some((k, j));
                         break 'find;
                     }
