@@ -190,7 +190,7 @@ pub(crate) fn read(
         .read_to_end(&mut head)
         .map_err(|e| format!("cannot read the file: {e}"))?;
     let utf8 = declared_encoding(head.strip_prefix(b"\xef\xbb\xbf").unwrap_or(&head))
-        .is_none_or(|l| l.eq_ignore_ascii_case("utf-8") || l.eq_ignore_ascii_case("utf8"));
+        .is_none_or(|l| is_utf8(&l));
     if head.starts_with(&[0x1f, 0x8b]) || !utf8 {
         // Inflated, or decoded to UTF-8, in memory.
         let bytes = std::fs::read(path).map_err(|e| format!("cannot read the file: {e}"))?;
@@ -250,16 +250,7 @@ pub(crate) fn read_zip(
 /// The file's text: gzip inflated, a byte-order mark dropped, and an encoding the XML declaration names other than
 /// UTF-8 (ISO-8859-1, Windows-1252, …) decoded.
 fn decode(bytes: Vec<u8>) -> Result<String, String> {
-    let bytes = if bytes.starts_with(&[0x1f, 0x8b]) {
-        let mut out = Vec::new();
-        flate2::read::MultiGzDecoder::new(&bytes[..])
-            .take(MAX_TEXT + 1)
-            .read_to_end(&mut out)
-            .map_err(|e| format!("cannot decompress (gzip): {e}"))?;
-        out
-    } else {
-        bytes
-    };
+    let bytes = crate::zip::gunzipped(&bytes, MAX_TEXT)?.unwrap_or(bytes);
     if bytes.len() as u64 > MAX_TEXT {
         return Err("over 8 GiB of XML, more than this reader holds: split the file".into());
     }
@@ -267,10 +258,9 @@ fn decode(bytes: Vec<u8>) -> Result<String, String> {
         Some(rest) => rest.to_vec(),
         None => bytes,
     };
-    let label = declared_encoding(&bytes);
-    match label.as_deref() {
+    match declared_encoding(&bytes).as_deref() {
         None => {}
-        Some(l) if l.eq_ignore_ascii_case("utf-8") || l.eq_ignore_ascii_case("utf8") => {}
+        Some(l) if is_utf8(l) => {}
         Some(l) => {
             let enc = encoding_rs::Encoding::for_label(l.as_bytes()).ok_or_else(|| {
                 format!(
@@ -296,6 +286,11 @@ fn decode(bytes: Vec<u8>) -> Result<String, String> {
     })
 }
 
+/// An encoding label naming UTF-8.
+fn is_utf8(label: &str) -> bool {
+    label.eq_ignore_ascii_case("utf-8") || label.eq_ignore_ascii_case("utf8")
+}
+
 /// The `encoding` of an XML declaration at the start of `bytes`.
 fn declared_encoding(bytes: &[u8]) -> Option<String> {
     let head = &bytes[..bytes.len().min(512)];
@@ -315,12 +310,11 @@ fn declared_encoding(bytes: &[u8]) -> Option<String> {
 /// What one top-level member gave.
 #[derive(Default)]
 struct MemberOut {
-    doc: Option<CityDoc>,
-    non_building: usize,
+    /// Its buildings, and its other city objects counted.
+    doc: CityDoc,
     srs: Option<String>,
     /// Simple-typed children the attribute rules could not read (complex ADE elements, …), by name.
     not_attributes: Vec<String>,
-    error: Option<String>,
 }
 
 /// Member text gathered before it is read in parallel: members are read a batch at a time, so a file of any size
@@ -377,7 +371,7 @@ fn read_stream<R: std::io::BufRead>(
     let mut batch: Vec<(usize, String, usize)> = Vec::new();
     let mut batch_bytes = 0usize;
     let mut members = 0usize;
-    let mut outs: Vec<MemberOut> = Vec::new();
+    let mut outs: Vec<Result<MemberOut, String>> = Vec::new();
     let mut flush = |batch: &mut Vec<(usize, String, usize)>, model: &mut Model| {
         let (swap, _) = model
             .axes
@@ -396,7 +390,7 @@ fn read_stream<R: std::io::BufRead>(
                 }
             })
             .clone();
-        let read: Vec<MemberOut> = batch
+        let read: Vec<Result<MemberOut, String>> = batch
             .par_iter()
             .map(|(i, text, line)| read_member(text, *line, *i, file_name, model_target, swap))
             .collect();
@@ -512,10 +506,8 @@ fn read_stream<R: std::io::BufRead>(
     flush(&mut batch, &mut model);
     let version = version_of(&model.root_attrs);
     let mut doc = CityDoc {
-        features: Vec::new(),
-        declared_crs: None,
         version: version.clone(),
-        non_building_objects: 0,
+        ..Default::default()
     };
     let mut notes = Vec::new();
     if let Some(v) = &version {
@@ -525,10 +517,7 @@ fn read_stream<R: std::io::BufRead>(
     let mut member_srs: Vec<(String, usize)> = Vec::new();
     let mut not_attributes: Vec<(String, usize)> = Vec::new();
     for out in outs {
-        if let Some(e) = out.error {
-            return Err(e);
-        }
-        doc.non_building_objects += out.non_building;
+        let out = out?;
         if let Some(s) = out.srs {
             match member_srs.iter_mut().find(|(n, _)| *n == s) {
                 Some((_, c)) => *c += 1,
@@ -541,10 +530,8 @@ fn read_stream<R: std::io::BufRead>(
                 None => not_attributes.push((n, 1)),
             }
         }
-        if let Some(d) = out.doc {
-            doc.features.extend(d.features);
-            doc.non_building_objects += d.non_building_objects;
-        }
+        doc.features.extend(out.doc.features);
+        doc.non_building_objects += out.doc.non_building_objects;
     }
     let srs = model
         .srs
@@ -699,19 +686,12 @@ fn read_member(
     file_name: &str,
     model_target: Option<Target>,
     swap: bool,
-) -> MemberOut {
+) -> Result<MemberOut, String> {
     let mut out = MemberOut::default();
-    let doc = match roxmltree::Document::parse(wrapped) {
-        Ok(d) => d,
-        Err(e) => {
-            out.error = Some(format!(
-                "the member at line {line} is not well-formed XML: {e}"
-            ));
-            return out;
-        }
-    };
+    let doc = roxmltree::Document::parse(wrapped)
+        .map_err(|e| format!("the member at line {line} is not well-formed XML: {e}"))?;
     let Some(member) = doc.root_element().first_element_child() else {
-        return out;
+        return Ok(out);
     };
     out.srs = member
         .descendants()
@@ -720,16 +700,11 @@ fn read_member(
         .descendants()
         .filter_map(|n| gml_id(n).map(|id| (id, n)))
         .collect();
-    let mut city = CityDoc {
-        features: Vec::new(),
-        declared_crs: None,
-        version: None,
-        non_building_objects: 0,
-    };
+    let city = &mut out.doc;
     for (k, object) in member.children().filter(Node::is_element).enumerate() {
         let kind = object.tag_name().name();
         if kind != "Building" && kind != "BuildingPart" {
-            out.non_building += 1;
+            city.non_building_objects += 1;
             continue;
         }
         let key = gml_id(object).map(str::to_string).unwrap_or_else(|| {
@@ -768,7 +743,7 @@ fn read_member(
             _ => Ok(vertices),
         };
         let first = city.features.len();
-        cityjson::read_objects_with_vertices(&objects, vertices, model_target, &mut city);
+        cityjson::read_objects_with_vertices(&objects, vertices, model_target, city);
         for f in &mut city.features[first..] {
             if f.skip.is_none() {
                 f.repairs.extend(
@@ -779,8 +754,7 @@ fn read_member(
             }
         }
     }
-    out.doc = Some(city);
-    out
+    Ok(out)
 }
 
 /// The `gml:id` of an element.
@@ -811,9 +785,19 @@ struct Poly {
 
 /// A geometry property's content.
 enum Geom {
-    /// Shells of polygons (a Solid: exterior first).
-    Solid(Vec<Vec<Poly>>),
+    /// Solids (one, or a CompositeSolid's or MultiSolid's), each its shells of polygons, exterior first.
+    Solids(Vec<Vec<Vec<Poly>>>),
     Surfaces(Vec<Poly>),
+}
+
+impl Geom {
+    /// Every polygon, for a property that takes surfaces.
+    fn polygons(self) -> Vec<Poly> {
+        match self {
+            Geom::Solids(solids) => solids.into_iter().flatten().flatten().collect(),
+            Geom::Surfaces(p) => p,
+        }
+    }
 }
 
 /// The thematic surface types of buildings (CityGML's names are CityJSON's), openings included.
@@ -863,11 +847,10 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
             let name = c.tag_name().name();
             if let Some((lod, kind)) = geometry_property(name) {
                 match self.geometry(c) {
-                    Ok(Geom::Solid(shells)) if kind == Kind::Solid => lods[lod].solids.push(shells),
-                    Ok(Geom::Solid(shells)) => lods[lod]
-                        .surfaces
-                        .extend(shells.into_iter().flatten().map(|p| (p, None))),
-                    Ok(Geom::Surfaces(polys)) => {
+                    Ok(Geom::Solids(solids)) if kind == Kind::Solid => {
+                        lods[lod].solids.extend(solids)
+                    }
+                    Ok(g) => {
                         let semantic = match kind {
                             Kind::Footprint => Some("GroundSurface"),
                             Kind::RoofEdge => Some("RoofSurface"),
@@ -875,7 +858,7 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
                         };
                         lods[lod]
                             .surfaces
-                            .extend(polys.into_iter().map(|p| (p, semantic)));
+                            .extend(g.polygons().into_iter().map(|p| (p, semantic)));
                     }
                     Err(why) => self.problem(&key, c, why),
                 }
@@ -955,15 +938,9 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
             let name = c.tag_name().name();
             if let Some((lod, _)) = geometry_property(name) {
                 match self.geometry(c) {
-                    Ok(g) => {
-                        let polys: Vec<Poly> = match g {
-                            Geom::Solid(shells) => shells.into_iter().flatten().collect(),
-                            Geom::Surfaces(p) => p,
-                        };
-                        lods[lod]
-                            .thematic
-                            .extend(polys.into_iter().map(|p| (p, kind)));
-                    }
+                    Ok(g) => lods[lod]
+                        .thematic
+                        .extend(g.polygons().into_iter().map(|p| (p, kind))),
                     Err(why) => self.problem(key, c, why),
                 }
             } else if (name == "opening" || name == "filling") && depth < 4 {
@@ -978,25 +955,26 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
     fn geometry(&self, property: Node<'a, 'input>) -> Result<Geom, String> {
         let g = self.target(property)?.ok_or("empty: no geometry inside")?;
         match g.tag_name().name() {
-            "Solid" => Ok(Geom::Solid(self.solid(g)?)),
+            "Solid" => Ok(Geom::Solids(vec![self.solid(g)?])),
+            // Each member a solid of its own: one solid of all their shells would make the others its cavities.
             "CompositeSolid" | "MultiSolid" => {
-                let mut shells = Vec::new();
+                let mut solids = Vec::new();
                 for m in g.children().filter(Node::is_element) {
                     match m.tag_name().name() {
                         "solidMember" => {
                             if let Some(s) = self.target(m)? {
-                                shells.extend(self.solid_of(s)?);
+                                solids.push(self.solid_of(s)?);
                             }
                         }
                         "solidMembers" => {
                             for s in m.children().filter(Node::is_element) {
-                                shells.extend(self.solid_of(s)?);
+                                solids.push(self.solid_of(s)?);
                             }
                         }
                         _ => {}
                     }
                 }
-                Ok(Geom::Solid(shells))
+                Ok(Geom::Solids(solids))
             }
             _ => {
                 let mut polys = Vec::new();
@@ -1243,105 +1221,79 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
     }
 
     /// One LoD's geometry as a CityJSON geometry: its solids (their polygons typed by the thematic surfaces they
-    /// share a `gml:id` with), else its surfaces and thematic surfaces together.
+    /// share a `gml:id` with; several as a MultiSolid), else its surfaces and thematic surfaces together.
     fn emit(&mut self, lod: usize, g: ByLod) -> Option<Value> {
         let kinds: HashMap<&str, &str> = g
             .thematic
             .iter()
             .filter_map(|(p, k)| p.id.as_deref().map(|id| (id, *k)))
             .collect();
+        let kind_of = |p: &Poly| p.id.as_deref().and_then(|id| kinds.get(id).copied());
         let mut types: Vec<String> = Vec::new();
         let mut type_index = |t: Option<&str>| -> Value {
-            match t {
-                None => Value::Null,
-                Some(t) => Value::from(match types.iter().position(|k| *k == t) {
-                    Some(i) => i,
-                    None => {
-                        types.push(t.to_string());
-                        types.len() - 1
-                    }
-                }),
-            }
+            let Some(t) = t else { return Value::Null };
+            Value::from(match types.iter().position(|k| *k == t) {
+                Some(i) => i,
+                None => {
+                    types.push(t.to_string());
+                    types.len() - 1
+                }
+            })
         };
-        let lod_text = lod.to_string();
-        let mut out = Map::new();
-        if lod > 0 && !g.solids.is_empty() {
-            let shells: Vec<&Vec<Poly>> = g.solids.iter().flatten().collect();
+        let (kind, boundaries, values) = if !g.solids.is_empty() {
             let mut boundaries = Vec::new();
             let mut values = Vec::new();
-            for shell in &shells {
-                boundaries.push(Value::Array(
-                    shell.iter().map(|p| self.boundary(p)).collect(),
-                ));
-                values.push(Value::Array(
-                    shell
-                        .iter()
-                        .map(|p| type_index(p.id.as_deref().and_then(|id| kinds.get(id).copied())))
-                        .collect(),
-                ));
+            for solid in &g.solids {
+                let shells = |f: &mut dyn FnMut(&Poly) -> Value| -> Value {
+                    Value::Array(
+                        solid
+                            .iter()
+                            .map(|shell| Value::Array(shell.iter().map(&mut *f).collect()))
+                            .collect(),
+                    )
+                };
+                boundaries.push(shells(&mut |p| self.boundary(p)));
+                values.push(shells(&mut |p| type_index(kind_of(p))));
             }
-            // Several solids (or a CompositeSolid) as one solid of all their shells would make cavities of the
-            // others: each becomes a solid of its own in a MultiSolid.
             if g.solids.len() == 1 {
-                out.insert("type".into(), "Solid".into());
-                out.insert("boundaries".into(), Value::Array(boundaries));
-                out.insert("semantics_values".into(), Value::Array(values));
+                ("Solid", boundaries.remove(0), values.remove(0))
             } else {
-                let mut b = Vec::new();
-                let mut v = Vec::new();
-                let mut at = 0;
-                for solid in &g.solids {
-                    b.push(Value::Array(boundaries[at..at + solid.len()].to_vec()));
-                    v.push(Value::Array(values[at..at + solid.len()].to_vec()));
-                    at += solid.len();
-                }
-                out.insert("type".into(), "MultiSolid".into());
-                out.insert("boundaries".into(), Value::Array(b));
-                out.insert("semantics_values".into(), Value::Array(v));
+                ("MultiSolid", Value::Array(boundaries), Value::Array(values))
             }
         } else {
-            let mut polys: Vec<(&Poly, Option<&str>)> = g
-                .surfaces
-                .iter()
-                .map(|(p, t)| {
-                    (
-                        p,
-                        t.or_else(|| p.id.as_deref().and_then(|id| kinds.get(id).copied())),
-                    )
-                })
-                .collect();
             let listed: std::collections::HashSet<&str> = g
                 .surfaces
                 .iter()
                 .filter_map(|(p, _)| p.id.as_deref())
                 .collect();
-            polys.extend(
-                g.thematic
-                    .iter()
-                    .filter(|(p, _)| p.id.as_deref().is_none_or(|id| !listed.contains(id)))
-                    .map(|(p, k)| (p, Some(*k))),
-            );
+            let polys: Vec<(&Poly, Option<&str>)> = g
+                .surfaces
+                .iter()
+                .map(|(p, t)| (p, t.or_else(|| kind_of(p))))
+                .chain(
+                    g.thematic
+                        .iter()
+                        .filter(|(p, _)| p.id.as_deref().is_none_or(|id| !listed.contains(id)))
+                        .map(|(p, k)| (p, Some(*k))),
+                )
+                .collect();
             if polys.is_empty() {
                 return None;
             }
-            let boundaries: Vec<Value> = polys.iter().map(|(p, _)| self.boundary(p)).collect();
-            let values: Vec<Value> = polys.iter().map(|(_, t)| type_index(*t)).collect();
-            out.insert("type".into(), "MultiSurface".into());
-            out.insert("boundaries".into(), Value::Array(boundaries));
-            out.insert("semantics_values".into(), Value::Array(values));
-        }
-        out.insert("lod".into(), Value::from(lod_text));
-        let values = out.remove("semantics_values").expect("set above");
+            (
+                "MultiSurface",
+                polys.iter().map(|(p, _)| self.boundary(p)).collect(),
+                polys.iter().map(|(_, t)| type_index(*t)).collect(),
+            )
+        };
+        let mut out = json!({"type": kind, "lod": lod.to_string(), "boundaries": boundaries});
         if !types.is_empty() {
-            out.insert(
-                "semantics".into(),
-                json!({
-                    "surfaces": types.iter().map(|t| json!({"type": t})).collect::<Vec<_>>(),
-                    "values": values,
-                }),
-            );
+            out["semantics"] = json!({
+                "surfaces": types.iter().map(|t| json!({"type": t})).collect::<Vec<_>>(),
+                "values": values,
+            });
         }
-        Some(Value::Object(out))
+        Some(out)
     }
 }
 
@@ -1366,7 +1318,7 @@ fn geometry_property(name: &str) -> Option<(usize, Kind)> {
         return None;
     }
     match &rest[1..] {
-        "Solid" | "MultiSolid" => Some((lod, Kind::Solid)),
+        "Solid" | "MultiSolid" if lod >= 1 => Some((lod, Kind::Solid)),
         "MultiSurface" | "CompositeSurface" | "Surface" => Some((lod, Kind::Surfaces)),
         _ => None,
     }
@@ -1606,26 +1558,12 @@ fn child_text(n: Node, name: &str) -> Option<String> {
 
 /// Sets an attribute; a name given again (several `gml:name`s) keeps every value, joined with "; ".
 fn put(out: &mut Map<String, Value>, key: String, value: Value) {
+    let text = |v: &Value| match v {
+        Value::String(t) => t.clone(),
+        v => v.to_string(),
+    };
     match out.get_mut(&key) {
-        Some(Value::String(s)) => {
-            let more = match &value {
-                Value::String(v) => v.clone(),
-                v => v.to_string(),
-            };
-            s.push_str("; ");
-            s.push_str(&more);
-        }
-        Some(old) => {
-            let joined = format!(
-                "{}; {}",
-                old,
-                match &value {
-                    Value::String(v) => v.clone(),
-                    v => v.to_string(),
-                }
-            );
-            *old = Value::from(joined);
-        }
+        Some(old) => *old = Value::from(format!("{}; {}", text(old), text(&value))),
         None => {
             out.insert(key, value);
         }

@@ -18,7 +18,7 @@ use serde_json::{Map, Value};
 use std::collections::{HashMap, HashSet};
 
 /// The buildings of a CityJSON document (or sequence) and what its header declares.
-#[derive(Debug)]
+#[derive(Debug, Default)]
 pub(crate) struct CityDoc {
     pub features: Vec<RawFeature>,
     pub declared_crs: Option<DeclaredCrs>,

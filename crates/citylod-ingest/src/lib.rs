@@ -691,26 +691,31 @@ fn vector_file(
 }
 
 /// The files an input holds: itself, or each CityGML file of a ZIP archive of them (as city models are downloaded,
-/// tiles in one archive; each is reported as `ARCHIVE/MEMBER` with its own CRS).
+/// tiles in one archive; each is reported as `ARCHIVE/MEMBER` with its own CRS). CityGML is told by its first
+/// element before any other format (a geodatabase's test takes any .zip).
 fn load(
     path: &Path,
     opts: &IngestOptions,
     model_target: Option<lod::Target>,
 ) -> Result<Vec<LoadedFile>, IngestError> {
-    if citygml::is_zip(path) && citygml::is_citygml(path) {
-        let members =
-            citygml::read_zip(path, model_target, opts.crs.as_deref()).map_err(|detail| {
-                IngestError::InvalidCityGml {
-                    path: path.into(),
-                    detail,
-                }
-            })?;
-        return members
+    if !citygml::is_citygml(path) {
+        return load_one(path, opts, model_target).map(|f| vec![f]);
+    }
+    let invalid = |detail| IngestError::InvalidCityGml {
+        path: path.into(),
+        detail,
+    };
+    let crs = opts.crs.as_deref();
+    if citygml::is_zip(path) {
+        citygml::read_zip(path, model_target, crs)
+            .map_err(invalid)?
             .into_iter()
             .map(|(name, gml)| citygml_file(&path.join(name), gml, opts))
-            .collect();
+            .collect()
+    } else {
+        let gml = citygml::read(path, model_target, crs).map_err(invalid)?;
+        Ok(vec![citygml_file(path, gml, opts)?])
     }
-    load_one(path, opts, model_target).map(|f| vec![f])
 }
 
 /// A CityGML file read, its CRS settled and, in a projected CRS in feet, its heights taken in feet too.
@@ -788,15 +793,6 @@ fn load_one(
             path: path.into(),
             detail: format!("this is a shapefile's {what}; give its .shp as the input"),
         });
-    }
-    if citygml::is_citygml(path) {
-        let gml = citygml::read(path, model_target, opts.crs.as_deref()).map_err(|detail| {
-            IngestError::InvalidCityGml {
-                path: path.into(),
-                detail,
-            }
-        })?;
-        return citygml_file(path, gml, opts);
     }
     if fgdb::is_filegdb(path) {
         let doc = fgdb::read(path, opts.layer.as_deref(), feature::Want::Footprints).map_err(

@@ -11,7 +11,6 @@ use crate::osm::{
     Want, Way, MAX_MEMBERS, MAX_WAY_NODES,
 };
 use std::collections::{HashMap, HashSet};
-use std::io::Read;
 
 /// The XML read at most: its tree takes ~7.5 bytes of memory per byte of text (PBF is the format for more).
 const MAX_TEXT: u64 = 512 * 1024 * 1024;
@@ -31,19 +30,8 @@ pub(crate) fn gather(bytes: &[u8], want: Want) -> Result<Gathered, String> {
     if bytes.starts_with(b"BZh") {
         return Err("bzip2-compressed, which this reader does not read: decompress it (bunzip2) or convert it to PBF".into());
     }
-    let inflated;
-    // gzip by its magic number, whatever the name says.
-    let bytes = if bytes.starts_with(&[0x1f, 0x8b]) {
-        let mut out = Vec::new();
-        flate2::read::MultiGzDecoder::new(bytes)
-            .take(MAX_TEXT + 1)
-            .read_to_end(&mut out)
-            .map_err(|e| format!("cannot decompress (gzip): {e}"))?;
-        inflated = out;
-        &inflated[..]
-    } else {
-        bytes
-    };
+    let inflated = crate::zip::gunzipped(bytes, MAX_TEXT)?;
+    let bytes = inflated.as_deref().unwrap_or(bytes);
     if bytes.len() as u64 > MAX_TEXT {
         return Err(too_big());
     }

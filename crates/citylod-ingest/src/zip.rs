@@ -1,4 +1,4 @@
-//! Reading members of a ZIP archive (PKWARE's APPNOTE: the end of central directory record, its ZIP64 form, the
+//! Compressed inputs: gzip ([`gunzipped`]), and members of a ZIP archive (PKWARE's APPNOTE: the end of central directory record, its ZIP64 form, the
 //! central directory, local headers), as File Geodatabases are downloaded (`Buildings.gdb.zip`). Members stored or
 //! deflated (flate2), each checked against its CRC-32; other methods and encrypted members are refused by name.
 //! Only the member asked for is inflated, so a large archive costs no more memory than its largest table.
@@ -6,6 +6,20 @@
 use std::fs::File;
 use std::io::{Read, Seek, SeekFrom};
 use std::path::Path;
+
+/// `bytes` inflated when they are gzip-compressed (by their magic number, whatever the name says), up to `max` + 1
+/// bytes (the caller judges a text over `max`); `None` when they are not.
+pub(crate) fn gunzipped(bytes: &[u8], max: u64) -> Result<Option<Vec<u8>>, String> {
+    if !bytes.starts_with(&[0x1f, 0x8b]) {
+        return Ok(None);
+    }
+    let mut out = Vec::new();
+    flate2::read::MultiGzDecoder::new(bytes)
+        .take(max + 1)
+        .read_to_end(&mut out)
+        .map_err(|e| format!("cannot decompress (gzip): {e}"))?;
+    Ok(Some(out))
+}
 
 /// One member of the archive, as its central directory lists it.
 #[derive(Debug, Clone)]
