@@ -253,6 +253,17 @@ fn main() -> Result<()> {
         )?;
         return Ok(std::io::Write::flush(&mut out)?);
     }
+    if argv.get(1).map(String::as_str) == Some("synth-osm") && argv.len() == 5 {
+        let copies: usize = argv[3]
+            .parse()
+            .context("synth-osm GEOJSON COPIES FILE: COPIES is a count")?;
+        let doc: serde_json::Value = serde_json::from_slice(&std::fs::read(&argv[2])?)?;
+        let mut out = std::io::BufWriter::new(std::fs::File::create(&argv[4])?);
+        // Each copy 0.06° (~5 km) east of the last.
+        let data = citylod_testdata::osm_xml::from_geojson(&doc, copies, 0.06);
+        citylod_testdata::osm_xml::write_xml(&data, &mut out)?;
+        return Ok(std::io::Write::flush(&mut out)?);
+    }
     if argv.get(1).map(String::as_str) == Some("synth-geojson") && argv.len() == 4 {
         let n: usize = argv[2]
             .parse()
@@ -305,6 +316,35 @@ fn main() -> Result<()> {
         &["--streets", &pbf.to_string_lossy()],
         runs,
     )?;
+    // Boston's footprints written as OpenStreetMap XML ten times side by side (221,860 buildings, ~215 MB), as the
+    // API writes it: the reader streams the text, so memory is the text and what is kept of it.
+    let boston = data.join("boston/boston_buildings.geojson");
+    if boston.exists() {
+        let osm =
+            std::env::temp_dir().join(format!("citylod-bench-boston-{}.osm", std::process::id()));
+        measure(
+            Command::new(std::env::current_exe()?)
+                .arg("synth-osm")
+                .arg(&boston)
+                .arg("10")
+                .arg(&osm),
+        )?;
+        let built = bench_build(
+            &citylod,
+            "boston ×10 (OpenStreetMap XML)",
+            std::slice::from_ref(&osm),
+            &["--storey-height", "3.5"],
+            1,
+        );
+        let _ = std::fs::remove_file(&osm);
+        built?;
+    } else {
+        println!(
+            "{:<44} skipped: {} not found",
+            "boston ×10 (OpenStreetMap XML)",
+            boston.display()
+        );
+    }
     // Den Haag's LoD 2 city model written as CityGML 2.0 twenty times side by side (16,880 buildings, ~234 MB; solids
     // as xlink:hrefs to their thematic surfaces, as the 3D City Database exports them), built as footprints.
     let den_haag = data.join("denhaag-lod2/DenHaag_01.json");

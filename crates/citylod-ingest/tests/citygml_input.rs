@@ -956,12 +956,7 @@ fn a_composite_solid_is_its_solids_each_whole() {
     let m = b.mesh.as_ref().expect("its LoD 1 model");
     assert_eq!(m.mesh.triangles.len(), 24);
     // Both boxes whole, in the frame's metres: each footprint polygon's area times its box's height.
-    let mut areas: Vec<f64> = b
-        .footprint
-        .0
-        .iter()
-        .map(geo::Area::unsigned_area)
-        .collect();
+    let mut areas: Vec<f64> = b.footprint.0.iter().map(geo::Area::unsigned_area).collect();
     areas.sort_by(f64::total_cmp);
     assert_eq!(areas.len(), 2);
     let want = areas[0] * 9.0 + areas[1] * 6.0;

@@ -9,6 +9,7 @@ pub mod citygml;
 pub mod fgdb;
 pub mod geopackage;
 pub mod osm_pbf;
+pub mod osm_xml;
 pub mod shapefile;
 
 /// The folder holding the real data sets (it may not exist).
