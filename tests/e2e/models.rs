@@ -4,10 +4,11 @@
 
 use crate::common::{
     assert_same_files, build, build_with_env, citylod, e2e_dir, gltf_validator, read_json,
-    repo_root, schema_errors, shared_data,
+    repo_root, schema_errors, shared_data, tree_bytes,
 };
 use citylod_tiles::read::read_tileset;
 use citylod_tiles::PropValue;
+use serde_json::Value;
 use std::collections::BTreeMap;
 
 #[test]
@@ -449,4 +450,54 @@ fn citygml_files_build_valid_tilesets() {
         "glTF-Validator: {:#}",
         v["messages"]
     );
+}
+
+#[test]
+fn geoparquet_builds_valid_tilesets_whose_buildings_keep_overture_attributes() {
+    let dir = repo_root().join("crates/citylod-ingest/tests/geoparquet");
+    let out = e2e_dir("les-geoparquet");
+    let report = build(&[&dir.join("les_overture.parquet")], &out, &["--lod", "2"]);
+    let errs = schema_errors("build-report.schema.json", &report);
+    assert!(errs.is_empty(), "build report: {}", errs.join("\n"));
+    assert_eq!(report["ingest"]["files"][0]["format"], "geo_parquet");
+    assert_eq!(report["counts"]["buildings_written"], 1403);
+    assert_eq!(report["models"]["buildings"], 26, "{:#}", report["models"]);
+    let ts_json = read_json(&out.join("tileset.json"));
+    let errs = schema_errors("tileset.schema.json", &ts_json);
+    assert!(errs.is_empty(), "tileset.json: {}", errs.join("\n"));
+    let v = gltf_validator(&out);
+    assert_eq!(
+        v["errors"].as_u64(),
+        Some(0),
+        "glTF-Validator: {:#}",
+        v["messages"]
+    );
+    // The leaf tiles' metadata carries Overture's columns as the building class's properties (a struct's field
+    // as `names.primary`, named as a metadata id allows).
+    let mut leaf_classes = 0;
+    for (rel, bytes) in tree_bytes(&out) {
+        if !rel.ends_with(".glb") {
+            continue;
+        }
+        let len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+        let gltf: Value = serde_json::from_slice(&bytes[20..20 + len]).unwrap();
+        let classes = &gltf["extensions"]["EXT_structural_metadata"]["schema"]["classes"];
+        if let Some(props) = classes["building"]["properties"].as_object() {
+            leaf_classes += 1;
+            for column in ["names_primary", "num_floors", "sources", "roof_shape"] {
+                assert!(props.contains_key(column), "{rel}: {:?}", props.keys());
+            }
+        }
+    }
+    assert!(leaf_classes > 0);
+    let check_out = e2e_dir("les-geoparquet-check");
+    let o = citylod(&[
+        "check",
+        &out.display().to_string(),
+        "--out",
+        &check_out.display().to_string(),
+        "--quiet",
+    ]);
+    let check = read_json(&check_out.join("report.json"));
+    assert_eq!(o.status.code(), Some(0), "{:#}", check["summary"]);
 }

@@ -71,6 +71,14 @@ pub enum IngestError {
     /// encoding this reader does not know).
     #[error("{path}: invalid CityGML: {detail}")]
     InvalidCityGml { path: PathBuf, detail: String },
+    /// A GeoParquet file that cannot be read as one (not Parquet, no geometry column this reader can read, a page
+    /// that cannot be decoded).
+    #[error("{path}: invalid GeoParquet: {detail}")]
+    InvalidGeoParquet { path: PathBuf, detail: String },
+    /// A GeoParquet file whose geometry column's CRS is `null` (unknown), or a Parquet file without GeoParquet
+    /// metadata, and no CRS was given by the user.
+    #[error("{path}: the file does not say its CRS (the GeoParquet metadata gives crs null, or there is none); pass it with --crs, e.g. --crs EPSG:32618")]
+    GeoParquetWithoutCrs { path: PathBuf },
     /// A File Geodatabase that cannot be read as one (no catalog, a table cut short or of an unknown layout, several
     /// feature classes and no `--layer`, a layer that is not there).
     #[error("{path}: File Geodatabase: {detail}")]

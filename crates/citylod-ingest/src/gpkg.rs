@@ -599,6 +599,12 @@ pub(crate) fn geometry(b: &[u8]) -> Result<Geometry, Skip> {
             b.len()
         ))
     })?;
+    wkb_geometry(wkb)
+}
+
+/// A WKB geometry (ISO, or EWKB with its Z, M and SRID flags) → the footprint's polygons, a 3D model's faces or lines,
+/// and the repairs made reading them.
+pub(crate) fn wkb_geometry(wkb: &[u8]) -> Result<Geometry, Skip> {
     let mut r = Wkb { b: wkb, at: 0 };
     let mut out = Out::default();
     r.geometry(0, "", &mut out)?;

@@ -56,8 +56,9 @@ pub(crate) const MAX_GROUND_M: f64 = 10_000.0;
 /// OSM base of a building part above the ground (m).
 const MIN_HEIGHT_ATTR: &str = "min_height";
 /// OSM: the levels a building part skips from the ground (its base, in storeys), read when `min_height` is not there;
-/// then as GDAL writes the name where a name may not hold a colon (File Geodatabase, PostgreSQL).
-const MIN_LEVEL_ATTRS: [&str; 2] = ["building:min_level", "building_min_level"];
+/// then as GDAL writes the name where a name may not hold a colon (File Geodatabase, PostgreSQL), and Overture Maps'
+/// name for the same (`min_floor`).
+const MIN_LEVEL_ATTRS: [&str; 3] = ["building:min_level", "building_min_level", "min_floor"];
 
 /// Where a building's ground height came from (report key).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -33,6 +33,7 @@ mod feature;
 mod fgdb;
 mod geoid;
 mod geojson;
+mod geoparquet;
 mod gpkg;
 mod height;
 mod lod;
@@ -676,6 +677,7 @@ fn vector_file(
         model_target.is_some(),
         match format {
             InputFormat::GeoPackage => "GeoPackage 3D",
+            InputFormat::GeoParquet => "GeoParquet 3D",
             _ => "MultiPatch",
         },
     ));
@@ -849,6 +851,21 @@ fn load_one(
                 "this is SQLite's {what} beside a GeoPackage; give the .gpkg as the input"
             ),
         });
+    }
+    if geoparquet::is_parquet(path) {
+        let doc = geoparquet::read(path).map_err(|detail| IngestError::InvalidGeoParquet {
+            path: path.into(),
+            detail,
+        })?;
+        let missing = IngestError::GeoParquetWithoutCrs { path: path.into() };
+        return vector_file(
+            path,
+            doc,
+            opts,
+            model_target,
+            InputFormat::GeoParquet,
+            missing,
+        );
     }
     if let Some(encoding) = osm::Encoding::of(path) {
         let doc = osm::read(path).map_err(|detail| IngestError::InvalidOsm {

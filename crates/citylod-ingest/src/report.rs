@@ -213,6 +213,7 @@ pub enum InputFormat {
     OsmPbf,
     OsmXml,
     CityGml,
+    GeoParquet,
 }
 
 /// What happened to one input file.

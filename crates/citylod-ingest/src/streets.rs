@@ -41,6 +41,7 @@ enum Format {
     Shapefile,
     GeoPackage,
     FileGdb,
+    GeoParquet,
     GeoJson,
     /// A format `--streets` does not read: a phrase for the error.
     Other(&'static str),
@@ -52,6 +53,9 @@ fn format(path: &Path) -> Format {
     }
     if crate::fgdb::is_filegdb(path) {
         return Format::FileGdb;
+    }
+    if crate::geoparquet::is_parquet(path) {
+        return Format::GeoParquet;
     }
     let ext = path
         .extension()
@@ -138,7 +142,9 @@ pub fn read_streets(
     frame: &LocalFrame,
 ) -> Result<Streets, IngestError> {
     let format = format(path);
-    if let (Some(l), Format::Osm(_) | Format::Shapefile | Format::GeoJson) = (layer, &format) {
+    if let (Some(l), Format::Osm(_) | Format::Shapefile | Format::GeoJson | Format::GeoParquet) =
+        (layer, &format)
+    {
         return Err(IngestError::InvalidOption {
             name: "--streets-layer",
             detail: format!(
@@ -153,8 +159,8 @@ pub fn read_streets(
             return Err(IngestError::UnknownFormat {
                 path: path.into(),
                 detail: format!(
-                    "--streets reads GeoJSON, Shapefile (.shp), GeoPackage (.gpkg), File Geodatabase (.gdb, .gdb.zip) \
-                     or OpenStreetMap (.osm, .osm.pbf) street lines, and this is {kind}: convert its lines to one of them first (e.g. `ogr2ogr -f \
+                    "--streets reads GeoJSON, Shapefile (.shp), GeoPackage (.gpkg), File Geodatabase (.gdb, .gdb.zip), \
+                     GeoParquet (WKB lines) or OpenStreetMap (.osm, .osm.pbf) street lines, and this is {kind}: convert its lines to one of them first (e.g. `ogr2ogr -f \
                      GPKG streets.gpkg {}`)",
                     path.display()
                 ),
@@ -178,6 +184,12 @@ pub fn read_streets(
                 detail,
             },
         )?,
+        Format::GeoParquet => {
+            crate::geoparquet::read(path).map_err(|detail| IngestError::InvalidGeoParquet {
+                path: path.into(),
+                detail,
+            })?
+        }
         Format::GeoJson => return geojson_streets(path, crs, fallback_crs, frame),
     };
     let (crs, origin) = street_crs(path, crs, doc.declared_crs, fallback_crs, None)?;

@@ -20,7 +20,8 @@ use crate::shown;
 pub struct BuildArgs {
     /// Input files: GeoJSON (.geojson, .json), Esri Shapefile (.shp, read with the .dbf beside it), GeoPackage
     /// (.gpkg, one feature table: see --layer), Esri File Geodatabase (a .gdb folder or a .zip holding one, one
-    /// feature class: see --layer), OpenStreetMap PBF or XML (.osm.pbf, .osm, .osm.gz: ways and multipolygon relations tagged building
+    /// feature class: see --layer), GeoParquet (.parquet, .geoparquet: Overture Maps' buildings; WKB or GeoArrow
+    /// polygons), OpenStreetMap PBF or XML (.osm.pbf, .osm, .osm.gz: ways and multipolygon relations tagged building
     /// or building:part, their tags as attributes), CityJSON (.city.json, .json) or CityJSONSeq (.city.jsonl,
     /// .jsonl), CityGML 1.0, 2.0 or 3.0 (.gml, .xml, .citygml, gzip-compressed, or a .zip of such tiles:
     /// Buildings with their BuildingParts, their solids, surfaces and thematic surfaces, attributes and generic
@@ -199,7 +200,7 @@ pub struct BuildArgs {
     pub landmark_max_share: f64,
 
     /// Street centre lines (GeoJSON LineString / MultiLineString, Shapefile PolyLines, a GeoPackage's or File
-    /// Geodatabase's lines, or an OpenStreetMap file's highway ways: the buildings' own .osm.pbf or .osm serves) as
+    /// Geodatabase's lines, a GeoParquet file's WKB lines, or an OpenStreetMap file's highway ways: the buildings' own .osm.pbf or .osm serves) as
     /// barriers: the first levels do not join buildings on opposite sides of a street (Zhang et al. 2014). A line
     /// whose attributes say it is not on the ground (OpenStreetMap's tags, in any format: tunnel=yes or T,
     /// indoor=yes, area=yes, highway=construction/proposed/…) is no barrier. The build report says up to which
