@@ -264,6 +264,16 @@ fn main() -> Result<()> {
         citylod_testdata::osm_xml::write_xml(&data, &mut out)?;
         return Ok(std::io::Write::flush(&mut out)?);
     }
+    if argv.get(1).map(String::as_str) == Some("synth-geoparquet") && argv.len() == 5 {
+        let copies: usize = argv[3]
+            .parse()
+            .context("synth-geoparquet GEOJSON COPIES FILE: COPIES is a count")?;
+        let doc: serde_json::Value = serde_json::from_slice(&std::fs::read(&argv[2])?)?;
+        let out = std::io::BufWriter::new(std::fs::File::create(&argv[4])?);
+        // Each copy 0.06° (~5 km) east of the last, in row groups of 50,000.
+        citylod_testdata::geoparquet::write_buildings(&doc, copies, 0.06, 50_000, out)?;
+        return Ok(());
+    }
     if argv.get(1).map(String::as_str) == Some("synth-geojson") && argv.len() == 4 {
         let n: usize = argv[2]
             .parse()
@@ -344,6 +354,30 @@ fn main() -> Result<()> {
             "boston ×10 (OpenStreetMap XML)",
             boston.display()
         );
+    }
+    // Boston's footprints written as GeoParquet ten times side by side (Overture's layout: WKB, id, num_floors,
+    // names.primary; ZSTD), read row group by row group in parallel.
+    if boston.exists() {
+        let gpq = std::env::temp_dir().join(format!(
+            "citylod-bench-boston-{}.parquet",
+            std::process::id()
+        ));
+        measure(
+            Command::new(std::env::current_exe()?)
+                .arg("synth-geoparquet")
+                .arg(&boston)
+                .arg("10")
+                .arg(&gpq),
+        )?;
+        let built = bench_build(
+            &citylod,
+            "boston ×10 (GeoParquet)",
+            std::slice::from_ref(&gpq),
+            &["--storey-height", "3.5"],
+            1,
+        );
+        let _ = std::fs::remove_file(&gpq);
+        built?;
     }
     // Den Haag's LoD 2 city model written as CityGML 2.0 twenty times side by side (16,880 buildings, ~234 MB; solids
     // as xlink:hrefs to their thematic surfaces, as the 3D City Database exports them), built as footprints.

@@ -435,3 +435,38 @@ fn damaged_files_give_an_error_or_buildings_never_a_panic() {
     // Mutations inside compressed pages or statistics still leave files that read.
     assert!(read_some > 0, "{read_some}");
 }
+
+#[test]
+fn boston_as_geoparquet_gives_the_buildings_of_its_geojson() {
+    let Some(path) = citylod_testdata::shared_data("boston/boston_buildings.geojson") else {
+        return;
+    };
+    let opts = IngestOptions {
+        storey_height_m: 3.5,
+        ..Default::default()
+    };
+    let geojson = ingest(std::slice::from_ref(&path), &opts).unwrap();
+    let doc: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    let p = scratch("boston").join("boston.parquet");
+    // Row groups of 5,000: five read in parallel.
+    citylod_testdata::geoparquet::write_buildings(
+        &doc,
+        1,
+        0.0,
+        5_000,
+        std::fs::File::create(&p).unwrap(),
+    )
+    .unwrap();
+    let gpq = ingest(&[p], &opts).unwrap();
+    assert_eq!(gpq.buildings.len(), geojson.buildings.len());
+    assert_eq!(gpq.frame, geojson.frame);
+    // Outlines to the bit (WKB holds the GeoJSON's doubles), storeys × 3.5 m alike, in the same order.
+    let strip = |s: Seen| -> Vec<(Vec<[f64; 2]>, f64)> {
+        s.into_iter().map(|(_, v, _, h)| (v, h)).collect()
+    };
+    let (a, b) = (strip(seen(&gpq)), strip(seen(&geojson)));
+    if let Some((i, _)) = a.iter().zip(&b).enumerate().find(|(_, (x, y))| x != y) {
+        panic!("building {i}: {:?} against {:?}", a[i], b[i]);
+    }
+    assert_eq!(gpq.report.skipped.len(), geojson.report.skipped.len());
+}

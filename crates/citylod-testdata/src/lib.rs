@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 pub mod citygml;
 pub mod fgdb;
 pub mod geopackage;
+pub mod geoparquet;
 pub mod osm_pbf;
 pub mod osm_xml;
 pub mod shapefile;
