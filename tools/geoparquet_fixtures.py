@@ -163,5 +163,67 @@ def main(source, out_dir):
     pq.write_table(table, f"{out_dir}/les_utm_native.parquet", compression="snappy", row_group_size=300)
 
 
+def ring_area_centroid(ring):
+    a = cx = cy = 0.0
+    for (x0, y0), (x1, y1) in zip(ring, ring[1:]):
+        c = x0 * y1 - x1 * y0
+        a += c
+        cx += (x0 + x1) * c
+        cy += (y0 + y1) * c
+    return abs(a) / 2, (cx / (3 * a), cy / (3 * a)) if a else ring[0]
+
+
+def inside(point, polygons):
+    x, y = point
+    for rings in polygons:
+        crossings = 0
+        for ring in rings:
+            for (x0, y0), (x1, y1) in zip(ring, ring[1:]):
+                if (y0 > y) != (y1 > y) and x < x0 + (y - y0) * (x1 - x0) / (y1 - y0):
+                    crossings += 1
+        if crossings % 2:
+            return True
+    return False
+
+
+def overture_split(source, out_dir):
+    """3. As Overture splits them: buildings (without OSM's tags, `has_parts` where parts name them) and building
+    parts naming their building by `building_id` (the smallest outline holding the part's centroid), two files."""
+    features = json.load(open(source))["features"]
+    is_part = lambda f: f["properties"].get("building:part") not in (None, "no")
+    outlines = [f for f in features if not is_part(f) and f["properties"].get("building") not in (None, "no")]
+    ident = lambda f: f"{f['properties']['osm_type']}/{f['properties']['osm_id']}"
+    area = {ident(f): sum(ring_area_centroid(p[0])[0] for p in f["geometry"]["coordinates"]) for f in outlines}
+    parent = {}
+    for f in features:
+        if not is_part(f):
+            continue
+        _, c = ring_area_centroid(f["geometry"]["coordinates"][0][0])
+        holders = [ident(o) for o in outlines if inside(c, o["geometry"]["coordinates"])]
+        if holders:
+            parent[ident(f)] = min(holders, key=lambda h: area[h])
+    with_parts = set(parent.values())
+    for name, chosen in (("buildings", lambda f: not is_part(f)), ("parts", is_part)):
+        rows = [f for f in features if chosen(f)]
+        p = lambda f, k: f["properties"].get(k)
+        columns = {
+            "id": pa.array([ident(f) for f in rows], pa.string()),
+            "geometry": pa.array([wkb_multipolygon(f["geometry"]["coordinates"]) for f in rows], pa.binary()),
+            "height": pa.array([number(p(f, "height")) for f in rows], pa.float64()),
+            "num_floors": pa.array([whole(p(f, "building:levels")) for f in rows], pa.int32()),
+            "min_height": pa.array([number(p(f, "min_height")) for f in rows], pa.float64()),
+            "min_floor": pa.array([whole(p(f, "building:min_level")) for f in rows], pa.int32()),
+            "roof_shape": pa.array([p(f, "roof:shape") for f in rows], pa.string()),
+        }
+        if name == "buildings":
+            columns["has_parts"] = pa.array([ident(f) in with_parts for f in rows], pa.bool_())
+        else:
+            columns["building_id"] = pa.array([parent.get(ident(f)) for f in rows], pa.string())
+        geo = {"version": "1.1.0", "primary_column": "geometry", "columns": {"geometry": {"encoding": "WKB"}}}
+        table = pa.table(columns).replace_schema_metadata({"geo": json.dumps(geo)})
+        pq.write_table(table, f"{out_dir}/les_overture_{name}.parquet", compression="zstd")
+
+
 if __name__ == "__main__":
     main(sys.argv[1], sys.argv[2])
+    overture_split(sys.argv[1], sys.argv[2])

@@ -228,6 +228,12 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
         };
     }
 
+    let part_links = {
+        let mut inputs: Vec<&mut Vec<RawFeature>> =
+            files.iter_mut().map(|f| &mut f.features).collect();
+        parts::linked_by_building_id(&mut inputs)
+    };
+
     let outcomes: Vec<Vec<Result<Prepared, Skip>>> = files
         .iter()
         .map(|f| {
@@ -240,7 +246,7 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
 
     // OSM outlines drawn by their building:parts (Simple 3D Buildings) are not written, so they do not count for the
     // frame either: found in a provisional frame of every feature kept.
-    let drawn_by_parts: Vec<BTreeMap<usize, Vec<String>>> = if files
+    let mut drawn_by_parts: Vec<BTreeMap<usize, Vec<String>>> = if files
         .iter()
         .any(|f| f.features.iter().any(|r| r.is_building_part))
     {
@@ -278,6 +284,17 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
     } else {
         vec![BTreeMap::new(); files.len()]
     };
+    // Buildings whose parts name them (Overture Maps), drawn by the parts that are written.
+    let mut linked_outlines: HashSet<(usize, usize)> = HashSet::new();
+    for ((pf, pi), (of, oi)) in part_links {
+        if outcomes[pf][pi].is_ok() {
+            drawn_by_parts[of]
+                .entry(oi)
+                .or_default()
+                .push(files[pf].features[pi].source_id.clone());
+            linked_outlines.insert((of, oi));
+        }
+    }
     let (bbox, min_ground) = bounds(outcomes.iter().enumerate().flat_map(|(fi, outs)| {
         let drawn = &drawn_by_parts[fi];
         outs.iter()
@@ -356,15 +373,24 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
                 detail: detail.to_string(),
             };
             if let Some(part_ids) = drawn_by_parts[file_index].get(&index) {
-                report.skipped.push(issue(
-                    IssueReason::DrawnByParts,
-                    &format!(
-                        "an OpenStreetMap building outline with {} building:part(s) inside ({}): the parts are drawn, \
-                         as Simple 3D Buildings has it, not the outline over them",
+                let detail = if linked_outlines.contains(&(file_index, index)) {
+                    format!(
+                        "a building with {} part(s) naming it by building_id (Overture Maps' building parts: {}): \
+                         the parts are drawn, not the building over them",
                         part_ids.len(),
                         geojson::listing(part_ids)
-                    ),
-                ));
+                    )
+                } else {
+                    format!(
+                        "an OpenStreetMap building outline with {} building:part(s) inside ({}): the parts are \
+                         drawn, as Simple 3D Buildings has it, not the outline over them",
+                        part_ids.len(),
+                        geojson::listing(part_ids)
+                    )
+                };
+                report
+                    .skipped
+                    .push(issue(IssueReason::DrawnByParts, &detail));
                 fr.skipped += 1;
                 continue;
             }

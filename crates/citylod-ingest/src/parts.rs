@@ -74,6 +74,44 @@ pub(crate) fn outlines_with_parts(
     out
 }
 
+/// The attribute by which Overture Maps' building parts (its `building_part` type) name their building.
+const BUILDING_ID_ATTR: &str = "building_id";
+
+/// Overture Maps' building parts: features whose `building_id` is the id of another input feature, in whichever
+/// input either comes, each with that feature, as ((input, index) of the part, (input, index) of its building).
+/// The parts are marked as building parts. A `building_id` naming no input feature, or the feature itself (a
+/// dataset's own id column of that name), links nothing.
+pub(crate) fn linked_by_building_id(
+    inputs: &mut [&mut Vec<RawFeature>],
+) -> Vec<((usize, usize), (usize, usize))> {
+    let named = |f: &RawFeature| match f.attributes.get(BUILDING_ID_ATTR) {
+        Some(AttrValue::String(s)) if !s.is_empty() && *s != f.source_id => Some(s.clone()),
+        _ => None,
+    };
+    if !inputs
+        .iter()
+        .any(|fs| fs.iter().any(|f| named(f).is_some()))
+    {
+        return Vec::new();
+    }
+    let mut by_id: std::collections::HashMap<String, (usize, usize)> = Default::default();
+    for (fi, fs) in inputs.iter().enumerate() {
+        for (i, f) in fs.iter().enumerate() {
+            by_id.entry(f.source_id.clone()).or_insert((fi, i));
+        }
+    }
+    let mut links = Vec::new();
+    for (fi, fs) in inputs.iter_mut().enumerate() {
+        for (i, f) in fs.iter_mut().enumerate() {
+            if let Some(&building) = named(f).and_then(|b| by_id.get(&b)) {
+                f.is_building_part = true;
+                links.push(((fi, i), building));
+            }
+        }
+    }
+    links
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -100,6 +138,32 @@ mod tests {
             is_building_part: part,
             ..Default::default()
         }
+    }
+
+    #[test]
+    fn parts_naming_a_building_by_building_id_are_linked_to_it() {
+        let with = |id: &str, building_id: Option<&str>| {
+            let mut f = feature(id, None, false);
+            if let Some(b) = building_id {
+                f.attributes
+                    .insert(BUILDING_ID_ATTR.into(), AttrValue::String(b.into()));
+            }
+            f
+        };
+        // A dataset's own id column named building_id links nothing; nor does a building that is not given.
+        let mut a = vec![with("b1", Some("b1")), with("b2", None)];
+        let mut b = vec![
+            with("p1", Some("b2")),
+            with("p2", Some("elsewhere")),
+            with("p3", Some("b2")),
+        ];
+        let links = linked_by_building_id(&mut [&mut a, &mut b]);
+        assert_eq!(links, [((1, 0), (0, 1)), ((1, 2), (0, 1))]);
+        assert_eq!(
+            b.iter().map(|f| f.is_building_part).collect::<Vec<_>>(),
+            [true, false, true]
+        );
+        assert!(!a[0].is_building_part);
     }
 
     #[test]

@@ -470,3 +470,66 @@ fn boston_as_geoparquet_gives_the_buildings_of_its_geojson() {
     }
     assert_eq!(gpq.report.skipped.len(), geojson.report.skipped.len());
 }
+
+#[test]
+fn overture_building_parts_draw_the_buildings_they_name() {
+    let buildings = fixture("les_overture_buildings.parquet");
+    let parts = fixture("les_overture_parts.parquet");
+    // The parts alone, and the buildings alone: every row written.
+    let alone = read(&parts).unwrap();
+    assert_eq!(alone.buildings.len(), 132);
+    assert!(alone.report.skipped.is_empty());
+    let mut named: std::collections::BTreeMap<String, Vec<String>> = Default::default();
+    for p in &alone.buildings {
+        if let Some(AttrValue::String(b)) = p.attributes.get("building_id") {
+            named
+                .entry(b.clone())
+                .or_default()
+                .push(p.source_id.clone());
+        }
+    }
+    let outlines = read(&buildings).unwrap();
+    assert_eq!(outlines.buildings.len(), 1284);
+    let has_parts: std::collections::BTreeSet<String> = outlines
+        .buildings
+        .iter()
+        .filter(|b| b.attributes.get("has_parts") == Some(&AttrValue::Bool(true)))
+        .map(|b| b.source_id.clone())
+        .collect();
+    assert_eq!(
+        named
+            .keys()
+            .cloned()
+            .collect::<std::collections::BTreeSet<_>>(),
+        has_parts
+    );
+    // Together, in either order: the buildings their parts name are drawn by those parts, not over them.
+    for inputs in [
+        [buildings.clone(), parts.clone()],
+        [parts.clone(), buildings.clone()],
+    ] {
+        let both = ingest(&inputs, &IngestOptions::default()).unwrap();
+        let drawn: std::collections::BTreeMap<String, String> = both
+            .report
+            .skipped
+            .iter()
+            .map(|s| {
+                assert_eq!(s.reason, IssueReason::DrawnByParts);
+                (s.feature_id.clone(), s.detail.clone())
+            })
+            .collect();
+        assert_eq!(
+            drawn.keys().collect::<Vec<_>>(),
+            named.keys().collect::<Vec<_>>()
+        );
+        for (building, parts) in &named {
+            let detail = &drawn[building];
+            assert!(
+                detail.contains("naming it by building_id")
+                    && parts.iter().all(|p| detail.contains(p.as_str())),
+                "{building}: {detail}"
+            );
+        }
+        assert_eq!(both.buildings.len(), 1416 - named.len());
+    }
+}
