@@ -326,87 +326,61 @@ fn main() -> Result<()> {
         &["--streets", &pbf.to_string_lossy()],
         runs,
     )?;
-    // Boston's footprints written as OpenStreetMap XML ten times side by side (221,860 buildings, ~215 MB), as the
-    // API writes it: the reader streams the text, so memory is the text and what is kept of it.
+    // Real data written in other formats by this benchmark's writers (in a child process, as below), copies side by
+    // side, then built: Boston's footprints ten times as OpenStreetMap XML (221,860 buildings, ~230 MB, as the API
+    // writes it: the reader streams the text) and as GeoParquet (Overture's layout: WKB, id, num_floors,
+    // names.primary; ZSTD; row groups read in parallel); Den Haag's LoD 2 city model twenty times as CityGML 2.0
+    // (16,880 buildings, ~234 MB; solids as xlink:hrefs to their thematic surfaces, as the 3D City Database exports
+    // them), built as footprints.
     let boston = data.join("boston/boston_buildings.geojson");
-    if boston.exists() {
-        let osm =
-            std::env::temp_dir().join(format!("citylod-bench-boston-{}.osm", std::process::id()));
-        measure(
-            Command::new(std::env::current_exe()?)
-                .arg("synth-osm")
-                .arg(&boston)
-                .arg("10")
-                .arg(&osm),
-        )?;
-        let built = bench_build(
-            &citylod,
+    let den_haag = data.join("denhaag-lod2/DenHaag_01.json");
+    for (label, writer, source, copies, ext, flags, n) in [
+        (
             "boston ×10 (OpenStreetMap XML)",
-            std::slice::from_ref(&osm),
-            &["--storey-height", "3.5"],
+            "synth-osm",
+            &boston,
+            "10",
+            "osm",
+            &["--storey-height", "3.5"][..],
             1,
-        );
-        let _ = std::fs::remove_file(&osm);
-        built?;
-    } else {
-        println!(
-            "{:<44} skipped: {} not found",
-            "boston ×10 (OpenStreetMap XML)",
-            boston.display()
-        );
-    }
-    // Boston's footprints written as GeoParquet ten times side by side (Overture's layout: WKB, id, num_floors,
-    // names.primary; ZSTD), read row group by row group in parallel.
-    if boston.exists() {
-        let gpq = std::env::temp_dir().join(format!(
-            "citylod-bench-boston-{}.parquet",
+        ),
+        (
+            "boston ×10 (GeoParquet)",
+            "synth-geoparquet",
+            &boston,
+            "10",
+            "parquet",
+            &["--storey-height", "3.5"][..],
+            1,
+        ),
+        (
+            "den haag ×20 (CityGML 2.0)",
+            "synth-citygml",
+            &den_haag,
+            "20",
+            "gml",
+            &[][..],
+            runs,
+        ),
+    ] {
+        if !source.exists() {
+            println!("{label:<44} skipped: {} not found", source.display());
+            continue;
+        }
+        let file = std::env::temp_dir().join(format!(
+            "citylod-bench-{writer}-{}.{ext}",
             std::process::id()
         ));
         measure(
             Command::new(std::env::current_exe()?)
-                .arg("synth-geoparquet")
-                .arg(&boston)
-                .arg("10")
-                .arg(&gpq),
+                .arg(writer)
+                .arg(source)
+                .arg(copies)
+                .arg(&file),
         )?;
-        let built = bench_build(
-            &citylod,
-            "boston ×10 (GeoParquet)",
-            std::slice::from_ref(&gpq),
-            &["--storey-height", "3.5"],
-            1,
-        );
-        let _ = std::fs::remove_file(&gpq);
+        let built = bench_build(&citylod, label, std::slice::from_ref(&file), flags, n);
+        let _ = std::fs::remove_file(&file);
         built?;
-    }
-    // Den Haag's LoD 2 city model written as CityGML 2.0 twenty times side by side (16,880 buildings, ~234 MB; solids
-    // as xlink:hrefs to their thematic surfaces, as the 3D City Database exports them), built as footprints.
-    let den_haag = data.join("denhaag-lod2/DenHaag_01.json");
-    if den_haag.exists() {
-        let gml =
-            std::env::temp_dir().join(format!("citylod-bench-denhaag-{}.gml", std::process::id()));
-        measure(
-            Command::new(std::env::current_exe()?)
-                .arg("synth-citygml")
-                .arg(&den_haag)
-                .arg("20")
-                .arg(&gml),
-        )?;
-        let built = bench_build(
-            &citylod,
-            "den haag ×20 (CityGML 2.0)",
-            std::slice::from_ref(&gml),
-            &[],
-            runs,
-        );
-        let _ = std::fs::remove_file(&gml);
-        built?;
-    } else {
-        println!(
-            "{:<44} skipped: {} not found",
-            "den haag ×20 (CityGML 2.0)",
-            den_haag.display()
-        );
     }
     // 300,000 buildings of the generated city as a File Geodatabase (written by the test writer, in a child process
     // as below).

@@ -121,7 +121,6 @@ pub(crate) fn gather(bytes: &[u8], want: Want) -> Result<Gathered, String> {
             superseded[slot] = superseded_among(seen);
         }
     }
-    let stands = |slot: usize, ordinal: usize| !superseded[slot].contains(&ordinal);
     let mut g = Gathered::default();
     let left_out: usize = superseded.iter().map(HashSet::len).sum();
     if left_out > 0 {
@@ -136,7 +135,7 @@ pub(crate) fn gather(bytes: &[u8], want: Want) -> Result<Gathered, String> {
     }
     let mut inline: Vec<Way> = Vec::new();
     for (ordinal, r, ways) in relations {
-        if stands(2, ordinal) {
+        if !superseded[2].contains(&ordinal) {
             g.relations.push(r);
             inline.extend(ways);
         }
@@ -144,34 +143,22 @@ pub(crate) fn gather(bytes: &[u8], want: Want) -> Result<Gathered, String> {
 
     // Second pass: the ways.
     let members = member_ways(&g.relations);
-    let mut ordinal = 0;
-    each_object(
-        text,
-        |kind| kind == Kind::Way,
-        |o| {
-            if o.kind != Kind::Way {
-                return Ok(());
-            }
-            ordinal += 1;
-            if o.gone || !stands(1, ordinal - 1) {
-                return Ok(());
-            }
-            let way_id = o.whole_id(text)?;
-            if !wanted_way(want, way_id, &o.tags, &members) {
-                return Ok(());
-            }
-            let mut w = way_of(way_id, &o.nds, o.nd_count, o.tags.clone());
-            if w.oversized.is_none() {
-                w.refs = o
-                    .nds
-                    .iter()
-                    .map(|n| n.reference.ok_or_else(|| without(text, n.at, "nd", "ref")))
-                    .collect::<Result<Vec<i64>, _>>()?;
-            }
-            g.ways.push(w);
-            Ok(())
-        },
-    )?;
+    each_standing(text, Kind::Way, true, &superseded[1], |o| {
+        let way_id = o.whole_id(text)?;
+        if !wanted_way(want, way_id, &o.tags, &members) {
+            return Ok(());
+        }
+        let mut w = way_of(way_id, &o.nds, o.nd_count, o.tags.clone());
+        if w.oversized.is_none() {
+            w.refs = o
+                .nds
+                .iter()
+                .map(|n| n.reference.ok_or_else(|| without(text, n.at, "nd", "ref")))
+                .collect::<Result<Vec<i64>, _>>()?;
+        }
+        g.ways.push(w);
+        Ok(())
+    })?;
     let present: HashSet<i64> = g.ways.iter().map(|w| w.id).collect();
     g.ways
         .extend(inline.into_iter().filter(|w| !present.contains(&w.id)));
@@ -181,18 +168,12 @@ pub(crate) fn gather(bytes: &[u8], want: Want) -> Result<Gathered, String> {
     if needed.is_empty() && want != Want::Buildings {
         return Ok(g);
     }
-    let mut ordinal = 0;
-    each_object(
+    each_standing(
         text,
-        |kind| kind == Kind::Node && want == Want::Buildings,
+        Kind::Node,
+        want == Want::Buildings,
+        &superseded[0],
         |o| {
-            if o.kind != Kind::Node {
-                return Ok(());
-            }
-            ordinal += 1;
-            if o.gone || !stands(0, ordinal - 1) {
-                return Ok(());
-            }
             let node_id = o.whole_id(text)?;
             if needed.contains(&node_id) {
                 if let Some(at) = o.location {
@@ -206,6 +187,32 @@ pub(crate) fn gather(bytes: &[u8], want: Want) -> Result<Gathered, String> {
         },
     )?;
     Ok(g)
+}
+
+/// Calls `on` for each object of `kind` that stands: not superseded (its ordinal among its kind's, in document
+/// order, not in `superseded`), not deleted, not invisible; with its children read when `children` says so.
+fn each_standing(
+    text: &str,
+    kind: Kind,
+    children: bool,
+    superseded: &HashSet<usize>,
+    mut on: impl FnMut(&Object) -> Result<(), String>,
+) -> Result<(), String> {
+    let mut ordinal = 0;
+    each_object(
+        text,
+        |k| k == kind && children,
+        |o| {
+            if o.kind != kind {
+                return Ok(());
+            }
+            ordinal += 1;
+            if o.gone || superseded.contains(&(ordinal - 1)) {
+                return Ok(());
+            }
+            on(o)
+        },
+    )
 }
 
 /// The ordinals (in document order) of objects of one kind given again with a higher version, or later at the same
