@@ -1103,6 +1103,9 @@ fn prepare(raw: &RawFeature, crs: &Crs, opts: &IngestOptions) -> Result<Prepared
     if let Some(skip) = &raw.skip {
         return Err(skip.clone());
     }
+    if let Some(why) = osm::underground(&raw.attributes) {
+        return Err((IssueReason::Underground, why));
+    }
     let mut repairs = raw.repairs.clone();
     let mut removed = 0;
     let mut polygons_lon_lat: Vec<Vec<Vec<(f64, f64)>>> = Vec::with_capacity(raw.polygons.len());

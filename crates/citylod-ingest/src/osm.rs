@@ -330,6 +330,25 @@ pub(crate) fn exported_tag<'a>(attrs: &'a Attributes, key: &str) -> Option<&'a A
     .find_map(|k| attrs.get(k))
 }
 
+/// Why a feature's attributes say it lies wholly below the ground, if they do: OpenStreetMap's `location=underground`
+/// (an underground car park, a bunker), Overture Maps' `is_underground` (true, or as text `true`, `yes`, `1`).
+pub(crate) fn underground(attrs: &Attributes) -> Option<String> {
+    let text = |v: &AttrValue| match v {
+        AttrValue::String(s) => Some(s.trim().to_ascii_lowercase()),
+        AttrValue::Bool(b) => Some(b.to_string()),
+        AttrValue::Int(i) => Some(i.to_string()),
+        _ => None,
+    };
+    if let Some(v) = exported_tag(attrs, "location").and_then(text) {
+        if v == "underground" {
+            return Some("location=underground: below the ground, not drawn".into());
+        }
+    }
+    let v = attrs.get("is_underground").and_then(text)?;
+    matches!(v.as_str(), "true" | "yes" | "1")
+        .then(|| format!("is_underground={v} (Overture Maps): below the ground, not drawn"))
+}
+
 /// Tagged `building` or `building:part` with a value other than `no`.
 pub(crate) fn building_tags<K: AsRef<str>, V: AsRef<str>>(tags: &[(K, V)]) -> bool {
     tags.iter()

@@ -114,6 +114,10 @@ pub enum IssueReason {
     /// place, as OSM's Simple 3D Buildings rule has it (a block of the outline would hide the lower parts). The detail
     /// names the parts. Its own tags (name, address) are not written.
     DrawnByParts,
+    /// A building or part its attributes say lies wholly below the ground (OpenStreetMap's `location=underground`,
+    /// Overture Maps' `is_underground=true`, in any format): not drawn, as nothing of it shows above the ground. The
+    /// detail names the attribute.
+    Underground,
     /// `--id-attr` names an attribute this feature has no value in: its id is the one its format's own rule gives
     /// (a GeoJSON `id`, a CityJSON object's key, `FILE#INDEX`).
     IdAttributeMissing,
@@ -178,6 +182,7 @@ impl IssueReason {
             CurvesApproximated => "curves_approximated",
             IncompleteInExtract => "incomplete_in_extract",
             DrawnByParts => "drawn_by_parts",
+            Underground => "underground",
             IdAttributeMissing => "id_attribute_missing",
             HeightValueRejected => "height_value_rejected",
             ModelMissing => "model_missing",

@@ -712,3 +712,38 @@ fn crs_over_a_declared_crs_is_noted_unless_they_agree() {
         "{notes:?}"
     );
 }
+
+#[test]
+fn buildings_below_the_ground_are_skipped_as_underground() {
+    let dir = tempfile::tempdir().unwrap();
+    let east = square_further_east();
+    let text = collection(&[
+        feature(
+            "car_park",
+            r#"{"building":"parking","location":"underground"}"#,
+            SQUARE,
+        ),
+        feature("overture", r#"{"is_underground":true,"height":6}"#, SQUARE),
+        feature("gdal", r#"{"is_underground":"True"}"#, SQUARE),
+        feature("above", r#"{"is_underground":false,"height":6}"#, &east),
+        feature("street", r#"{"location":"Underground Lane 3"}"#, &east),
+    ]);
+    let out = ingest(
+        &[write(&dir, "below.geojson", &text)],
+        &IngestOptions::default(),
+    )
+    .unwrap();
+    out.report.check_invariants().unwrap();
+    let written: Vec<&str> = out.buildings.iter().map(|b| b.source_id.as_str()).collect();
+    assert_eq!(written, ["above", "street"]);
+    for id in ["car_park", "overture", "gdal"] {
+        assert_eq!(reason_of(&out, id), Some(IssueReason::Underground), "{id}");
+    }
+    assert_eq!(out.report.skipped_by_reason["underground"], 3);
+    // Nothing below the ground sets the frame: it is placed over what is drawn.
+    assert!(
+        (out.frame.origin_lon_deg - 4.37005).abs() < 1e-4,
+        "{:?}",
+        out.frame
+    );
+}
