@@ -164,7 +164,7 @@ fn read_file(path: &Path) -> Result<VectorDoc, String> {
     let mut starts = vec![0usize];
     for i in 0..reader.num_row_groups() {
         let n = usize::try_from(reader.metadata().row_group(i).num_rows()).unwrap_or(0);
-        starts.push(starts[i] + n);
+        starts.push(starts[i].saturating_add(n));
     }
     let groups: Vec<Result<Vec<Row>, String>> = (0
         ..reader.num_row_groups())

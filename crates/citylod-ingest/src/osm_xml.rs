@@ -107,11 +107,12 @@ pub(crate) fn gather(bytes: &[u8], want: Want) -> Result<Gathered, String> {
             text,
             |_| false,
             |o| {
-                if let (Some(slot), Some(id)) = (o.kind.slot(), o.id) {
-                    if !order[slot].ascending {
-                        seen[slot].push((id, o.version));
-                    } else {
-                        seen[slot].push((i64::MIN, 0));
+                // One entry per object of the kind, so that its index is the object's ordinal; objects without
+                // an id, and those of kinds whose ids ascend, need no look.
+                if let Some(slot) = o.kind.slot() {
+                    match o.id {
+                        Some(id) if !order[slot].ascending => seen[slot].push((id, o.version)),
+                        _ => seen[slot].push((i64::MIN, 0)),
                     }
                 }
                 Ok(())

@@ -833,6 +833,16 @@ fn broken_xml_is_refused_with_the_reason() {
         e.contains("line 2") && e.contains("<way> without a whole-number id"),
         "{e}"
     );
+    // An object without an id keeps its place among its kind when versions are sorted out (the two versions of way
+    // 10 below): it is the one refused.
+    let e = err(
+        "noid-history.osm",
+        b"<osm>\n<way><nd ref='1'/><tag k='building' v='yes'/></way>\n<way id='10' version='1'><nd ref='1'/></way>\n<way id='10' version='2'><nd ref='1'/></way></osm>",
+    );
+    assert!(
+        e.contains("line 2") && e.contains("<way> without a whole-number id"),
+        "{e}"
+    );
     // An entity bomb is refused, not expanded: the reader takes no DTD.
     let bomb = b"<?xml version='1.0'?><!DOCTYPE osm [<!ENTITY a 'aaaaaaaaaa'><!ENTITY b '&a;&a;&a;&a;&a;&a;&a;&a;&a;&a;'>]><osm><node id='1' lat='1' lon='1'><tag k='building' v='&b;'/></node></osm>";
     assert!(err("bomb.osm", bomb).contains("a DOCTYPE"));
