@@ -34,7 +34,8 @@ pub struct BuildArgs {
     /// reference system for a GeoPackage, the geometry field's spatial reference for a File Geodatabase (identified
     /// as a .prj's), the file's `referenceSystem` for CityJSON, the envelope's `srsName` for CityGML (EPSG codes and
     /// URNs, compound URNs, the AdV's urn:adv:crs names, CH1903; a geographic CRS's coordinates latitude first, as EPSG
-    /// orders them). OpenStreetMap data is always WGS84 lon/lat.
+    /// orders them), the geo metadata's PROJJSON id for GeoParquet (none: lon/lat). OpenStreetMap data is always WGS84
+    /// lon/lat.
     #[arg(long, value_name = "EPSG:CODE", help_heading = "Input")]
     pub crs: Option<String>,
 

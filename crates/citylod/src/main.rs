@@ -23,7 +23,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Build a 3D Tiles tileset from building footprints (GeoJSON, Shapefile, GeoPackage, File Geodatabase,
-    /// OpenStreetMap) or city models (CityGML, CityJSON, CityJSONSeq, GeoPackage 3D layers, MultiPatch).
+    /// GeoParquet, OpenStreetMap) or city models (CityGML, CityJSON, CityJSONSeq, GeoPackage 3D layers, MultiPatch).
     Build(Box<build::BuildArgs>),
     /// Print what a tileset holds: tiles, triangles, bytes and geometric errors per tree depth (0 is the root,
     /// the last the buildings).
