@@ -213,7 +213,7 @@ pub fn read_streets(
                     .map(|l| l.iter().map(|p| to_lon_lat(&crs, p[0], p[1]))),
                 frame,
             )
-            .and_then(|segments| on_ground(attribute_tags(&f.attributes), segments))
+            .and_then(|segments| on_ground(&f.attributes, segments))
         };
         out.take(f.source_id, segments);
     }
@@ -268,7 +268,7 @@ fn geojson_streets(
         let segments = match feature {
             Some(f) => feature_segments(f.get("geometry"), &crs, frame).and_then(|segments| {
                 let properties = crate::feature::attributes(f.get("properties"));
-                on_ground(attribute_tags(&properties), segments)
+                on_ground(&properties, segments)
             }),
             // A bare geometry.
             None => feature_segments(Some(&doc), &crs, frame),
@@ -389,15 +389,60 @@ fn attribute_tags(attributes: &citylod_model::Attributes) -> Vec<(String, String
         .collect()
 }
 
-/// `segments`, unless the line's tags say it is no street on the ground (a tunnel, …).
+/// `segments`, unless the line's attributes say it is no street on the ground (a tunnel, …): OpenStreetMap's tags,
+/// or Overture Maps' flags.
 fn on_ground(
-    tags: Vec<(String, String)>,
+    attributes: &citylod_model::Attributes,
     segments: Vec<[[f64; 2]; 2]>,
 ) -> Result<Vec<[[f64; 2]; 2]>, Skip> {
-    match crate::osm::off_ground(&tags) {
+    match crate::osm::off_ground(&attribute_tags(attributes))
+        .or_else(|| overture_off_ground(attributes))
+    {
         Some(why) => Err((IssueReason::NotOnGround, why)),
         None => Ok(segments),
     }
+}
+
+/// Why an Overture Maps transportation segment is no street on the ground, if it is not: a road flag that holds for
+/// the whole segment (`road_flags` entries whose `between` is null: `is_tunnel`, `is_indoor`,
+/// `is_under_construction`, `is_abandoned`), or a level below the ground for the whole segment (`level_rules`).
+/// Flags for a stretch of the segment leave it a barrier.
+fn overture_off_ground(attributes: &citylod_model::Attributes) -> Option<String> {
+    use citylod_model::AttrValue;
+    let rules = |name: &str| -> Vec<Value> {
+        match attributes.get(name) {
+            Some(AttrValue::String(text)) => match serde_json::from_str(text) {
+                Ok(Value::Array(rules)) => rules,
+                _ => Vec::new(),
+            },
+            _ => Vec::new(),
+        }
+    };
+    let whole = |r: &Value| r.get("between").is_none_or(Value::is_null);
+    for r in rules("road_flags").iter().filter(|r| whole(r)) {
+        for flag in r["values"].as_array().into_iter().flatten() {
+            let why = match flag.as_str() {
+                Some("is_tunnel") => "in a tunnel",
+                Some("is_indoor") => "indoors",
+                Some("is_under_construction") => "under construction",
+                Some("is_abandoned") => "abandoned",
+                _ => continue,
+            };
+            return Some(format!(
+                "{why} (Overture road_flags {}): no barrier between buildings",
+                flag.as_str().unwrap_or("")
+            ));
+        }
+    }
+    rules("level_rules")
+        .iter()
+        .filter(|r| whole(r))
+        .find_map(|r| r["value"].as_i64().filter(|&l| l < 0))
+        .map(|l| {
+            format!(
+                "below the ground (Overture level_rules value {l}): no barrier between buildings"
+            )
+        })
 }
 
 /// The segments of one feature's line geometry in the local frame, consecutive repeated points dropped.

@@ -175,9 +175,30 @@ fn write_parquet(
     rows: &[(Vec<u8>, &str)],
     per_group: usize,
 ) {
+    let rows: Vec<(Vec<u8>, Vec<Option<&str>>)> = rows
+        .iter()
+        .map(|r| (r.0.clone(), vec![Some(r.1)]))
+        .collect();
+    write_parquet_texts(path, geo, column, &["name"], &rows, per_group);
+}
+
+/// Writes a Parquet file of a binary column `column` (the geometries; an empty one as null) and optional UTF-8 text
+/// columns `texts`, with `geo` as its GeoParquet metadata when given, in row groups of `per_group` rows.
+fn write_parquet_texts(
+    path: &Path,
+    geo: Option<&str>,
+    column: &str,
+    texts: &[&str],
+    rows: &[(Vec<u8>, Vec<Option<&str>>)],
+    per_group: usize,
+) {
+    let fields: String = texts
+        .iter()
+        .map(|t| format!(" optional binary {t} (UTF8);"))
+        .collect();
     let schema = Arc::new(
         parquet::schema::parser::parse_message_type(&format!(
-            "message m {{ optional binary {column}; required binary name (UTF8); }}"
+            "message m {{ optional binary {column};{fields} }}"
         ))
         .unwrap(),
     );
@@ -194,23 +215,25 @@ fn write_parquet(
         let mut rg = w.next_row_group().unwrap();
         let mut index = 0;
         while let Some(mut col) = rg.next_column().unwrap() {
-            if index == 0 {
-                // An empty geometry is written as null.
-                let values: Vec<ByteArray> = group
-                    .iter()
-                    .filter(|r| !r.0.is_empty())
-                    .map(|r| ByteArray::from(r.0.clone()))
-                    .collect();
-                let levels: Vec<i16> = group.iter().map(|r| i16::from(!r.0.is_empty())).collect();
-                col.typed::<ByteArrayType>()
-                    .write_batch(&values, Some(&levels), None)
-                    .unwrap();
-            } else {
-                let values: Vec<ByteArray> = group.iter().map(|r| ByteArray::from(r.1)).collect();
-                col.typed::<ByteArrayType>()
-                    .write_batch(&values, None, None)
-                    .unwrap();
-            }
+            let cells: Vec<Option<Vec<u8>>> = group
+                .iter()
+                .map(|r| {
+                    if index == 0 {
+                        Some(r.0.clone()).filter(|g| !g.is_empty())
+                    } else {
+                        r.1[index - 1].map(|t| t.as_bytes().to_vec())
+                    }
+                })
+                .collect();
+            let values: Vec<ByteArray> = cells
+                .iter()
+                .flatten()
+                .map(|c| ByteArray::from(c.clone()))
+                .collect();
+            let levels: Vec<i16> = cells.iter().map(|c| i16::from(c.is_some())).collect();
+            col.typed::<ByteArrayType>()
+                .write_batch(&values, Some(&levels), None)
+                .unwrap();
             col.close().unwrap();
             index += 1;
         }
@@ -532,4 +555,75 @@ fn overture_building_parts_draw_the_buildings_they_name() {
         }
         assert_eq!(both.buildings.len(), 1416 - named.len());
     }
+}
+
+#[test]
+fn overture_segments_in_tunnels_or_below_the_ground_are_no_street_barriers() {
+    let dir = scratch("segments");
+    let w = Wkb::default();
+    let line = |i: f64| w.line(&[[4.35, 52.0 + i * 0.001], [4.351, 52.0 + i * 0.001]]);
+    let rows = vec![
+        (line(0.0), vec![Some("road"), None, None]),
+        (
+            line(1.0),
+            vec![
+                Some("road"),
+                Some(r#"[{"values":["is_tunnel"],"between":null}]"#),
+                None,
+            ],
+        ),
+        // A flag for a stretch of the segment, and a bridge: still a barrier.
+        (
+            line(2.0),
+            vec![
+                Some("road"),
+                Some(
+                    r#"[{"values":["is_tunnel"],"between":[0.2,0.4]},{"values":["is_bridge"],"between":null}]"#,
+                ),
+                None,
+            ],
+        ),
+        (
+            line(3.0),
+            vec![Some("road"), None, Some(r#"[{"value":-1,"between":null}]"#)],
+        ),
+        (
+            line(4.0),
+            vec![
+                Some("rail"),
+                Some(r#"[{"between":null,"values":["is_under_construction"]}]"#),
+                None,
+            ],
+        ),
+    ];
+    let p = dir.join("segments.parquet");
+    write_parquet_texts(
+        &p,
+        Some(&geo("geometry", "WKB", "")),
+        "geometry",
+        &["subtype", "road_flags", "level_rules"],
+        &rows,
+        10,
+    );
+    let frame = LocalFrame::new(4.35, 52.0, 0.0);
+    let s = read_streets(&p, None, None, None, &frame).unwrap();
+    assert_eq!((s.report.features_read, s.report.features_used), (5, 2));
+    let why: Vec<(&str, IssueReason, &str)> = s
+        .report
+        .skipped
+        .iter()
+        .map(|i| (i.feature_id.as_str(), i.reason, i.detail.as_str()))
+        .collect();
+    assert_eq!(why.len(), 3);
+    assert_eq!(why[0].0, "segments.parquet#1");
+    assert!(why.iter().all(|w| w.1 == IssueReason::NotOnGround));
+    assert!(
+        why[0]
+            .2
+            .contains("in a tunnel (Overture road_flags is_tunnel)"),
+        "{}",
+        why[0].2
+    );
+    assert!(why[1].2.contains("level_rules value -1"), "{}", why[1].2);
+    assert!(why[2].2.contains("under construction"), "{}", why[2].2);
 }

@@ -204,7 +204,8 @@ pub struct BuildArgs {
     /// Geodatabase's lines, a GeoParquet file's WKB lines, or an OpenStreetMap file's highway ways: the buildings' own .osm.pbf or .osm serves) as
     /// barriers: the first levels do not join buildings on opposite sides of a street (Zhang et al. 2014). A line
     /// whose attributes say it is not on the ground (OpenStreetMap's tags, in any format: tunnel=yes or T,
-    /// indoor=yes, area=yes, highway=construction/proposed/…) is no barrier. The build report says up to which
+    /// indoor=yes, area=yes, highway=construction/proposed/…; Overture's road_flags is_tunnel for a whole segment) is no
+    /// barrier. The build report says up to which
     /// level, and lists every street feature not used, with its reason. A file none of whose lines comes within 1 km
     /// of the buildings is refused (usually a CRS mix-up).
     #[arg(long, value_name = "FILE", help_heading = "Generalization")]
