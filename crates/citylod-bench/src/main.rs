@@ -237,42 +237,36 @@ fn main() -> Result<()> {
         return synth::write_gdb(&synth::city(n, 42), Path::new(&argv[3]))
             .with_context(|| format!("writing {}", argv[3]));
     }
-    if argv.get(1).map(String::as_str) == Some("synth-citygml") && argv.len() == 5 {
+    // Real data written COPIES times side by side in another format: SOURCE is a CityJSON file for CityGML, a GeoJSON
+    // FeatureCollection in lon/lat for OpenStreetMap XML and GeoParquet.
+    if let (Some(writer @ ("synth-citygml" | "synth-osm" | "synth-geoparquet")), 5) =
+        (argv.get(1).map(String::as_str), argv.len())
+    {
         let copies: usize = argv[3]
             .parse()
-            .context("synth-citygml CITYJSON COPIES FILE: COPIES is a count")?;
+            .with_context(|| format!("{writer} SOURCE COPIES FILE: COPIES is a count"))?;
         let doc: serde_json::Value = serde_json::from_slice(&std::fs::read(&argv[2])?)?;
         let mut out = std::io::BufWriter::new(std::fs::File::create(&argv[4])?);
-        // Each copy 3 km east of the last; RD New with NAP heights, as a compound URN names it.
-        citylod_testdata::citygml::from_cityjson(
-            &doc,
-            copies,
-            3000.0,
-            "urn:ogc:def:crs,crs:EPSG::28992,crs:EPSG::5109",
-            &mut out,
-        )?;
+        match writer {
+            // Each copy 3 km east of the last; RD New with NAP heights, as a compound URN names it.
+            "synth-citygml" => citylod_testdata::citygml::from_cityjson(
+                &doc,
+                copies,
+                3000.0,
+                "urn:ogc:def:crs,crs:EPSG::28992,crs:EPSG::5109",
+                &mut out,
+            )?,
+            // Each copy 0.06° (~5 km) east of the last.
+            "synth-osm" => citylod_testdata::osm_xml::write_xml(
+                &citylod_testdata::osm_xml::from_geojson(&doc, copies, 0.06),
+                &mut out,
+            )?,
+            // As above, in row groups of 50,000.
+            _ => {
+                citylod_testdata::geoparquet::write_buildings(&doc, copies, 0.06, 50_000, &mut out)?
+            }
+        }
         return Ok(std::io::Write::flush(&mut out)?);
-    }
-    if argv.get(1).map(String::as_str) == Some("synth-osm") && argv.len() == 5 {
-        let copies: usize = argv[3]
-            .parse()
-            .context("synth-osm GEOJSON COPIES FILE: COPIES is a count")?;
-        let doc: serde_json::Value = serde_json::from_slice(&std::fs::read(&argv[2])?)?;
-        let mut out = std::io::BufWriter::new(std::fs::File::create(&argv[4])?);
-        // Each copy 0.06° (~5 km) east of the last.
-        let data = citylod_testdata::osm_xml::from_geojson(&doc, copies, 0.06);
-        citylod_testdata::osm_xml::write_xml(&data, &mut out)?;
-        return Ok(std::io::Write::flush(&mut out)?);
-    }
-    if argv.get(1).map(String::as_str) == Some("synth-geoparquet") && argv.len() == 5 {
-        let copies: usize = argv[3]
-            .parse()
-            .context("synth-geoparquet GEOJSON COPIES FILE: COPIES is a count")?;
-        let doc: serde_json::Value = serde_json::from_slice(&std::fs::read(&argv[2])?)?;
-        let out = std::io::BufWriter::new(std::fs::File::create(&argv[4])?);
-        // Each copy 0.06° (~5 km) east of the last, in row groups of 50,000.
-        citylod_testdata::geoparquet::write_buildings(&doc, copies, 0.06, 50_000, out)?;
-        return Ok(());
     }
     if argv.get(1).map(String::as_str) == Some("synth-geojson") && argv.len() == 4 {
         let n: usize = argv[2]

@@ -57,8 +57,11 @@ enum Encoding {
     MultiPolygon,
 }
 
-/// A row read: its feature, and its 3D surface model's faces when it holds one.
-type Row = (RawFeature, Option<crate::surface_model::Surfaces>);
+/// A row read: its feature, and its 3D surface model (its label and faces) when it holds one.
+type Row = (
+    RawFeature,
+    Option<(String, Vec<crate::surface_model::Face>)>,
+);
 
 /// What the `geo` metadata (or, without it, the schema) says of the geometry.
 struct GeoColumn {
@@ -184,7 +187,7 @@ fn read_file(path: &Path) -> Result<VectorDoc, String> {
     let mut surfaces = Vec::new();
     for g in groups {
         for (f, s) in g? {
-            if let Some((_, label, faces)) = s {
+            if let Some((label, faces)) = s {
                 surfaces.push((features.len(), label, faces));
             }
             features.push(f);
@@ -308,7 +311,6 @@ fn row_group(
             ..Default::default()
         };
         let label = format!("row {n}");
-        let mut surfaces = None;
         let read = match (geo.encoding, geometry) {
             (_, None | Some(Field::Null)) => {
                 Err((IssueReason::NoGeometry, "geometry is null".to_string()))
@@ -329,25 +331,8 @@ fn row_group(
                 other => Err(not_a_list(&other)),
             },
         };
-        match read {
-            Ok(Geometry::Footprint(polygons, repairs)) => {
-                f.polygons = polygons;
-                f.repairs.extend(repairs);
-            }
-            Ok(Geometry::Surfaces(faces, repairs)) => {
-                f.repairs.extend(repairs);
-                surfaces = Some((0, label.clone(), faces));
-            }
-            Ok(Geometry::Lines(lines, type_name)) => {
-                f.lines = lines;
-                f.skip = Some((
-                    IssueReason::UnsupportedGeometry,
-                    format!("{label}: {type_name} geometry is not a footprint"),
-                ));
-            }
-            Err((reason, detail)) => f.skip = Some((reason, format!("{label}: {detail}"))),
-        }
-        out.push((f, surfaces));
+        let faces = crate::gpkg::put_geometry(&mut f, read, &label);
+        out.push((f, faces.map(|faces| (label, faces))));
     }
     Ok(out)
 }

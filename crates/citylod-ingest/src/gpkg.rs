@@ -463,40 +463,20 @@ fn rows(
             repairs,
             ..Default::default()
         };
-        match row.get_ref(1).map_err(sql)? {
-            ValueRef::Null => {
-                out.skip = Some((
-                    IssueReason::NoGeometry,
-                    format!("FID {fid}: geometry is null"),
-                ));
-            }
-            ValueRef::Blob(b) => match geometry(b) {
-                Ok(Geometry::Footprint(polygons, repairs)) => {
-                    out.polygons = polygons;
-                    out.repairs.extend(repairs);
-                }
-                Ok(Geometry::Surfaces(faces, repairs)) => {
-                    out.repairs.extend(repairs);
-                    surfaces.push((features.len(), format!("FID {fid}"), faces));
-                }
-                Ok(Geometry::Lines(lines, name)) => {
-                    out.lines = lines;
-                    out.skip = Some((
-                        IssueReason::UnsupportedGeometry,
-                        format!("FID {fid}: {name} geometry is not a footprint"),
-                    ));
-                }
-                Err((reason, detail)) => out.skip = Some((reason, format!("FID {fid}: {detail}"))),
-            },
-            other => {
-                out.skip = Some((
-                    IssueReason::MalformedGeometry,
-                    format!(
-                        "FID {fid}: the geometry column holds {} instead of a GeoPackage geometry blob",
-                        sql_type_name(other)
-                    ),
-                ));
-            }
+        let read = match row.get_ref(1).map_err(sql)? {
+            ValueRef::Null => Err((IssueReason::NoGeometry, "geometry is null".to_string())),
+            ValueRef::Blob(b) => geometry(b),
+            other => Err((
+                IssueReason::MalformedGeometry,
+                format!(
+                    "the geometry column holds {} instead of a GeoPackage geometry blob",
+                    sql_type_name(other)
+                ),
+            )),
+        };
+        let label = format!("FID {fid}");
+        if let Some(faces) = put_geometry(&mut out, read, &label) {
+            surfaces.push((features.len(), label, faces));
         }
         features.push(out);
     }
@@ -561,6 +541,35 @@ pub(crate) enum Geometry {
     /// Lines in plan (a LineString, MultiLineString or curve, arcs approximated), with the geometry's type name:
     /// not a building, but what `--streets` reads.
     Lines(Vec<Vec<[f64; 2]>>, &'static str),
+}
+
+/// Puts what reading a feature's geometry gave into `f`: the footprint's polygons, lines (then skipped: not a
+/// footprint), or why it has none, each detail after `label` (the row: `FID 3`, `row 12`); a 3D surface model's faces
+/// are handed back for `surface_model::stand`. Repairs made reading go with the feature either way.
+pub(crate) fn put_geometry(
+    f: &mut RawFeature,
+    read: Result<Geometry, Skip>,
+    label: &str,
+) -> Option<Vec<Face>> {
+    match read {
+        Ok(Geometry::Footprint(polygons, repairs)) => {
+            f.polygons = polygons;
+            f.repairs.extend(repairs);
+        }
+        Ok(Geometry::Surfaces(faces, repairs)) => {
+            f.repairs.extend(repairs);
+            return Some(faces);
+        }
+        Ok(Geometry::Lines(lines, name)) => {
+            f.lines = lines;
+            f.skip = Some((
+                IssueReason::UnsupportedGeometry,
+                format!("{label}: {name} geometry is not a footprint"),
+            ));
+        }
+        Err((reason, detail)) => f.skip = Some((reason, format!("{label}: {detail}"))),
+    }
+    None
 }
 
 /// A GeoPackage geometry blob → the footprint's polygons or a 3D model's faces, and the repairs made reading them.

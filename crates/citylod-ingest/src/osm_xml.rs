@@ -249,15 +249,14 @@ impl Default for Order {
 }
 
 impl Order {
+    /// Counts an object; one without an id is no object given twice, so it leaves the order as it is.
     fn saw(&mut self, id: Option<i64>) {
         self.count += 1;
-        match (id, self.last) {
-            (Some(id), Some(last)) if id <= last => self.ascending = false,
-            (None, _) => self.ascending = false,
-            _ => {}
-        }
-        if id.is_some() {
-            self.last = id;
+        if let Some(id) = id {
+            if self.last.is_some_and(|last| id <= last) {
+                self.ascending = false;
+            }
+            self.last = Some(id);
         }
     }
 }
@@ -447,18 +446,11 @@ fn each_object(
                 continue;
             }
             Event::GeneralRef(r) if depth == 2 => {
-                let c = match r.resolve_char_ref() {
-                    Ok(Some(c)) => Some(c),
-                    _ => match &*r {
-                        "lt" => Some('<'),
-                        "gt" => Some('>'),
-                        "amp" => Some('&'),
-                        "apos" => Some('\''),
-                        "quot" => Some('"'),
-                        _ => None,
-                    },
+                let resolved = match r.resolve_char_ref() {
+                    Ok(Some(c)) => Some(c.to_string()),
+                    _ => quick_xml::escape::resolve_predefined_entity(&r).map(str::to_string),
                 };
-                let c = c.ok_or_else(|| {
+                let c = resolved.ok_or_else(|| {
                     format!(
                         "not well-formed XML (line {}): an unknown entity &{};",
                         line_of(text, at),
@@ -466,7 +458,7 @@ fn each_object(
                     )
                 })?;
                 if let Some(o) = object.as_mut().filter(|o| o.kind == Kind::Remark) {
-                    o.text.push(c);
+                    o.text.push_str(&c);
                 }
                 continue;
             }
