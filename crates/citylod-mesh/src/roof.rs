@@ -242,56 +242,80 @@ pub fn roofed_building(
 /// Points (x, y, share of the rise) and triangles over them.
 type RoofPlan = (Vec<[f64; 3]>, Vec<[u32; 3]>);
 
-/// The roof as one triangulation: every corner of every face once (corners closer than [`WELD_M`] are one: where
-/// faces of a hipped roof meet, each face's clipping computes the point anew), with its share of the rise (the
-/// highest of its copies'), and the
-/// triangles of a Delaunay triangulation constrained by every face's edges, kept where they lie inside the outline,
-/// counter-clockwise from above. One triangulation for all faces leaves no crack where two faces' corners differ by
-/// rounding, and its rim is the walls' top. `None` if the triangulation fails.
+/// The roof as one triangulation: every corner of every face once (corners closer than [`WELD_M`], directly or
+/// through others, are one: where faces of a hipped roof meet, each face computes the point anew), with its share
+/// of the rise (the highest of its copies'), and the triangles of a Delaunay triangulation constrained by every
+/// face's edges, kept where they lie inside the outline, counter-clockwise from above. One triangulation for all
+/// faces leaves no crack where two faces' corners differ by rounding, and its rim is the walls' top. `None` if the
+/// triangulation fails or two faces' edges cross (triangles would span both faces, at neither's slope).
 fn plan(faces: &[Face], rings: &[Vec<P2>]) -> Option<RoofPlan> {
     use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
     let o = rings[0][0];
+    // Every face corner's point: corners within WELD_M of each other, directly or through others, are one point
+    // (a simultaneous event's corners, each from another pair of lines, scatter by more than that in all).
+    let all: Vec<[f64; 3]> = faces.iter().flatten().copied().collect();
+    let mut parent: Vec<usize> = (0..all.len()).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    let mut by_x: Vec<usize> = (0..all.len()).collect();
+    by_x.sort_by(|&a, &b| all[a][0].total_cmp(&all[b][0]).then(a.cmp(&b)));
+    for (n, &a) in by_x.iter().enumerate() {
+        for &b in by_x[n + 1..]
+            .iter()
+            .take_while(|&&b| all[b][0] - all[a][0] < WELD_M)
+        {
+            if (all[a][1] - all[b][1]).abs() < WELD_M {
+                let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+                // The first corner met stands for its group.
+                parent[ra.max(rb)] = ra.min(rb);
+            }
+        }
+    }
+    // Point i of the plan for each group, at its first corner, with the highest share among its corners (the ridge
+    // or apex reaches the top exactly).
+    let mut point_of: Vec<usize> = vec![usize::MAX; all.len()];
     let mut points: Vec<[f64; 3]> = Vec::new();
     let mut cdt: ConstrainedDelaunayTriangulation<Point2<f64>> =
         ConstrainedDelaunayTriangulation::new();
     // Spade's vertex → point.
     let mut of_handle: Vec<u32> = Vec::new();
     let mut handles = Vec::new();
-    let mut face_handles = Vec::with_capacity(faces.len());
-    for face in faces {
-        let mut hs = Vec::with_capacity(face.len());
-        for q in face {
-            let near = points
-                .iter()
-                .position(|p| (p[0] - q[0]).abs() < WELD_M && (p[1] - q[1]).abs() < WELD_M);
-            let i = match near {
-                Some(i) => {
-                    // The highest share among a point's copies: the ridge or apex reaches the top exactly.
-                    points[i][2] = points[i][2].max(q[2]);
-                    i
-                }
-                None => {
-                    points.push(*q);
-                    let h = cdt.insert(Point2::new(q[0] - o[0], q[1] - o[1])).ok()?;
-                    if of_handle.len() <= h.index() {
-                        of_handle.resize(h.index() + 1, u32::MAX);
-                    }
-                    if of_handle[h.index()] == u32::MAX {
-                        of_handle[h.index()] = (points.len() - 1) as u32;
-                    }
-                    handles.push(h);
-                    points.len() - 1
-                }
-            };
-            hs.push(handles[i]);
+    for i in 0..all.len() {
+        let r = root(&mut parent, i);
+        if point_of[r] == usize::MAX {
+            let q = all[r];
+            let h = cdt.insert(Point2::new(q[0] - o[0], q[1] - o[1])).ok()?;
+            if of_handle.len() <= h.index() {
+                of_handle.resize(h.index() + 1, u32::MAX);
+            }
+            if of_handle[h.index()] != u32::MAX {
+                // Spade merged it with a point of another group: they are too close to be two.
+                return None;
+            }
+            of_handle[h.index()] = points.len() as u32;
+            point_of[r] = points.len();
+            points.push(q);
+            handles.push(h);
         }
-        face_handles.push(hs);
+        let p = point_of[r];
+        points[p][2] = points[p][2].max(all[i][2]);
     }
-    for hs in &face_handles {
+    let mut next = 0;
+    for face in faces {
+        let hs: Vec<_> = (next..next + face.len())
+            .map(|i| handles[point_of[root(&mut parent, i)]])
+            .collect();
+        next += face.len();
         for k in 0..hs.len() {
             let (a, b) = (hs[k], hs[(k + 1) % hs.len()]);
-            if a != b {
-                cdt.try_add_constraint(a, b);
+            // A constraint crossing another: two faces overlap, and triangles would span them.
+            if a != b && cdt.try_add_constraint(a, b).is_empty() {
+                return None;
             }
         }
     }
@@ -719,8 +743,11 @@ fn with_t_junctions(faces: Vec<Face>) -> Vec<Face> {
 fn settle(cycles: Vec<Vec<Wave>>, t: f64) -> Option<Vec<Vec<Wave>>> {
     let mut out = settle_each(cycles, t)?;
     // Corner k of cycle a on edge j of cycle b: one cycle, a's lines from k round to k − 1, then b's from j round
-    // to j again (its two pieces).
+    // to j again (its two pieces). Every join takes one courtyard's cycle away, so there are at most as many joins
+    // as cycles; more would be a join undone by a split (rounding), for the caller to give up on.
+    let mut joins = out.len();
     while let Some((a, k, b, j)) = meeting(&out, t)? {
+        joins = joins.checked_sub(1)?;
         let (ca, cb) = (&out[a], &out[b]);
         let mut joined: Vec<Wave> = (0..ca.len()).map(|i| ca[(k + i) % ca.len()]).collect();
         joined.extend((0..=cb.len()).map(|i| cb[(j + i) % cb.len()]));
@@ -754,16 +781,32 @@ fn on_edge(line: Wave, a: P2, b: P2, p: P2, t: f64) -> bool {
     off.abs() <= 1e3 * WAVE_EPS && s >= -WAVE_EPS && s <= dot(d, sub(b, a)) + WAVE_EPS
 }
 
-/// A reflex corner of one cycle lying on an edge of another: (cycle, corner, other cycle, edge).
+/// A reflex corner of one cycle lying on an edge of another, one of them a courtyard's (clockwise: it grows) and the
+/// other not: (cycle, corner, other cycle, edge). Two pieces of a split outline shrink each into its own part and
+/// never join; at the point they split from each other, rounding may leave one's corner on the other's edge.
 fn meeting(cycles: &[Vec<Wave>], t: f64) -> Option<Option<(usize, usize, usize, usize)>> {
     let corners: Vec<Vec<(P2, P2)>> = cycles
         .iter()
         .map(|c| corners_at(c, t))
         .collect::<Option<_>>()?;
+    let courtyard: Vec<bool> = corners
+        .iter()
+        .map(|cs| {
+            let (m, o) = (cs.len(), cs[0].0);
+            (0..m)
+                .map(|k| cross(sub(cs[k].0, o), sub(cs[(k + 1) % m].0, o)))
+                .sum::<f64>()
+                < 0.0
+        })
+        .collect();
     for (a, c) in cycles.iter().enumerate() {
         for k in (0..c.len()).filter(|&k| reflex(c, k)) {
             let p = corners[a][k].0;
-            for (b, d) in cycles.iter().enumerate().filter(|&(b, _)| b != a) {
+            for (b, d) in cycles
+                .iter()
+                .enumerate()
+                .filter(|&(b, _)| courtyard[b] != courtyard[a])
+            {
                 let md = d.len();
                 for j in 0..md {
                     if on_edge(d[j], corners[b][j].0, corners[b][(j + 1) % md].0, p, t) {
@@ -940,14 +983,17 @@ fn clip(poly: &[P2], f: impl Fn(P2) -> f64) -> Vec<P2> {
     out
 }
 
-/// Corners of roof faces closer than this are one point.
-const WELD_M: f64 = 1e-4;
+/// Corners of roof faces closer than this are one point: 1 mm, below what a glb's quantized positions keep apart,
+/// and above the scatter of a straight skeleton's simultaneous events (0.2 mm measured over random stars; at 0.1 mm
+/// such corners stayed apart and faces crossed).
+const WELD_M: f64 = 1e-3;
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::topology::{mesh_report, signed_volume_m3};
     use geo_types::{LineString, Polygon};
+    use std::sync::atomic::{AtomicUsize, Ordering};
 
     fn footprint(pts: &[(f64, f64)]) -> MultiPolygon<f64> {
         MultiPolygon(vec![Polygon::new(LineString::from(pts.to_vec()), vec![])])
@@ -1350,6 +1396,101 @@ mod tests {
         assert!(kinds.contains(&SurfaceKind::Roof));
     }
 
+    /// Outlines found by the property test below: a star whose outline splits where, by rounding, one piece's
+    /// corner lies on the other's edge (the two were joined and split again without end: the test hung).
+    #[test]
+    fn a_hipped_roof_over_a_split_star_is_built() {
+        let stars: [&[(f64, f64)]; 2] = [
+            &[
+                (0.9225964059237215, 15.924799714588252),
+                (0.9998280606598666, 6.950993816577015),
+                (1.0184806687518075, 21.24830402825126),
+                (3.157773151925716, 2.0),
+                (5.251738300501225, 16.152083824127548),
+                (5.266529638616059, 7.130940781942794),
+                (5.370098781507061, 31.183571067342136),
+            ],
+            &[
+                (0.25018914787664476, 34.57798735313806),
+                (0.292589543546951, 8.184975024985635),
+                (0.3876329194692887, 37.78262270006809),
+                (1.1083089518600826, 6.725909884030436),
+                (3.9991931066812145, 28.258659072123383),
+                (4.2520422976393775, 2.785575287518493),
+                (4.629870832246306, 36.651127570940716),
+            ],
+        ];
+        for star in stars {
+            let pts: Vec<(f64, f64)> = star
+                .iter()
+                .map(|&(t, r)| (r * t.cos(), r * t.sin()))
+                .collect();
+            let ring: Vec<P2> = pts.iter().map(|&(x, y)| [x, y]).collect();
+            let area = crate::ring::signed_area2(&corners(ring)) / 2.0;
+            let spec = spec(RoofShape::Hipped, RoofRise::Metres(0.1));
+            let (mesh, kinds) = roofed_building(&footprint(&pts), 0.0, 20.0, &spec).unwrap();
+            let r = mesh_report(&mesh);
+            assert!(r.watertight && r.orientation_consistent, "{r:?}");
+            let v = signed_volume_m3(&mesh);
+            assert!(v > area * 19.9 && v < area * 20.0, "{v} over {area} m²");
+            assert!(kinds.contains(&SurfaceKind::Roof));
+        }
+    }
+
+    /// Stars found by the property test below whose simultaneous events, each corner from another pair of lines,
+    /// scatter by 0.2 mm: welded within 0.1 mm, one corner stayed two points whose faces' edges crossed, the
+    /// triangulation dropped an edge and triangles spanned two faces (a slope of 0 or 2.5 times the roof's). Now the
+    /// corners weld within 1 mm, transitively, and a crossing refuses the roof; these are built at the one slope.
+    #[test]
+    fn a_hipped_roof_over_a_star_with_scattered_events_keeps_its_one_slope() {
+        let stars: [&[(f64, f64)]; 2] = [
+            &[
+                (2.220567520703817, 25.89180440485222),
+                (2.5310421814118285, 23.630707965458644),
+                (2.597834926829401, 3.5740245178220627),
+                (2.904086332504415, 9.852985644398856),
+                (3.6752715672799754, 5.265008491559015),
+                (3.7289521396152505, 3.7131302477569843),
+                (3.9483746411657688, 16.26723847238963),
+                (5.468344243620371, 3.3337780238559787),
+                (5.652573793634447, 26.893471151323972),
+            ],
+            &[
+                (0.022544070927573896, 31.594638968348548),
+                (0.3130960948175091, 3.9907637697347456),
+                (0.4916389631112465, 21.07318044829589),
+                (1.2879954781283447, 7.854201079021699),
+                (2.1811563338275812, 2.1316152808599345),
+                (2.4572905093419446, 14.697258183084864),
+                (3.4982518145052652, 9.644106928827638),
+                (3.6815006756116118, 3.656630020160926),
+                (3.877828144111617, 6.452948635275905),
+            ],
+        ];
+        for star in stars {
+            let pts: Vec<(f64, f64)> = star
+                .iter()
+                .map(|&(t, r)| (r * t.cos(), r * t.sin()))
+                .collect();
+            let spec = spec(RoofShape::Hipped, RoofRise::Metres(0.1));
+            let (mesh, kinds) = roofed_building(&footprint(&pts), 0.0, 20.0, &spec).unwrap();
+            let r = mesh_report(&mesh);
+            assert!(r.watertight && r.orientation_consistent, "{r:?}");
+            let slopes = roof_slopes(&mesh, &kinds);
+            let (slope, _) = slopes
+                .iter()
+                .copied()
+                .fold((0.0, 0.0), |m, x| if x.1 > m.1 { x } else { m });
+            for (s, altitude) in slopes {
+                let allowed = (1.0 + slope) * 2.0 * WELD_M / altitude + 1e-9;
+                assert!(
+                    (s - slope).abs() <= allowed,
+                    "slope {s} against {slope} (height {altitude} m)"
+                );
+            }
+        }
+    }
+
     #[test]
     fn a_hipped_courtyard_block_rises_from_its_street_and_its_courtyard() {
         // A 30 m square around a 10 m courtyard: a ring 10 m wide whose wavefront at time t has the area
@@ -1422,6 +1563,17 @@ mod tests {
         }
     }
 
+    /// What a hipped roof over an outline whose skeleton rounding spoils is refused with (the building keeps a flat
+    /// roof and the report says why).
+    const HIPPED_REFUSALS: [&str; 2] = [
+        "the outline's straight skeleton could not be built",
+        "the roof's faces could not be triangulated",
+    ];
+
+    /// Hipped roofs the star-shaped property test built and refused.
+    static BUILT: AtomicUsize = AtomicUsize::new(0);
+    static REFUSED: AtomicUsize = AtomicUsize::new(0);
+
     proptest::proptest! {
         #![proptest_config(proptest::prelude::ProptestConfig::with_cases(1000))]
         /// Any convex outline (corners on an ellipse, some nearly in line) gets, for every shape and direction, a
@@ -1492,7 +1644,9 @@ mod tests {
             }
             let pts: Vec<(f64, f64)> = corners.iter().map(|(t, r)| (r * t.cos(), r * t.sin())).collect();
             let ring: Vec<[f64; 2]> = pts.iter().map(|&(x, y)| [x, y]).collect();
-            let mut area = crate::ring::signed_area2(&ring) / 2.0;
+            // The area of the outline the roof is built on: corners turning by under 0.5° are dropped (a corner
+            // of 0.46° between edges of 16 and 34 m holds 2 m²).
+            let mut area = crate::ring::signed_area2(&super::corners(ring.clone())) / 2.0;
             if pts.len() < 3 || area < 1.0 {
                 return Ok(());
             }
@@ -1513,8 +1667,20 @@ mod tests {
             // Hipped: the straight skeleton of a concave outline and its courtyard.
             for shape in [RoofShape::Skillion, RoofShape::Gabled, RoofShape::Hipped] {
                 let spec = RoofSpec { shape, rise: RoofRise::Metres(rise), direction_deg: Some(direction), across: false };
-                let (mesh, _) = roofed_building(&fp, 0.0, 20.0, &spec)
-                    .map_err(|e| proptest::test_runner::TestCaseError::fail(format!("{shape:?}: {e}")))?;
+                let mesh = match roofed_building(&fp, 0.0, 20.0, &spec) {
+                    Ok((mesh, _)) => mesh,
+                    Err(e) if shape == RoofShape::Hipped && HIPPED_REFUSALS.contains(&e.as_str()) => {
+                        let refused = REFUSED.fetch_add(1, Ordering::Relaxed) + 1;
+                        // Rare (one in 20 000 outlines when measured), never the rule.
+                        proptest::prop_assert!(refused <= 1 + BUILT.load(Ordering::Relaxed) / 200,
+                            "{} hipped roofs refused against {} built", refused, BUILT.load(Ordering::Relaxed));
+                        continue;
+                    }
+                    Err(e) => return Err(proptest::test_runner::TestCaseError::fail(format!("{shape:?}: {e}"))),
+                };
+                if shape == RoofShape::Hipped {
+                    BUILT.fetch_add(1, Ordering::Relaxed);
+                }
                 let r = mesh_report(&mesh);
                 proptest::prop_assert!(r.watertight && r.orientation_consistent, "{:?}: {:?}", shape, r);
                 let v = signed_volume_m3(&mesh);
