@@ -97,11 +97,21 @@ pub fn roofed_building(
     if !(base_z.is_finite() && height.is_finite() && height > 0.0) {
         return Err(format!("heights {base_z} + {height} m are not usable"));
     }
-    let ring = corners(polygon.exterior().0.iter().map(|c| [c.x, c.y]).collect());
+    // The roof is worked out around the outline's first corner, so its rounding is the same wherever the building
+    // stands (ENU metres reach tens of kilometres across a city).
+    let o = polygon
+        .exterior()
+        .0
+        .first()
+        .map_or([0.0, 0.0], |c| [c.x, c.y]);
+    let local = |ls: &geo_types::LineString<f64>| -> Vec<P2> {
+        ls.0.iter().map(|c| [c.x - o[0], c.y - o[1]]).collect()
+    };
+    let ring = corners(local(polygon.exterior()));
     // The outline and its courtyards: a skillion or gabled roof spans them, the others need a convex outline.
     let mut rings = vec![ring.clone()];
     for hole in polygon.interiors() {
-        let h = corners(hole.0.iter().map(|c| [c.x, c.y]).collect());
+        let h = corners(local(hole));
         if h.len() >= 3 {
             rings.push(h);
         }
@@ -183,9 +193,9 @@ pub fn roofed_building(
     let n = points.len() as u32;
     let mut positions: Vec<[f64; 3]> = points
         .iter()
-        .map(|p| [p[0], p[1], eaves + rise * p[2]])
+        .map(|p| [p[0] + o[0], p[1] + o[1], eaves + rise * p[2]])
         .collect();
-    positions.extend(points.iter().map(|p| [p[0], p[1], base_z]));
+    positions.extend(points.iter().map(|p| [p[0] + o[0], p[1] + o[1], base_z]));
     let mut triangles: Vec<[u32; 3]> = Vec::with_capacity(roof.len() * 3);
     let mut kinds = Vec::with_capacity(roof.len() * 3);
     // The roof, seen from above counter-clockwise; the ground, the same triangles turned to face down.
@@ -1394,6 +1404,49 @@ mod tests {
         // The ridge: from the middle of each arm's end to the corner square's middle, level at 10 m.
         assert_eq!(ridge(&mesh, 10.0), [[5.0, 5.0], [5.0, 15.0], [15.0, 5.0]]);
         assert!(kinds.contains(&SurfaceKind::Roof));
+    }
+
+    /// A building 30 km from the origin gets the roof it gets at the origin, moved: same triangles, same corners to
+    /// the micrometre, for every shape.
+    #[test]
+    fn a_roof_is_the_same_wherever_the_building_stands() {
+        let l: Vec<(f64, f64)> = vec![
+            (0.0, 0.0),
+            (20.0, 0.0),
+            (20.0, 8.0),
+            (8.0, 8.0),
+            (8.0, 20.0),
+            (0.0, 20.0),
+            (0.0, 0.0),
+        ];
+        let square: Vec<(f64, f64)> =
+            vec![(0.0, 0.0), (12.0, 0.0), (12.0, 9.0), (0.0, 9.0), (0.0, 0.0)];
+        let shift = (30_000.0, -21_000.0);
+        for (outline, shapes) in [
+            (
+                &l,
+                &[RoofShape::Skillion, RoofShape::Gabled, RoofShape::Hipped][..],
+            ),
+            (
+                &square,
+                &[RoofShape::Hipped, RoofShape::Pyramidal, RoofShape::Dome][..],
+            ),
+        ] {
+            let moved: Vec<(f64, f64)> = outline
+                .iter()
+                .map(|&(x, y)| (x + shift.0, y + shift.1))
+                .collect();
+            for &shape in shapes {
+                let spec = spec(shape, RoofRise::Metres(3.0));
+                let (a, ka) = roofed_building(&footprint(outline), 0.0, 10.0, &spec).unwrap();
+                let (b, kb) = roofed_building(&footprint(&moved), 0.0, 10.0, &spec).unwrap();
+                assert_eq!((&a.triangles, &ka), (&b.triangles, &kb), "{shape:?}");
+                for (p, q) in a.positions.iter().zip(&b.positions) {
+                    let d = [q[0] - shift.0 - p[0], q[1] - shift.1 - p[1], q[2] - p[2]];
+                    assert!(d.iter().all(|x| x.abs() < 1e-6), "{shape:?}: {p:?} {q:?}");
+                }
+            }
+        }
     }
 
     /// Outlines found by the property test below: a star whose outline splits where, by rounding, one piece's
