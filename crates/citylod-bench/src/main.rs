@@ -239,8 +239,10 @@ fn main() -> Result<()> {
     }
     // Real data written COPIES times side by side in another format: SOURCE is a CityJSON file for CityGML, a GeoJSON
     // FeatureCollection in lon/lat for OpenStreetMap XML and GeoParquet.
-    if let (Some(writer @ ("synth-citygml" | "synth-osm" | "synth-geoparquet")), 5) =
-        (argv.get(1).map(String::as_str), argv.len())
+    if let (
+        Some(writer @ ("synth-citygml" | "synth-osm" | "synth-geoparquet" | "synth-hipped")),
+        5,
+    ) = (argv.get(1).map(String::as_str), argv.len())
     {
         let copies: usize = argv[3]
             .parse()
@@ -261,6 +263,15 @@ fn main() -> Result<()> {
                 &citylod_testdata::osm_xml::from_geojson(&doc, copies, 0.06),
                 &mut out,
             )?,
+            // Every building tagged roof:shape=hipped (COPIES must be 1): the straight skeleton of every outline.
+            "synth-hipped" => {
+                anyhow::ensure!(copies == 1, "synth-hipped writes the source once");
+                let mut doc = doc;
+                for f in doc["features"].as_array_mut().context("no features")? {
+                    f["properties"]["roof:shape"] = "hipped".into();
+                }
+                serde_json::to_writer(&mut out, &doc)?;
+            }
             // As above, in row groups of 50,000.
             _ => {
                 citylod_testdata::geoparquet::write_buildings(&doc, copies, 0.06, 50_000, &mut out)?
@@ -325,7 +336,8 @@ fn main() -> Result<()> {
     // writes it: the reader streams the text) and as GeoParquet (Overture's layout: WKB, id, num_floors,
     // names.primary; ZSTD; row groups read in parallel); Den Haag's LoD 2 city model twenty times as CityGML 2.0
     // (16,880 buildings, ~234 MB; solids as xlink:hrefs to their thematic surfaces, as the 3D City Database exports
-    // them), built as footprints.
+    // them), built as footprints. And Boston with every building tagged `roof:shape=hipped`, built at LoD 2: the
+    // straight skeleton of all 22,182 outlines, courtyards and 200-corner blocks included.
     let boston = data.join("boston/boston_buildings.geojson");
     let den_haag = data.join("denhaag-lod2/DenHaag_01.json");
     for (label, writer, source, copies, ext, flags, n) in [
@@ -345,6 +357,15 @@ fn main() -> Result<()> {
             "10",
             "parquet",
             &["--storey-height", "3.5"][..],
+            1,
+        ),
+        (
+            "boston, every roof hipped (--lod 2)",
+            "synth-hipped",
+            &boston,
+            "1",
+            "geojson",
+            &["--storey-height", "3.5", "--lod", "2"][..],
             1,
         ),
         (
