@@ -8,8 +8,8 @@ use citylod_mesh::roof::{
     roof_outline_area_m2, roofed_building, RoofRise, RoofShape, RoofSpec, MAX_CORNERS,
 };
 use citylod_mesh::topology::{mesh_report, signed_volume_m3};
-use citylod_model::SurfaceKind;
-use geo_types::{LineString, MultiPolygon, Polygon};
+use citylod_model::{footprint_area_m2, SurfaceKind};
+use geo_types::{MultiPolygon, Polygon};
 
 /// Boston's footprints as citylod reads them (repaired, in the local ENU frame), each polygon of a multipolygon on
 /// its own.
@@ -32,14 +32,6 @@ fn boston_polygons() -> Option<Vec<(String, Polygon<f64>)>> {
     })
 }
 
-fn area(ls: &LineString<f64>) -> f64 {
-    let c = &ls.0;
-    (0..c.len().saturating_sub(1))
-        .map(|i| c[i].x * c[i + 1].y - c[i + 1].x * c[i].y)
-        .sum::<f64>()
-        / 2.0
-}
-
 #[test]
 fn every_roof_shape_over_every_boston_footprint_is_closed_or_refused_for_its_shape() {
     let Some(polygons) = boston_polygons() else {
@@ -60,18 +52,12 @@ fn every_roof_shape_over_every_boston_footprint_is_closed_or_refused_for_its_sha
     for (id, polygon) in &polygons {
         let corners: usize = polygon.exterior().0.len()
             + polygon.interiors().iter().map(|h| h.0.len()).sum::<usize>();
-        let footprint_area = area(polygon.exterior()).abs()
-            - polygon
-                .interiors()
-                .iter()
-                .map(|h| area(h).abs())
-                .sum::<f64>();
+        let footprint = MultiPolygon(vec![polygon.clone()]);
         // Outlines a roof is refused for whatever its shape (too many corners, no width) are counted apart.
-        if corners > MAX_CORNERS || footprint_area < 4.0 {
+        if corners > MAX_CORNERS || footprint_area_m2(&footprint) < 4.0 {
             continue;
         }
         outlines += 1;
-        let footprint = MultiPolygon(vec![polygon.clone()]);
         for (s, &shape) in shapes.iter().enumerate() {
             let spec = RoofSpec {
                 shape,

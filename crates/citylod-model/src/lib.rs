@@ -15,7 +15,8 @@ mod hierarchy;
 
 pub use attr::{ambiguous_comma, AttrValue, Attributes};
 pub use building::{
-    Building, BuildingId, BuildingModel, Footprint, HeightSource, Mesh3d, SurfaceKind,
+    footprint_area_m2, Building, BuildingId, BuildingModel, Footprint, HeightSource, Mesh3d,
+    SurfaceKind,
 };
 pub use frame::{ecef_to_geodetic, geodetic_to_ecef, LocalFrame, WGS84_A_M, WGS84_F};
 pub use hierarchy::{Hierarchy, Level, Node, NodeId};
