@@ -5,7 +5,7 @@
 
 mod bvh;
 
-pub use bvh::MeshBvh;
+pub use bvh::{MeshBvh, Recent};
 
 use citylod_model::Mesh3d;
 
@@ -24,56 +24,71 @@ pub const RESOLUTION_M: f64 = 0.001;
 /// Deterministic sample points on a mesh: its vertices used by triangles, then per triangle the centroids
 /// of a `k × k` subdivision with `k² ≈ area · samples_per_m2`.
 pub fn sample_points(mesh: &Mesh3d, samples_per_m2: f64) -> Vec<[f64; 3]> {
-    let n = mesh.positions.len();
-    let mut used = vec![false; n];
-    let mut out = Vec::new();
+    let mut out = used_vertices(mesh);
+    let density = sample_density(samples_per_m2);
+    for t in valid_triangles(mesh) {
+        triangle_samples(t, density, &mut out);
+    }
+    out
+}
+
+/// The positions of `mesh` that some triangle uses, in index order.
+fn used_vertices(mesh: &Mesh3d) -> Vec<V3> {
+    let mut used = vec![false; mesh.positions.len()];
     for t in &mesh.triangles {
-        if t.iter().any(|&i| i as usize >= n) {
-            continue;
-        }
-        for &i in t {
-            if !used[i as usize] {
+        if t.iter().all(|&i| (i as usize) < used.len()) {
+            for &i in t {
                 used[i as usize] = true;
             }
         }
     }
-    out.extend((0..n).filter(|&i| used[i]).map(|i| mesh.positions[i]));
-    let density = if samples_per_m2.is_finite() && samples_per_m2 > 0.0 {
+    (0..used.len())
+        .filter(|&i| used[i])
+        .map(|i| mesh.positions[i])
+        .collect()
+}
+
+/// The corners of every triangle of `mesh` whose indices are in range.
+fn valid_triangles(mesh: &Mesh3d) -> impl Iterator<Item = [V3; 3]> + '_ {
+    let n = mesh.positions.len();
+    mesh.triangles
+        .iter()
+        .filter(move |t| t.iter().all(|&i| (i as usize) < n))
+        .map(|t| t.map(|i| mesh.positions[i as usize]))
+}
+
+fn sample_density(samples_per_m2: f64) -> f64 {
+    if samples_per_m2.is_finite() && samples_per_m2 > 0.0 {
         samples_per_m2
     } else {
         DEFAULT_SAMPLES_PER_M2
-    };
-    for t in &mesh.triangles {
-        if t.iter().any(|&i| i as usize >= n) {
-            continue;
-        }
-        let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
-        let want = (tri_area(a, b, c) * density).ceil().max(1.0);
-        let k = (want.sqrt().ceil() as usize).clamp(1, MAX_SUBDIVISIONS);
-        let kf = k as f64;
-        let at = |u: f64, v: f64| -> V3 {
-            [0, 1, 2].map(|d| a[d] + (b[d] - a[d]) * u + (c[d] - a[d]) * v)
-        };
-        for i in 0..k {
-            for j in 0..(k - i) {
-                let (fi, fj) = (i as f64, j as f64);
-                out.push(at((fi + 1.0 / 3.0) / kf, (fj + 1.0 / 3.0) / kf));
-                if i + j + 1 < k {
-                    out.push(at((fi + 2.0 / 3.0) / kf, (fj + 2.0 / 3.0) / kf));
-                }
+    }
+}
+
+/// Appends the samples of triangle `[a, b, c]`: the centroids of a `k × k` subdivision, `k² ≈ area · density`.
+fn triangle_samples([a, b, c]: [V3; 3], density: f64, out: &mut Vec<V3>) {
+    let want = (tri_area(a, b, c) * density).ceil().max(1.0);
+    let k = (want.sqrt().ceil() as usize).clamp(1, MAX_SUBDIVISIONS);
+    let kf = k as f64;
+    let at =
+        |u: f64, v: f64| -> V3 { [0, 1, 2].map(|d| a[d] + (b[d] - a[d]) * u + (c[d] - a[d]) * v) };
+    for i in 0..k {
+        for j in 0..(k - i) {
+            let (fi, fj) = (i as f64, j as f64);
+            out.push(at((fi + 1.0 / 3.0) / kf, (fj + 1.0 / 3.0) / kf));
+            if i + j + 1 < k {
+                out.push(at((fi + 2.0 / 3.0) / kf, (fj + 2.0 / 3.0) / kf));
             }
         }
     }
-    out
 }
 
 /// Largest distance (m) from a sample of `from` to the surface of `to`; `f64::INFINITY` when `to` has no
 /// triangles but `from` has, 0 when both are empty.
 pub fn directed_hausdorff_m(from: &Mesh3d, to: &Mesh3d, samples_per_m2: f64) -> f64 {
     let bvh = MeshBvh::new(to);
-    let samples = sample_points(from, samples_per_m2);
     if bvh.is_empty() {
-        return if samples.is_empty() {
+        return if used_vertices(from).is_empty() {
             0.0
         } else {
             f64::INFINITY
@@ -81,16 +96,43 @@ pub fn directed_hausdorff_m(from: &Mesh3d, to: &Mesh3d, samples_per_m2: f64) -> 
     }
     // A sample within the largest distance so far cannot raise it: the first triangle found that near settles it,
     // and only the others need the nearest triangle (the early break of Taha & Hanbury's Hausdorff algorithm).
-    // Kept squared, so the result is exactly the maximum over every sample's distance.
+    // Kept squared, so the result is exactly the maximum over every sample's distance. Neighbouring samples are
+    // mostly near the same triangle of `to`: the last one found is tried first.
     let mut worst2 = 0.0f64;
-    for p in samples {
-        if bvh.is_within_squared(p, worst2) {
+    let mut last = Recent::default();
+    // `None` for a sample without any distance (not a point): then there is no bound.
+    let settle = |p: V3, worst2: &mut f64, last: &mut Recent| -> Option<()> {
+        if !bvh.is_within_squared_near(p, *worst2, last) {
+            let (d2, t) = bvh.closest_squared(p)?;
+            *worst2 = worst2.max(d2);
+            last.push(t);
+        }
+        Some(())
+    };
+    for p in used_vertices(from) {
+        if settle(p, &mut worst2, &mut last).is_none() {
+            return f64::INFINITY;
+        }
+    }
+    let density = sample_density(samples_per_m2);
+    let mut samples = Vec::new();
+    for corners in valid_triangles(from) {
+        // The distance to one triangle of `to` is a convex function: when all three corners are within `worst2` of
+        // one triangle, so is every point between them, and none of this triangle's samples can raise the maximum.
+        let one_holds_all = |t: u32| corners.iter().all(|&c| bvh.triangle_dist2(t, c) <= worst2);
+        if last.ids().iter().any(|&t| one_holds_all(t))
+            || bvh
+                .find_within_squared(corners[0], worst2)
+                .is_some_and(one_holds_all)
+        {
             continue;
         }
-        match bvh.closest_squared(p) {
-            Some((d2, _)) => worst2 = worst2.max(d2),
-            // No distance at all (a sample that is not a point): as before, no bound.
-            None => return f64::INFINITY,
+        samples.clear();
+        triangle_samples(corners, density, &mut samples);
+        for &p in &samples {
+            if settle(p, &mut worst2, &mut last).is_none() {
+                return f64::INFINITY;
+            }
         }
     }
     worst2.sqrt()
@@ -248,7 +290,19 @@ mod tests {
             p[0] += 0.3 * k;
             p[2] += 0.2 * (1.0 - k) * if i % 2 == 0 { 1.0 } else { -1.0 };
         }
-        for (from, to) in [(&a, &b), (&b, &a)] {
+        // And a fine grid against a coarse copy with a corner raised: most fine triangles lie, corners and all, within
+        // the distance found of one coarse triangle, and are not sampled at all.
+        let fine = grid();
+        let coarse = Mesh3d {
+            positions: vec![
+                [0.0, 0.0, 0.0],
+                [10.0, 0.0, 0.0],
+                [10.0, 10.0, 0.7],
+                [0.0, 10.0, 0.0],
+            ],
+            triangles: vec![[0, 1, 2], [0, 2, 3]],
+        };
+        for (from, to) in [(&a, &b), (&b, &a), (&fine, &coarse), (&coarse, &fine)] {
             let bvh = MeshBvh::new(to);
             let every = sample_points(from, 9.0)
                 .into_iter()

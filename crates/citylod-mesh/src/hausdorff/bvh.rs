@@ -123,6 +123,12 @@ impl<'a> MeshBvh<'a> {
 
     /// Whether some triangle's squared distance from `p` is at most `r2` (m²; stops at the first one found).
     pub fn is_within_squared(&self, p: V3, r2: f64) -> bool {
+        self.find_within_squared(p, r2).is_some()
+    }
+
+    /// A triangle whose squared distance from `p` is at most `r2` (m²): the first one found, `None` when there is
+    /// none.
+    pub fn find_within_squared(&self, p: V3, r2: f64) -> Option<u32> {
         // Median splits keep the depth near log2(n / LEAF_SIZE): a fixed stack saves an allocation per call.
         let mut stack = [0u32; 128];
         let mut len = usize::from(!self.nodes.is_empty());
@@ -134,11 +140,8 @@ impl<'a> MeshBvh<'a> {
             }
             if node.count > 0 {
                 let leaf = &self.order[node.start as usize..(node.start + node.count) as usize];
-                if leaf.iter().any(|&t| {
-                    let [a, b, c] = self.tri(t);
-                    dist2(p, closest_point_on_triangle(p, a, b, c)) <= r2
-                }) {
-                    return true;
+                if let Some(&t) = leaf.iter().find(|&&t| self.triangle_dist2(t, p) <= r2) {
+                    return Some(t);
                 }
             } else if len + 2 <= stack.len() {
                 stack[len] = node.children[0];
@@ -146,10 +149,39 @@ impl<'a> MeshBvh<'a> {
                 len += 2;
             } else {
                 // Deeper than any median-split tree gets: fall back to the full closest-point search.
-                return self.closest_squared(p).is_some_and(|(d2, _)| d2 <= r2);
+                return self
+                    .closest_squared(p)
+                    .filter(|&(d2, _)| d2 <= r2)
+                    .map(|(_, t)| t);
             }
         }
-        false
+        None
+    }
+
+    /// [`Self::is_within_squared`] for a run of nearby points: the triangles that answered the last few points
+    /// (`recent`) are tried first, and the one that answers this point becomes the most recent.
+    pub fn is_within_squared_near(&self, p: V3, r2: f64, recent: &mut Recent) -> bool {
+        if let Some(k) = recent
+            .ids()
+            .iter()
+            .position(|&t| self.triangle_dist2(t, p) <= r2)
+        {
+            recent.promote(k);
+            return true;
+        }
+        match self.find_within_squared(p, r2) {
+            Some(t) => {
+                recent.push(t);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Squared distance (m²) from `p` to triangle `t` of the mesh (an index the hierarchy holds).
+    pub fn triangle_dist2(&self, t: u32, p: V3) -> f64 {
+        let [a, b, c] = self.tri(t);
+        dist2(p, closest_point_on_triangle(p, a, b, c))
     }
 
     /// Improves `best` (squared distance, triangle) with anything closer than it.
@@ -228,6 +260,34 @@ impl<'a> MeshBvh<'a> {
     }
 }
 
+/// The last few triangles that answered a query, most recent first (see [`MeshBvh::is_within_squared_near`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Recent {
+    ids: [u32; RECENT],
+    len: usize,
+}
+
+/// How many triangles [`Recent`] keeps: a sample run crosses from one triangle to its neighbours and back.
+const RECENT: usize = 4;
+
+impl Recent {
+    pub fn ids(&self) -> &[u32] {
+        &self.ids[..self.len]
+    }
+
+    /// Makes `t` the most recent.
+    pub fn push(&mut self, t: u32) {
+        self.len = (self.len + 1).min(RECENT);
+        self.ids.copy_within(0..self.len - 1, 1);
+        self.ids[0] = t;
+    }
+
+    /// Moves the `k`-th most recent to the front.
+    fn promote(&mut self, k: usize) {
+        self.ids[..=k].rotate_right(1);
+    }
+}
+
 fn slab(b: &Aabb, o: V3, inv: V3, t0: f64, t1: f64) -> bool {
     let (mut lo, mut hi) = (t0, t1);
     for k in 0..3 {
@@ -296,5 +356,31 @@ mod tests {
         assert!(bvh
             .ray_hit([0.4, 0.3, -1.0], [1.0, 0.0, 0.0], 0.0, 100.0)
             .is_none());
+    }
+
+    #[test]
+    fn recent_keeps_the_last_four_answers_most_recent_first() {
+        let mut r = Recent::default();
+        assert!(r.ids().is_empty());
+        for t in [7, 8, 9, 10, 11] {
+            r.push(t);
+        }
+        assert_eq!(r.ids(), &[11, 10, 9, 8]);
+        // A hit on an older one moves it to the front.
+        let bvh_mesh = two_squares();
+        let bvh = MeshBvh::new(&bvh_mesh);
+        let mut r = Recent::default();
+        for t in [0, 1, 2, 3] {
+            r.push(t);
+        }
+        // Triangles 0 and 1 are the square at z = 0, 2 and 3 the one at z = 5: a point over the lower square is
+        // answered by 1 or 0, which then leads.
+        assert!(bvh.is_within_squared_near([0.5, 0.5, 0.1], 0.01 + 1e-12, &mut r));
+        assert!(matches!(r.ids()[0], 0 | 1), "{:?}", r.ids());
+        assert_eq!(r.ids().len(), 4);
+        // A point near nothing is not within, and leaves the list as it was.
+        let before = r;
+        assert!(!bvh.is_within_squared_near([0.5, 0.5, 2.5], 1.0, &mut r));
+        assert_eq!(r.ids(), before.ids());
     }
 }

@@ -147,13 +147,14 @@ impl<'a> SurfaceBound<'a> {
             }
         }
         // Result → input: the moved triangles.
+        let mut near = crate::hausdorff::Recent::default();
         after
             .iter()
             .take_while(|(t, _)| m.tris[*t as usize].contains(&u))
             .all(|(_, tri)| {
                 grid_points(*tri, grid_for(tri, self.max_error_m))
                     .filter(|p| !tri.contains(p))
-                    .all(|p| self.input.is_within(p, self.max_error_m))
+                    .all(|p| self.input.is_within_squared_near(p, e2, &mut near))
             })
     }
 
