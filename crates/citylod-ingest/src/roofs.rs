@@ -2,7 +2,7 @@
 //! `roof:angle`, `roof:direction`, `roof:orientation`), in whatever format the tags come (an OSM file, its export to
 //! GeoJSON, GeoPackage or Shapefile, with names as GDAL launders them, `roof_shape`, or cut to a shapefile's 10
 //! characters, `roof:heigh`): with `--lod 2` (or `highest`, or a 2.x) a building whose `roof:shape` is
-//! skillion, gabled, hipped, pyramidal, dome or onion (drawn as a dome) gets a 3D model of LoD 2 — walls up to the eaves, the roof up to the
+//! skillion, gabled, gambrel, round, hipped, mansard, pyramidal, dome or onion (drawn as a dome) gets a 3D model of LoD 2 — walls up to the eaves, the roof up to the
 //! building's height — and is drawn with it at full detail, its prism and the simplified model above it as for a
 //! CityJSON LoD2 building. Other shapes, and outlines a shape cannot be pitched over, keep the flat prism, listed
 //! in the report's mesh issues with the reason.
@@ -41,7 +41,7 @@ pub(crate) fn roof_model(
     };
     let Some(shape) = RoofShape::from_osm(&shape_value) else {
         meshed.issues.push(flat(
-            "this shape is not modelled (skillion, gabled, hipped, pyramidal, dome and onion are)"
+            "this shape is not modelled (skillion, gabled, gambrel, round, hipped, mansard, pyramidal, dome and onion are)"
                 .into(),
         ));
         return;
@@ -191,7 +191,7 @@ mod tests {
                 2,
                 json!({ "roof:shape": "skillion", "roof:angle": "20", "roof:direction": "NE" }),
             ),
-            house(3, json!({ "roof:shape": "gambrel" })),
+            house(3, json!({ "roof:shape": "saltbox" })),
             house(4, json!({ "roof:shape": "gabled", "roof:height": "steep" })),
             house(5, json!({ "roof:shape": "flat" })),
             house(6, json!({})),
@@ -202,6 +202,9 @@ mod tests {
             // As GDAL launders OSM keys, and as a shapefile cuts them.
             house(8, json!({ "roof_shape": "hipped", "roof_heigh": 2.5 })),
             house(9, json!({ "roof:shape": "onion", "roof:height": 4 })),
+            house(10, json!({ "roof:shape": "gambrel", "roof:height": 3 })),
+            house(11, json!({ "roof:shape": "mansard", "roof:height": 3 })),
+            house(12, json!({ "roof:shape": "round", "roof:height": 4 })),
         ];
         let out = run(features.clone(), Some("2"));
         // Gabled: eaves at 7 m, ridge at 10 m.
@@ -225,6 +228,16 @@ mod tests {
             (600, 2 + 6, 1000),
             "{z:?}"
         );
+        // Gambrel and mansard: eaves at 7 m, the slope changing two thirds of the way up, at 9 m.
+        assert_eq!(levels(&out, 10), [0, 700, 900, 1000]);
+        assert_eq!(levels(&out, 11), [0, 700, 900, 1000]);
+        // Round: eaves at 6 m, then the bands of a quarter circle to the ridge.
+        let z = levels(&out, 12);
+        assert_eq!(
+            (z[1], z.len(), *z.last().unwrap()),
+            (600, 2 + 6, 1000),
+            "{z:?}"
+        );
         for i in [3, 5, 6] {
             assert!(out.buildings[i].mesh.is_none(), "{i}");
         }
@@ -241,7 +254,7 @@ mod tests {
         assert_eq!(issues[0].1, IssueReason::ModelMissing);
         assert!(issues[0]
             .2
-            .starts_with("roof:shape=gambrel: this shape is not modelled"));
+            .starts_with("roof:shape=saltbox: this shape is not modelled"));
         assert_eq!(
             (issues[1].0, issues[1].1),
             ("way/4", IssueReason::HeightValueRejected)
@@ -251,7 +264,7 @@ mod tests {
             "{}",
             issues[1].2
         );
-        assert_eq!(out.report.mesh_lods.get("2"), Some(&7));
+        assert_eq!(out.report.mesh_lods.get("2"), Some(&10));
 
         // Roofs are LoD 2: none without --lod or at LoD 1.x; at 2.2 they are the fall-back below it.
         for lod in [None, Some("1.2")] {
@@ -259,6 +272,6 @@ mod tests {
             assert!(out.buildings.iter().all(|b| b.mesh.is_none()), "{lod:?}");
         }
         let out = run(features, Some("2.2"));
-        assert_eq!(out.report.mesh_lod_fallbacks, 7);
+        assert_eq!(out.report.mesh_lod_fallbacks, 10);
     }
 }

@@ -40,14 +40,17 @@ fn every_roof_shape_over_every_boston_footprint_is_closed_or_refused_for_its_sha
     let shapes = [
         RoofShape::Skillion,
         RoofShape::Gabled,
+        RoofShape::Gambrel,
+        RoofShape::Round,
         RoofShape::Hipped,
+        RoofShape::Mansard,
         RoofShape::Pyramidal,
         RoofShape::Dome,
     ];
     let (base, height) = (0.0, 12.0);
     // Per shape: built, refused (with the reasons seen).
-    let mut built = [0usize; 5];
-    let mut refused: [Vec<String>; 5] = Default::default();
+    let mut built = [0usize; 8];
+    let mut refused: [Vec<String>; 8] = Default::default();
     let mut outlines = 0;
     for (id, polygon) in &polygons {
         let corners: usize = polygon.exterior().0.len()
@@ -108,10 +111,10 @@ fn every_roof_shape_over_every_boston_footprint_is_closed_or_refused_for_its_sha
         .map(|(s, shape)| format!("{shape:?} {} built, {} refused", built[s], refused[s].len()))
         .collect();
     eprintln!("{outlines} outlines: {}", report.join("; "));
-    eprintln!("hipped refused: {:?}", refused[2]);
+    eprintln!("hipped refused: {:?}", refused[4]);
     assert!(outlines > 20_000, "{outlines}");
-    // A skillion or gabled roof spans any outline with its courtyards.
-    for s in [0, 1] {
+    // A skillion, gabled, gambrel or round roof spans any outline with its courtyards.
+    for s in [0, 1, 2, 3] {
         assert!(
             refused[s].is_empty(),
             "{:?}: {:?}",
@@ -119,15 +122,18 @@ fn every_roof_shape_over_every_boston_footprint_is_closed_or_refused_for_its_sha
             &refused[s][..refused[s].len().min(5)]
         );
     }
-    // A hipped roof is the straight skeleton of any outline: refused only where rounding spoils it, rarely.
-    assert!(
-        refused[2].len() * 1000 <= outlines,
-        "hipped: {} refused: {:?}",
-        refused[2].len(),
-        &refused[2][..refused[2].len().min(5)]
-    );
+    // A hipped or mansard roof is the straight skeleton of any outline: refused only where rounding spoils it, rarely.
+    for s in [4, 5] {
+        assert!(
+            refused[s].len() * 1000 <= outlines,
+            "{:?}: {} refused: {:?}",
+            shapes[s],
+            refused[s].len(),
+            &refused[s][..refused[s].len().min(5)]
+        );
+    }
     // Pyramids and domes stand on convex outlines without courtyards only, and are refused for nothing else.
-    for s in [3, 4] {
+    for s in [6, 7] {
         assert!(built[s] > 1_000, "{:?}: {}", shapes[s], built[s]);
         for why in &refused[s] {
             assert!(

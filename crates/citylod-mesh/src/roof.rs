@@ -4,10 +4,13 @@
 //!
 //! - **skillion**: one plane descending towards the roof direction, over any outline and its courtyards;
 //! - **gabled**: two planes meeting at a ridge through the middle of the outline, the gable ends walls, over any
-//!   outline and its courtyards;
+//!   outline and its courtyards; **gambrel**: the same with each side in two slopes, steep below [`BREAK`] and
+//!   shallow above it; **round**: the same with a quarter circle's profile (an ellipse when the rise is not the
+//!   run), in [`DOME_BANDS`] planar bands each side;
 //! - **hipped**: a plane rising from every outline edge at one slope: the straight skeleton (for a convex outline
 //!   the face of an edge is where that edge is the nearest; for a concave one, or one with courtyards, the outline is
-//!   shrunk and the courtyards grown from event to event, [`skeleton`]);
+//!   shrunk and the courtyards grown from event to event, [`skeleton`]); **mansard**: the same with every face in
+//!   two slopes, steep below [`BREAK`] and shallow above it;
 //! - **pyramidal**: a triangle from every outline edge to an apex above the outline's centroid;
 //! - **dome** (also for an onion, whose bulge beyond the walls is not drawn): the outline shrunk towards its centroid
 //!   in [`DOME_BANDS`] bands whose heights follow a quarter circle (an ellipse when the rise is not the radius).
@@ -25,7 +28,13 @@ use std::collections::BTreeMap;
 pub enum RoofShape {
     Skillion,
     Gabled,
+    /// Gabled, each side steep up to [`BREAK`] and shallow above it (a barn's roof).
+    Gambrel,
+    /// Gabled with a quarter circle's profile (a barrel roof).
+    Round,
     Hipped,
+    /// Hipped, every face steep up to [`BREAK`] and shallow above it.
+    Mansard,
     Pyramidal,
     /// A dome over a convex outline: the outline shrunk towards its centroid in bands, as a quarter circle rises.
     Dome,
@@ -37,7 +46,10 @@ impl RoofShape {
         match value.trim().to_ascii_lowercase().as_str() {
             "skillion" | "lean_to" | "shed" => Some(RoofShape::Skillion),
             "gabled" | "pitched" => Some(RoofShape::Gabled),
+            "gambrel" => Some(RoofShape::Gambrel),
+            "round" => Some(RoofShape::Round),
             "hipped" => Some(RoofShape::Hipped),
+            "mansard" => Some(RoofShape::Mansard),
             "pyramidal" => Some(RoofShape::Pyramidal),
             // An onion's bulge beyond its walls cannot stand on them: drawn as the dome under it.
             "dome" | "onion" => Some(RoofShape::Dome),
@@ -51,7 +63,8 @@ impl RoofShape {
 pub enum RoofRise {
     /// Metres (`roof:height`, or `roof:levels` storeys).
     Metres(f64),
-    /// The slope in degrees (`roof:angle`): the rise over the run from the eaves to the ridge or apex.
+    /// The slope in degrees (`roof:angle`): the rise over the run from the eaves to the ridge or apex (for a roof of
+    /// several slopes, their mean).
     AngleDeg(f64),
     /// Nothing given: a slope of [`DEFAULT_ANGLE_DEG`], at most half of the building's height.
     Default,
@@ -59,6 +72,11 @@ pub enum RoofRise {
 
 /// The slope of a roof whose height is not given.
 pub const DEFAULT_ANGLE_DEG: f64 = 30.0;
+
+/// Where a gambrel or mansard roof changes slope: (share of the run in from the eaves, share of the rise). A third of
+/// the way in and two thirds of the way up, the lower slope is four times the upper (at the default mean slope of
+/// 30°, 49° below and 16° above).
+pub const BREAK: [f64; 2] = [1.0 / 3.0, 2.0 / 3.0];
 
 /// A roof below this rise is flat.
 pub const MIN_RISE_M: f64 = 0.05;
@@ -126,6 +144,8 @@ pub fn roofed_building(
     }
     let top = base_z + height;
     let longest = longest_edge(&ring);
+    let profile = profile(spec.shape);
+    let breaks: Vec<f64> = profile.iter().map(|b| b[0]).collect();
     let (faces, run) = match spec.shape {
         RoofShape::Skillion => {
             let down = spec
@@ -133,7 +153,7 @@ pub fn roofed_building(
                 .map_or([-longest[1], longest[0]], compass);
             skillion(&rings, down)
         }
-        RoofShape::Gabled => {
+        RoofShape::Gabled | RoofShape::Gambrel | RoofShape::Round => {
             let along = match spec.direction_deg {
                 Some(d) => {
                     let c = compass(d);
@@ -142,11 +162,18 @@ pub fn roofed_building(
                 None if spec.across => [-longest[1], longest[0]],
                 None => longest,
             };
-            gabled(&rings, along)
+            gabled(&rings, along, &breaks)
         }
-        RoofShape::Hipped if rings.len() == 1 && is_convex(&ring) => hipped(&ring),
-        RoofShape::Hipped => skeleton(&rings)
-            .ok_or_else(|| "the outline's straight skeleton could not be built".to_string())?,
+        RoofShape::Hipped | RoofShape::Mansard => {
+            let (faces, run) = if rings.len() == 1 && is_convex(&ring) {
+                hipped(&ring)
+            } else {
+                skeleton(&rings).ok_or_else(|| {
+                    "the outline's straight skeleton could not be built".to_string()
+                })?
+            };
+            (banded(faces, &breaks), run)
+        }
         RoofShape::Pyramidal => pyramidal(&ring),
         RoofShape::Dome => dome(&ring),
     };
@@ -158,8 +185,10 @@ pub fn roofed_building(
         RoofRise::Metres(m) => return Err(format!("a roof height of {m} m")),
         RoofRise::AngleDeg(a) if a > 0.0 && a < 89.0 => a.to_radians().tan() * run,
         RoofRise::AngleDeg(a) => return Err(format!("a roof angle of {a}° is not a slope")),
-        // A dome as high as it is wide; other roofs at the default slope.
-        RoofRise::Default if spec.shape == RoofShape::Dome => run.min(0.5 * height),
+        // A dome or a round roof as high as it is wide; other roofs at the default slope.
+        RoofRise::Default if matches!(spec.shape, RoofShape::Dome | RoofShape::Round) => {
+            run.min(0.5 * height)
+        }
         RoofRise::Default => (DEFAULT_ANGLE_DEG.to_radians().tan() * run).min(0.5 * height),
     };
     // The walls keep at least 10 cm (a roof as high as the building would meet the ground).
@@ -178,7 +207,13 @@ pub fn roofed_building(
     let n = points.len() as u32;
     let mut positions: Vec<[f64; 3]> = points
         .iter()
-        .map(|p| [p[0] + o[0], p[1] + o[1], eaves + rise * p[2]])
+        .map(|p| {
+            [
+                p[0] + o[0],
+                p[1] + o[1],
+                eaves + rise * lift(&profile, p[2]),
+            ]
+        })
         .collect();
     positions.extend(points.iter().map(|p| [p[0] + o[0], p[1] + o[1], base_z]));
     let mut triangles: Vec<[u32; 3]> = Vec::with_capacity(roof.len() * 3);
@@ -288,7 +323,7 @@ fn plan(faces: &[Face], rings: &[Vec<P2>]) -> Option<RoofPlan> {
                 of_handle.resize(h.index() + 1, u32::MAX);
             }
             if of_handle[h.index()] != u32::MAX {
-                // Spade merged it with a point of another group: they are too close to be two.
+                // Spade merged it with a point of another group (or of the frame): they are too close to be two.
                 return None;
             }
             of_handle[h.index()] = points.len() as u32;
@@ -313,6 +348,34 @@ fn plan(faces: &[Face], rings: &[Vec<P2>]) -> Option<RoofPlan> {
             }
         }
     }
+    // Four points well outside the outline, so that no edge of it stays on the hull of the points: a chain of points
+    // along an outline edge (where lines cross it) bends by rounding, and on the hull its bends would be filled with
+    // slivers whose centroids, on the edge, tell inside from outside by rounding too. Added after the constraints,
+    // which wall the outline's inside off from them: only triangles outside it change.
+    let (lo, hi) = rings.iter().flatten().fold(
+        ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
+        |(lo, hi), p| {
+            (
+                [lo[0].min(p[0]), lo[1].min(p[1])],
+                [hi[0].max(p[0]), hi[1].max(p[1])],
+            )
+        },
+    );
+    let margin = 1.0 + (hi[0] - lo[0]).max(hi[1] - lo[1]);
+    for corner in [
+        [lo[0], lo[1]],
+        [hi[0], lo[1]],
+        [hi[0], hi[1]],
+        [lo[0], hi[1]],
+    ] {
+        let x = corner[0] + margin * if corner[0] == lo[0] { -1.0 } else { 1.0 };
+        let y = corner[1] + margin * if corner[1] == lo[1] { -1.0 } else { 1.0 };
+        let h = cdt.insert(Point2::new(x, y)).ok()?;
+        if of_handle.len() <= h.index() {
+            of_handle.resize(h.index() + 1, u32::MAX);
+        }
+        of_handle[h.index()] = FRAME;
+    }
     let mut triangles = Vec::new();
     for f in cdt.inner_faces() {
         let vs = f.vertices();
@@ -325,7 +388,7 @@ fn plan(faces: &[Face], rings: &[Vec<P2>]) -> Option<RoofPlan> {
             continue;
         }
         let ids = vs.map(|v| of_handle.get(v.fix().index()).copied().unwrap_or(u32::MAX));
-        if ids.contains(&u32::MAX) {
+        if ids.iter().any(|&i| i == u32::MAX || i == FRAME) {
             // A point spade added where two constraints cross: faces that overlap.
             return None;
         }
@@ -333,6 +396,9 @@ fn plan(faces: &[Face], rings: &[Vec<P2>]) -> Option<RoofPlan> {
     }
     Some((points, triangles))
 }
+
+/// `of_handle` of the frame's points in [`plan`].
+const FRAME: u32 = u32::MAX - 1;
 
 fn trim(m: f64) -> String {
     let t = format!("{m:.2}");
@@ -471,8 +537,11 @@ fn skillion(rings: &[Vec<P2>], down: P2) -> (Vec<Face>, f64) {
 
 /// The roof falling from a ridge along `along` through the middle of the outline's extent across it to both sides
 /// (the ridge across the whole outline, as Simple 3D Buildings renderers draw a gabled roof over a concave one);
-/// the run is half that extent. Faces: the rings with the ridge's crossings inserted, and the ridge's pieces.
-fn gabled(rings: &[Vec<P2>], along: P2) -> (Vec<Face>, f64) {
+/// the run is half that extent. A corner's share of the rise is its share of the run from the eaves; `breaks`
+/// (shares in (0, 1)) add lines parallel to the ridge on both sides where a profile changes slope. Faces: the rings
+/// with the crossings of the ridge and those lines inserted, and the pieces of the ridge and the lines inside the
+/// outline, so that every triangle lies between two of them.
+fn gabled(rings: &[Vec<P2>], along: P2, breaks: &[f64]) -> (Vec<Face>, f64) {
     let across = [-along[1], along[0]];
     let t = |p: P2| dot(p, across);
     let lo = rings[0].iter().map(|&p| t(p)).fold(f64::INFINITY, f64::min);
@@ -482,50 +551,119 @@ fn gabled(rings: &[Vec<P2>], along: P2) -> (Vec<Face>, f64) {
         .fold(f64::NEG_INFINITY, f64::max);
     let mid = 0.5 * (lo + hi);
     let half = 0.5 * (hi - lo);
-    let on = |t: f64| (t - mid).abs() <= 1e-9 * half.max(1.0);
-    let share = |p: P2, side: i8| {
-        if side == 0 {
-            1.0
-        } else {
-            (1.0 - (t(p) - mid).abs() / half).clamp(0.0, 1.0)
-        }
+    // The lines, across the ridge from one side to the other, with their shares: 1 on the ridge.
+    let mut lines: Vec<(f64, f64)> = breaks
+        .iter()
+        .map(|&b| (mid - (1.0 - b) * half, b))
+        .chain(std::iter::once((mid, 1.0)))
+        .chain(breaks.iter().rev().map(|&b| (mid + (1.0 - b) * half, b)))
+        .collect();
+    lines.dedup_by(|x, y| x.0 == y.0);
+    let tol = 1e-9 * half.max(1.0);
+    let line_at = |t: f64| lines.iter().position(|l| (t - l.0).abs() <= tol);
+    let share = |p: P2| match line_at(t(p)) {
+        Some(k) => lines[k].1,
+        None => (1.0 - (t(p) - mid).abs() / half).clamp(0.0, 1.0),
     };
-    // Each ring with the ridge's crossings inserted, each corner with its side (−1, 0 on the ridge, 1).
-    let mut faces: Vec<Face> = Vec::with_capacity(rings.len() + 1);
-    let mut on_ridge: Vec<(f64, P2)> = Vec::new();
+    // Each ring with the lines' crossings inserted; the points on each line.
+    let mut faces: Vec<Face> = Vec::with_capacity(rings.len() + lines.len());
+    let mut on_line: Vec<Vec<(f64, P2)>> = vec![Vec::new(); lines.len()];
     for ring in rings {
         let n = ring.len();
-        let mut pts: Vec<(P2, i8)> = Vec::with_capacity(n + 2);
+        let mut pts: Vec<[f64; 3]> = Vec::with_capacity(n + 2);
         for i in 0..n {
             let (a, b) = (ring[i], ring[(i + 1) % n]);
             let (ta, tb) = (t(a), t(b));
-            pts.push((a, if on(ta) { 0 } else { (ta - mid).signum() as i8 }));
-            if !on(ta) && !on(tb) && (ta - mid) * (tb - mid) < 0.0 {
-                let f = (mid - ta) / (tb - ta);
-                pts.push(([a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])], 0));
+            pts.push([a[0], a[1], share(a)]);
+            if let Some(k) = line_at(ta) {
+                on_line[k].push((dot(a, along), a));
+            }
+            // The lines strictly between a and b, in the order the edge meets them.
+            let crossed = lines.iter().enumerate().filter(|(_, l)| {
+                (l.0 - ta) * (l.0 - tb) < 0.0 && (l.0 - ta).abs() > tol && (l.0 - tb).abs() > tol
+            });
+            let mut crossed: Vec<(usize, f64)> =
+                crossed.map(|(k, l)| (k, (l.0 - ta) / (tb - ta))).collect();
+            crossed.sort_by(|x, y| x.1.total_cmp(&y.1));
+            for (k, f) in crossed {
+                let c = [a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])];
+                pts.push([c[0], c[1], lines[k].1]);
+                on_line[k].push((dot(c, along), c));
             }
         }
-        on_ridge.extend(
-            pts.iter()
-                .filter(|(_, side)| *side == 0)
-                .map(|&(p, _)| (dot(p, along), p)),
-        );
-        faces.push(
-            pts.iter()
-                .map(|&(p, side)| [p[0], p[1], share(p, side)])
-                .collect(),
-        );
+        faces.push(pts);
     }
-    // The ridge as its pieces inside the outline (a concave outline's ridge line may leave it and come back, a
-    // courtyard interrupts it); the triangulation keeps each triangle on one side of the ridge, one plane.
-    on_ridge.sort_by(|x, y| x.0.total_cmp(&y.0));
-    for w in on_ridge.windows(2) {
-        let (p, q) = (w[0].1, w[1].1);
-        if inside_even_odd(rings, [0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1])]) {
-            faces.push(vec![[p[0], p[1], 1.0], [q[0], q[1], 1.0]]);
+    // Each line as its pieces inside the outline (a concave outline's line may leave it and come back, a courtyard
+    // interrupts it).
+    for (k, points) in on_line.iter_mut().enumerate() {
+        points.sort_by(|x, y| x.0.total_cmp(&y.0));
+        let z = lines[k].1;
+        for w in points.windows(2) {
+            let (p, q) = (w[0].1, w[1].1);
+            if inside_even_odd(rings, [0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1])]) {
+                faces.push(vec![[p[0], p[1], z], [q[0], q[1], z]]);
+            }
         }
     }
     (faces, half)
+}
+
+/// The profile of a roof across its run: the corners (share of the run from the eaves, share of the rise) between
+/// (0, 0) and (1, 1) where its slope changes; none for one slope.
+fn profile(shape: RoofShape) -> Vec<[f64; 2]> {
+    match shape {
+        RoofShape::Gambrel | RoofShape::Mansard => vec![BREAK],
+        // A quarter circle from the eaves (θ = 0) to the ridge (θ = 90°): in cos θ of the run from the ridge, sin θ of
+        // the rise up.
+        RoofShape::Round => (1..DOME_BANDS)
+            .map(|j| {
+                let (up, inward) =
+                    (std::f64::consts::FRAC_PI_2 * j as f64 / DOME_BANDS as f64).sin_cos();
+                [1.0 - inward, up]
+            })
+            .collect(),
+        _ => Vec::new(),
+    }
+}
+
+/// The share of the rise at share `s` of the run, along `profile` (see [`profile`]).
+fn lift(profile: &[[f64; 2]], s: f64) -> f64 {
+    let mut from = [0.0, 0.0];
+    for &to in profile.iter().chain(std::iter::once(&[1.0, 1.0])) {
+        if s <= to[0] {
+            let f = if to[0] > from[0] {
+                (s - from[0]) / (to[0] - from[0])
+            } else {
+                1.0
+            };
+            return from[1] + f * (to[1] - from[1]);
+        }
+        from = to;
+    }
+    1.0
+}
+
+/// Convex faces whose share of the run is linear over them (a hipped roof's), cut where it crosses a share of
+/// `breaks`, so that each piece lies on one slope of the profile.
+fn banded(faces: Vec<Face>, breaks: &[f64]) -> Vec<Face> {
+    if breaks.is_empty() {
+        return faces;
+    }
+    let mut out = Vec::with_capacity(faces.len() * (breaks.len() + 1));
+    for face in faces {
+        let mut rest = face;
+        for &b in breaks {
+            let below = clip(&rest, |c| c[2] - b);
+            rest = clip(&rest, |c| b - c[2]);
+            if below.len() >= 3 {
+                out.push(below);
+            }
+        }
+        if rest.len() >= 3 {
+            out.push(rest);
+        }
+    }
+    out
 }
 
 /// The face of every edge: where that edge's line is the nearest of all (a convex outline's straight skeleton);
@@ -1023,8 +1161,8 @@ fn centroid(ring: &[P2]) -> P2 {
     [o[0] + cx / (3.0 * a2), o[1] + cy / (3.0 * a2)]
 }
 
-/// The part of a convex polygon where `f` ≤ 0 (`f` linear).
-fn clip(poly: &[P2], f: impl Fn(P2) -> f64) -> Vec<P2> {
+/// The part of a convex polygon where `f` ≤ 0 (`f` linear; every coordinate of a crossing interpolated).
+fn clip<const N: usize>(poly: &[[f64; N]], f: impl Fn([f64; N]) -> f64) -> Vec<[f64; N]> {
     let n = poly.len();
     let mut out = Vec::with_capacity(n + 1);
     for i in 0..n {
@@ -1035,7 +1173,7 @@ fn clip(poly: &[P2], f: impl Fn(P2) -> f64) -> Vec<P2> {
         }
         if (fa < 0.0 && fb > 0.0) || (fa > 0.0 && fb < 0.0) {
             let t = fa / (fa - fb);
-            out.push([a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]);
+            out.push(std::array::from_fn(|k| a[k] + t * (b[k] - a[k])));
         }
     }
     out
@@ -1454,6 +1592,202 @@ mod tests {
         assert!(kinds.contains(&SurfaceKind::Roof));
     }
 
+    /// The volume of a roof of `profile` rising `rise` over `run`, where the part of the outline at least t in from the
+    /// eaves (in the shape's own sense of distance) has area `area(t)`, quadratic in t: the roof holds, layer by
+    /// layer, ∫ area(t) · slope(t) dt, the slope constant between the profile's corners (Simpson's rule, exact).
+    fn layered_volume(area: impl Fn(f64) -> f64, run: f64, rise: f64, profile: &[[f64; 2]]) -> f64 {
+        let corners: Vec<[f64; 2]> = std::iter::once([0.0, 0.0])
+            .chain(profile.iter().copied())
+            .chain(std::iter::once([1.0, 1.0]))
+            .collect();
+        corners
+            .windows(2)
+            .map(|w| {
+                let (t0, t1) = (w[0][0] * run, w[1][0] * run);
+                let slope = (w[1][1] - w[0][1]) * rise / (t1 - t0);
+                slope * (t1 - t0) / 6.0 * (area(t0) + 4.0 * area(0.5 * (t0 + t1)) + area(t1))
+            })
+            .sum()
+    }
+
+    #[test]
+    fn a_gambrel_and_a_round_roof_follow_their_profiles_across_the_ridge() {
+        // The house, walls up to 11 m, a roof of 4 m over the half-width of 4 m; the part at least t in from the eaves
+        // is 12 × (8 − 2t).
+        let walls = 12.0 * 8.0 * 6.0;
+        let strip = |t: f64| 12.0 * (8.0 - 2.0 * t);
+        let (mesh, kinds) = roofed_building(
+            &footprint(&HOUSE),
+            5.0,
+            10.0,
+            &spec(RoofShape::Gambrel, RoofRise::Metres(4.0)),
+        )
+        .unwrap();
+        // A cross-section of 8 × 4 × 2/3 m²: more than the gabled roof's half.
+        let v = closed_volume(&mesh);
+        let roof = layered_volume(strip, 4.0, 4.0, &[BREAK]);
+        assert!((roof - 12.0 * 8.0 * 4.0 * 2.0 / 3.0).abs() < 1e-9);
+        assert!((v - (walls + roof)).abs() < 1e-6, "{v}");
+        assert_eq!(top_z(&mesh), 15.0);
+        assert_eq!(ridge(&mesh, 15.0), [[0.0, 4.0], [12.0, 4.0]]);
+        // The slope breaks a third of the way in (4/3 m from the eaves) and two thirds of the way up.
+        let at_break: Vec<[f64; 2]> = ridge(&mesh, 11.0 + 8.0 / 3.0);
+        assert_eq!(at_break.len(), 4, "{at_break:?}");
+        for (p, q) in at_break.iter().zip([
+            [0.0, 4.0 / 3.0],
+            [0.0, 20.0 / 3.0],
+            [12.0, 4.0 / 3.0],
+            [12.0, 20.0 / 3.0],
+        ]) {
+            assert!(
+                (p[0] - q[0]).abs() < 1e-9 && (p[1] - q[1]).abs() < 1e-9,
+                "{at_break:?}"
+            );
+        }
+        // Two slopes each side, 2 triangles each: steep (rise 8/3 over 4/3) and shallow (4/3 over 8/3).
+        let mut slopes: Vec<f64> = roof_slopes(&mesh, &kinds).iter().map(|s| s.0).collect();
+        slopes.sort_by(f64::total_cmp);
+        assert_eq!(slopes.len(), 8);
+        assert!(
+            slopes[..4].iter().all(|s| (s - 0.5).abs() < 1e-9),
+            "{slopes:?}"
+        );
+        assert!(
+            slopes[4..].iter().all(|s| (s - 2.0).abs() < 1e-9),
+            "{slopes:?}"
+        );
+
+        // Round, as high as its run by default: every corner of the roof on the circle of 4 m about the ridge's foot,
+        // 6 bands each side, and the volume of that polygon.
+        let (mesh, kinds) = roofed_building(
+            &footprint(&HOUSE),
+            5.0,
+            10.0,
+            &spec(RoofShape::Round, RoofRise::Default),
+        )
+        .unwrap();
+        let v = closed_volume(&mesh);
+        assert_eq!(top_z(&mesh), 15.0);
+        let on_roof: Vec<[f64; 3]> = mesh
+            .positions
+            .iter()
+            .copied()
+            .filter(|p| p[2] > 11.0 + 1e-9)
+            .collect();
+        assert_eq!(on_roof.len(), 2 * (2 * (DOME_BANDS - 1) + 1), "{on_roof:?}");
+        for p in &on_roof {
+            assert!(
+                ((p[1] - 4.0).hypot(p[2] - 11.0) - 4.0).abs() < 1e-9,
+                "{p:?}"
+            );
+        }
+        // 12 triangles of 15° from the ridge's foot, each 8 sin 15° m².
+        let section = 12.0 * 0.5 * 16.0 * (std::f64::consts::PI / 12.0).sin();
+        let roof = layered_volume(strip, 4.0, 4.0, &profile(RoofShape::Round));
+        assert!((roof - 12.0 * section).abs() < 1e-9, "{roof}");
+        assert!((v - (walls + roof)).abs() < 1e-6, "{v}");
+        assert_eq!(
+            kinds.iter().filter(|&&k| k == SurfaceKind::Roof).count(),
+            2 * DOME_BANDS * 2
+        );
+    }
+
+    #[test]
+    fn a_mansard_roof_breaks_its_slope_on_every_side() {
+        // The house, walls up to 6 m, a roof of 3 m over the half-width of 4 m: every face steep for the first 4/3 m
+        // in, shallow above; the part at least t in from the outline is (12 − 2t)(8 − 2t).
+        let (mesh, kinds) = roofed_building(
+            &footprint(&HOUSE),
+            0.0,
+            9.0,
+            &spec(RoofShape::Mansard, RoofRise::Metres(3.0)),
+        )
+        .unwrap();
+        let v = closed_volume(&mesh);
+        let roof = layered_volume(|t| (12.0 - 2.0 * t) * (8.0 - 2.0 * t), 4.0, 3.0, &[BREAK]);
+        assert!(
+            (v - (12.0 * 8.0 * 6.0 + roof)).abs() < 1e-6,
+            "{v} against {}",
+            576.0 + roof
+        );
+        assert!((top_z(&mesh) - 9.0).abs() < 1e-9);
+        // The break: the outline shrunk by 4/3 m, 2 m up.
+        let at_break = ridge(&mesh, 8.0);
+        let (a, b) = (4.0 / 3.0, 12.0 - 4.0 / 3.0);
+        let (c, d) = (4.0 / 3.0, 8.0 - 4.0 / 3.0);
+        let want = [[a, c], [a, d], [b, c], [b, d]];
+        assert_eq!(at_break.len(), 4, "{at_break:?}");
+        for (p, q) in at_break.iter().zip(want) {
+            assert!(
+                (p[0] - q[0]).abs() < 1e-9 && (p[1] - q[1]).abs() < 1e-9,
+                "{at_break:?}"
+            );
+        }
+        for s in roof_slopes(&mesh, &kinds) {
+            assert!(
+                (s.0 - 1.5).abs() < 1e-9 || (s.0 - 0.375).abs() < 1e-9,
+                "{s:?}"
+            );
+        }
+
+        // Over an L (the straight skeleton): the break is the L shrunk by 5/3 m (its corners, and none off its edges), and
+        // the volume the shrinking L gives, 2(20 − 2t)(10 − 2t) − (10 − 2t)² in from t.
+        let l = [
+            (0.0, 0.0),
+            (20.0, 0.0),
+            (20.0, 10.0),
+            (10.0, 10.0),
+            (10.0, 20.0),
+            (0.0, 20.0),
+        ];
+        let (mesh, kinds) = roofed_building(
+            &footprint(&l),
+            0.0,
+            10.0,
+            &spec(RoofShape::Mansard, RoofRise::Metres(5.0)),
+        )
+        .unwrap();
+        let v = closed_volume(&mesh);
+        let shrunk = |t: f64| 2.0 * (20.0 - 2.0 * t) * (10.0 - 2.0 * t) - (10.0 - 2.0 * t).powi(2);
+        let roof = layered_volume(shrunk, 5.0, 5.0, &[BREAK]);
+        assert!(
+            (v - (300.0 * 5.0 + roof)).abs() < 1e-6,
+            "{v} against {}",
+            1500.0 + roof
+        );
+        let (a, b, c) = (5.0 / 3.0, 20.0 - 5.0 / 3.0, 10.0 - 5.0 / 3.0);
+        let shrunk_l = [[a, a], [b, a], [b, c], [c, c], [c, b], [a, b]];
+        let at_break: Vec<[f64; 2]> = ridge(&mesh, 5.0 + 10.0 / 3.0);
+        let off_edges = |p: [f64; 2]| {
+            (0..6)
+                .map(|i| {
+                    let (e0, e1) = (shrunk_l[i], shrunk_l[(i + 1) % 6]);
+                    let (ab, ap) = (sub(e1, e0), sub(p, e0));
+                    let s = (dot(ab, ap) / dot(ab, ab)).clamp(0.0, 1.0);
+                    (ap[0] - s * ab[0]).hypot(ap[1] - s * ab[1])
+                })
+                .fold(f64::INFINITY, f64::min)
+        };
+        assert!(
+            at_break.iter().all(|&p| off_edges(p) < 1e-6),
+            "{at_break:?}"
+        );
+        for q in shrunk_l {
+            assert!(
+                at_break
+                    .iter()
+                    .any(|p| (p[0] - q[0]).hypot(p[1] - q[1]) < 1e-6),
+                "{q:?} not in {at_break:?}"
+            );
+        }
+        for s in roof_slopes(&mesh, &kinds) {
+            assert!(
+                (s.0 - 2.0).abs() < 1e-6 || (s.0 - 0.5).abs() < 1e-6,
+                "{s:?}"
+            );
+        }
+    }
+
     /// A building 30 km from the origin gets the roof it gets at the origin, moved: same triangles, same corners to
     /// the micrometre, for every shape.
     #[test]
@@ -1473,7 +1807,14 @@ mod tests {
         for (outline, shapes) in [
             (
                 &l,
-                &[RoofShape::Skillion, RoofShape::Gabled, RoofShape::Hipped][..],
+                &[
+                    RoofShape::Skillion,
+                    RoofShape::Gabled,
+                    RoofShape::Gambrel,
+                    RoofShape::Round,
+                    RoofShape::Hipped,
+                    RoofShape::Mansard,
+                ][..],
             ),
             (
                 &square,
@@ -1513,9 +1854,10 @@ mod tests {
     }
 
     /// A roof triangle of a hipped roof off its one slope — that of the widest roof triangle, the least tilted by
-    /// welding — by more than welding explains: corners moved by up to WELD_M in plan and in height tilt a triangle
-    /// by about (1 + slope) · 2 · WELD_M over its smallest height. (its slope, the one slope, its height in m)
-    fn off_slope(mesh: &Mesh3d, kinds: &[SurfaceKind]) -> Option<(f64, f64, f64)> {
+    /// welding — times one of `ratios` (a mansard's two slopes) by more than welding explains: corners moved by up to
+    /// WELD_M in plan and in height tilt a triangle by about (1 + slope) · 2 · WELD_M over its smallest height. (its
+    /// slope, the one slope, its height in m)
+    fn off_slope(mesh: &Mesh3d, kinds: &[SurfaceKind], ratios: &[f64]) -> Option<(f64, f64, f64)> {
         let slopes = roof_slopes(mesh, kinds);
         let (slope, _) = slopes
             .iter()
@@ -1524,7 +1866,9 @@ mod tests {
         slopes
             .into_iter()
             .find(|&(s, altitude)| {
-                (s - slope).abs() > (1.0 + slope) * 2.0 * WELD_M / altitude + 1e-9
+                ratios.iter().all(|r| {
+                    (s - r * slope).abs() > (1.0 + r * slope) * 2.0 * WELD_M / altitude + 1e-9
+                })
             })
             .map(|(s, altitude)| (s, slope, altitude))
     }
@@ -1594,7 +1938,7 @@ mod tests {
         ];
         for star in stars {
             let (_, mesh, kinds) = hipped_star(star);
-            if let Some((s, slope, altitude)) = off_slope(&mesh, &kinds) {
+            if let Some((s, slope, altitude)) = off_slope(&mesh, &kinds, &[1.0]) {
                 panic!("slope {s} against {slope} (height {altitude} m)");
             }
         }
@@ -1711,7 +2055,7 @@ mod tests {
             let fp = footprint(&pts);
             let ring: Vec<[f64; 2]> = pts.iter().map(|&(x, y)| [x, y]).collect();
             let area = crate::ring::signed_area2(&ring) / 2.0;
-            for shape in [RoofShape::Skillion, RoofShape::Gabled, RoofShape::Hipped, RoofShape::Pyramidal, RoofShape::Dome] {
+            for shape in [RoofShape::Skillion, RoofShape::Gabled, RoofShape::Gambrel, RoofShape::Round, RoofShape::Hipped, RoofShape::Mansard, RoofShape::Pyramidal, RoofShape::Dome] {
                 let spec = RoofSpec { shape, rise: RoofRise::Metres(rise), direction_deg: direction, across };
                 let built = roofed_building(&fp, 2.0, 20.0, &spec);
                 // A sliver of an outline (all corners on a short arc) may have too few corners left once those
@@ -1774,11 +2118,12 @@ mod tests {
                 area -= 4.0 * h * h;
             }
             // Hipped: the straight skeleton of a concave outline and its courtyard.
-            for shape in [RoofShape::Skillion, RoofShape::Gabled, RoofShape::Hipped] {
+            for shape in [RoofShape::Skillion, RoofShape::Gabled, RoofShape::Gambrel, RoofShape::Round, RoofShape::Hipped, RoofShape::Mansard] {
+                let skeleton = matches!(shape, RoofShape::Hipped | RoofShape::Mansard);
                 let spec = RoofSpec { shape, rise: RoofRise::Metres(rise), direction_deg: Some(direction), across: false };
                 let (mesh, kinds) = match roofed_building(&fp, 0.0, 20.0, &spec) {
                     Ok(built) => built,
-                    Err(e) if shape == RoofShape::Hipped && HIPPED_REFUSALS.contains(&e.as_str()) => {
+                    Err(e) if skeleton && HIPPED_REFUSALS.contains(&e.as_str()) => {
                         let refused = REFUSED.fetch_add(1, Ordering::Relaxed) + 1;
                         // Rare (one in 20 000 outlines when measured), never the rule.
                         proptest::prop_assert!(refused <= 1 + BUILT.load(Ordering::Relaxed) / 200,
@@ -1787,7 +2132,7 @@ mod tests {
                     }
                     Err(e) => return Err(proptest::test_runner::TestCaseError::fail(format!("{shape:?}: {e}"))),
                 };
-                if shape == RoofShape::Hipped {
+                if skeleton {
                     BUILT.fetch_add(1, Ordering::Relaxed);
                 }
                 let r = mesh_report(&mesh);
@@ -1795,10 +2140,12 @@ mod tests {
                 let v = signed_volume_m3(&mesh);
                 proptest::prop_assert!(v > area * (20.0 - rise) * (1.0 - 1e-9) && v < area * 20.0 * (1.0 + 1e-9), "{:?}: {} of {}", shape, v, area);
                 proptest::prop_assert!((top_z(&mesh) - 20.0).abs() < 1e-6, "{:?}", shape);
-                if shape == RoofShape::Hipped {
-                    // Every face rises from its edge at the one slope of a straight skeleton's roof.
-                    let off = off_slope(&mesh, &kinds);
-                    proptest::prop_assert!(off.is_none(), "(slope, against, height m) {:?}", off);
+                if skeleton {
+                    // Every face rises from its edge at the one slope of a straight skeleton's roof (a mansard's at its
+                    // two, the lower four times the upper).
+                    let ratios: &[f64] = if shape == RoofShape::Mansard { &[1.0, 4.0, 0.25] } else { &[1.0] };
+                    let off = off_slope(&mesh, &kinds, ratios);
+                    proptest::prop_assert!(off.is_none(), "{:?}: (slope, against, height m) {:?}", shape, off);
                 }
             }
         }
