@@ -6,7 +6,8 @@
 //! - **gabled**: two planes meeting at a ridge through the middle of the outline, the gable ends walls, over any
 //!   outline and its courtyards; **gambrel**: the same with each side in two slopes, steep below [`BREAK`] and
 //!   shallow above it; **round**: the same with a quarter circle's profile (an ellipse when the rise is not the
-//!   run), in [`DOME_BANDS`] planar bands each side;
+//!   run), in [`DOME_BANDS`] planar bands each side; **half-hipped**: the same with a hip over each gable from
+//!   [`HALF_HIP_FROM`] of the rise up (the lowest of the four planes, [`lowest_of`]);
 //! - **hipped**: a plane rising from every outline edge at one slope: the straight skeleton (for a convex outline
 //!   the face of an edge is where that edge is the nearest; for a concave one, or one with courtyards, the outline is
 //!   shrunk and the courtyards grown from event to event, [`skeleton`]); **mansard**: the same with every face in
@@ -32,6 +33,8 @@ pub enum RoofShape {
     Gambrel,
     /// Gabled with a quarter circle's profile (a barrel roof).
     Round,
+    /// Gabled, each gable wall up to [`HALF_HIP_FROM`] of the rise and a hip above it.
+    HalfHipped,
     Hipped,
     /// Hipped, every face steep up to [`BREAK`] and shallow above it.
     Mansard,
@@ -48,11 +51,14 @@ impl RoofShape {
             "gabled" | "pitched" => Some(RoofShape::Gabled),
             "gambrel" => Some(RoofShape::Gambrel),
             "round" => Some(RoofShape::Round),
+            // half_hipped as Overture Maps writes it.
+            "half-hipped" | "half_hipped" => Some(RoofShape::HalfHipped),
             "hipped" => Some(RoofShape::Hipped),
             "mansard" => Some(RoofShape::Mansard),
             "pyramidal" => Some(RoofShape::Pyramidal),
             // An onion's bulge beyond its walls cannot stand on them: drawn as the dome under it.
-            "dome" | "onion" => Some(RoofShape::Dome),
+            // Overture Maps' spherical roof too.
+            "dome" | "onion" | "spherical" => Some(RoofShape::Dome),
             _ => None,
         }
     }
@@ -153,7 +159,7 @@ pub fn roofed_building(
                 .map_or([-longest[1], longest[0]], compass);
             skillion(&rings, down)
         }
-        RoofShape::Gabled | RoofShape::Gambrel | RoofShape::Round => {
+        RoofShape::Gabled | RoofShape::Gambrel | RoofShape::Round | RoofShape::HalfHipped => {
             let along = match spec.direction_deg {
                 Some(d) => {
                     let c = compass(d);
@@ -162,7 +168,11 @@ pub fn roofed_building(
                 None if spec.across => [-longest[1], longest[0]],
                 None => longest,
             };
-            gabled(&rings, along, &breaks)
+            if spec.shape == RoofShape::HalfHipped {
+                half_hipped(&rings, along)
+            } else {
+                gabled(&rings, along, &breaks)
+            }
         }
         RoofShape::Hipped | RoofShape::Mansard => {
             let (faces, run) = if rings.len() == 1 && is_convex(&ring) {
@@ -606,6 +616,146 @@ fn gabled(rings: &[Vec<P2>], along: P2, breaks: &[f64]) -> (Vec<Face>, f64) {
         }
     }
     (faces, half)
+}
+
+/// The gabled roof (see [`gabled`]) with a hip over each gable: planes rising at the roof's slope from the outline's
+/// two ends along the ridge, starting [`HALF_HIP_FROM`] of the rise up. The roof is the lowest of the four planes.
+fn half_hipped(rings: &[Vec<P2>], along: P2) -> (Vec<Face>, f64) {
+    let across = [-along[1], along[0]];
+    let extent = |d: P2| {
+        rings[0]
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &p| {
+                (lo.min(dot(p, d)), hi.max(dot(p, d)))
+            })
+    };
+    let ((lo, hi), (first, last)) = (extent(across), extent(along));
+    let half = 0.5 * (hi - lo);
+    let k = 1.0 / half;
+    // Each plane's share of the rise as n · p + c: rising from either side to the ridge, then from either end.
+    let planes = [
+        ([k * across[0], k * across[1]], -lo * k),
+        ([-k * across[0], -k * across[1]], hi * k),
+        ([k * along[0], k * along[1]], HALF_HIP_FROM - first * k),
+        ([-k * along[0], -k * along[1]], HALF_HIP_FROM + last * k),
+    ];
+    (lowest_of(rings, &planes), half)
+}
+
+/// Where a half-hipped roof's hips begin, as a share of the rise: the gable walls rise to half the roof.
+pub const HALF_HIP_FROM: f64 = 0.5;
+
+/// The roof that is everywhere the lowest of `planes` (shares of the rise, `n · p + c`, clamped to [0, 1] and scaled
+/// so that the highest corner is 1), over any outline and its courtyards. Faces: the rings with the points where
+/// creases (where two planes are the lowest together) cross them inserted, and the creases' pieces inside the
+/// outline, so that every triangle lies on one plane.
+fn lowest_of(rings: &[Vec<P2>], planes: &[(P2, f64)]) -> Vec<Face> {
+    let at = |i: usize, p: P2| dot(planes[i].0, p) + planes[i].1;
+    let lowest = |p: P2| {
+        (0..planes.len())
+            .map(|i| at(i, p))
+            .fold(f64::INFINITY, f64::min)
+    };
+    // Each plane's cell (where it is the lowest) within a frame around the outline; its edges with a later plane's
+    // cell are the creases.
+    let (lo, hi) = rings[0].iter().fold(
+        ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
+        |(lo, hi), p| {
+            (
+                [lo[0].min(p[0]), lo[1].min(p[1])],
+                [hi[0].max(p[0]), hi[1].max(p[1])],
+            )
+        },
+    );
+    let m = 1.0 + (hi[0] - lo[0]).max(hi[1] - lo[1]);
+    let frame = vec![
+        [lo[0] - m, lo[1] - m],
+        [hi[0] + m, lo[1] - m],
+        [hi[0] + m, hi[1] + m],
+        [lo[0] - m, hi[1] + m],
+    ];
+    let mut creases: Vec<[P2; 2]> = Vec::new();
+    for i in 0..planes.len() {
+        let mut cell = frame.clone();
+        for j in (0..planes.len()).filter(|&j| j != i) {
+            cell = clip(&cell, |p| at(i, p) - at(j, p));
+        }
+        for e in 0..cell.len() {
+            let (a, b) = (cell[e], cell[(e + 1) % cell.len()]);
+            let mid = [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
+            if sub(b, a)[0].hypot(sub(b, a)[1]) > WELD_M
+                && (i + 1..planes.len()).any(|j| (at(i, mid) - at(j, mid)).abs() < 1e-9)
+            {
+                creases.push([a, b]);
+            }
+        }
+    }
+    // Where each crease crosses the rings: the point on the ring's edge, inserted there, and the crease cut there.
+    let mut crossings: Vec<Vec<Vec<(f64, P2)>>> =
+        rings.iter().map(|r| vec![Vec::new(); r.len()]).collect();
+    let mut pieces: Vec<[P2; 2]> = Vec::new();
+    for &[p, q] in &creases {
+        let d = sub(q, p);
+        let mut cuts: Vec<(f64, P2)> = vec![(0.0, p), (1.0, q)];
+        for (r, ring) in rings.iter().enumerate() {
+            for e in 0..ring.len() {
+                let (a, b) = (ring[e], ring[(e + 1) % ring.len()]);
+                let f = sub(b, a);
+                let den = cross(d, f);
+                if den.abs() < 1e-12 * (dot(d, d) * dot(f, f)).sqrt() {
+                    continue;
+                }
+                let w = sub(a, p);
+                let (tc, te) = (cross(w, f) / den, cross(w, d) / den);
+                if !((0.0..=1.0).contains(&tc) && (0.0..=1.0).contains(&te)) {
+                    continue;
+                }
+                let x = [a[0] + te * f[0], a[1] + te * f[1]];
+                let len = f[0].hypot(f[1]);
+                if te * len > WELD_M && (1.0 - te) * len > WELD_M {
+                    crossings[r][e].push((te, x));
+                    cuts.push((tc, x));
+                } else {
+                    cuts.push((tc, if te < 0.5 { a } else { b }));
+                }
+            }
+        }
+        cuts.sort_by(|x, y| x.0.total_cmp(&y.0));
+        for w in cuts.windows(2) {
+            let (x, y) = (w[0].1, w[1].1);
+            if (w[1].0 - w[0].0) * d[0].hypot(d[1]) > WELD_M
+                && inside_even_odd(rings, [0.5 * (x[0] + y[0]), 0.5 * (x[1] + y[1])])
+            {
+                pieces.push([x, y]);
+            }
+        }
+    }
+    let mut faces: Vec<Face> = Vec::with_capacity(rings.len() + pieces.len());
+    for (r, ring) in rings.iter().enumerate() {
+        let mut face = Vec::with_capacity(ring.len());
+        for (e, &a) in ring.iter().enumerate() {
+            face.push(a);
+            let mut on = std::mem::take(&mut crossings[r][e]);
+            on.sort_by(|x, y| x.0.total_cmp(&y.0));
+            face.extend(on.into_iter().map(|(_, x)| x));
+        }
+        faces.push(face.into_iter().map(|p| [p[0], p[1], lowest(p)]).collect());
+    }
+    faces.extend(
+        pieces
+            .into_iter()
+            .map(|pq| pq.map(|p| [p[0], p[1], lowest(p)]).to_vec()),
+    );
+    // The highest corner reaches the top (the ridge, or where the hips of a short outline meet below it).
+    let top = faces.iter().flatten().map(|c| c[2]).fold(0.0, f64::max);
+    for c in faces.iter_mut().flatten() {
+        c[2] = if top > 0.0 {
+            (c[2] / top).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+    }
+    faces
 }
 
 /// The profile of a roof across its run: the corners (share of the run from the eaves, share of the rise) between
@@ -1693,6 +1843,51 @@ mod tests {
     }
 
     #[test]
+    fn a_half_hipped_roof_has_hips_over_half_gables() {
+        // The house: walls to 11 m, a roof of 4 m over the half-width of 4 m; the gable walls rise to 13 m, and hips at
+        // the roof's slope (4 m over 4 m) rise from there to the ridge, 2 m in from each end.
+        let (mesh, kinds) = roofed_building(
+            &footprint(&HOUSE),
+            5.0,
+            10.0,
+            &spec(RoofShape::HalfHipped, RoofRise::Metres(4.0)),
+        )
+        .unwrap();
+        let v = closed_volume(&mesh);
+        // The gabled roof's 192 m³ less what each hip cuts off: ∫₀² (2 − x)² / 4 dx of the rise, 8/3 m³.
+        let roof = 0.5 * 8.0 * 4.0 * 12.0 - 2.0 * 4.0 * (2.0 / 3.0);
+        assert!((v - (12.0 * 8.0 * 6.0 + roof)).abs() < 1e-6, "{v}");
+        assert_eq!(top_z(&mesh), 15.0);
+        let r = ridge(&mesh, 15.0);
+        assert_eq!(r.len(), 2, "{r:?}");
+        for (p, q) in r.iter().zip([[2.0, 4.0], [10.0, 4.0]]) {
+            assert!(
+                (p[0] - q[0]).abs() < 1e-9 && (p[1] - q[1]).abs() < 1e-9,
+                "{r:?}"
+            );
+        }
+        let gables = ridge(&mesh, 13.0);
+        assert_eq!(gables.len(), 4, "{gables:?}");
+        for (p, q) in gables
+            .iter()
+            .zip([[0.0, 2.0], [0.0, 6.0], [12.0, 2.0], [12.0, 6.0]])
+        {
+            assert!(
+                (p[0] - q[0]).abs() < 1e-9 && (p[1] - q[1]).abs() < 1e-9,
+                "{gables:?}"
+            );
+        }
+        // Four roof planes, every one at the roof's slope of 1: the sides hexagons (4 triangles each), the hips
+        // triangles.
+        let slopes = roof_slopes(&mesh, &kinds);
+        assert!(
+            slopes.iter().all(|s| (s.0 - 1.0).abs() < 1e-9),
+            "{slopes:?}"
+        );
+        assert_eq!(slopes.len(), 2 * 4 + 2);
+    }
+
+    #[test]
     fn a_mansard_roof_breaks_its_slope_on_every_side() {
         // The house, walls up to 6 m, a roof of 3 m over the half-width of 4 m: every face steep for the first 4/3 m
         // in, shallow above; the part at least t in from the outline is (12 − 2t)(8 − 2t).
@@ -1812,6 +2007,7 @@ mod tests {
                     RoofShape::Gabled,
                     RoofShape::Gambrel,
                     RoofShape::Round,
+                    RoofShape::HalfHipped,
                     RoofShape::Hipped,
                     RoofShape::Mansard,
                 ][..],
@@ -2055,7 +2251,7 @@ mod tests {
             let fp = footprint(&pts);
             let ring: Vec<[f64; 2]> = pts.iter().map(|&(x, y)| [x, y]).collect();
             let area = crate::ring::signed_area2(&ring) / 2.0;
-            for shape in [RoofShape::Skillion, RoofShape::Gabled, RoofShape::Gambrel, RoofShape::Round, RoofShape::Hipped, RoofShape::Mansard, RoofShape::Pyramidal, RoofShape::Dome] {
+            for shape in [RoofShape::Skillion, RoofShape::Gabled, RoofShape::Gambrel, RoofShape::Round, RoofShape::HalfHipped, RoofShape::Hipped, RoofShape::Mansard, RoofShape::Pyramidal, RoofShape::Dome] {
                 let spec = RoofSpec { shape, rise: RoofRise::Metres(rise), direction_deg: direction, across };
                 let built = roofed_building(&fp, 2.0, 20.0, &spec);
                 // A sliver of an outline (all corners on a short arc) may have too few corners left once those
@@ -2118,7 +2314,7 @@ mod tests {
                 area -= 4.0 * h * h;
             }
             // Hipped: the straight skeleton of a concave outline and its courtyard.
-            for shape in [RoofShape::Skillion, RoofShape::Gabled, RoofShape::Gambrel, RoofShape::Round, RoofShape::Hipped, RoofShape::Mansard] {
+            for shape in [RoofShape::Skillion, RoofShape::Gabled, RoofShape::Gambrel, RoofShape::Round, RoofShape::HalfHipped, RoofShape::Hipped, RoofShape::Mansard] {
                 let skeleton = matches!(shape, RoofShape::Hipped | RoofShape::Mansard);
                 let spec = RoofSpec { shape, rise: RoofRise::Metres(rise), direction_deg: Some(direction), across: false };
                 let (mesh, kinds) = match roofed_building(&fp, 0.0, 20.0, &spec) {
