@@ -1111,13 +1111,15 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
                 .filter(|c| c.is_element() && side.contains(&c.tag_name().name()))
             {
                 let ring = self.target(b)?.ok_or("an empty polygon boundary")?;
-                if ring.tag_name().name() != "LinearRing" {
-                    return Err(format!(
-                        "a polygon boundary is a {}, not a LinearRing",
-                        ring.tag_name().name()
-                    ));
-                }
-                rings.push(self.ring(ring)?);
+                rings.push(match ring.tag_name().name() {
+                    "LinearRing" => self.ring(ring)?,
+                    "Ring" => self.curve_ring(ring)?,
+                    other => {
+                        return Err(format!(
+                            "a polygon boundary is a {other}, not a LinearRing or Ring"
+                        ))
+                    }
+                });
             }
             if rings.is_empty() {
                 return Err(format!(
@@ -1132,8 +1134,62 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
         })
     }
 
+    /// A gml:Ring's points, open: its curve members (LineStrings, or Curves of LineStringSegments, inline or by
+    /// reference) joined end to start. Arcs are refused with their name.
+    fn curve_ring(&self, r: Node<'a, 'input>) -> Result<Ring, String> {
+        let mut pts: Ring = Vec::new();
+        let mut add = |piece: Ring| {
+            let skip = usize::from(pts.last().is_some() && pts.last() == piece.first());
+            pts.extend(piece.into_iter().skip(skip));
+        };
+        for m in r
+            .children()
+            .filter(|c| c.is_element() && c.tag_name().name() == "curveMember")
+        {
+            let curve = self.target(m)?.ok_or("an empty curveMember")?;
+            match curve.tag_name().name() {
+                "LineString" => add(self.points(curve)?),
+                "Curve" => {
+                    let segments = curve
+                        .children()
+                        .find(|c| c.is_element() && c.tag_name().name() == "segments")
+                        .ok_or("a Curve without segments")?;
+                    for seg in segments.children().filter(Node::is_element) {
+                        match seg.tag_name().name() {
+                            "LineStringSegment" => add(self.points(seg)?),
+                            other => {
+                                return Err(format!(
+                                    "a Ring's curve segment is a {other} (only LineStringSegments are read)"
+                                ))
+                            }
+                        }
+                    }
+                }
+                other => {
+                    return Err(format!(
+                        "a Ring's curve member is a {other}, not a LineString or Curve"
+                    ))
+                }
+            }
+        }
+        if pts.len() >= 2 && pts.first() == pts.last() {
+            pts.pop();
+        }
+        Ok(pts)
+    }
+
     /// A LinearRing's points (`posList`, `pos`, `coordinates` or `pointProperty`), open.
     fn ring(&self, r: Node<'a, 'input>) -> Result<Ring, String> {
+        let mut pts = self.points(r)?;
+        if pts.len() >= 2 && pts.first() == pts.last() {
+            pts.pop();
+        }
+        Ok(pts)
+    }
+
+    /// The points of a LinearRing, LineString or LineStringSegment (`posList`, `pos`, `coordinates` or
+    /// `pointProperty`), as written (axes in x, y order).
+    fn points(&self, r: Node<'a, 'input>) -> Result<Ring, String> {
         let mut pts: Ring = Vec::new();
         for c in r.children().filter(Node::is_element) {
             match c.tag_name().name() {
@@ -1190,9 +1246,6 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
         }
         if pts.iter().flatten().any(|v| !v.is_finite()) {
             return Err("a coordinate that is not a finite number".into());
-        }
-        if pts.len() >= 2 && pts.first() == pts.last() {
-            pts.pop();
         }
         if self.swap {
             for p in &mut pts {
@@ -1607,6 +1660,67 @@ mod tests {
             vec![[0.0, 10.0], [10.0, 10.0], [10.0, 0.0], [0.0, 0.0]]
         );
         assert_eq!((f.footprint_min_z, f.top_z), (Some(0.0), Some(5.0)));
+    }
+
+    /// A gml:Ring of curve members (as FME and ArcGIS write some polygons) is the same ring as its LinearRing: a
+    /// LineString and a Curve of two LineStringSegments, one by reference, joined end to start; an arc is refused with
+    /// its name.
+    #[test]
+    fn a_ring_of_curve_members_is_read_as_its_linear_ring() {
+        let ground = |exterior: &str| {
+            model(&format!(
+                "<bldg:boundedBy><bldg:GroundSurface><bldg:lod2MultiSurface><gml:MultiSurface><gml:surfaceMember>\
+                 <gml:Polygon><gml:exterior>{exterior}</gml:exterior></gml:Polygon></gml:surfaceMember>\
+                 </gml:MultiSurface></bldg:lod2MultiSurface></bldg:GroundSurface></bldg:boundedBy>\
+                 <bldg:boundedBy><bldg:RoofSurface><bldg:lod2MultiSurface><gml:MultiSurface><gml:surfaceMember>\
+                 <gml:Polygon><gml:exterior><gml:LinearRing><gml:posList>0 0 5 10 0 5 10 10 5 0 10 5 0 0 5</gml:posList>\
+                 </gml:LinearRing></gml:exterior></gml:Polygon></gml:surfaceMember></gml:MultiSurface>\
+                 </bldg:lod2MultiSurface></bldg:RoofSurface></bldg:boundedBy>\
+                 <gml:LineString gml:id=\"l3\"><gml:posList>10 10 0 10 0 0 0 0 0</gml:posList></gml:LineString>"
+            ))
+        };
+        let linear = read_text(
+            &ground("<gml:LinearRing><gml:posList>0 0 0 0 10 0 10 10 0 10 0 0 0 0 0</gml:posList></gml:LinearRing>"),
+            "t.gml",
+            None,
+            None,
+        )
+        .unwrap();
+        let curves = read_text(
+            &ground(
+                "<gml:Ring><gml:curveMember><gml:LineString><gml:posList>0 0 0 0 10 0</gml:posList></gml:LineString>\
+                 </gml:curveMember><gml:curveMember><gml:Curve><gml:segments><gml:LineStringSegment>\
+                 <gml:posList>0 10 0 10 10 0</gml:posList></gml:LineStringSegment></gml:segments></gml:Curve>\
+                 </gml:curveMember><gml:curveMember xlink:href=\"#l3\"/></gml:Ring>",
+            ),
+            "t.gml",
+            None,
+            None,
+        )
+        .unwrap();
+        let (a, b) = (&linear.doc.features[0], &curves.doc.features[0]);
+        assert!(
+            a.skip.is_none() && b.skip.is_none(),
+            "{:?} {:?}",
+            a.skip,
+            b.skip
+        );
+        assert_eq!(a.polygons, b.polygons);
+        assert_eq!(a.polygons[0][0].len(), 4, "{:?}", a.polygons);
+        assert_eq!((b.footprint_min_z, b.top_z), (Some(0.0), Some(5.0)));
+        let arc = read_text(
+            &ground(
+                "<gml:Ring><gml:curveMember><gml:Curve><gml:segments><gml:Arc><gml:posList>0 0 0 5 5 0 10 0 0\
+                 </gml:posList></gml:Arc></gml:segments></gml:Curve></gml:curveMember></gml:Ring>",
+            ),
+            "t.gml",
+            None,
+            None,
+        )
+        .unwrap();
+        let f = &arc.doc.features[0];
+        let why = format!("{:?} {:?}", f.skip, f.repairs);
+        assert!(why.contains("Arc"), "{why}");
     }
 
     #[test]
