@@ -1174,8 +1174,11 @@ fn settle_each(mut cycles: Vec<Vec<Wave>>, t: f64) -> Option<Vec<Vec<Wave>>> {
             if m < 3 {
                 continue 'cycles;
             }
-            // Neighbours on one line: a corner that is no corner (the same direction: one edge) or a spike of no
-            // width (opposite directions: both go).
+            // Neighbours on one line: a corner that is no corner (the same direction: one edge), or two edges that
+            // met head on (opposite directions: where a wing of the outline has just shrunk away). Those run out
+            // along the line and back: what is left of them is the line from the first's other corner to the
+            // second's, the first's piece if it runs the first's way, the second's if it runs back (where the wing
+            // met the rest at a step), nothing if the two corners are one (a straight wall).
             let parallel =
                 (0..m).find(|&k| cross(c[(k + m - 1) % m].normal, c[k].normal).abs() < 1e-9);
             if let Some(k) = parallel {
@@ -1183,9 +1186,24 @@ fn settle_each(mut cycles: Vec<Vec<Wave>>, t: f64) -> Option<Vec<Vec<Wave>>> {
                 if dot(c[prev].normal, c[k].normal) > 0.0 {
                     c.remove(k);
                 } else {
+                    let before = c[(prev + m - 1) % m];
+                    let after = c[(k + 1) % m];
+                    let left = match (
+                        Wave::corner(before, c[prev], t),
+                        Wave::corner(c[k], after, t),
+                    ) {
+                        (Some((p, _)), Some((q, _))) => dot(c[prev].along(), sub(q, p)),
+                        _ => 0.0,
+                    };
                     let (hi, lo) = (prev.max(k), prev.min(k));
-                    c.remove(hi);
-                    c.remove(lo);
+                    if left > WAVE_EPS {
+                        c.remove(k);
+                    } else if left < -WAVE_EPS {
+                        c.remove(prev);
+                    } else {
+                        c.remove(hi);
+                        c.remove(lo);
+                    }
                 }
                 continue;
             }
@@ -1840,6 +1858,42 @@ mod tests {
             kinds.iter().filter(|&&k| k == SurfaceKind::Roof).count(),
             2 * DOME_BANDS * 2
         );
+    }
+
+    /// A wing whose two long sides meet the main block at walls 17 cm apart (a Boston footprint): when the wing has
+    /// shrunk away its sides meet head on, and what is left of them is the 17 cm step between the walls, which goes on
+    /// into the block. Dropping both sides made the two walls, nearly parallel, neighbours meeting 16 km away; faces
+    /// crossed and the roof was refused.
+    #[test]
+    fn a_wing_meeting_a_stepped_wall_gets_its_hipped_roof() {
+        let outline = [
+            (-1655.758531220069, -2838.1168225097344),
+            (-1644.5483658208937, -2837.8973020122903),
+            (-1644.7109803398805, -2828.344418325911),
+            (-1655.5914217099808, -2828.5640164394727),
+            (-1655.5916314685232, -2829.452653189082),
+            (-1661.1142539951923, -2829.451346788819),
+            (-1660.9511620036506, -2836.8937185858304),
+            (-1655.758242773694, -2836.8949469939434),
+        ];
+        let fp = footprint(&outline);
+        for shape in [RoofShape::Hipped, RoofShape::Mansard] {
+            let (mesh, kinds) =
+                roofed_building(&fp, 0.0, 12.0, &spec(shape, RoofRise::Metres(3.0))).unwrap();
+            let v = closed_volume(&mesh);
+            let area = crate::ring::signed_area2(&outline.map(|(x, y)| [x, y])).abs() / 2.0;
+            assert!(
+                v > area * 9.0 && v < area * 12.0,
+                "{shape:?}: {v} over {area} m²"
+            );
+            assert!((top_z(&mesh) - 12.0).abs() < 1e-9);
+            let ratios: &[f64] = if shape == RoofShape::Mansard {
+                &[1.0, 4.0, 0.25]
+            } else {
+                &[1.0]
+            };
+            assert_eq!(off_slope(&mesh, &kinds, ratios), None, "{shape:?}");
+        }
     }
 
     #[test]
