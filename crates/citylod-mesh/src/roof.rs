@@ -44,6 +44,19 @@ pub enum RoofShape {
 }
 
 impl RoofShape {
+    /// Every shape modelled.
+    pub const ALL: [RoofShape; 9] = [
+        RoofShape::Skillion,
+        RoofShape::Gabled,
+        RoofShape::Gambrel,
+        RoofShape::Round,
+        RoofShape::HalfHipped,
+        RoofShape::Hipped,
+        RoofShape::Mansard,
+        RoofShape::Pyramidal,
+        RoofShape::Dome,
+    ];
+
     /// The shape an OpenStreetMap `roof:shape` value names, if modelled here.
     pub fn from_osm(value: &str) -> Option<RoofShape> {
         match value.trim().to_ascii_lowercase().as_str() {
@@ -362,24 +375,7 @@ fn plan(faces: &[Face], rings: &[Vec<P2>]) -> Option<RoofPlan> {
     // along an outline edge (where lines cross it) bends by rounding, and on the hull its bends would be filled with
     // slivers whose centroids, on the edge, tell inside from outside by rounding too. Added after the constraints,
     // which wall the outline's inside off from them: only triangles outside it change.
-    let (lo, hi) = rings.iter().flatten().fold(
-        ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
-        |(lo, hi), p| {
-            (
-                [lo[0].min(p[0]), lo[1].min(p[1])],
-                [hi[0].max(p[0]), hi[1].max(p[1])],
-            )
-        },
-    );
-    let margin = 1.0 + (hi[0] - lo[0]).max(hi[1] - lo[1]);
-    for corner in [
-        [lo[0], lo[1]],
-        [hi[0], lo[1]],
-        [hi[0], hi[1]],
-        [lo[0], hi[1]],
-    ] {
-        let x = corner[0] + margin * if corner[0] == lo[0] { -1.0 } else { 1.0 };
-        let y = corner[1] + margin * if corner[1] == lo[1] { -1.0 } else { 1.0 };
+    for [x, y] in frame(&rings[0]) {
         let h = cdt.insert(Point2::new(x, y)).ok()?;
         if of_handle.len() <= h.index() {
             of_handle.resize(h.index() + 1, u32::MAX);
@@ -405,6 +401,26 @@ fn plan(faces: &[Face], rings: &[Vec<P2>]) -> Option<RoofPlan> {
         triangles.push(ids);
     }
     Some((points, triangles))
+}
+
+/// A square-cornered frame around `ring` (counter-clockwise), as far from it as the ring is wide, and at least 1 m.
+fn frame(ring: &[P2]) -> [P2; 4] {
+    let (lo, hi) = ring.iter().fold(
+        ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
+        |(lo, hi), p| {
+            (
+                [lo[0].min(p[0]), lo[1].min(p[1])],
+                [hi[0].max(p[0]), hi[1].max(p[1])],
+            )
+        },
+    );
+    let m = 1.0 + (hi[0] - lo[0]).max(hi[1] - lo[1]);
+    [
+        [lo[0] - m, lo[1] - m],
+        [hi[0] + m, lo[1] - m],
+        [hi[0] + m, hi[1] + m],
+        [lo[0] - m, hi[1] + m],
+    ]
 }
 
 /// `of_handle` of the frame's points in [`plan`].
@@ -658,25 +674,10 @@ fn lowest_of(rings: &[Vec<P2>], planes: &[(P2, f64)]) -> Vec<Face> {
     };
     // Each plane's cell (where it is the lowest) within a frame around the outline; its edges with a later plane's
     // cell are the creases.
-    let (lo, hi) = rings[0].iter().fold(
-        ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
-        |(lo, hi), p| {
-            (
-                [lo[0].min(p[0]), lo[1].min(p[1])],
-                [hi[0].max(p[0]), hi[1].max(p[1])],
-            )
-        },
-    );
-    let m = 1.0 + (hi[0] - lo[0]).max(hi[1] - lo[1]);
-    let frame = vec![
-        [lo[0] - m, lo[1] - m],
-        [hi[0] + m, lo[1] - m],
-        [hi[0] + m, hi[1] + m],
-        [lo[0] - m, hi[1] + m],
-    ];
+    let frame = frame(&rings[0]);
     let mut creases: Vec<[P2; 2]> = Vec::new();
     for i in 0..planes.len() {
-        let mut cell = frame.clone();
+        let mut cell = frame.to_vec();
         for j in (0..planes.len()).filter(|&j| j != i) {
             cell = clip(&cell, |p| at(i, p) - at(j, p));
         }
@@ -1400,6 +1401,17 @@ mod tests {
         r
     }
 
+    /// `got` (sorted, as [`ridge`] gives them) are the points `want` to a nanometre.
+    fn assert_near_points(got: &[[f64; 2]], want: &[[f64; 2]]) {
+        assert_eq!(got.len(), want.len(), "{got:?} against {want:?}");
+        for (p, q) in got.iter().zip(want) {
+            assert!(
+                (p[0] - q[0]).abs() < 1e-9 && (p[1] - q[1]).abs() < 1e-9,
+                "{got:?} against {want:?}"
+            );
+        }
+    }
+
     const HOUSE: [(f64, f64); 4] = [(0.0, 0.0), (12.0, 0.0), (12.0, 8.0), (0.0, 8.0)];
 
     #[test]
@@ -1799,19 +1811,15 @@ mod tests {
         assert_eq!(top_z(&mesh), 15.0);
         assert_eq!(ridge(&mesh, 15.0), [[0.0, 4.0], [12.0, 4.0]]);
         // The slope breaks a third of the way in (4/3 m from the eaves) and two thirds of the way up.
-        let at_break: Vec<[f64; 2]> = ridge(&mesh, 11.0 + 8.0 / 3.0);
-        assert_eq!(at_break.len(), 4, "{at_break:?}");
-        for (p, q) in at_break.iter().zip([
-            [0.0, 4.0 / 3.0],
-            [0.0, 20.0 / 3.0],
-            [12.0, 4.0 / 3.0],
-            [12.0, 20.0 / 3.0],
-        ]) {
-            assert!(
-                (p[0] - q[0]).abs() < 1e-9 && (p[1] - q[1]).abs() < 1e-9,
-                "{at_break:?}"
-            );
-        }
+        assert_near_points(
+            &ridge(&mesh, 11.0 + 8.0 / 3.0),
+            &[
+                [0.0, 4.0 / 3.0],
+                [0.0, 20.0 / 3.0],
+                [12.0, 4.0 / 3.0],
+                [12.0, 20.0 / 3.0],
+            ],
+        );
         // Two slopes each side, 2 triangles each: steep (rise 8/3 over 4/3) and shallow (4/3 over 8/3).
         let mut slopes: Vec<f64> = roof_slopes(&mesh, &kinds).iter().map(|s| s.0).collect();
         slopes.sort_by(f64::total_cmp);
@@ -1912,25 +1920,11 @@ mod tests {
         let roof = 0.5 * 8.0 * 4.0 * 12.0 - 2.0 * 4.0 * (2.0 / 3.0);
         assert!((v - (12.0 * 8.0 * 6.0 + roof)).abs() < 1e-6, "{v}");
         assert_eq!(top_z(&mesh), 15.0);
-        let r = ridge(&mesh, 15.0);
-        assert_eq!(r.len(), 2, "{r:?}");
-        for (p, q) in r.iter().zip([[2.0, 4.0], [10.0, 4.0]]) {
-            assert!(
-                (p[0] - q[0]).abs() < 1e-9 && (p[1] - q[1]).abs() < 1e-9,
-                "{r:?}"
-            );
-        }
-        let gables = ridge(&mesh, 13.0);
-        assert_eq!(gables.len(), 4, "{gables:?}");
-        for (p, q) in gables
-            .iter()
-            .zip([[0.0, 2.0], [0.0, 6.0], [12.0, 2.0], [12.0, 6.0]])
-        {
-            assert!(
-                (p[0] - q[0]).abs() < 1e-9 && (p[1] - q[1]).abs() < 1e-9,
-                "{gables:?}"
-            );
-        }
+        assert_near_points(&ridge(&mesh, 15.0), &[[2.0, 4.0], [10.0, 4.0]]);
+        assert_near_points(
+            &ridge(&mesh, 13.0),
+            &[[0.0, 2.0], [0.0, 6.0], [12.0, 2.0], [12.0, 6.0]],
+        );
         // Four roof planes, every one at the roof's slope of 1: the sides hexagons (4 triangles each), the hips
         // triangles.
         let slopes = roof_slopes(&mesh, &kinds);
@@ -1961,17 +1955,9 @@ mod tests {
         );
         assert!((top_z(&mesh) - 9.0).abs() < 1e-9);
         // The break: the outline shrunk by 4/3 m, 2 m up.
-        let at_break = ridge(&mesh, 8.0);
         let (a, b) = (4.0 / 3.0, 12.0 - 4.0 / 3.0);
         let (c, d) = (4.0 / 3.0, 8.0 - 4.0 / 3.0);
-        let want = [[a, c], [a, d], [b, c], [b, d]];
-        assert_eq!(at_break.len(), 4, "{at_break:?}");
-        for (p, q) in at_break.iter().zip(want) {
-            assert!(
-                (p[0] - q[0]).abs() < 1e-9 && (p[1] - q[1]).abs() < 1e-9,
-                "{at_break:?}"
-            );
-        }
+        assert_near_points(&ridge(&mesh, 8.0), &[[a, c], [a, d], [b, c], [b, d]]);
         for s in roof_slopes(&mesh, &kinds) {
             assert!(
                 (s.0 - 1.5).abs() < 1e-9 || (s.0 - 0.375).abs() < 1e-9,
@@ -2305,7 +2291,7 @@ mod tests {
             let fp = footprint(&pts);
             let ring: Vec<[f64; 2]> = pts.iter().map(|&(x, y)| [x, y]).collect();
             let area = crate::ring::signed_area2(&ring) / 2.0;
-            for shape in [RoofShape::Skillion, RoofShape::Gabled, RoofShape::Gambrel, RoofShape::Round, RoofShape::HalfHipped, RoofShape::Hipped, RoofShape::Mansard, RoofShape::Pyramidal, RoofShape::Dome] {
+            for shape in RoofShape::ALL {
                 let spec = RoofSpec { shape, rise: RoofRise::Metres(rise), direction_deg: direction, across };
                 let built = roofed_building(&fp, 2.0, 20.0, &spec);
                 // A sliver of an outline (all corners on a short arc) may have too few corners left once those
