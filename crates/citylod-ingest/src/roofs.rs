@@ -2,7 +2,7 @@
 //! `roof:angle`, `roof:direction`, `roof:orientation`), in whatever format the tags come (an OSM file, its export to
 //! GeoJSON, GeoPackage or Shapefile, with names as GDAL launders them, `roof_shape`, or cut to a shapefile's 10
 //! characters, `roof:heigh`): with `--lod 2` (or `highest`, or a 2.x) a building whose `roof:shape` is
-//! skillion, gabled, gambrel, round, half-hipped, hipped, mansard, pyramidal, dome or onion (drawn as a dome) gets a 3D model of LoD 2 — walls up to the eaves, the roof up to the
+//! skillion, gabled, gambrel, round, half-hipped, hipped, mansard, pyramidal (cone), dome or onion (drawn as a dome) gets a 3D model of LoD 2 — walls up to the eaves, the roof up to the
 //! building's height — and is drawn with it at full detail, its prism and the simplified model above it as for a
 //! CityJSON LoD2 building. Other shapes, and outlines a shape cannot be pitched over, keep the flat prism, listed
 //! in the report's mesh issues with the reason.
@@ -41,7 +41,7 @@ pub(crate) fn roof_model(
     };
     let Some(shape) = RoofShape::from_osm(&shape_value) else {
         meshed.issues.push(flat(
-            "this shape is not modelled (skillion, gabled, gambrel, round, half-hipped, hipped, mansard, pyramidal, dome and onion are)"
+            "this shape is not modelled (skillion, gabled, gambrel, round, half-hipped, hipped, mansard, pyramidal, cone, dome and onion are)"
                 .into(),
         ));
         return;
@@ -206,6 +206,7 @@ mod tests {
             house(11, json!({ "roof:shape": "mansard", "roof:height": 3 })),
             house(12, json!({ "roof:shape": "round", "roof:height": 4 })),
             house(13, json!({ "roof:shape": "half-hipped", "roof:height": 4 })),
+            house(14, json!({ "roof:shape": "cone", "roof:height": 2 })),
         ];
         let out = run(features.clone(), Some("2"));
         // Gabled: eaves at 7 m, ridge at 10 m.
@@ -241,6 +242,8 @@ mod tests {
         );
         // Half-hipped: eaves at 6 m, the gable walls up to 8 m, the ridge at 10 m.
         assert_eq!(levels(&out, 13), [0, 600, 800, 1000]);
+        // A cone is the pyramid over the outline's corners.
+        assert_eq!(levels(&out, 14), [0, 800, 1000]);
         for i in [3, 5, 6] {
             assert!(out.buildings[i].mesh.is_none(), "{i}");
         }
@@ -267,7 +270,7 @@ mod tests {
             "{}",
             issues[1].2
         );
-        assert_eq!(out.report.mesh_lods.get("2"), Some(&11));
+        assert_eq!(out.report.mesh_lods.get("2"), Some(&12));
 
         // Roofs are LoD 2: none without --lod or at LoD 1.x; at 2.2 they are the fall-back below it.
         for lod in [None, Some("1.2")] {
@@ -275,6 +278,6 @@ mod tests {
             assert!(out.buildings.iter().all(|b| b.mesh.is_none()), "{lod:?}");
         }
         let out = run(features, Some("2.2"));
-        assert_eq!(out.report.mesh_lod_fallbacks, 11);
+        assert_eq!(out.report.mesh_lod_fallbacks, 12);
     }
 }

@@ -68,7 +68,8 @@ impl RoofShape {
             "half-hipped" | "half_hipped" => Some(RoofShape::HalfHipped),
             "hipped" => Some(RoofShape::Hipped),
             "mansard" => Some(RoofShape::Mansard),
-            "pyramidal" => Some(RoofShape::Pyramidal),
+            // A cone over a round outline is the pyramid over its corners.
+            "pyramidal" | "cone" => Some(RoofShape::Pyramidal),
             // An onion's bulge beyond its walls cannot stand on them: drawn as the dome under it.
             // Overture Maps' spherical roof too.
             "dome" | "onion" | "spherical" => Some(RoofShape::Dome),
