@@ -5,7 +5,7 @@ the outlines drawn by their parts are the GeoJSON's). Not run by `make test`: th
 
     python3 -m venv venv && venv/bin/pip install pyarrow==26.0.1 pyproj==3.7.2
     venv/bin/python tools/geoparquet_fixtures.py ../shared/data/nyc-les/les_buildings.geojson \
-        crates/citylod-ingest/tests/geoparquet
+        crates/citylod-ingest/tests/geoparquet ../shared/data/nyc-les/les_roads.geojson
 """
 
 import json
@@ -224,6 +224,34 @@ def overture_split(source, out_dir):
         pq.write_table(table, f"{out_dir}/les_overture_{name}.parquet", compression="zstd")
 
 
+def streets(source, out_dir):
+    """4. The extract's street centre lines in GeoArrow's native line encodings, lon/lat (no `crs`): `linestring` with
+    interleaved coordinates (a fixed-size list of two numbers) and `multilinestring` with {x, y} structs."""
+    features = json.load(open(source))["features"]
+    lines = [f["geometry"]["coordinates"] for f in features]
+    names = [f["properties"].get("name") for f in features]
+    highway = [f["properties"].get("highway") for f in features]
+    interleaved = pa.list_(pa.float64(), 2)
+    point = pa.struct([("x", pa.float64()), ("y", pa.float64())])
+    for encoding, column in [
+        ("linestring", pa.array([[list(p) for p in line] for line in lines], pa.list_(interleaved))),
+        (
+            "multilinestring",
+            pa.array([[[dict(zip("xy", p)) for p in line]] for line in lines], pa.list_(pa.list_(point))),
+        ),
+    ]:
+        table = pa.table({"name": names, "highway": highway, "geometry": column})
+        geo = {
+            "version": "1.1.0",
+            "primary_column": "geometry",
+            "columns": {"geometry": {"encoding": encoding, "geometry_types": []}},
+        }
+        table = table.replace_schema_metadata({"geo": json.dumps(geo)})
+        pq.write_table(table, f"{out_dir}/les_roads_{encoding}.parquet", compression="snappy")
+
+
 if __name__ == "__main__":
     main(sys.argv[1], sys.argv[2])
     overture_split(sys.argv[1], sys.argv[2])
+    if len(sys.argv) > 3:
+        streets(sys.argv[3], sys.argv[2])

@@ -55,6 +55,10 @@ enum Encoding {
     Polygon,
     /// GeoArrow `multipolygon`: a list of polygons.
     MultiPolygon,
+    /// GeoArrow `linestring`: a list of coordinates (streets, for `--streets`).
+    LineString,
+    /// GeoArrow `multilinestring`: a list of linestrings.
+    MultiLineString,
 }
 
 /// A row read: its feature, and its 3D surface model (its label and faces) when it holds one.
@@ -220,10 +224,12 @@ fn geo_metadata(text: &str) -> Result<GeoColumn, String> {
         Some("wkb") => Encoding::Wkb,
         Some("polygon") => Encoding::Polygon,
         Some("multipolygon") => Encoding::MultiPolygon,
+        Some("linestring") => Encoding::LineString,
+        Some("multilinestring") => Encoding::MultiLineString,
         Some(other) => {
             return Err(format!(
-                "the geometry column {name:?} is encoded as {other:?}, not as footprints (WKB, polygon or \
-                 multipolygon)"
+                "the geometry column {name:?} is encoded as {other:?}, not as footprints or lines (WKB, polygon, \
+                 multipolygon, linestring or multilinestring)"
             ))
         }
         None => return Err(format!("the geometry column {name:?} names no encoding")),
@@ -330,11 +336,39 @@ fn row_group(
                     .map(footprint),
                 other => Err(not_a_list(&other)),
             },
+            (Encoding::LineString, Some(v)) => {
+                native_line(&v).map(|l| Geometry::Lines(vec![l], "LineString"))
+            }
+            (Encoding::MultiLineString, Some(v)) => match v {
+                Field::ListInternal(l) => l
+                    .elements()
+                    .iter()
+                    .map(native_line)
+                    .collect::<Result<Vec<_>, _>>()
+                    .map(|lines| Geometry::Lines(lines, "MultiLineString")),
+                other => Err(not_a_list(&other)),
+            },
         };
         let faces = crate::gpkg::put_geometry(&mut f, read, &label);
         out.push((f, faces.map(|faces| (label, faces))));
     }
     Ok(out)
+}
+
+/// A GeoArrow linestring: its coordinates.
+fn native_line(v: &Field) -> Result<Vec<[f64; 2]>, (IssueReason, String)> {
+    let Field::ListInternal(points) = v else {
+        return Err(not_a_list(v));
+    };
+    let line = points
+        .elements()
+        .iter()
+        .map(coordinate)
+        .collect::<Result<Vec<_>, _>>()?;
+    if line.is_empty() {
+        return Err((IssueReason::EmptyGeometry, "an empty line".into()));
+    }
+    Ok(line)
 }
 
 fn footprint(polygons: Vec<RawPolygon>) -> Geometry {

@@ -1,6 +1,7 @@
 //! GeoParquet input. On files written by an independent writer (pyarrow, `tools/geoparquet_fixtures.py`) in the shape
 //! of Overture Maps' buildings: WKB in lon/lat ingests into the buildings the same features give as GeoJSON, and
-//! GeoArrow's native encoding in UTM into the same buildings again. On files written here with the parquet crate's
+//! GeoArrow's native encoding in UTM into the same buildings again, and the roads in GeoArrow's line encodings into the
+//! streets their GeoJSON gives. On files written here with the parquet crate's
 //! writer: plain Parquet with a WKB column, a CRS the file leaves unknown, encodings that are no footprints, rows
 //! that are not buildings, lines for `--streets`, and damaged files that give errors, never a panic.
 
@@ -309,6 +310,54 @@ fn rows_that_are_not_buildings_are_skipped_with_their_row_and_reason() {
         "{}",
         s.report.length_m
     );
+}
+
+/// Street centre lines in GeoArrow's native `linestring` (interleaved coordinates) and `multilinestring` ({x, y}
+/// structs) encodings, written by pyarrow from the Lower East Side's roads, give the segments the GeoJSON gives; read
+/// as buildings, every row is skipped as a line.
+#[test]
+fn geoarrow_native_lines_are_the_streets_of_their_geojson() {
+    let roads =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/nyc-les/les_roads.geojson");
+    let frame = LocalFrame::new(-73.99, 40.72, 0.0);
+    let geojson = read_streets(&roads, None, None, None, &frame).unwrap();
+    assert!(
+        geojson.report.features_used > 100,
+        "{:?}",
+        geojson.report.features_used
+    );
+    for name in [
+        "les_roads_linestring.parquet",
+        "les_roads_multilinestring.parquet",
+    ] {
+        let s = read_streets(&fixture(name), None, None, None, &frame).unwrap();
+        assert!(
+            s.report.crs.starts_with("WGS84 lon/lat"),
+            "{name}: {}",
+            s.report.crs
+        );
+        assert_eq!(
+            s.report.features_read, geojson.report.features_read,
+            "{name}"
+        );
+        assert_eq!(
+            s.report.features_used, geojson.report.features_used,
+            "{name}"
+        );
+        assert_eq!(s.segments, geojson.segments, "{name}");
+        let as_buildings = read(&fixture(name)).unwrap();
+        assert!(as_buildings.buildings.is_empty(), "{name}");
+        let r = &as_buildings.report;
+        assert_eq!(r.skipped.len(), geojson.report.features_read, "{name}");
+        assert!(
+            r.skipped
+                .iter()
+                .all(|i| i.reason == IssueReason::UnsupportedGeometry
+                    && i.detail.contains("LineString geometry is not a footprint")),
+            "{name}: {:?}",
+            &r.skipped[..2]
+        );
+    }
 }
 
 #[test]
