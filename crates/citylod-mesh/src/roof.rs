@@ -7,10 +7,10 @@
 //!   outline and its courtyards; **gambrel**: the same with each side in two slopes, steep below [`BREAK`] and
 //!   shallow above it; **round**: the same with a quarter circle's profile (an ellipse when the rise is not the
 //!   run), in [`DOME_BANDS`] planar bands each side; **half-hipped**: the same with a hip over each gable from
-//!   [`HALF_HIP_FROM`] of the rise up (the lowest of the four planes, [`lowest_of`]);
+//!   [`HALF_HIP_FROM`] of the rise up. Each is the lowest of its planes (`ridged`, `lowest_of`);
 //! - **hipped**: a plane rising from every outline edge at one slope: the straight skeleton (for a convex outline
 //!   the face of an edge is where that edge is the nearest; for a concave one, or one with courtyards, the outline is
-//!   shrunk and the courtyards grown from event to event, [`skeleton`]); **mansard**: the same with every face in
+//!   shrunk and the courtyards grown from event to event, `skeleton`); **mansard**: the same with every face in
 //!   two slopes, steep below [`BREAK`] and shallow above it;
 //! - **pyramidal**: a triangle from every outline edge to an apex above the outline's centroid;
 //! - **dome** (also for an onion, whose bulge beyond the walls is not drawn): the outline shrunk towards its centroid
@@ -165,7 +165,6 @@ pub fn roofed_building(
     let top = base_z + height;
     let longest = longest_edge(&ring);
     let profile = profile(spec.shape);
-    let breaks: Vec<f64> = profile.iter().map(|b| b[0]).collect();
     let (faces, run) = match spec.shape {
         RoofShape::Skillion => {
             let down = spec
@@ -182,11 +181,7 @@ pub fn roofed_building(
                 None if spec.across => [-longest[1], longest[0]],
                 None => longest,
             };
-            if spec.shape == RoofShape::HalfHipped {
-                half_hipped(&rings, along)
-            } else {
-                gabled(&rings, along, &breaks)
-            }
+            ridged(&rings, along, &profile, spec.shape == RoofShape::HalfHipped)
         }
         RoofShape::Hipped | RoofShape::Mansard => {
             let (faces, run) = if rings.len() == 1 && is_convex(&ring) {
@@ -196,6 +191,7 @@ pub fn roofed_building(
                     "the outline's straight skeleton could not be built".to_string()
                 })?
             };
+            let breaks: Vec<f64> = profile.iter().map(|b| b[0]).collect();
             (banded(faces, &breaks), run)
         }
         RoofShape::Pyramidal => pyramidal(&ring),
@@ -227,17 +223,17 @@ pub fn roofed_building(
     let (points, roof) = plan(&faces, &rings)
         .filter(|(_, roof)| !roof.is_empty())
         .ok_or_else(|| "the roof's faces could not be triangulated".to_string())?;
+    // A ridged roof's faces carry their share of the rise; a mansard's their share of the run, lifted along its profile.
+    let lifted: &[[f64; 2]] = if spec.shape == RoofShape::Mansard {
+        &profile
+    } else {
+        &[]
+    };
     // Vertex i is point i on the roof, vertex n + i the same point on the ground.
     let n = points.len() as u32;
     let mut positions: Vec<[f64; 3]> = points
         .iter()
-        .map(|p| {
-            [
-                p[0] + o[0],
-                p[1] + o[1],
-                eaves + rise * lift(&profile, p[2]),
-            ]
-        })
+        .map(|p| [p[0] + o[0], p[1] + o[1], eaves + rise * lift(lifted, p[2])])
         .collect();
     positions.extend(points.iter().map(|p| [p[0] + o[0], p[1] + o[1], base_z]));
     let mut triangles: Vec<[u32; 3]> = Vec::with_capacity(roof.len() * 3);
@@ -562,82 +558,12 @@ fn skillion(rings: &[Vec<P2>], down: P2) -> (Vec<Face>, f64) {
     (faces, run)
 }
 
-/// The roof falling from a ridge along `along` through the middle of the outline's extent across it to both sides
-/// (the ridge across the whole outline, as Simple 3D Buildings renderers draw a gabled roof over a concave one);
-/// the run is half that extent. A corner's share of the rise is its share of the run from the eaves; `breaks`
-/// (shares in (0, 1)) add lines parallel to the ridge on both sides where a profile changes slope. Faces: the rings
-/// with the crossings of the ridge and those lines inserted, and the pieces of the ridge and the lines inside the
-/// outline, so that every triangle lies between two of them.
-fn gabled(rings: &[Vec<P2>], along: P2, breaks: &[f64]) -> (Vec<Face>, f64) {
-    let across = [-along[1], along[0]];
-    let t = |p: P2| dot(p, across);
-    let lo = rings[0].iter().map(|&p| t(p)).fold(f64::INFINITY, f64::min);
-    let hi = rings[0]
-        .iter()
-        .map(|&p| t(p))
-        .fold(f64::NEG_INFINITY, f64::max);
-    let mid = 0.5 * (lo + hi);
-    let half = 0.5 * (hi - lo);
-    // The lines, across the ridge from one side to the other, with their shares: 1 on the ridge.
-    let mut lines: Vec<(f64, f64)> = breaks
-        .iter()
-        .map(|&b| (mid - (1.0 - b) * half, b))
-        .chain(std::iter::once((mid, 1.0)))
-        .chain(breaks.iter().rev().map(|&b| (mid + (1.0 - b) * half, b)))
-        .collect();
-    lines.dedup_by(|x, y| x.0 == y.0);
-    let tol = 1e-9 * half.max(1.0);
-    let line_at = |t: f64| lines.iter().position(|l| (t - l.0).abs() <= tol);
-    let share = |p: P2| match line_at(t(p)) {
-        Some(k) => lines[k].1,
-        None => (1.0 - (t(p) - mid).abs() / half).clamp(0.0, 1.0),
-    };
-    // Each ring with the lines' crossings inserted; the points on each line.
-    let mut faces: Vec<Face> = Vec::with_capacity(rings.len() + lines.len());
-    let mut on_line: Vec<Vec<(f64, P2)>> = vec![Vec::new(); lines.len()];
-    for ring in rings {
-        let n = ring.len();
-        let mut pts: Vec<[f64; 3]> = Vec::with_capacity(n + 2);
-        for i in 0..n {
-            let (a, b) = (ring[i], ring[(i + 1) % n]);
-            let (ta, tb) = (t(a), t(b));
-            pts.push([a[0], a[1], share(a)]);
-            if let Some(k) = line_at(ta) {
-                on_line[k].push((dot(a, along), a));
-            }
-            // The lines strictly between a and b, in the order the edge meets them.
-            let crossed = lines.iter().enumerate().filter(|(_, l)| {
-                (l.0 - ta) * (l.0 - tb) < 0.0 && (l.0 - ta).abs() > tol && (l.0 - tb).abs() > tol
-            });
-            let mut crossed: Vec<(usize, f64)> =
-                crossed.map(|(k, l)| (k, (l.0 - ta) / (tb - ta))).collect();
-            crossed.sort_by(|x, y| x.1.total_cmp(&y.1));
-            for (k, f) in crossed {
-                let c = [a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1])];
-                pts.push([c[0], c[1], lines[k].1]);
-                on_line[k].push((dot(c, along), c));
-            }
-        }
-        faces.push(pts);
-    }
-    // Each line as its pieces inside the outline (a concave outline's line may leave it and come back, a courtyard
-    // interrupts it).
-    for (k, points) in on_line.iter_mut().enumerate() {
-        points.sort_by(|x, y| x.0.total_cmp(&y.0));
-        let z = lines[k].1;
-        for w in points.windows(2) {
-            let (p, q) = (w[0].1, w[1].1);
-            if inside_even_odd(rings, [0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1])]) {
-                faces.push(vec![[p[0], p[1], z], [q[0], q[1], z]]);
-            }
-        }
-    }
-    (faces, half)
-}
-
-/// The gabled roof (see [`gabled`]) with a hip over each gable: planes rising at the roof's slope from the outline's
-/// two ends along the ridge, starting [`HALF_HIP_FROM`] of the rise up. The roof is the lowest of the four planes.
-fn half_hipped(rings: &[Vec<P2>], along: P2) -> (Vec<Face>, f64) {
+/// The roof of a ridge along `along` through the middle of the outline's extent across it (across the whole outline,
+/// as Simple 3D Buildings renderers draw a gabled roof over a concave one), falling to both sides along `profile` (see
+/// [`profile`]; none for one slope); with `hips`, also a plane over each end of the outline along the ridge, rising at
+/// the roof's slope from [`HALF_HIP_FROM`] of the rise. The run is half the extent across. A profile's slope never
+/// grows towards the ridge, so the roof is the lowest of its planes ([`lowest_of`]).
+fn ridged(rings: &[Vec<P2>], along: P2, profile: &[[f64; 2]], hips: bool) -> (Vec<Face>, f64) {
     let across = [-along[1], along[0]];
     let extent = |d: P2| {
         rings[0]
@@ -649,13 +575,23 @@ fn half_hipped(rings: &[Vec<P2>], along: P2) -> (Vec<Face>, f64) {
     let ((lo, hi), (first, last)) = (extent(across), extent(along));
     let half = 0.5 * (hi - lo);
     let k = 1.0 / half;
-    // Each plane's share of the rise as n · p + c: rising from either side to the ridge, then from either end.
-    let planes = [
-        ([k * across[0], k * across[1]], -lo * k),
-        ([-k * across[0], -k * across[1]], hi * k),
-        ([k * along[0], k * along[1]], HALF_HIP_FROM - first * k),
-        ([-k * along[0], -k * along[1]], HALF_HIP_FROM + last * k),
-    ];
+    // Each plane's share of the rise as n · p + c. A piece of the profile from (s0, h0) to (s1, h1) rises h0 + slope ·
+    // (s − s0) at share s of the run from either side: s = (t − lo) / half on one, (hi − t) / half on the other.
+    let corners: Vec<[f64; 2]> = std::iter::once([0.0, 0.0])
+        .chain(profile.iter().copied())
+        .chain(std::iter::once([1.0, 1.0]))
+        .collect();
+    let mut planes = Vec::with_capacity(2 * corners.len() + 2);
+    for w in corners.windows(2) {
+        let slope = (w[1][1] - w[0][1]) / (w[1][0] - w[0][0]);
+        let (g, c) = (slope * k, w[0][1] - slope * w[0][0]);
+        planes.push(([g * across[0], g * across[1]], c - g * lo));
+        planes.push(([-g * across[0], -g * across[1]], c + g * hi));
+    }
+    if hips {
+        planes.push(([k * along[0], k * along[1]], HALF_HIP_FROM - first * k));
+        planes.push(([-k * along[0], -k * along[1]], HALF_HIP_FROM + last * k));
+    }
     (lowest_of(rings, &planes), half)
 }
 
@@ -1601,9 +1537,9 @@ mod tests {
         )
         .unwrap();
         // The ridge at y = 10, broken by the courtyard: four ends at the top.
-        assert_eq!(
-            ridge(&mesh, 10.0),
-            [[0.0, 10.0], [6.0, 10.0], [14.0, 10.0], [20.0, 10.0]]
+        assert_near_points(
+            &ridge(&mesh, 10.0),
+            &[[0.0, 10.0], [6.0, 10.0], [14.0, 10.0], [20.0, 10.0]],
         );
         // Walls to 8 m over 336 m², the roof's 400 m³ over the whole square less 102.4 over the courtyard.
         let v = closed_volume(&mesh);
