@@ -327,27 +327,13 @@ fn row_group(
                 format!("the geometry column holds {} instead of WKB", kind(&other)),
             )),
             (Encoding::Polygon, Some(v)) => native_polygon(&v).map(|p| vec![p]).map(footprint),
-            (Encoding::MultiPolygon, Some(v)) => match v {
-                Field::ListInternal(l) => l
-                    .elements()
-                    .iter()
-                    .map(native_polygon)
-                    .collect::<Result<Vec<_>, _>>()
-                    .map(footprint),
-                other => Err(not_a_list(&other)),
-            },
+            (Encoding::MultiPolygon, Some(v)) => each(&v, native_polygon).map(footprint),
             (Encoding::LineString, Some(v)) => {
                 native_line(&v).map(|l| Geometry::Lines(vec![l], "LineString"))
             }
-            (Encoding::MultiLineString, Some(v)) => match v {
-                Field::ListInternal(l) => l
-                    .elements()
-                    .iter()
-                    .map(native_line)
-                    .collect::<Result<Vec<_>, _>>()
-                    .map(|lines| Geometry::Lines(lines, "MultiLineString")),
-                other => Err(not_a_list(&other)),
-            },
+            (Encoding::MultiLineString, Some(v)) => {
+                each(&v, native_line).map(|lines| Geometry::Lines(lines, "MultiLineString"))
+            }
         };
         let faces = crate::gpkg::put_geometry(&mut f, read, &label);
         out.push((f, faces.map(|faces| (label, faces))));
@@ -355,16 +341,20 @@ fn row_group(
     Ok(out)
 }
 
+/// Each element of a GeoArrow list, read by `read`.
+fn each<T>(
+    v: &Field,
+    read: impl Fn(&Field) -> Result<T, (IssueReason, String)>,
+) -> Result<Vec<T>, (IssueReason, String)> {
+    match v {
+        Field::ListInternal(l) => l.elements().iter().map(read).collect(),
+        other => Err(not_a_list(other)),
+    }
+}
+
 /// A GeoArrow linestring: its coordinates.
 fn native_line(v: &Field) -> Result<Vec<[f64; 2]>, (IssueReason, String)> {
-    let Field::ListInternal(points) = v else {
-        return Err(not_a_list(v));
-    };
-    let line = points
-        .elements()
-        .iter()
-        .map(coordinate)
-        .collect::<Result<Vec<_>, _>>()?;
+    let line = each(v, coordinate)?;
     if line.is_empty() {
         return Err((IssueReason::EmptyGeometry, "an empty line".into()));
     }
@@ -384,23 +374,13 @@ fn not_a_list(v: &Field) -> (IssueReason, String) {
 
 /// A GeoArrow polygon: its rings as open rings of (x, y) (a repeated closing point left out).
 fn native_polygon(v: &Field) -> Result<RawPolygon, (IssueReason, String)> {
-    let Field::ListInternal(rings) = v else {
-        return Err(not_a_list(v));
-    };
-    let mut out = Vec::new();
-    for ring in rings.elements() {
-        let Field::ListInternal(points) = ring else {
-            return Err(not_a_list(ring));
-        };
-        let mut r = Vec::with_capacity(points.len());
-        for p in points.elements() {
-            r.push(coordinate(p)?);
-        }
+    let out = each(v, |ring| {
+        let mut r = each(ring, coordinate)?;
         if r.len() > 1 && r.first() == r.last() {
             r.pop();
         }
-        out.push(r);
-    }
+        Ok(r)
+    })?;
     if out.iter().all(Vec::is_empty) {
         return Err((IssueReason::EmptyGeometry, "an empty polygon".into()));
     }

@@ -621,7 +621,8 @@ fn lowest_of(rings: &[Vec<P2>], planes: &[(P2, f64)]) -> Vec<Face> {
         for e in 0..cell.len() {
             let (a, b) = (cell[e], cell[(e + 1) % cell.len()]);
             let mid = [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
-            if sub(b, a)[0].hypot(sub(b, a)[1]) > WELD_M
+            let d = sub(b, a);
+            if d[0].hypot(d[1]) > WELD_M
                 && (i + 1..planes.len()).any(|j| (at(i, mid) - at(j, mid)).abs() < 1e-9)
             {
                 creases.push([a, b]);
@@ -1351,15 +1352,14 @@ mod tests {
 
     const HOUSE: [(f64, f64); 4] = [(0.0, 0.0), (12.0, 0.0), (12.0, 8.0), (0.0, 8.0)];
 
+    /// The house standing from 5 m to 15 m with roof `spec`.
+    fn house(spec: &RoofSpec) -> (Mesh3d, Vec<SurfaceKind>) {
+        roofed_building(&footprint(&HOUSE), 5.0, 10.0, spec).unwrap()
+    }
+
     #[test]
     fn a_gabled_house_has_its_ridge_along_its_long_side_and_the_volume_of_its_shape() {
-        let (mesh, kinds) = roofed_building(
-            &footprint(&HOUSE),
-            5.0,
-            10.0,
-            &spec(RoofShape::Gabled, RoofRise::Metres(4.0)),
-        )
-        .unwrap();
+        let (mesh, kinds) = house(&spec(RoofShape::Gabled, RoofRise::Metres(4.0)));
         // Walls 6 m, a triangular prism of roof 4 m high over 8 m.
         let v = closed_volume(&mesh);
         assert!(
@@ -1377,13 +1377,13 @@ mod tests {
         // Across: the ridge along the short side.
         let mut s = spec(RoofShape::Gabled, RoofRise::Metres(4.0));
         s.across = true;
-        let (mesh, _) = roofed_building(&footprint(&HOUSE), 5.0, 10.0, &s).unwrap();
+        let (mesh, _) = house(&s);
         assert_eq!(ridge(&mesh, 15.0), [[6.0, 0.0], [6.0, 8.0]]);
         assert!((closed_volume(&mesh) - (576.0 + 0.5 * 12.0 * 4.0 * 8.0)).abs() < 1e-6);
         // roof:direction 90° (the slopes face east and west): the ridge runs north–south.
         s.across = false;
         s.direction_deg = Some(90.0);
-        let (mesh, _) = roofed_building(&footprint(&HOUSE), 5.0, 10.0, &s).unwrap();
+        let (mesh, _) = house(&s);
         assert_eq!(ridge(&mesh, 15.0), [[6.0, 0.0], [6.0, 8.0]]);
     }
 
@@ -1733,13 +1733,7 @@ mod tests {
         // is 12 × (8 − 2t).
         let walls = 12.0 * 8.0 * 6.0;
         let strip = |t: f64| 12.0 * (8.0 - 2.0 * t);
-        let (mesh, kinds) = roofed_building(
-            &footprint(&HOUSE),
-            5.0,
-            10.0,
-            &spec(RoofShape::Gambrel, RoofRise::Metres(4.0)),
-        )
-        .unwrap();
+        let (mesh, kinds) = house(&spec(RoofShape::Gambrel, RoofRise::Metres(4.0)));
         // A cross-section of 8 × 4 × 2/3 m²: more than the gabled roof's half.
         let v = closed_volume(&mesh);
         let roof = layered_volume(strip, 4.0, 4.0, &[BREAK]);
@@ -1772,13 +1766,7 @@ mod tests {
 
         // Round, as high as its run by default: every corner of the roof on the circle of 4 m about the ridge's foot,
         // 6 bands each side, and the volume of that polygon.
-        let (mesh, kinds) = roofed_building(
-            &footprint(&HOUSE),
-            5.0,
-            10.0,
-            &spec(RoofShape::Round, RoofRise::Default),
-        )
-        .unwrap();
+        let (mesh, kinds) = house(&spec(RoofShape::Round, RoofRise::Default));
         let v = closed_volume(&mesh);
         assert_eq!(top_z(&mesh), 15.0);
         let on_roof: Vec<[f64; 3]> = mesh
@@ -1845,13 +1833,7 @@ mod tests {
     fn a_half_hipped_roof_has_hips_over_half_gables() {
         // The house: walls to 11 m, a roof of 4 m over the half-width of 4 m; the gable walls rise to 13 m, and hips at
         // the roof's slope (4 m over 4 m) rise from there to the ridge, 2 m in from each end.
-        let (mesh, kinds) = roofed_building(
-            &footprint(&HOUSE),
-            5.0,
-            10.0,
-            &spec(RoofShape::HalfHipped, RoofRise::Metres(4.0)),
-        )
-        .unwrap();
+        let (mesh, kinds) = house(&spec(RoofShape::HalfHipped, RoofRise::Metres(4.0)));
         let v = closed_volume(&mesh);
         // The gabled roof's 192 m³ less what each hip cuts off: ∫₀² (2 − x)² / 4 dx of the rise, 8/3 m³.
         let roof = 0.5 * 8.0 * 4.0 * 12.0 - 2.0 * 4.0 * (2.0 / 3.0);

@@ -116,16 +116,6 @@ impl<'a> MeshBvh<'a> {
         (best.1 != u32::MAX).then_some(best)
     }
 
-    /// Whether some triangle comes within `r_m` of `p` (stops at the first one found).
-    pub fn is_within(&self, p: V3, r_m: f64) -> bool {
-        self.is_within_squared(p, r_m * r_m)
-    }
-
-    /// Whether some triangle's squared distance from `p` is at most `r2` (m²; stops at the first one found).
-    pub fn is_within_squared(&self, p: V3, r2: f64) -> bool {
-        self.find_within_squared(p, r2).is_some()
-    }
-
     /// A triangle whose squared distance from `p` is at most `r2` (m²): the first one found, `None` when there is
     /// none.
     pub fn find_within_squared(&self, p: V3, r2: f64) -> Option<u32> {
@@ -158,7 +148,7 @@ impl<'a> MeshBvh<'a> {
         None
     }
 
-    /// [`Self::is_within_squared`] for a run of nearby points: the triangles that answered the last few points
+    /// [`Self::find_within_squared`] for a run of nearby points: the triangles that answered the last few points
     /// (`recent`) are tried first, and the one that answers this point becomes the most recent.
     pub fn is_within_squared_near(&self, p: V3, r2: f64, recent: &mut Recent) -> bool {
         if let Some(k) = recent
@@ -341,8 +331,9 @@ mod tests {
         assert!(t >= 2);
         let (d, _) = bvh.closest([3.0, 0.5, 0.0]).unwrap();
         assert!((d - 2.0).abs() < 1e-12);
-        assert!(bvh.is_within([3.0, 0.5, 0.0], 2.0 + 1e-9));
-        assert!(!bvh.is_within([3.0, 0.5, 0.0], 2.0 - 1e-9));
+        let within = |r: f64| bvh.find_within_squared([3.0, 0.5, 0.0], r * r).is_some();
+        assert!(within(2.0 + 1e-9));
+        assert!(!within(2.0 - 1e-9));
     }
 
     #[test]
