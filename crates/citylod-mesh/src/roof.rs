@@ -902,8 +902,12 @@ fn skeleton(rings: &[Vec<P2>]) -> Option<(Vec<Face>, f64)> {
             open.entry(key).or_insert((a, b, d, t));
         }
         if cycles.is_empty() {
+            // Two events a rounding error apart in time (1e-8 of the run) leave a band of no width between them that
+            // runs out along a line and back; its long sides lie on its neighbours' edges and would cross them in
+            // the triangulation by rounding. It is no face: dropped.
             let faces = bands
                 .into_iter()
+                .filter(|f| !is_sliver(f))
                 .map(|f| {
                     f.into_iter()
                         .map(|[x, y, z]| [x, y, (z / t).clamp(0.0, 1.0)])
@@ -964,6 +968,21 @@ fn skeleton(rings: &[Vec<P2>]) -> Option<(Vec<Face>, f64)> {
         t = next;
     }
     None
+}
+
+/// Bands narrower than this (twice their area over their perimeter) have no width (m).
+const SLIVER_M: f64 = 1e-3 * WELD_M;
+
+/// A face of no width in plan: [`SLIVER_M`].
+fn is_sliver(f: &[[f64; 3]]) -> bool {
+    let m = f.len();
+    let (mut area2, mut perimeter) = (0.0, 0.0);
+    for k in 0..m {
+        let (a, b) = (f[k], f[(k + 1) % m]);
+        area2 += a[0] * b[1] - b[0] * a[1];
+        perimeter += (b[0] - a[0]).hypot(b[1] - a[1]);
+    }
+    area2.abs() < SLIVER_M * perimeter
 }
 
 /// A band being swept: the edge's previous line, its own, its next, and when it started.
@@ -1066,9 +1085,11 @@ fn on_edge(line: Wave, a: P2, b: P2, p: P2, t: f64) -> bool {
     off.abs() <= 1e3 * WAVE_EPS && s >= -WAVE_EPS && s <= dot(d, sub(b, a)) + WAVE_EPS
 }
 
-/// A reflex corner of one cycle lying on an edge of another, one of them a courtyard's (clockwise: it grows) and the
-/// other not: (cycle, corner, other cycle, edge). Two pieces of a split outline shrink each into its own part and
-/// never join; at the point they split from each other, rounding may leave one's corner on the other's edge.
+/// A reflex corner of one cycle lying on an edge of another, at least one of them a courtyard's (clockwise: it
+/// grows): (cycle, corner, other cycle, edge). A courtyard's wavefront meets the outline's, or another courtyard's
+/// (two courtyards closer to each other than to the street: the two become one). Two pieces of a split outline
+/// shrink each into its own part and never join; at the point they split from each other, rounding may leave one's
+/// corner on the other's edge.
 fn meeting(cycles: &[Vec<Wave>], t: f64) -> Option<Option<(usize, usize, usize, usize)>> {
     let corners: Vec<Vec<(P2, P2)>> = cycles
         .iter()
@@ -1090,7 +1111,7 @@ fn meeting(cycles: &[Vec<Wave>], t: f64) -> Option<Option<(usize, usize, usize, 
             for (b, d) in cycles
                 .iter()
                 .enumerate()
-                .filter(|&(b, _)| courtyard[b] != courtyard[a])
+                .filter(|&(b, _)| b != a && (courtyard[a] || courtyard[b]))
             {
                 let md = d.len();
                 for j in 0..md {
@@ -1790,6 +1811,104 @@ mod tests {
         assert_eq!(
             kinds.iter().filter(|&&k| k == SurfaceKind::Roof).count(),
             2 * DOME_BANDS * 2
+        );
+    }
+
+    /// Two events of a Boston footprint 1.3e-8 of the run apart: between them a band of no width runs 3 m out along
+    /// a line and back, its sides on its neighbours' edges; in the triangulation they crossed by rounding and the
+    /// roof was refused. The band is dropped as a sliver.
+    #[test]
+    fn near_simultaneous_events_leave_no_sliver_face() {
+        let outline = [
+            (2690.042548840222, -2157.322214227861),
+            (2689.4600328236284, -2142.7709933076885),
+            (2687.564478047817, -2142.993879783663),
+            (2687.399086378329, -2141.5499067057317),
+            (2683.113335022041, -2141.6626281929275),
+            (2683.3619950618963, -2145.3281640909613),
+            (2682.9498992760255, -2145.3283218303477),
+            (2683.2841664018033, -2157.3248045376795),
+            (2682.9544892090576, -2157.3249307278056),
+            (2682.9548292038376, -2158.2135684152763),
+            (2683.7790222890767, -2158.2132529114465),
+            (2684.3562976214766, -2159.1016696856163),
+            (2686.334361275199, -2159.1009119182027),
+            (2687.075794629531, -2158.211989926297),
+            (2690.2077283496783, -2158.2107886550384),
+            (2690.2073874360667, -2157.3221509675195),
+            (2690.042548840222, -2157.322214227861),
+        ];
+        let fp = footprint(&outline);
+        let (_, rings) = roof_rings(&fp.0[0]);
+        let (faces, _) = skeleton(&rings).unwrap();
+        assert!(faces.iter().all(|f| !is_sliver(f)));
+        for shape in [RoofShape::Hipped, RoofShape::Mansard] {
+            let (mesh, kinds) =
+                roofed_building(&fp, 0.0, 12.0, &spec(shape, RoofRise::Metres(3.0))).unwrap();
+            let v = closed_volume(&mesh);
+            let area = crate::ring::signed_area2(&outline.map(|(x, y)| [x, y])).abs() / 2.0;
+            assert!(
+                v > area * 9.0 && v < area * 12.0,
+                "{shape:?}: {v} over {area} m²"
+            );
+            let ratios: &[f64] = if shape == RoofShape::Mansard {
+                &[1.0, 4.0, 0.25]
+            } else {
+                &[1.0]
+            };
+            assert_eq!(off_slope(&mesh, &kinds, ratios), None, "{shape:?}");
+        }
+    }
+
+    /// Two courtyards nearer each other than the street: their wavefronts meet first (the diamond's corner on the
+    /// square's side, after 2 / (1 + √2) of the run) and go on as one courtyard. The meeting was only looked for
+    /// between a courtyard and the outline, so the event came back forever and the roof was refused (two Boston
+    /// blocks).
+    #[test]
+    fn two_courtyards_meeting_become_one() {
+        let outer = [
+            (0.0, 0.0),
+            (40.0, 0.0),
+            (40.0, 20.0),
+            (0.0, 20.0),
+            (0.0, 0.0),
+        ];
+        let square = [[12.0, 7.0], [12.0, 13.0], [18.0, 13.0], [18.0, 7.0]];
+        let diamond = [[20.0, 10.0], [23.0, 13.0], [26.0, 10.0], [23.0, 7.0]];
+        let mut fp = footprint(&outer);
+        for court in [square, diamond] {
+            let mut ring: Vec<(f64, f64)> = court.iter().map(|p| (p[0], p[1])).collect();
+            ring.push(ring[0]);
+            fp.0[0].interiors_push(ring);
+        }
+        let rings = [
+            outer[..4].iter().map(|&(x, y)| [x, y]).collect(),
+            square.to_vec(),
+            diamond.to_vec(),
+        ];
+        let (_, run) = skeleton(&rings).unwrap();
+        let (mesh, kinds) = roofed_building(
+            &fp,
+            0.0,
+            10.0,
+            &spec(RoofShape::Hipped, RoofRise::Metres(run)),
+        )
+        .unwrap();
+        let v = closed_volume(&mesh);
+        let area = 800.0 - 36.0 - 18.0;
+        assert!(v > area * (10.0 - run) && v < area * 10.0, "{v}");
+        assert_eq!(off_slope(&mesh, &kinds, &[1.0]), None);
+        // Where they met, the roof is as high as the time they took.
+        let t = 2.0 / (1.0 + 2f64.sqrt());
+        let z = 10.0 - run + t;
+        assert!(
+            mesh.positions
+                .iter()
+                .any(|p| (p[0] - (18.0 + t)).abs() < 1e-9
+                    && (p[1] - 10.0).abs() < 1e-9
+                    && (p[2] - z).abs() < 1e-9),
+            "no corner at ({}, 10, {z})",
+            18.0 + t
         );
     }
 
