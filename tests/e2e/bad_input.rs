@@ -450,6 +450,11 @@ fn output_paths_that_are_not_tilesets_are_refused() {
     let other = d.join("other");
     std::fs::create_dir_all(&other).unwrap();
     std::fs::write(other.join("a.txt"), "mine").unwrap();
+    // An input named as a level dump's file, in the folder the levels are dumped to (dump, edit in QGIS, rebuild).
+    let dumps = d.join("dumps");
+    std::fs::create_dir_all(&dumps).unwrap();
+    let level0 = dumps.join("level-0.geojson");
+    std::fs::copy(&input, &level0).unwrap();
     let before = tree_bytes(&d);
     let (i, u, o) = (
         input.to_str().unwrap(),
@@ -472,6 +477,16 @@ fn output_paths_that_are_not_tilesets_are_refused() {
                 new_levels.to_str().unwrap(),
             ],
             "--dump-levels",
+        ),
+        (
+            vec![
+                level0.to_str().unwrap(),
+                "--out",
+                new_out.to_str().unwrap(),
+                "--dump-levels",
+                dumps.to_str().unwrap(),
+            ],
+            "would be overwritten by --dump-levels",
         ),
         (
             vec![

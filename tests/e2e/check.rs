@@ -62,6 +62,20 @@ fn check(tileset: &Path, out: &Path, extra: &[&str]) -> (i32, Value) {
         "citylod check failed to run ({code}):\n{}",
         String::from_utf8_lossy(&o.stderr)
     );
+    // --quiet: nothing on success, the one-line summary on a failure.
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    if code == 0 {
+        // (The Vulkan driver may print its own warnings.)
+        assert!(
+            !stderr.contains("citylod check:"),
+            "--quiet printed:\n{stderr}"
+        );
+    } else {
+        assert!(
+            stderr.contains("citylod check:") && stderr.contains("finding(s)"),
+            "a failed check printed no summary under --quiet:\n{stderr}"
+        );
+    }
     let report = read_json(&out.join("report.json"));
     let errors = schema_errors("check-report.schema.json", &report);
     assert!(

@@ -33,7 +33,19 @@ pub enum DumpError {
     },
 }
 
-/// Removes the files a dump writes (`level-<digits>.geojson` / `.png`, `levels.png`) from `dir`.
+/// A file name a dump writes, or removes as an earlier dump's: `level-<digits>.geojson` / `.png`, `levels.png`.
+pub fn is_dump_file_name(name: &str) -> bool {
+    name == "levels.png"
+        || name
+            .strip_prefix("level-")
+            .and_then(|r| {
+                r.strip_suffix(".geojson")
+                    .or_else(|| r.strip_suffix(".png"))
+            })
+            .is_some_and(|k| !k.is_empty() && k.bytes().all(|b| b.is_ascii_digit()))
+}
+
+/// Removes the files a dump writes ([`is_dump_file_name`]) from `dir`.
 fn remove_earlier_dump(dir: &Path) -> Result<(), DumpError> {
     let io = |source| DumpError::Io {
         path: dir.to_path_buf(),
@@ -43,15 +55,7 @@ fn remove_earlier_dump(dir: &Path) -> Result<(), DumpError> {
         let entry = entry.map_err(io)?;
         let name = entry.file_name();
         let name = name.to_string_lossy();
-        let ours = name == "levels.png"
-            || name
-                .strip_prefix("level-")
-                .and_then(|r| {
-                    r.strip_suffix(".geojson")
-                        .or_else(|| r.strip_suffix(".png"))
-                })
-                .is_some_and(|k| !k.is_empty() && k.bytes().all(|b| b.is_ascii_digit()));
-        if ours && entry.file_type().map_err(io)?.is_file() {
+        if is_dump_file_name(&name) && entry.file_type().map_err(io)?.is_file() {
             std::fs::remove_file(entry.path()).map_err(|source| DumpError::Io {
                 path: entry.path(),
                 source,

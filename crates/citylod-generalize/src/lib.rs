@@ -46,7 +46,7 @@ mod stats;
 pub mod streets;
 
 pub use adjacent::{adjacent_distance, adjacent_distance_brute_force, Adjacency};
-pub use dump::{dump_levels, DumpError};
+pub use dump::{dump_levels, is_dump_file_name, DumpError};
 pub use graph::{
     auto_reach_m, candidate_graph, candidate_pairs, refine_pairs, weigh_pairs, CandidateEdge,
     GraphStats,

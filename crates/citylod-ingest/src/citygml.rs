@@ -110,15 +110,25 @@ pub(crate) fn is_citygml(path: &Path) -> bool {
 
 /// The head of a file (gzip-compressed or not) opens a `CityModel`.
 fn starts_citygml(raw: Vec<u8>) -> bool {
-    let mut head = Vec::new();
-    if raw.starts_with(&[0x1f, 0x8b]) {
-        let _ = flate2::read::MultiGzDecoder::new(&raw[..])
-            .take(64 * 1024)
-            .read_to_end(&mut head);
-    } else {
-        head = raw;
-    }
+    let head = inflated_head(raw);
     root_tag(&head).is_some_and(|(name, tag)| is_root(name, tag))
+}
+
+/// The first 64 KiB of a file's text, inflated when it is gzip-compressed.
+fn inflated_head(raw: Vec<u8>) -> Vec<u8> {
+    if !raw.starts_with(&[0x1f, 0x8b]) {
+        return raw;
+    }
+    let mut head = Vec::new();
+    let _ = flate2::read::MultiGzDecoder::new(&raw[..])
+        .take(64 * 1024)
+        .read_to_end(&mut head);
+    head
+}
+
+/// The name of the first element of a file's head (gzip-compressed or not), `None` if it does not read as XML.
+pub(crate) fn root_element(raw: Vec<u8>) -> Option<String> {
+    root_tag(&inflated_head(raw)).map(|(name, _)| name.to_string())
 }
 
 /// A CityGML document's root: a `CityModel`, or a WFS answer's `FeatureCollection` declaring a CityGML namespace

@@ -95,9 +95,10 @@ pub enum IngestError {
     /// nor `--crs` given.
     #[error("{path}: the street file declares no CRS (no .prj, or an undefined spatial reference system); pass it with --streets-crs, e.g. --streets-crs EPSG:26986")]
     StreetsWithoutCrs { path: PathBuf },
-    /// A CityJSON file that declares no `referenceSystem`, and no CRS was given by the user.
-    #[error("{path}: the file declares no CRS (no metadata.referenceSystem); pass one with --crs, e.g. --crs EPSG:28992")]
-    MissingCrs { path: PathBuf },
+    /// A CityJSON file that declares no `referenceSystem` (a CityGML file no `srsName`), and no CRS was given by the
+    /// user.
+    #[error("{path}: the file declares no CRS (no {member}); pass one with --crs, e.g. --crs EPSG:28992")]
+    MissingCrs { path: PathBuf, member: &'static str },
     /// The written buildings lie too far apart for one local frame (see `place::MAX_DISTANCE_FROM_ORIGIN_M`).
     #[error("{detail}")]
     TooWide { detail: String },

@@ -71,7 +71,7 @@ use geo_types::{Coord, MultiPolygon};
 use height::Heights;
 use rayon::prelude::*;
 use repair::Plane;
-use std::collections::{BTreeMap, HashMap, HashSet};
+use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
 use std::hash::{Hash, Hasher};
 use std::path::{Path, PathBuf};
 
@@ -630,13 +630,13 @@ fn ids_from_attribute(files: &mut [LoadedFile], name: &str) -> Result<(), Ingest
     }
     let total: usize = files.iter().map(|f| f.features.len()).sum();
     if found == 0 && total > 0 {
-        let mut seen: Vec<String> = files
+        // Every feature's: an attribute only some have may be the one meant.
+        let seen: BTreeSet<&str> = files
             .iter()
-            .flat_map(|f| f.features.iter().take(100))
-            .flat_map(|r| r.attributes.iter().map(|(k, _)| k.clone()))
+            .flat_map(|f| &f.features)
+            .flat_map(|r| r.attributes.iter().map(|(k, _)| k.as_str()))
             .collect();
-        seen.sort();
-        seen.dedup();
+        let seen: Vec<String> = seen.into_iter().map(str::to_string).collect();
         return Err(IngestError::InvalidOption {
             name: "--id-attr",
             detail: format!(
@@ -726,6 +726,7 @@ fn load(
     opts: &IngestOptions,
     model_target: Option<lod::Target>,
 ) -> Result<Vec<LoadedFile>, IngestError> {
+    regular_input(path)?;
     if !citygml::is_citygml(path) {
         return load_one(path, opts, model_target).map(|f| vec![f]);
     }
@@ -787,6 +788,79 @@ fn citygml_file(
         features: doc.features,
         notes,
     })
+}
+
+/// An error for an input that is neither a file nor a folder (a File Geodatabase): formats are told by a look at
+/// the head of the file before it is read, and a pipe would be empty by then (a FIFO would wait forever).
+pub(crate) fn regular_input(path: &Path) -> Result<(), IngestError> {
+    match std::fs::metadata(path) {
+        Ok(meta) if !meta.is_file() && !meta.is_dir() => Err(IngestError::Read {
+            path: path.into(),
+            source: std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                "not a regular file (a pipe, socket or device): citylod looks at the head of an input before \
+                 reading it, so save the data to a file first",
+            ),
+        }),
+        _ => Ok(()),
+    }
+}
+
+/// The formats citylod reads, for an input it cannot tell.
+const FORMATS_READ: &str =
+    "GeoJSON, CityJSON, CityJSONSeq, CityGML, OpenStreetMap (PBF or XML), shapefiles, \
+                            GeoPackage, GeoParquet and File Geodatabases";
+
+/// What a file named as CityGML (`.gml`, `.citygml`, gzip-compressed too) or as XML is instead, when it is not
+/// CityGML (its head `head`; CityGML was looked for first): empty, not XML, or another root element. An `.xml` file
+/// whose root is `osm` is OpenStreetMap XML: `None`.
+fn named_but_not(path: &Path, head: &[u8]) -> Option<String> {
+    let name = path.file_name()?.to_string_lossy().to_ascii_lowercase();
+    let gml = [".gml", ".citygml", ".gml.gz", ".citygml.gz"]
+        .iter()
+        .any(|e| name.ends_with(e));
+    if !(gml || name.ends_with(".xml")) {
+        return None;
+    }
+    let what = match citygml::root_element(head.to_vec()) {
+        _ if head.is_empty() => "the file is empty".to_string(),
+        Some(root) if root == "osm" && !gml => return None,
+        Some(root) => format!(
+            "its root element is <{root}>: neither CityGML (a CityModel, or a WFS FeatureCollection of CityGML \
+             members) nor OpenStreetMap XML (<osm>)"
+        ),
+        None => "it does not read as XML (gzip-compressed or not)".to_string(),
+    };
+    Some(format!(
+        "named as {}, but {what}",
+        if gml { "CityGML" } else { "XML" }
+    ))
+}
+
+/// What a file is that no reader took before JSON, when it cannot be JSON: empty, a glTF binary, UTF-16 text, or
+/// binary. `None` for text (UTF-8 or not: [`read_text`] says where it is not).
+fn not_text(head: &[u8]) -> Option<String> {
+    if head.is_empty() {
+        return Some(format!("the file is empty; inputs are {FORMATS_READ}"));
+    }
+    if head.starts_with(b"glTF") {
+        return Some(
+            "a glTF binary (.glb), such as a tile of a tileset: citylod reads buildings, and writes tiles".into(),
+        );
+    }
+    if head.starts_with(&[0xff, 0xfe]) || head.starts_with(&[0xfe, 0xff]) {
+        return Some(
+            "UTF-16 text: JSON is read as UTF-8 (RFC 8259); convert it (e.g. iconv -f UTF-16 -t UTF-8)".into(),
+        );
+    }
+    if head.contains(&0) {
+        let begins: Vec<String> = head.iter().take(4).map(|b| format!("{b:02X}")).collect();
+        return Some(format!(
+            "a binary file (it begins {}) in no format citylod reads; inputs are {FORMATS_READ}",
+            begins.join(" ")
+        ));
+    }
+    None
 }
 
 /// Reads, detects and parses one file, and settles its CRS.
@@ -893,6 +967,20 @@ fn load_one(
             missing,
         );
     }
+    let head = {
+        let mut head = Vec::new();
+        std::fs::File::open(path)
+            .and_then(|f| {
+                std::io::Read::read_to_end(&mut std::io::Read::take(f, 64 * 1024), &mut head)
+            })
+            .map(|_| head)
+    };
+    if let Some(detail) = head.as_ref().ok().and_then(|h| named_but_not(path, h)) {
+        return Err(IngestError::UnknownFormat {
+            path: path.into(),
+            detail,
+        });
+    }
     if let Some(encoding) = osm::Encoding::of(path) {
         let doc = osm::read(path).map_err(|detail| IngestError::InvalidOsm {
             path: path.into(),
@@ -916,6 +1004,12 @@ fn load_one(
             non_building_objects: 0,
             features: doc.features,
             notes,
+        });
+    }
+    if let Some(detail) = head.as_ref().ok().and_then(|h| not_text(h)) {
+        return Err(IngestError::UnknownFormat {
+            path: path.into(),
+            detail,
         });
     }
     let text = read_text(path)?;
@@ -1093,7 +1187,16 @@ fn settle_crs(
             })
         }
         None if format == InputFormat::GeoJson => Crs::wgs84(),
-        None => return Err(IngestError::MissingCrs { path: path.into() }),
+        None => {
+            return Err(IngestError::MissingCrs {
+                path: path.into(),
+                member: if format == InputFormat::CityGml {
+                    "srsName on the model's gml:Envelope or on a geometry"
+                } else {
+                    "metadata.referenceSystem"
+                },
+            })
+        }
     };
     Ok((crs, None))
 }

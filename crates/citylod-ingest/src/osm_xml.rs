@@ -41,9 +41,11 @@ pub(crate) fn gather(bytes: &[u8], want: Want) -> Result<Gathered, String> {
         );
     }
     let text = std::str::from_utf8(bytes).map_err(|e| {
+        let at = e.valid_up_to();
         format!(
-            "not UTF-8 text (byte {} is not), as OpenStreetMap XML is",
-            e.valid_up_to()
+            "byte {at} (0x{:02X}) is not UTF-8 text, as OpenStreetMap XML is, and the file is not gzip- or \
+             bzip2-compressed either",
+            bytes[at]
         )
     })?;
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);

@@ -141,6 +141,7 @@ pub fn read_streets(
     fallback_crs: Option<&str>,
     frame: &LocalFrame,
 ) -> Result<Streets, IngestError> {
+    crate::regular_input(path)?;
     let format = format(path);
     if let (Some(l), Format::Osm(_) | Format::Shapefile | Format::GeoJson | Format::GeoParquet) =
         (layer, &format)

@@ -369,7 +369,7 @@ fn other_file_level_problems_are_clear_errors() {
     let cj = r#"{"type":"CityJSON","version":"1.0","CityObjects":{},"vertices":[]}"#;
     let e = ingest(&[write(&dir, "nocrs.json", cj)], &IngestOptions::default()).unwrap_err();
     assert!(matches!(e, IngestError::MissingCrs { .. }), "{e}");
-    assert!(e.to_string().contains("--crs"));
+    assert!(e.to_string().contains("--crs") && e.to_string().contains("metadata.referenceSystem"));
     let seq = "{\"type\":\"CityJSON\",\"version\":\"2.0\",\"transform\":{\"scale\":[1,1,1],\"translate\":[0,0,0]},\
                \"metadata\":{\"referenceSystem\":\"https://www.opengis.net/def/crs/EPSG/0/7415\"},\"CityObjects\":{},\"vertices\":[]}\n\
                {\"type\":\"CityJSONFeature\",\"id\":\"x\",\"CityObjects\":{},\"vertices\":[]}\n{\"type\":\"CityJSONFea";
@@ -379,6 +379,104 @@ fn other_file_level_problems_are_clear_errors() {
     )
     .unwrap_err();
     assert!(matches!(e, IngestError::Json { line: 3, .. }), "{e}");
+}
+
+/// The error's text, with its causes.
+fn full_text(e: &IngestError) -> String {
+    let mut text = e.to_string();
+    let mut cause = std::error::Error::source(e);
+    while let Some(c) = cause {
+        text.push_str(&format!(": {c}"));
+        cause = c.source();
+    }
+    text
+}
+
+#[test]
+fn files_no_reader_takes_are_told_for_what_they_are() {
+    let dir = tempfile::tempdir().unwrap();
+    let bytes = |name: &str, b: &[u8]| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, b).unwrap();
+        p
+    };
+    let mut utf16 = vec![0xff, 0xfe];
+    utf16.extend(
+        "{\"type\":\"FeatureCollection\"}"
+            .encode_utf16()
+            .flat_map(u16::to_le_bytes),
+    );
+    let cases: Vec<(PathBuf, &str)> = vec![
+        (bytes("empty.geojson", b""), "the file is empty"),
+        (
+            bytes("empty.gml", b""),
+            "named as CityGML, but the file is empty",
+        ),
+        (
+            bytes("noise.gml", &[0xd9, 0xfa, 0xd2, 0x23, 0x00, 0x17]),
+            "named as CityGML, but it does not read as XML",
+        ),
+        (
+            bytes("other.gml", b"<?xml version=\"1.0\"?><foo/>"),
+            "its root element is <foo>",
+        ),
+        (
+            bytes("other.xml", b"<kml><Document/></kml>"),
+            "named as XML, but its root element is <kml>",
+        ),
+        (bytes("tile.glb", b"glTF\x02\x00\x00\x00"), "a glTF binary"),
+        (bytes("wide.geojson", &utf16), "UTF-16 text"),
+        (
+            bytes("blob.dat", &[0x50, 0x4b, 0x00, 0x07, 0x00]),
+            "a binary file (it begins 50 4B 00 07)",
+        ),
+        (
+            bytes("noise.osm.gz", &[0xd9, 0xfa]),
+            "not gzip- or bzip2-compressed",
+        ),
+    ];
+    for (path, expect) in cases {
+        let e = ingest(std::slice::from_ref(&path), &IngestOptions::default()).unwrap_err();
+        let text = full_text(&e);
+        assert!(text.contains(expect), "{}: {text}", path.display());
+        assert!(
+            !text.contains("iconv -f latin1"),
+            "{}: {text}",
+            path.display()
+        );
+    }
+    // OpenStreetMap XML named .xml is still read as such.
+    let osm = bytes(
+        "map.xml",
+        b"<osm version=\"0.6\"><node id=\"1\" lat=\"0\" lon=\"0\"/></osm>",
+    );
+    let e = ingest(&[osm], &IngestOptions::default())
+        .map(|_| ())
+        .map_err(|e| full_text(&e));
+    assert!(
+        !e.as_ref().is_err_and(|t| t.contains("named as XML")),
+        "{e:?}"
+    );
+}
+
+/// A pipe is refused before anything is read from it (a FIFO no one writes to would otherwise wait forever; data
+/// piped in would be half read by the look at its head).
+#[cfg(unix)]
+#[test]
+fn a_pipe_is_refused_as_not_a_regular_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("in.geojson");
+    let made = std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap();
+    assert!(made.success());
+    let e = ingest(&[fifo], &IngestOptions::default()).unwrap_err();
+    assert!(
+        full_text(&e).contains("not a regular file"),
+        "{}",
+        full_text(&e)
+    );
 }
 
 #[test]
@@ -408,6 +506,30 @@ fn ids_follow_input_order_across_files_and_fall_back_to_file_index() {
         "{}",
         out.frame.origin_lon_deg
     );
+}
+
+#[test]
+fn an_id_attribute_no_feature_has_is_refused_listing_every_attribute_seen() {
+    let dir = tempfile::tempdir().unwrap();
+    // An attribute only the 150th feature has is listed too.
+    let features: Vec<String> = (0..200)
+        .map(|i| {
+            let props = if i == 150 {
+                r#"{"BIN":"7"}"#
+            } else {
+                r#"{"name":"x"}"#
+            };
+            feature(&format!("f{i}"), props, SQUARE)
+        })
+        .collect();
+    let p = write(&dir, "many.geojson", &collection(&features));
+    let opts = IngestOptions {
+        id_attr: Some("nope".into()),
+        ..Default::default()
+    };
+    let e = ingest(&[p], &opts).unwrap_err();
+    assert!(matches!(e, IngestError::InvalidOption { .. }), "{e}");
+    assert!(e.to_string().contains("attributes found: BIN, name"), "{e}");
 }
 
 #[test]

@@ -671,6 +671,18 @@ fn tokyo(srs: &str, order: &str) -> String {
 }
 
 #[test]
+fn a_citygml_file_without_a_srs_name_asks_for_crs_naming_what_is_missing() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("nocrs.gml");
+    std::fs::write(&p, tokyo("X", "lonlat").replace(r#" srsName="X""#, "")).unwrap();
+    let e = read(&p, &IngestOptions::default()).unwrap_err();
+    let text = e.to_string();
+    assert!(matches!(e, IngestError::MissingCrs { .. }), "{text}");
+    assert!(text.contains("srsName") && text.contains("--crs"), "{text}");
+    assert!(!text.contains("metadata.referenceSystem"), "{text}");
+}
+
+#[test]
 fn geographic_crs_coordinates_come_latitude_first_as_epsg_orders_them() {
     let dir = tempfile::tempdir().unwrap();
     for (srs, order, note) in [
@@ -894,14 +906,19 @@ fn a_wfs_answer_of_citygml_buildings_is_read() {
         .collect();
     got.sort_by(|a, b| a.0.cmp(&b.0));
     assert_eq!(got, vec![("W1".to_string(), 12.0), ("W2".to_string(), 6.0)]);
-    // A FeatureCollection of something else is no CityGML: the XML reader that is left (OpenStreetMap's) refuses it.
+    // A FeatureCollection of something else is no CityGML, nor OpenStreetMap XML: refused as neither.
     std::fs::write(
         &p,
         r#"<wfs:FeatureCollection xmlns:wfs="http://www.opengis.net/wfs/2.0"><wfs:member/></wfs:FeatureCollection>"#,
     )
     .unwrap();
     let e = read(&p, &IngestOptions::default()).unwrap_err();
-    assert!(matches!(e, IngestError::InvalidOsm { .. }), "{e}");
+    assert!(matches!(e, IngestError::UnknownFormat { .. }), "{e}");
+    assert!(
+        e.to_string()
+            .contains("<wfs:FeatureCollection>: neither CityGML"),
+        "{e}"
+    );
 }
 
 #[test]

@@ -52,6 +52,6 @@ pub use metadata::{schema_to_json, FeatureRow};
 pub use spec::{
     is_id, ClassDef, ContentFeature, MetadataSchema, PropValue, PropertyDef, PropertyKind, TileSpec,
 };
-pub use staging::Staging;
+pub use staging::{LeftBehind, Staging, INSIDE_PREFIX as STAGING_INSIDE_PREFIX};
 pub use tiling::{tile_spatially, tile_spatially_by};
 pub use write::{write_tileset, write_tileset_with, Compression, WriteOptions, WriteStats};

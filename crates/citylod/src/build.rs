@@ -111,13 +111,13 @@ pub struct BuildArgs {
     /// of 3D surface models (PolyhedralSurface, TIN, or MultiPolygon Z with walls, as 3DBAG's 3D layers) has one
     /// model per row, a shapefile or File Geodatabase one per MultiPatch: any value takes it (counted as
     /// `GeoPackage 3D`, `MultiPatch`). A building tagged as OpenStreetMap does (an .osm/.osm.pbf file, or its
-    /// export to GeoJSON, GeoPackage or Shapefile) with roof:shape skillion, gabled, hipped, pyramidal, dome or onion (as a dome) gets, at
-    /// `2`, a 2.x or `highest`, an LoD 2 model of its roof (roof:height, else roof:levels × --storey-height, else
-    /// roof:angle, else a 30° slope — a dome as high as wide — up to half its height; roof:direction,
-    /// roof:orientation; a hipped roof over any outline and its courtyards is its straight skeleton); other shapes,
-    /// and pyramids and domes on outlines that are not convex or have courtyards, stay prisms, listed with the
-    /// reason. Other polygons
-    /// ignore it.
+    /// export to GeoJSON, GeoPackage or Shapefile) with roof:shape skillion, gabled, gambrel, round, half-hipped,
+    /// hipped, mansard, pyramidal, cone (as a pyramid), dome or onion (as a dome) gets, at `2`, a 2.x or `highest`,
+    /// an LoD 2 model of its roof (roof:height, else roof:levels × --storey-height, else roof:angle — the mean slope
+    /// of a two-slope roof — else a 30° slope — a dome or round roof as high as wide — up to half its height;
+    /// roof:direction, roof:orientation; a hipped or mansard roof over any outline and its courtyards is its straight
+    /// skeleton); other shapes, and pyramids and domes on outlines that are not convex or have courtyards, stay
+    /// prisms, listed with the reason. Other polygons ignore it.
     #[arg(long, value_name = "LOD", help_heading = "3D buildings")]
     pub lod: Option<String>,
 
@@ -204,8 +204,8 @@ pub struct BuildArgs {
     /// Geodatabase's lines, a GeoParquet file's WKB lines, or an OpenStreetMap file's highway ways: the buildings' own .osm.pbf or .osm serves) as
     /// barriers: the first levels do not join buildings on opposite sides of a street (Zhang et al. 2014). A line
     /// whose attributes say it is not on the ground (OpenStreetMap's tags, in any format: tunnel=yes or T,
-    /// indoor=yes, area=yes, highway=construction/proposed/…; Overture's road_flags is_tunnel for a whole segment) is no
-    /// barrier. The build report says up to which
+    /// indoor=yes, area=yes, highway=construction/proposed/…; Overture's road_flags is_tunnel, is_indoor,
+    /// is_under_construction or is_abandoned for a whole segment, or level_rules below the ground) is no barrier. The build report says up to which
     /// level, and lists every street feature not used, with its reason. A file none of whose lines comes within 1 km
     /// of the buildings is refused (usually a CRS mix-up).
     #[arg(long, value_name = "FILE", help_heading = "Generalization")]
@@ -919,9 +919,16 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
     let mut bytes = serde_json::to_vec_pretty(&report)?;
     bytes.push(b'\n');
     staging.write_file("build-report.json", &bytes)?;
-    staging
+    let left_behind = staging
         .commit()
         .with_context(|| format!("moving the tileset into {}", args.out.display()))?;
+    if let Some(l) = left_behind {
+        eprintln!(
+            "warning: the previous tileset, moved to {}, could not be deleted ({}); delete it yourself",
+            l.path.display(),
+            l.error
+        );
+    }
     progress.finish();
 
     if !args.quiet {
@@ -1059,6 +1066,37 @@ fn check_output_folder(args: &BuildArgs) -> Result<()> {
             out.display()
         );
     }
+    if let Some(dir) = args.dump_levels.as_deref() {
+        // A dump writes and removes level-<k>.geojson / .png and levels.png in its folder: never an input.
+        let dir_real = std::fs::canonicalize(dir).ok();
+        let clobbered = args
+            .inputs
+            .iter()
+            .map(PathBuf::as_path)
+            .chain(args.streets.as_deref())
+            .find(|p| {
+                // The path as given (a link named like a dump's file is written through) and the file it is.
+                let given = lexically_absolute(p);
+                [given, std::fs::canonicalize(p).ok()]
+                    .into_iter()
+                    .flatten()
+                    .any(|f| {
+                        let named = f.file_name().is_some_and(|n| {
+                            citylod_generalize::is_dump_file_name(&n.to_string_lossy())
+                        });
+                        let parent = f.parent().and_then(|d| std::fs::canonicalize(d).ok());
+                        named && dir_real.is_some() && parent == dir_real
+                    })
+            });
+        if let Some(p) = clobbered {
+            bail!(
+                "input {} would be overwritten by --dump-levels {}, which writes level-<k>.geojson, level-<k>.png \
+                 and levels.png there (and removes those of an earlier dump); rename the input or dump elsewhere",
+                p.display(),
+                dir.display()
+            );
+        }
+    }
     let Ok(meta) = std::fs::symlink_metadata(out) else {
         return Ok(()); // nothing there yet
     };
@@ -1094,10 +1132,15 @@ fn check_output_folder(args: &BuildArgs) -> Result<()> {
             out.display()
         );
     }
+    // (A staging folder of an earlier run, where it stages inside the output folder, does not count.)
     let non_empty = std::fs::read_dir(out)
         .with_context(|| format!("reading {}", out.display()))?
-        .next()
-        .is_some();
+        .flatten()
+        .any(|e| {
+            !e.file_name()
+                .to_string_lossy()
+                .starts_with(citylod_tiles::STAGING_INSIDE_PREFIX)
+        });
     if non_empty && !out.join("tileset.json").is_file() && !args.force {
         bail!(
             "--out {} holds files but no tileset.json; the build replaces the whole folder. Give a new or empty \

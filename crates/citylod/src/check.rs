@@ -77,7 +77,7 @@ pub struct CheckArgs {
     #[arg(short, long, value_name = "DIR", help_heading = "Output")]
     pub out: PathBuf,
 
-    /// No progress output.
+    /// No progress output; a failed check still prints its one-line summary.
     #[arg(short, long, help_heading = "Output")]
     pub quiet: bool,
 }
@@ -536,7 +536,8 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
     let report_path = args.out.join("report.json");
     std::fs::write(&report_path, serde_json::to_vec_pretty(&report)?)
         .with_context(|| format!("writing {}", report_path.display()))?;
-    if !args.quiet {
+    // A failed check says so even with --quiet (as build's errors do): the exit code alone names no report.
+    if !args.quiet || !passed {
         eprintln!(
             "citylod check: {views_passed} of {} views passed, {findings_total} finding(s){}; report: {}",
             cameras.len(),
