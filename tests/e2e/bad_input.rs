@@ -155,7 +155,11 @@ fn unreadable_inputs_exit_2_with_a_clear_message() {
         (vec![good.display().to_string(), "--streets".into(), write(&d, "streets.geojson", r#"{"type":"FeatureCollection","features":["#).display().to_string()], "streets.geojson"),
         (vec![good.display().to_string(), "--streets".into(), d.join("no-streets.geojson").display().to_string()], "no-streets.geojson"),
         (vec![good.display().to_string(), "--streets".into(), good.display().to_string(), "--leaves-only".into()], "--leaves-only"),
-        (vec![good.display().to_string(), "--street-penalty=-5".into()], "--street-penalty"),
+        (vec![good.display().to_string(), "--streets".into(), good.display().to_string(), "--street-penalty=-5".into()], "--street-penalty must be"),
+        // Options of a feature not asked for are refused, not silently ignored.
+        (vec![good.display().to_string(), "--street-penalty=50".into()], "--streets <FILE>"),
+        (vec![good.display().to_string(), "--building-rate=0.5".into()], "--lod <LOD>"),
+        (vec![good.display().to_string(), "--leaves-only".into(), "--level-ratio=0.5".into()], "cannot be used with"),
         (vec![good.display().to_string(), "--height-offset=NaN".into()], "--height-offset"),
         // A misspelt attribute name would give every building the next rule's height.
         (vec![good.display().to_string(), "--storey-attr".into(), "storys".into()], "--storey-attr storys: no building has this attribute"),

@@ -790,6 +790,16 @@ fn citygml_file(
     })
 }
 
+/// A coordinate as a message shows it: as read, or in scientific notation where that would run to many digits
+/// (1e308, not a 1 and 308 zeros).
+fn coordinate(x: f64) -> String {
+    if x.is_finite() && x.abs() >= 1e15 {
+        format!("{x:e}")
+    } else {
+        x.to_string()
+    }
+}
+
 /// An error for an input that is neither a file nor a folder (a File Geodatabase): formats are told by a look at
 /// the head of the file before it is read, and a pipe would be empty by then (a FIFO would wait forever).
 pub(crate) fn regular_input(path: &Path) -> Result<(), IngestError> {
@@ -1222,7 +1232,7 @@ fn prepare(raw: &RawFeature, crs: &Crs, opts: &IngestOptions) -> Result<Prepared
             {
                 return Err((
                     IssueReason::NonFiniteCoordinate,
-                    format!("coordinate ({}, {})", p[0], p[1]),
+                    format!("coordinate ({}, {})", coordinate(p[0]), coordinate(p[1])),
                 ));
             }
             removed += repair::drop_repeated_points(&mut ring);
@@ -1237,7 +1247,12 @@ fn prepare(raw: &RawFeature, crs: &Crs, opts: &IngestOptions) -> Result<Prepared
                         };
                         (
                             reason,
-                            format!("coordinate ({}, {}) in {}", p[0], p[1], crs.label),
+                            format!(
+                                "coordinate ({}, {}) in {}",
+                                coordinate(p[0]),
+                                coordinate(p[1]),
+                                crs.label
+                            ),
                         )
                     })
                 })

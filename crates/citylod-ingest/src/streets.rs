@@ -569,17 +569,17 @@ fn line_segments(
 mod tests {
     use super::*;
 
-    fn write(name: &str, text: &str) -> std::path::PathBuf {
-        let dir = std::env::temp_dir().join(format!("citylod-streets-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let p = dir.join(name);
+    /// `text` written as `name` in a new temporary folder (removed when the first element is dropped).
+    fn write(name: &str, text: &str) -> (tempfile::TempDir, std::path::PathBuf) {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join(name);
         std::fs::write(&p, text).unwrap();
-        p
+        (dir, p)
     }
 
     #[test]
     fn lines_are_placed_and_every_other_feature_is_listed() {
-        let p = write(
+        let (_dir, p) = write(
             "mixed.geojson",
             r#"{"type": "FeatureCollection", "features": [
               {"type": "Feature", "id": "a", "geometry": {"type": "LineString", "coordinates": [[4.0, 52.0], [4.001, 52.0], [4.001, 52.0]]}},
@@ -628,7 +628,7 @@ mod tests {
         let rd = r#"{"type": "FeatureCollection", "crs": {"type": "EPSG", "properties": {"code": 28992}},
             "features": [{"type": "Feature", "properties": {}, "geometry": {"type": "LineString",
             "coordinates": [[84600, 447000], [84700, 447000]]}}]}"#;
-        let p = write("rd.geojson", rd);
+        let (_dir, p) = write("rd.geojson", rd);
         // The declaration wins over the buildings' --crs (here lon/lat, which would read 84600° as nonsense).
         let s = read_streets(&p, None, None, Some("EPSG:4326"), &frame).unwrap();
         assert_eq!(s.report.features_used, 1, "{:?}", s.report.skipped);
@@ -650,7 +650,7 @@ mod tests {
             r#"{"type": "EPSG", "properties": {"code": 28992}}"#,
             r#"{"type": "link", "properties": {"href": "http://example.com/crs"}}"#,
         );
-        let p = write("link.geojson", &link);
+        let (_dir, p) = write("link.geojson", &link);
         match read_streets(&p, None, None, None, &frame) {
             Err(e @ IngestError::CrsNotUnderstood { .. }) => {
                 assert!(e.to_string().contains("with --streets-crs, e.g."), "{e}")
@@ -663,7 +663,7 @@ mod tests {
     #[test]
     fn broken_files_are_errors_naming_the_file() {
         let frame = LocalFrame::new(0.0, 0.0, 0.0);
-        let p = write(
+        let (_dir, p) = write(
             "broken.geojson",
             r#"{"type": "FeatureCollection", "features": ["#,
         );
@@ -671,10 +671,10 @@ mod tests {
             read_streets(&p, None, None, None, &frame),
             Err(IngestError::Json { .. })
         ));
-        let p = write("polygon.geojson", r#"{"type": "Topology"}"#);
+        let (_dir, p) = write("polygon.geojson", r#"{"type": "Topology"}"#);
         let e = read_streets(&p, None, None, None, &frame).unwrap_err();
         assert!(e.to_string().contains("polygon.geojson"), "{e}");
-        let p = write(
+        let (_dir, p) = write(
             "crs.geojson",
             r#"{"type": "FeatureCollection", "features": []}"#,
         );
@@ -698,7 +698,8 @@ mod tests {
     fn formats_streets_do_not_read_are_named_and_broken_ones_refused_as_their_format() {
         // A Shapefile's or GeoPackage's bytes used to give "stream did not contain valid UTF-8".
         let frame = LocalFrame::new(0.0, 0.0, 0.0);
-        let dir = std::env::temp_dir().join(format!("citylod-streets-{}", std::process::id()));
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path();
         std::fs::create_dir_all(dir.join("roads.gdb")).unwrap();
         std::fs::create_dir_all(dir.join("roads")).unwrap();
         // (file, its bytes, what the error says, whether it is a format not read, with a conversion hint)

@@ -72,6 +72,7 @@ fn degenerate_and_out_of_range_features_are_skipped_with_their_reason() {
         feature("two_points", "{}", "[[[4.36,52.0],[4.3601,52.0]]]"),
         feature("line", "{}", "[[[4.36,52.0],[4.3601,52.0],[4.3602,52.0],[4.36,52.0]]]"),
         feature("lon500", "{}", "[[[500,52.0],[500.0001,52.0],[500.0001,52.0001],[500,52.0]]]"),
+        feature("lon1e308", "{}", "[[[1e308,52.0],[4.3601,52.0],[4.3601,52.0001],[1e308,52.0]]]"),
         feature("tiny", "{}", "[[[4.36,52.0],[4.36000001,52.0],[4.36000001,52.00000001],[4.36,52.0]]]"),
         r#"{"type":"Feature","id":"pt","properties":{},"geometry":{"type":"Point","coordinates":[4.36,52.0]}}"#.into(),
         r#"{"type":"Feature","id":"null","properties":{},"geometry":null}"#.into(),
@@ -82,8 +83,21 @@ fn degenerate_and_out_of_range_features_are_skipped_with_their_reason() {
     )
     .unwrap();
     out.report.check_invariants().unwrap();
-    assert_eq!(out.report.features_read, 7);
+    assert_eq!(out.report.features_read, 8);
     assert_eq!(out.buildings.len(), 1);
+    // A huge coordinate is shown as a number one can read, not 309 digits.
+    let huge = out
+        .report
+        .skipped
+        .iter()
+        .find(|s| s.feature_id == "lon1e308")
+        .unwrap();
+    assert_eq!(huge.reason, IssueReason::CoordinateOutOfRange);
+    assert!(
+        huge.detail.starts_with("coordinate (1e308, 52)"),
+        "{}",
+        huge.detail
+    );
     assert_eq!(
         reason_of(&out, "two_points"),
         Some(IssueReason::TooFewPoints)

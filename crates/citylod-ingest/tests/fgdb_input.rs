@@ -44,7 +44,7 @@ fn vertices(out: &Ingested, b: &citylod_model::Building) -> Vec<[f64; 2]> {
 
 /// A copy of a fixture geodatabase in a scratch folder, to damage.
 fn scratch_copy(name: &str, tag: &str) -> PathBuf {
-    let to = std::env::temp_dir().join(format!("citylod-fgdb-{}-{tag}", std::process::id()));
+    let to = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("citylod-fgdb-{tag}"));
     let _ = std::fs::remove_dir_all(&to);
     let to = to.join(name);
     std::fs::create_dir_all(&to).unwrap();
@@ -466,7 +466,8 @@ fn layers_are_chosen_by_name_and_wrong_names_list_the_feature_classes() {
     let err = read(&member, None).unwrap_err().to_string();
     assert!(err.contains("give the .gdb folder"), "{err}");
     // A folder named .gdb that is not one.
-    let empty = std::env::temp_dir().join(format!("citylod-fgdb-{}-empty.gdb", std::process::id()));
+    let empty = Path::new(env!("CARGO_TARGET_TMPDIR")).join("citylod-fgdb-empty.gdb");
+    let _ = std::fs::remove_dir_all(&empty);
     std::fs::create_dir_all(&empty).unwrap();
     let err = read(&empty, None).unwrap_err().to_string();
     assert!(
@@ -579,7 +580,8 @@ fn zipped_geodatabases_read_as_their_folders() {
 
 #[test]
 fn damaged_zip_archives_say_so() {
-    let dir = std::env::temp_dir().join(format!("citylod-fgdb-{}-zips", std::process::id()));
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("citylod-fgdb-zips");
+    let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let bytes = std::fs::read(fixture("nyc-les-2263.gdb.zip")).unwrap();
     // A byte changed inside the deflated data of the first member (the catalog, after its 30-byte local header and
@@ -675,7 +677,8 @@ fn thousands_of_rows_over_several_blocks_with_deleted_rows_and_nulls() {
             }
         })
         .collect();
-    let dir = std::env::temp_dir().join(format!("citylod-fgdb-{}-written.gdb", std::process::id()));
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("citylod-fgdb-written.gdb");
+    let _ = std::fs::remove_dir_all(&dir);
     let deleted: Vec<u64> = (1024..=1030).chain([2500]).collect();
     write_gdb(
         &dir,
@@ -745,7 +748,8 @@ fn heights_in_feet_are_read_in_feet_when_asked_and_the_report_says_when_to_ask()
 fn names_with_characters_beyond_ascii_are_feature_class_names_like_any_other() {
     use citylod_testdata::fgdb::{write_gdb, GdbOptions, Row};
     // "GD€…": a name whose fourth byte is inside a character (the system tables' prefix test once sliced it).
-    let dir = std::env::temp_dir().join(format!("citylod-fgdb-{}-names.gdb", std::process::id()));
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("citylod-fgdb-names.gdb");
+    let _ = std::fs::remove_dir_all(&dir);
     let row = Row {
         rings: vec![vec![
             [0.0, 0.0],

@@ -23,8 +23,11 @@ fn fixture(name: &str) -> PathBuf {
         .join(name)
 }
 
+/// A scratch folder under the build's own temporary folder (target/tmp), emptied first: one per test name, so
+/// repeated runs leave nothing behind in the system's /tmp.
 fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("citylod-gpq-{}-{name}", std::process::id()));
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("citylod-gpq-{name}"));
+    let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
 }

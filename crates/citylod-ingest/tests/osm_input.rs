@@ -12,8 +12,11 @@ fn repo_root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
+/// A scratch folder under the build's own temporary folder (target/tmp), emptied first: one per test name, so
+/// repeated runs leave nothing behind in the system's /tmp.
 fn scratch(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("citylod-osm-{}-{name}", std::process::id()));
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("citylod-osm-{name}"));
+    let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
 }

@@ -123,7 +123,13 @@ pub struct BuildArgs {
 
     /// How the 3D models are simplified: `topo-qem` (QEM that keeps touching parts together, IJGI 2021),
     /// `profile` (horizontal profiles, Zhao and Wang 2014) or `qem` (plain QEM, for comparison only).
-    #[arg(long, value_enum, default_value_t = SimplifierArg::TopoQem, help_heading = "3D buildings")]
+    #[arg(
+        long,
+        value_enum,
+        default_value_t = SimplifierArg::TopoQem,
+        help_heading = "3D buildings",
+        requires = "lod"
+    )]
     pub building_simplifier: SimplifierArg,
 
     /// Share of a model's triangles the simplified level removes, strictly between 0 and 1 (the IJGI 2021 paper used
@@ -132,13 +138,20 @@ pub struct BuildArgs {
         long,
         value_name = "RATE",
         default_value_t = 0.6,
-        help_heading = "3D buildings"
+        help_heading = "3D buildings",
+        requires = "lod"
     )]
     pub building_rate: f64,
 
     /// Basic cost ratio `a` of topo-qem for vertices where parts touch (≥ 1; the IJGI 2021 paper suggests 1–3 for
     /// simple and 2–8 for complex models).
-    #[arg(long, value_name = "A", default_value_t = citylod_mesh::simplify::DEFAULT_TOPO_QEM_A, help_heading = "3D buildings")]
+    #[arg(
+        long,
+        value_name = "A",
+        default_value_t = citylod_mesh::simplify::DEFAULT_TOPO_QEM_A,
+        help_heading = "3D buildings",
+        requires = "lod"
+    )]
     pub topo_qem_a: f64,
 
     /// Weight λ of the side orientation in the adjacent distance d = d_min·(1 − N·λ), 0–1.
@@ -226,7 +239,8 @@ pub struct BuildArgs {
         long,
         value_name = "M",
         default_value_t = 30.0,
-        help_heading = "Generalization"
+        help_heading = "Generalization",
+        requires = "streets"
     )]
     pub street_penalty: f64,
 
@@ -277,7 +291,13 @@ pub struct BuildArgs {
     /// short range of distances while every closer view loads it on the way down; but a low value makes clients
     /// jump further between levels, so views load more: on Boston 0.25 stores 1.03× the bytes of --leaves-only,
     /// and `citylod check`'s views load 4.2× the bytes of the default (measurements: docs/coarse-bytes.md).
-    #[arg(long, value_name = "R", default_value_t = 0.8, help_heading = "Tiles")]
+    #[arg(
+        long,
+        value_name = "R",
+        default_value_t = 0.8,
+        help_heading = "Tiles",
+        conflicts_with = "leaves_only"
+    )]
     pub level_ratio: f64,
 
     /// Geometry compression of the glb content.
@@ -618,6 +638,12 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
             shown(args.landmark_max_share)
         );
     }
+    if args.streets_crs.is_some() && args.streets.is_none() {
+        bail!("--streets-crs is the CRS of --streets, which is not given");
+    }
+    if args.streets_layer.is_some() && args.streets.is_none() {
+        bail!("--streets-layer is a layer of --streets, which is not given");
+    }
     if args.leaves_only {
         for (given, flag) in [
             (args.streets.is_some(), "--streets shapes"),
@@ -752,12 +778,6 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
 
     let mut generalized = None;
     let mut streets_report = None;
-    if args.streets_crs.is_some() && args.streets.is_none() {
-        bail!("--streets-crs is the CRS of --streets, which is not given");
-    }
-    if args.streets_layer.is_some() && args.streets.is_none() {
-        bail!("--streets-layer is a layer of --streets, which is not given");
-    }
     if !args.leaves_only {
         progress.stage("generalizing");
         let t = Instant::now();
@@ -998,8 +1018,13 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
         }
         if r.duplicate_ids > 0 {
             eprintln!(
-                "  {} buildings share their id with an earlier one (another footprint or height: both written)",
-                r.duplicate_ids
+                "  {} {} id with an earlier one (another footprint or height: both written)",
+                plural(r.duplicate_ids, "building"),
+                if r.duplicate_ids == 1 {
+                    "shares its"
+                } else {
+                    "share their"
+                }
             );
         }
         if let Some(s) = &report.streets {
@@ -1037,6 +1062,11 @@ fn file_of_building(files: &[citylod_ingest::FileReport], b: usize) -> String {
             b < end
         })
         .map_or(String::new(), |f| f.path.clone())
+}
+
+/// "1 building", "2 buildings".
+fn plural(n: usize, noun: &str) -> String {
+    format!("{n} {noun}{}", if n == 1 { "" } else { "s" })
 }
 
 /// Skipped features listed when none could be read (the report is not written then).

@@ -45,7 +45,13 @@ pub struct CheckArgs {
     /// Number of built-in views, from the whole city in view (view 0) down to street level (40 m above the
     /// ground, or 5 m above every roof within 25 m of the eye where one is higher); each after view 0 looks
     /// at a building.
-    #[arg(long, value_name = "N", default_value_t = 8, help_heading = "Views")]
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 8,
+        help_heading = "Views",
+        conflicts_with = "camera"
+    )]
     pub views: usize,
 
     /// A camera instead of the built-in views: longitude and latitude (degrees), ellipsoidal height (m),
