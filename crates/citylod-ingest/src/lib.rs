@@ -908,9 +908,21 @@ fn load_one(
     }
     if fgdb::is_filegdb(path) {
         let doc = fgdb::read(path, opts.layer.as_deref(), feature::Want::Footprints).map_err(
-            |detail| IngestError::InvalidFileGdb {
-                path: path.into(),
-                detail,
+            |detail| {
+                if path.is_file() && detail.starts_with("not a ZIP archive") {
+                    // Nothing says it was meant as a geodatabase rather than zipped CityGML.
+                    IngestError::UnknownFormat {
+                        path: path.into(),
+                        detail: format!(
+                            "{detail}; a .zip input is read as a zipped File Geodatabase or CityGML files"
+                        ),
+                    }
+                } else {
+                    IngestError::InvalidFileGdb {
+                        path: path.into(),
+                        detail,
+                    }
+                }
             },
         )?;
         let missing = IngestError::FileGdbWithoutCrs { path: path.into() };

@@ -448,6 +448,11 @@ fn files_no_reader_takes_are_told_for_what_they_are() {
             bytes("noise.osm.gz", &[0xd9, 0xfa]),
             "not gzip- or bzip2-compressed",
         ),
+        (
+            bytes("noise.zip", &[0xd9, 0xfa]),
+            "not a ZIP archive (no end of central directory record); a .zip input is read as a zipped File \
+             Geodatabase or CityGML",
+        ),
     ];
     for (path, expect) in cases {
         let e = ingest(std::slice::from_ref(&path), &IngestOptions::default()).unwrap_err();
