@@ -9,7 +9,7 @@ pub use bvh::{MeshBvh, Recent};
 
 use citylod_model::Mesh3d;
 
-use crate::simplify::geom::{tri_area, V3};
+use crate::simplify::geom::{tri_area, Reach, V3};
 
 /// Default sample density (samples per m² of surface).
 pub const DEFAULT_SAMPLES_PER_M2: f64 = 4.0;
@@ -119,7 +119,8 @@ pub fn directed_hausdorff_m(from: &Mesh3d, to: &Mesh3d, samples_per_m2: f64) -> 
     for corners in valid_triangles(from) {
         // The distance to one triangle of `to` is a convex function: when all three corners are within `worst2` of
         // one triangle, so is every point between them, and none of this triangle's samples can raise the maximum.
-        let one_holds_all = |t: u32| corners.iter().all(|&c| bvh.triangle_dist2(t, c) <= worst2);
+        let reach = Reach::new(worst2);
+        let one_holds_all = |t: u32| corners.iter().all(|&c| bvh.triangle_within(t, c, reach));
         if last.ids().iter().any(|&t| one_holds_all(t))
             || bvh
                 .find_within_squared(corners[0], worst2)

@@ -4,7 +4,9 @@
 
 use citylod_model::Mesh3d;
 
-use crate::simplify::geom::{closest_point_on_triangle, dist2, segment_triangle_hit, Aabb, V3};
+use crate::simplify::geom::{
+    closest_point_on_triangle, dist2, segment_triangle_hit, Aabb, PlaneFrame, Reach, V3,
+};
 
 const LEAF_SIZE: usize = 4;
 
@@ -21,6 +23,8 @@ pub struct MeshBvh<'a> {
     mesh: &'a Mesh3d,
     nodes: Vec<Node>,
     order: Vec<u32>,
+    /// Plane per triangle (a degenerate one for a left-out triangle), for the shortcuts of "within" queries.
+    planes: Vec<PlaneFrame>,
 }
 
 impl<'a> MeshBvh<'a> {
@@ -43,10 +47,23 @@ impl<'a> MeshBvh<'a> {
                 }
             })
             .collect();
+        let planes = mesh
+            .triangles
+            .iter()
+            .map(|t| {
+                if valid(t) {
+                    let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
+                    PlaneFrame::new(a, b, c)
+                } else {
+                    PlaneFrame::new([0.0; 3], [0.0; 3], [0.0; 3])
+                }
+            })
+            .collect();
         let mut bvh = MeshBvh {
             mesh,
             nodes: Vec::new(),
             order: Vec::new(),
+            planes,
         };
         if !order.is_empty() {
             let len = order.len();
@@ -119,6 +136,20 @@ impl<'a> MeshBvh<'a> {
     /// A triangle whose squared distance from `p` is at most `r2` (m²): the first one found, `None` when there is
     /// none.
     pub fn find_within_squared(&self, p: V3, r2: f64) -> Option<u32> {
+        self.find_within(p, Reach::new(r2))
+    }
+
+    /// Triangle `t` lies within `reach` of `p`: its plane first, then the closest point.
+    #[inline]
+    pub(crate) fn triangle_within(&self, t: u32, p: V3, reach: Reach) -> bool {
+        reach
+            .decide(p, &self.planes[t as usize])
+            .unwrap_or_else(|| self.triangle_dist2(t, p) <= reach.r2)
+    }
+
+    /// [`Self::find_within_squared`] with its reach.
+    fn find_within(&self, p: V3, reach: Reach) -> Option<u32> {
+        let r2 = reach.r2;
         // Median splits keep the depth near log2(n / LEAF_SIZE): a fixed stack saves an allocation per call.
         let mut stack = [0u32; 128];
         let mut len = usize::from(!self.nodes.is_empty());
@@ -130,7 +161,7 @@ impl<'a> MeshBvh<'a> {
             }
             if node.count > 0 {
                 let leaf = &self.order[node.start as usize..(node.start + node.count) as usize];
-                if let Some(&t) = leaf.iter().find(|&&t| self.triangle_dist2(t, p) <= r2) {
+                if let Some(&t) = leaf.iter().find(|&&t| self.triangle_within(t, p, reach)) {
                     return Some(t);
                 }
             } else if len + 2 <= stack.len() {
@@ -151,15 +182,16 @@ impl<'a> MeshBvh<'a> {
     /// [`Self::find_within_squared`] for a run of nearby points: the triangles that answered the last few points
     /// (`recent`) are tried first, and the one that answers this point becomes the most recent.
     pub fn is_within_squared_near(&self, p: V3, r2: f64, recent: &mut Recent) -> bool {
+        let reach = Reach::new(r2);
         if let Some(k) = recent
             .ids()
             .iter()
-            .position(|&t| self.triangle_dist2(t, p) <= r2)
+            .position(|&t| self.triangle_within(t, p, reach))
         {
             recent.promote(k);
             return true;
         }
-        match self.find_within_squared(p, r2) {
+        match self.find_within(p, reach) {
             Some(t) => {
                 recent.push(t);
                 true

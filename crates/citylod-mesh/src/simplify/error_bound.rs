@@ -7,7 +7,7 @@
 
 use citylod_model::Mesh3d;
 
-use super::geom::{closest_point_on_triangle, dist2, V3};
+use super::geom::{closest_point_on_triangle, dist2, PlaneFrame, Reach, V3};
 use super::halfedge::CollapseMesh;
 use crate::hausdorff::MeshBvh;
 
@@ -133,15 +133,26 @@ impl<'a> SurfaceBound<'a> {
         let mut ring = m.neighbours(u);
         ring.push(u);
         let after = Self::around(m, &ring, u, v);
-        // Input → result: the samples riding on triangles that move or vanish.
+        // Input → result: the samples riding on triangles that move or vanish. Each triangle's plane first: a
+        // sample farther than the bound from it is farther from the triangle.
+        let reach = Reach::new(e2);
+        let planes: Vec<PlaneFrame> = after
+            .iter()
+            .map(|(_, t)| PlaneFrame::new(t[0], t[1], t[2]))
+            .collect();
+        let near = |p: V3, k: usize| {
+            reach
+                .decide(p, &planes[k])
+                .unwrap_or_else(|| tri_dist2(p, &after[k].1) <= e2)
+        };
         for &t in &m.vtris[u as usize] {
-            let own = after.iter().find(|(id, _)| *id == t).map(|x| x.1);
+            let own = after.iter().position(|(id, _)| *id == t);
             for &s in &self.on_tri[t as usize] {
                 let p = self.samples[s as usize];
-                if own.is_some_and(|tri| tri_dist2(p, &tri) <= e2) {
+                if own.is_some_and(|k| near(p, k)) {
                     continue;
                 }
-                if !after.iter().any(|(_, tri)| tri_dist2(p, tri) <= e2) {
+                if !(0..after.len()).any(|k| near(p, k)) {
                     return false;
                 }
             }

@@ -57,6 +57,93 @@ pub(crate) fn tri_area(a: V3, b: V3, c: V3) -> f64 {
     0.5 * norm(tri_normal2(a, b, c))
 }
 
+/// Margin of [`Reach`]'s shortcuts (m): a point's distance to a triangle's plane, as computed, may be off by
+/// rounding (~1e-11 m at city coordinates); a shortcut decides only when the point is clear of the radius by more
+/// than this, so it never decides otherwise than the closest-point search would.
+const PLANE_MARGIN_M: f64 = 1e-6;
+
+/// Barycentric margin of [`Reach::decide`]'s inside test: a point nearer a triangle's edge than this share of it
+/// is left to the closest-point search.
+const INSIDE_MARGIN: f64 = 1e-7;
+
+/// A squared radius `r2` (m²) for "within" tests against many triangles, with the bounds of its shortcuts.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Reach {
+    pub r2: f64,
+    /// (√r2 + [`PLANE_MARGIN_M`])²: farther from a triangle's plane is farther from the triangle.
+    beyond2: f64,
+    /// (√r2 − [`PLANE_MARGIN_M`])², or −1 when that is not positive: nearer the plane and over the triangle is
+    /// within.
+    inside2: f64,
+}
+
+impl Reach {
+    pub fn new(r2: f64) -> Self {
+        let r = r2.max(0.0).sqrt();
+        let inside = r - PLANE_MARGIN_M;
+        Reach {
+            r2,
+            beyond2: (r + PLANE_MARGIN_M) * (r + PLANE_MARGIN_M),
+            inside2: if inside > 0.0 { inside * inside } else { -1.0 },
+        }
+    }
+
+    /// Whether `p` lies within the radius of the triangle `f` was made of, when its plane tells: `Some(false)`
+    /// farther than the radius from the plane, `Some(true)` over the triangle's inside and near enough to the
+    /// plane; `None` otherwise, for [`closest_point_on_triangle`] to say. Exact in effect: see
+    /// [`PLANE_MARGIN_M`].
+    #[inline]
+    pub fn decide(&self, p: V3, f: &PlaneFrame) -> Option<bool> {
+        let v = sub(p, f.a);
+        let h = dot(f.n, v);
+        let h2 = h * h;
+        if h2 > self.beyond2 {
+            return Some(false);
+        }
+        if h2 <= self.inside2 {
+            let (s, t) = (dot(f.u, v), dot(f.w, v));
+            if s >= INSIDE_MARGIN && t >= INSIDE_MARGIN && s + t <= 1.0 - INSIDE_MARGIN {
+                return Some(true);
+            }
+        }
+        None
+    }
+}
+
+/// A triangle's plane and barycentric frame for [`Reach::decide`]: corner `a`, unit normal `n`, and the dual
+/// vectors `u`, `w` of its edges from `a` (a point a + s·(b − a) + t·(c − a) + h·n has s = u·(p − a),
+/// t = w·(p − a), h = n·(p − a)). All zero for a degenerate triangle, which then decides nothing.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PlaneFrame {
+    a: V3,
+    n: V3,
+    u: V3,
+    w: V3,
+}
+
+impl PlaneFrame {
+    pub fn new(a: V3, b: V3, c: V3) -> Self {
+        let (e0, e1) = (sub(b, a), sub(c, a));
+        let n = normalize(cross(e0, e1));
+        let (c0, c1) = (cross(e1, n), cross(n, e0));
+        let (d0, d1) = (dot(e0, c0), dot(e1, c1));
+        if n == [0.0; 3] || !(d0.abs() > 1e-300 && d1.abs() > 1e-300) {
+            return PlaneFrame {
+                a,
+                n: [0.0; 3],
+                u: [0.0; 3],
+                w: [0.0; 3],
+            };
+        }
+        PlaneFrame {
+            a,
+            n,
+            u: scale(c0, 1.0 / d0),
+            w: scale(c1, 1.0 / d1),
+        }
+    }
+}
+
 /// Closest point to `p` on triangle abc (Ericson, Real-Time Collision Detection §5.1.5 regions).
 pub(crate) fn closest_point_on_triangle(p: V3, a: V3, b: V3, c: V3) -> V3 {
     let ab = sub(b, a);
@@ -328,5 +415,51 @@ mod tests {
         assert_eq!(triangle_triangle_dist2(a, b), 0.0);
         let c = [[0.0, 0.0, 2.0], [1.0, 0.0, 2.0], [0.0, 1.0, 2.0]];
         assert!((triangle_triangle_dist2(a, c) - 4.0).abs() < 1e-12);
+    }
+
+    proptest::proptest! {
+        /// Where the plane decides, it decides as the closest point does: triangles at city coordinates (a few km
+        /// from the origin), points on, near and off their plane, over and beside them, radii from none to metres;
+        /// and it does decide often (the shortcut is taken).
+        #[test]
+        fn the_plane_shortcut_decides_as_the_closest_point_does(
+            origin in proptest::array::uniform3(-5000.0f64..5000.0),
+            corners in proptest::array::uniform3(proptest::array::uniform3(-10.0f64..10.0)),
+            flat in proptest::bool::ANY,
+            points in proptest::collection::vec((0.0f64..1.0, 0.0f64..1.0, -1.0f64..1.0, 0u8..4), 40),
+            radius in proptest::sample::select(vec![0.0, 1e-7, 1e-3, 0.05, 0.5, 3.0]),
+        ) {
+            let mut t = corners.map(|c| add(origin, c));
+            if flat {
+                // A roof or floor: the z of its first corner.
+                t[1][2] = t[0][2];
+                t[2][2] = t[0][2];
+            }
+            let f = PlaneFrame::new(t[0], t[1], t[2]);
+            let n = normalize(tri_normal2(t[0], t[1], t[2]));
+            let reach = Reach::new(radius * radius);
+            let mut decided = 0;
+            for (s, r, h, kind) in points {
+                // Over the triangle (s + r ≤ 1 folded in), beside it, exactly on a corner, or on an edge.
+                let (s, r) = if s + r > 1.0 { (1.0 - s, 1.0 - r) } else { (s, r) };
+                let (s, r) = match kind {
+                    0 => (s, r),
+                    1 => (s * 3.0 - 1.0, r * 3.0 - 1.0),
+                    2 => (0.0, 0.0),
+                    _ => (s, 0.0),
+                };
+                let on = [0, 1, 2].map(|k| t[0][k] + (t[1][k] - t[0][k]) * s + (t[2][k] - t[0][k]) * r);
+                // Off the plane by up to twice the radius (or on it).
+                let p = add(on, scale(n, h * 2.0 * radius));
+                let truth = dist2(p, closest_point_on_triangle(p, t[0], t[1], t[2])) <= reach.r2;
+                if let Some(d) = reach.decide(p, &f) {
+                    decided += 1;
+                    proptest::prop_assert_eq!(d, truth, "{:?} at {:?} within {}", t, p, radius);
+                }
+            }
+            if radius >= 0.05 && n != [0.0; 3] {
+                proptest::prop_assert!(decided > 0);
+            }
+        }
     }
 }
