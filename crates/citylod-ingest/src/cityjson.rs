@@ -573,6 +573,23 @@ fn walk<'a>(
     Ok(())
 }
 
+/// The vertex a boundary's entry `i` indexes; `Err` says whether it is no index at all (a string, a negative or
+/// fractional number, an array) or one past the vertices.
+pub(crate) fn vertex<'a>(i: &Value, vertices: &'a [[f64; 3]]) -> Result<&'a [f64; 3], String> {
+    let k = i
+        .as_u64()
+        .ok_or_else(|| format!("vertex index {i} is not an index (a whole number from 0)"))?;
+    usize::try_from(k)
+        .ok()
+        .and_then(|k| vertices.get(k))
+        .ok_or_else(|| {
+            format!(
+                "vertex index {k} out of range: there are {} vertices",
+                vertices.len()
+            )
+        })
+}
+
 fn polygon3(s: &Surface, vertices: &[[f64; 3]]) -> Result<Polygon3, String> {
     s.rings
         .iter()
@@ -580,11 +597,7 @@ fn polygon3(s: &Surface, vertices: &[[f64; 3]]) -> Result<Polygon3, String> {
             let idx = r.as_array().ok_or("ring is not an array of indices")?;
             let mut ring: Vec<[f64; 3]> = idx
                 .iter()
-                .map(|i| {
-                    i.as_u64()
-                        .and_then(|i| vertices.get(i as usize).copied())
-                        .ok_or_else(|| format!("vertex index {i} out of range"))
-                })
+                .map(|i| vertex(i, vertices).copied())
                 .collect::<Result<_, _>>()?;
             if ring.len() >= 2 && ring.first() == ring.last() {
                 ring.pop();
@@ -1309,6 +1322,49 @@ mod tests {
             d.features[0].skip.as_ref().unwrap().0,
             IssueReason::MalformedGeometry
         );
+    }
+
+    #[test]
+    fn a_vertex_index_that_is_no_index_is_told_from_one_out_of_range() {
+        // Found by tests/json_mutations.rs: `"3"`, `null`, `-1` and `[2]` were all "out of range".
+        for (bad, says) in [
+            (
+                json!(99),
+                "vertex index 99 out of range: there are 16 vertices",
+            ),
+            (json!(u64::MAX), "out of range: there are 16 vertices"),
+            (
+                json!("3"),
+                r#"vertex index "3" is not an index (a whole number from 0)"#,
+            ),
+            (json!(null), "vertex index null is not an index"),
+            (json!(-1), "vertex index -1 is not an index"),
+            (json!(1.5), "vertex index 1.5 is not an index"),
+            (json!([2]), "vertex index [2] is not an index"),
+        ] {
+            for target in [None, Some(Target::of(&crate::LodChoice::Highest).unwrap())] {
+                let mut g = cube(true);
+                g["boundaries"][0][0][0][1] = bad.clone();
+                let d = read_document(
+                    &doc(json!({"type": "Building", "geometry": [g]}), json!({})),
+                    target,
+                )
+                .unwrap();
+                let (reason, detail) = d.features[0].skip.clone().unwrap();
+                assert_eq!(reason, IssueReason::MalformedGeometry);
+                assert!(detail.contains(says), "{bad}: {detail}");
+            }
+            // The 3D model's reader says the same (a higher LoD than the footprint's, so only the model reads it).
+            let mut g = cube(true);
+            g["lod"] = json!("2.2");
+            g["boundaries"][0][1][0][1] = bad.clone();
+            let b = json!({"type": "Building", "geometry": [cube(true), g]});
+            let target = Target::of(&crate::LodChoice::Exact("2.2".into())).unwrap();
+            let d = read_document(&doc(b, json!({})), Some(target)).unwrap();
+            let (reason, detail) = d.features[0].model.clone().unwrap().unwrap_err();
+            assert_eq!(reason, IssueReason::ModelInvalid);
+            assert!(detail.contains(says), "{bad}: {detail}");
+        }
     }
 
     #[test]

@@ -258,6 +258,10 @@ impl DeclaredCrs {
             )),
             // `name`, and files that give a name under another or no type.
             _ if text("name").is_some() => text("name").map(|n| DeclaredCrs::Name(n.to_string())),
+            Some("name") => not_understood(format!(
+                "type \"name\" without a properties.name string: {}",
+                brief(crs)
+            )),
             Some(t) => not_understood(format!(
                 "type {t:?} is none of name, EPSG, OGC: {}",
                 brief(crs)
@@ -412,6 +416,16 @@ mod tests {
             ),
             (json!({"properties": {}}), "no type"),
             (json!(2263), "not a crs object"),
+            // Found by tests/json_mutations.rs: these said `type "name" is none of name, EPSG, OGC`.
+            (
+                json!({"type": "name", "properties": 4326}),
+                "type \"name\" without a properties.name string",
+            ),
+            (
+                json!({"type": "name", "properties": {"name": 4326}}),
+                "without a properties.name string",
+            ),
+            (json!({"type": "name"}), "without a properties.name string"),
         ] {
             let (member, detail) = not_understood(read(v.clone()));
             assert_eq!(member, "crs");

@@ -328,30 +328,37 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
     // A written feature's id and attributes move into its building.
     for (file_index, (file, outs)) in files.iter_mut().zip(&outcomes).enumerate() {
         let file_label = file.path.display().to_string();
-        type Placed<'a> = (&'a Prepared, citylod_model::Footprint, f64, model3d::Meshed);
-        let placed: Vec<Result<Placed, &Skip>> = outs
+        // A prepared feature placed in the frame: its footprint there (with the repairs placing it took), base, model.
+        type Placed<'a> = (
+            &'a Prepared,
+            citylod_model::Footprint,
+            Vec<(IssueReason, String)>,
+            f64,
+            model3d::Meshed,
+        );
+        let placed: Vec<Result<Placed, Skip>> = outs
             .par_iter()
             .zip(&file.features)
             .map(|(o, raw)| {
-                o.as_ref().map(|p| {
-                    let base_h_m = p.heights.ground_m + p.heights.base_offset_m;
-                    let (footprint, base_z_m) =
-                        place::to_enu(&enu_map, &p.plane, &p.footprint, base_h_m);
-                    let mut meshed =
-                        model3d::mesh(raw.model.as_ref(), p.model_lon_lat_h.as_ref(), &enu_map);
-                    if let (None, Some(fell_back)) = (&raw.model, roof_lod) {
-                        roofs::roof_model(
-                            &raw.attributes,
-                            &footprint,
-                            base_z_m,
-                            p.heights.height_m,
-                            opts,
-                            fell_back,
-                            &mut meshed,
-                        );
-                    }
-                    (p, footprint, base_z_m, meshed)
-                })
+                let p = o.as_ref().map_err(Clone::clone)?;
+                let base_h_m = p.heights.ground_m + p.heights.base_offset_m;
+                let (footprint, base_z_m) =
+                    place::to_enu(&enu_map, &p.plane, &p.footprint, base_h_m);
+                let (footprint, placing_repairs) = repair::valid_in_frame(footprint)?;
+                let mut meshed =
+                    model3d::mesh(raw.model.as_ref(), p.model_lon_lat_h.as_ref(), &enu_map);
+                if let (None, Some(fell_back)) = (&raw.model, roof_lod) {
+                    roofs::roof_model(
+                        &raw.attributes,
+                        &footprint,
+                        base_z_m,
+                        p.heights.height_m,
+                        opts,
+                        fell_back,
+                        &mut meshed,
+                    );
+                }
+                Ok((p, footprint, placing_repairs, base_z_m, meshed))
             })
             .collect();
         let mut fr = FileReport {
@@ -397,7 +404,7 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
             // A building is written once however often it is read: the same id, footprint and heights as any
             // building written before (every one, not only the first with that id: the same file given twice).
             let mut written_key = None;
-            if let Ok((p, footprint, base_z_m, _)) = &placed {
+            if let Ok((p, footprint, _, base_z_m, _)) = &placed {
                 let same = |o: &Building| {
                     o.source_id == raw.source_id
                         && o.footprint == *footprint
@@ -439,12 +446,15 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
                 written_key = Some(key);
             }
             match placed {
-                Ok((p, footprint, base_z_m, meshed)) => {
+                Ok((p, footprint, placing_repairs, base_z_m, meshed)) => {
                     debug_assert!(footprint.0.iter().all(|q| winding(q.exterior()) > 0.0));
-                    if !p.repairs.is_empty() || !p.heights.rejected.is_empty() {
+                    if !p.repairs.is_empty()
+                        || !placing_repairs.is_empty()
+                        || !p.heights.rejected.is_empty()
+                    {
                         report.features_repaired += 1;
                     }
-                    for (reason, detail) in &p.repairs {
+                    for (reason, detail) in p.repairs.iter().chain(&placing_repairs) {
                         report.repaired.push(issue(*reason, detail));
                     }
                     for r in &p.heights.rejected {
@@ -496,7 +506,7 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
                     fr.buildings_written += 1;
                 }
                 Err((reason, detail)) => {
-                    report.skipped.push(issue(*reason, detail));
+                    report.skipped.push(issue(reason, &detail));
                     fr.skipped += 1;
                 }
             }
@@ -1381,8 +1391,13 @@ fn same_building_key(
 /// How many of the buildings farthest from the others a too-wide error names.
 const OUTLIERS_NAMED: usize = 3;
 
-/// A too-wide error with the buildings that make it so named: those farthest from the median longitude and
-/// latitude of all (a stray feature at 0°, 0° among a city's), with their file, id and place.
+/// A building whose own box is wider than this (m, corner to corner) is named in a too-wide error by the box it
+/// spans rather than by its centre (its polygons far apart: a part, a ring or a vertex astray).
+const NAMED_BY_SPAN_M: f64 = 10_000.0;
+
+/// A too-wide error with the buildings that make it so named: those reaching farthest from the median longitude
+/// and latitude of all (a stray feature at 0°, 0° among a city's; one feature with a polygon or a vertex far from
+/// its others), with their file, id and place.
 fn name_outliers(
     e: IngestError,
     files: &[LoadedFile],
@@ -1391,13 +1406,13 @@ fn name_outliers(
     let IngestError::TooWide { detail } = e else {
         return e;
     };
-    let kept: Vec<(&Path, &str, (f64, f64))> = files
+    let kept: Vec<(&Path, &str, place::LonLatBox)> = files
         .iter()
         .zip(outcomes)
         .flat_map(|(f, outs)| {
             f.features.iter().zip(outs).filter_map(move |(raw, o)| {
                 let p = o.as_ref().ok()?;
-                Some((f.path.as_path(), raw.source_id.as_str(), p.bbox.centre()))
+                Some((f.path.as_path(), raw.source_id.as_str(), p.bbox))
             })
         })
         .collect();
@@ -1406,13 +1421,14 @@ fn name_outliers(
         v[v.len() / 2]
     };
     let (lon0, lat0) = (
-        median(kept.iter().map(|k| k.2 .0).collect()),
-        median(kept.iter().map(|k| k.2 .1).collect()),
+        median(kept.iter().map(|k| k.2.centre().0).collect()),
+        median(kept.iter().map(|k| k.2.centre().1).collect()),
     );
+    // How far each building reaches from there: its centre's distance, or more for a building spread wide.
     let mut far: Vec<(f64, usize)> = kept
         .iter()
         .enumerate()
-        .map(|(i, k)| (place::great_circle_m((lon0, lat0), k.2), i))
+        .map(|(i, k)| (k.2.reach_m((lon0, lat0)), i))
         .collect();
     // Farthest first; the input order among equals.
     far.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
@@ -1424,12 +1440,23 @@ fn name_outliers(
         .iter()
         .take(OUTLIERS_NAMED.min(beyond.max(1)))
         .map(|&(d, i)| {
-            let (file, id, (lon, lat)) = kept[i];
-            format!(
-                "{id:?} in {} at ({lon:.4}, {lat:.4}), {:.0} km away",
-                file.display(),
-                d / 1000.0
-            )
+            let (file, id, b) = kept[i];
+            let n = b.narrow();
+            let across = place::great_circle_m((n[0], n[1]), (n[2], n[3]));
+            let place = if across > NAMED_BY_SPAN_M {
+                format!(
+                    "spanning longitudes {:.4}..{:.4} and latitudes {:.4}..{:.4} ({:.0} km across), reaching",
+                    repair::wrap_lon(n[0]),
+                    repair::wrap_lon(n[2]),
+                    n[1],
+                    n[3],
+                    across / 1000.0
+                )
+            } else {
+                let (lon, lat) = b.centre();
+                format!("at ({lon:.4}, {lat:.4}),")
+            };
+            format!("{id:?} in {} {place} {:.0} km away", file.display(), d / 1000.0)
         })
         .collect();
     IngestError::TooWide {

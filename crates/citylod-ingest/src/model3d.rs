@@ -170,15 +170,7 @@ fn ring_ids(
         .ok_or("a ring is not an array of vertex indices")?;
     ring.iter()
         .map(|v| {
-            let p = v
-                .as_u64()
-                .and_then(|i| vertices.get(usize::try_from(i).ok()?))
-                .ok_or_else(|| {
-                    format!(
-                        "vertex index {v} is not one of the {} vertices",
-                        vertices.len()
-                    )
-                })?;
+            let p = crate::cityjson::vertex(v, vertices)?;
             if !p.iter().all(|c| c.is_finite()) {
                 return Err(format!("vertex {v} is not finite: {p:?}"));
             }

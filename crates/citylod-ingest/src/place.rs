@@ -64,6 +64,19 @@ impl LonLatBox {
         let b = self.narrow();
         (wrap_lon((b[0] + b[2]) / 2.0), (b[1] + b[3]) / 2.0)
     }
+
+    /// The farthest (m, along the sphere) that the narrower box's corners and edge midpoints lie from `from`
+    /// (lon°, lat°): for one building's box, how far from there some part of it reaches.
+    pub fn reach_m(&self, from: (f64, f64)) -> f64 {
+        let n = self.narrow();
+        let mut far: f64 = 0.0;
+        for lon in [n[0], (n[0] + n[2]) / 2.0, n[2]] {
+            for lat in [n[1], (n[1] + n[3]) / 2.0, n[3]] {
+                far = far.max(great_circle_m(from, (lon, lat)));
+            }
+        }
+        far
+    }
 }
 
 /// The bounding box of a plane footprint, in lon/lat degrees.

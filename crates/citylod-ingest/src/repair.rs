@@ -2,7 +2,8 @@
 //! validity and winding are the same as on the globe): drop repeated points and degenerate rings,
 //! drop holes outside their shell, rebuild self-intersecting rings (even-odd, `citylod_geom::rebuild_even_odd`), union
 //! overlapping or assembled pieces (`citylod_geom::union_nonzero`), drop parts under 0.01 m², and wind
-//! exteriors CCW, holes CW.
+//! exteriors CCW, holes CW. Placed in the local frame, which is no affine image of lon/lat, a footprint is checked
+//! once more there and repaired again if it needs it ([`valid_in_frame`]).
 
 use crate::report::IssueReason;
 use crate::valid;
@@ -310,6 +311,51 @@ pub(crate) fn repair(polygons: Vec<Vec<Vec<Coord>>>, assemble: bool) -> Result<R
     })
 }
 
+/// A footprint placed in the local frame and the repairs that took ([`valid_in_frame`]).
+pub(crate) type Placed = (MultiPolygon<f64>, Vec<(IssueReason, String)>);
+
+/// A footprint repaired in its feature's plane, as placed in the local frame (`place::to_enu`): as it is while it
+/// still meets [`check_footprint`]'s conditions there, else repaired once more there, with what that took (each
+/// detail saying so). The plane is an affine image of lon/lat and the frame is not: over a building's length they
+/// bend a straight line apart by micrometres to millimetres, so a footprint with a vertex that close to an edge not
+/// its own can cross itself in the frame, and a sliver that thin can turn over or shrink below [`MIN_AREA_M2`],
+/// though it did neither in the plane. `Err` = skip with reason, as from [`repair`].
+pub(crate) fn valid_in_frame(footprint: MultiPolygon<f64>) -> Result<Placed, Skip> {
+    let shaped = |p: &Polygon| {
+        signed_area(p.exterior()) > 0.0
+            && p.interiors().iter().all(|h| signed_area(h) < 0.0)
+            && p.unsigned_area() >= MIN_AREA_M2
+    };
+    if footprint.0.iter().all(shaped) && valid::multipolygon_is_valid(&footprint) {
+        return Ok((footprint, Vec::new()));
+    }
+    const PLACED: &str =
+        "as placed in the local frame, which bends the repair plane's straight lines by up to millimetres";
+    let open = |r: LineString| {
+        let mut c = r.0;
+        if c.len() > 1 && c.first() == c.last() {
+            c.pop();
+        }
+        c
+    };
+    let rings = footprint
+        .0
+        .into_iter()
+        .map(|p| {
+            let (exterior, holes) = p.into_inner();
+            std::iter::once(exterior).chain(holes).map(open).collect()
+        })
+        .collect();
+    let fixed =
+        repair(rings, false).map_err(|(reason, why)| (reason, format!("{PLACED}: {why}")))?;
+    let issues = fixed
+        .issues
+        .into_iter()
+        .map(|(reason, why)| (reason, format!("{PLACED}: {why}")))
+        .collect();
+    Ok((fixed.footprint, issues))
+}
+
 /// The overlays behind the rebuild and the union do not promise where a ring starts nor in
 /// which order parts and holes come out, and in practice that varies from run to run. Rotate every ring to start
 /// at its smallest vertex (x, then y; winding kept) and sort holes and parts, so the same input always gives the
@@ -422,6 +468,37 @@ mod tests {
 
     fn ring(pts: &[(f64, f64)]) -> Vec<Coord> {
         pts.iter().map(|&(x, y)| Coord { x, y }).collect()
+    }
+
+    #[test]
+    fn a_footprint_placed_in_the_frame_is_kept_repaired_or_skipped_there() {
+        let poly = |pts: &[(f64, f64)]| {
+            MultiPolygon(vec![Polygon::new(LineString::from(ring(pts)), vec![])])
+        };
+        // Valid, counter-clockwise, large enough: kept as it is.
+        let square = poly(&[(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)]);
+        let (kept, issues) = valid_in_frame(square.clone()).unwrap();
+        assert_eq!((kept, issues.len()), (square, 0));
+        // Crossing itself 10 µm from a corner (as a plane-valid footprint can once placed): rebuilt, said so.
+        let crossing = poly(&[(0.0, 0.0), (100.0, 1e-4), (10.0, 0.0), (10.0, 10.0)]);
+        let (fixed, issues) = valid_in_frame(crossing).unwrap();
+        assert!(check_footprint(&fixed).is_ok(), "{fixed:?}");
+        assert_eq!(issues.len(), 1, "{issues:?}");
+        assert_eq!(issues[0].0, IssueReason::SelfIntersection);
+        assert!(
+            issues[0].1.starts_with("as placed in the local frame"),
+            "{}",
+            issues[0].1
+        );
+        // A sliver turned over and under 0.01 m²: skipped, saying where.
+        let sliver = poly(&[(0.0, 0.0), (180.0, 1e-5), (10.0, 0.0)]);
+        let (reason, why) = valid_in_frame(sliver).unwrap_err();
+        assert_eq!(reason, IssueReason::ZeroArea);
+        assert!(why.starts_with("as placed in the local frame"), "{why}");
+        // Turned over but large: wound counter-clockwise again.
+        let clockwise = poly(&[(0.0, 0.0), (0.0, 10.0), (10.0, 10.0), (10.0, 0.0)]);
+        let (turned, _) = valid_in_frame(clockwise).unwrap();
+        assert!(check_footprint(&turned).is_ok(), "{turned:?}");
     }
 
     #[test]
