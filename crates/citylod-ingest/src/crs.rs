@@ -199,6 +199,16 @@ pub enum CoordError {
     TransformFailed,
 }
 
+impl std::fmt::Display for CoordError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            CoordError::NonFinite => "not a finite number",
+            CoordError::OutOfRange => "out of range for the CRS",
+            CoordError::TransformFailed => "the transformation to longitude and latitude failed",
+        })
+    }
+}
+
 fn lon_lat_in_range(lon: f64, lat: f64) -> bool {
     lon.abs() <= 180.0 && lat.abs() <= 90.0
 }

@@ -620,7 +620,12 @@ fn collect_polygons(
     polygons: &mut Vec<RawPolygon>,
     repairs: &mut Vec<(IssueReason, String)>,
 ) -> Result<(), Skip> {
-    let kind = g.get("type").and_then(Value::as_str).unwrap_or("(none)");
+    let Some(kind) = g.get("type").and_then(Value::as_str) else {
+        return Err((
+            IssueReason::MalformedGeometry,
+            "a geometry without a \"type\" string".to_string(),
+        ));
+    };
     match kind {
         "Polygon" | "MultiPolygon" => polygonal(g, polygons, repairs),
         "GeometryCollection" => {

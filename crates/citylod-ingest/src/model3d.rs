@@ -197,7 +197,7 @@ pub(crate) fn geolocate(model: &RawModel, crs: &Crs) -> Result<Vec<[f64; 3]>, Is
                     (
                         IssueReason::ModelInvalid,
                         format!(
-                            "vertex ({}, {}, {}) in {}: {e:?}",
+                            "vertex ({}, {}, {}) in {}: {e}",
                             p[0], p[1], p[2], crs.label
                         ),
                     )

@@ -76,6 +76,7 @@ fn degenerate_and_out_of_range_features_are_skipped_with_their_reason() {
         feature("tiny", "{}", "[[[4.36,52.0],[4.36000001,52.0],[4.36000001,52.00000001],[4.36,52.0]]]"),
         r#"{"type":"Feature","id":"pt","properties":{},"geometry":{"type":"Point","coordinates":[4.36,52.0]}}"#.into(),
         r#"{"type":"Feature","id":"null","properties":{},"geometry":null}"#.into(),
+        r#"{"type":"Feature","id":"notype","properties":{},"geometry":{"coordinates":[[[4.36,52.0],[4.3601,52.0],[4.3601,52.0001],[4.36,52.0]]]}}"#.into(),
     ]);
     let out = ingest(
         &[write(&dir, "bad.geojson", &text)],
@@ -83,7 +84,11 @@ fn degenerate_and_out_of_range_features_are_skipped_with_their_reason() {
     )
     .unwrap();
     out.report.check_invariants().unwrap();
-    assert_eq!(out.report.features_read, 8);
+    assert_eq!(out.report.features_read, 9);
+    assert_eq!(
+        reason_of(&out, "notype"),
+        Some(IssueReason::MalformedGeometry)
+    );
     assert_eq!(out.buildings.len(), 1);
     // A huge coordinate is shown as a number one can read, not 309 digits.
     let huge = out
