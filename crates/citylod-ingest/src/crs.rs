@@ -52,6 +52,7 @@ impl Crs {
             return Ok(Self::wgs84());
         }
         if s.starts_with('+') {
+            proj_numbers_usable(s)?;
             let src = Proj::from_proj_string(s)
                 .map_err(|e| CrsError(format!("proj string rejected: {e}")))?;
             return Self::from_proj(s.to_string(), src);
@@ -197,6 +198,31 @@ pub enum CoordError {
     NonFinite,
     OutOfRange,
     TransformFailed,
+}
+
+/// Largest magnitude of a number in a `+proj` string: false eastings and northings are under 1e7 m, angles under
+/// 360°, datum shifts under 1e4 m and ppm; a larger one is a broken definition under which every coordinate would
+/// fail to transform, one by one.
+const MAX_PROJ_NUMBER: f64 = 1e8;
+
+/// Every number of a `+proj` string's parameters is finite and under [`MAX_PROJ_NUMBER`].
+fn proj_numbers_usable(s: &str) -> Result<(), CrsError> {
+    for token in s.split_whitespace() {
+        let Some((key, value)) = token.trim_start_matches('+').split_once('=') else {
+            continue;
+        };
+        for part in value.split(',') {
+            if let Ok(v) = part.trim().parse::<f64>() {
+                if !(v.is_finite() && v.abs() <= MAX_PROJ_NUMBER) {
+                    return Err(CrsError(format!(
+                        "proj string rejected: +{key}={value} is not a usable number (finite, at most \
+                         {MAX_PROJ_NUMBER:e} in size)"
+                    )));
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 impl std::fmt::Display for CoordError {
@@ -374,6 +400,33 @@ mod tests {
             let e = Crs::parse(name).err().expect(name).0;
             assert!(e.contains("geocentric"), "{name}: {e}");
         }
+    }
+
+    #[test]
+    fn proj_strings_with_numbers_no_definition_has_are_rejected() {
+        for (name, says) in [
+            ("+proj=longlat +ellps=WGS84 +pm=1e308 +no_defs", "+pm=1e308"),
+            (
+                "+proj=tmerc +lat_0=0 +lon_0=9 +k=0.9996 +x_0=inf +y_0=0 +ellps=GRS80",
+                "+x_0=inf",
+            ),
+            (
+                "+proj=longlat +ellps=WGS84 +towgs84=0,0,0,0,0,0,1e12 +no_defs",
+                "+towgs84=0,0,0,0,0,0,1e12",
+            ),
+        ] {
+            let e = Crs::parse(name).err().expect(name).0;
+            assert!(
+                e.contains(says) && e.contains("not a usable number"),
+                "{name}: {e}"
+            );
+        }
+        // UTM south's false northing of 10,000 km is usable.
+        assert!(Crs::parse("+proj=utm +zone=33 +south +ellps=WGS84 +units=m +no_defs").is_ok());
+        assert!(Crs::parse(
+            "+proj=tmerc +lat_0=0 +lon_0=15 +k=0.9996 +x_0=500000 +y_0=10000000 +ellps=WGS84"
+        )
+        .is_ok());
     }
 
     fn not_understood(d: Option<DeclaredCrs>) -> (&'static str, String) {
