@@ -20,7 +20,7 @@
 //!   coordinates as `posList`, `pos` or GML 2's `coordinates`, in the `srsDimension` they declare (3 by default).
 //!
 //! Attributes: `gml:name` and `gml:description`, every simple element of the building (`class`, `function`,
-//! `measuredHeight` in metres whatever its `uom`, `storeysAboveGround`, `yearOfConstruction`, ADE elements with a
+//! `measuredHeight` converted to metres from its `uom` (a unit not known keeps the text), `storeysAboveGround`, `yearOfConstruction`, ADE elements with a
 //! text value …), generic attributes (1.0/2.0 `gen:stringAttribute` … and sets as `SET.NAME`; 3.0
 //! `gen:genericAttribute`), external references as `externalReference:SYSTEM`, the first address's fields as
 //! `address.FIELD`. The CRS is the `srsName` of the model's envelope, else of the first member that names one; the

@@ -47,6 +47,14 @@ pub const DEFAULT_STOREY_ATTRS: &[&str] = &[
     "b3_bouwlag",
 ];
 
+/// OpenStreetMap's storey count (and its names where a name may hold no colon, or only 10 characters), which counts
+/// no level in the roof: a height from it adds [`ROOF_LEVELS_ATTR`].
+const OSM_LEVELS_ATTRS: [&str; 3] = ["building:levels", "building_levels", "building_l"];
+/// OpenStreetMap's levels in the roof, on top of `building:levels`.
+const ROOF_LEVELS_ATTR: &str = "roof:levels";
+/// More levels in a roof than this is no roof (a typo); the height is then the levels under it.
+const MAX_ROOF_LEVELS: f64 = 20.0;
+
 /// 3DBAG ground height and roof height (70th percentile) attributes.
 pub(crate) const GROUND_ATTR: &str = "b3_h_maaiveld";
 const ROOF_ATTR: &str = "b3_h_dak_70p";
@@ -134,7 +142,7 @@ impl Rejected {
     }
 }
 
-fn trim_float(m: f64) -> String {
+pub(crate) fn trim_float(m: f64) -> String {
     let t = format!("{m:.3}");
     t.trim_end_matches('0').trim_end_matches('.').to_string()
 }
@@ -330,13 +338,24 @@ pub(crate) fn resolve(
     if found.is_none() {
         let s = opts.storey_height_m;
         // Storeys count from the ground too (OSM's building:levels of a part includes the levels below it).
+        let storeys = match &opts.storey_attr {
+            Some(name) => try_attr(name, Measure::Storeys(s), base_offset_m, &mut rejected)
+                .map(|r| (r, name.as_str())),
+            None => DEFAULT_STOREY_ATTRS.iter().find_map(|n| {
+                try_attr(n, Measure::Storeys(s), base_offset_m, &mut rejected).map(|r| (r, *n))
+            }),
+        };
+        // OpenStreetMap's building:levels counts the levels under the roof only; roof:levels are those in it, on top.
+        let in_roof = |name: &str| {
+            OSM_LEVELS_ATTRS
+                .contains(&name)
+                .then(|| number(attrs, ROOF_LEVELS_ATTR))
+                .flatten()
+                .filter(|n| n.is_finite() && (0.0..=MAX_ROOF_LEVELS).contains(n))
+                .unwrap_or(0.0)
+        };
         found = take(
-            match &opts.storey_attr {
-                Some(name) => try_attr(name, Measure::Storeys(s), base_offset_m, &mut rejected),
-                None => DEFAULT_STOREY_ATTRS
-                    .iter()
-                    .find_map(|n| try_attr(n, Measure::Storeys(s), base_offset_m, &mut rejected)),
-            },
+            storeys.map(|((h, dropped), name)| (h + in_roof(name) * s, dropped)),
             HeightSource::Storeys,
         );
     }
@@ -453,6 +472,41 @@ mod tests {
         assert_eq!((h.height_m, h.source), (7.5, HeightSource::Storeys));
         let h = resolve(&Attributes::new(), None, None, &d);
         assert_eq!((h.height_m, h.source), (10.0, HeightSource::Default));
+    }
+
+    /// OpenStreetMap's building:levels leaves the roof's levels out (Simple 3D Buildings): a height from it adds
+    /// roof:levels; another storey attribute does not, nor does a height given in metres.
+    #[test]
+    fn roof_levels_stand_on_osm_building_levels() {
+        let d = IngestOptions {
+            storey_height_m: 3.0,
+            ..Default::default()
+        };
+        let osm = |levels: &str, roof: &str| {
+            attrs(&[
+                (levels, AttrValue::String("3".into())),
+                ("roof:levels", AttrValue::String(roof.into())),
+            ])
+        };
+        for (a, want) in [
+            (osm("building:levels", "1"), 12.0),
+            (osm("building_levels", "2"), 15.0),
+            (osm("building:levels", "0"), 9.0),
+            // Not a count of roof levels: the building's levels alone.
+            (osm("building:levels", "roof"), 9.0),
+            (osm("building:levels", "500"), 9.0),
+            (osm("stories", "1"), 9.0),
+        ] {
+            let h = resolve(&a, None, None, &d);
+            assert_eq!(
+                (h.height_m, h.source),
+                (want, HeightSource::Storeys),
+                "{a:?}"
+            );
+        }
+        let mut a = osm("building:levels", "1");
+        a.insert("height".into(), AttrValue::String("10".into()));
+        assert_eq!(resolve(&a, None, None, &d).height_m, 10.0);
     }
 
     #[test]

@@ -140,6 +140,11 @@ pub enum IssueReason {
     /// positive one for the shell of a cavity; also what a mirroring transform makes) had those parts' triangles
     /// turned, so clients that cull back faces draw them. The detail says how many parts.
     ModelTurnedOutward,
+    /// An OpenStreetMap roof tag that could not be taken as given: a value not usable for the roof (roof:height,
+    /// roof:levels, roof:angle or roof:direction not a number, out of range; roof:orientation neither along nor
+    /// across), whose next rule then shaped the roof; or a roof higher than the building, lowered to leave 10 cm of
+    /// wall. The detail names the tag, its value and what was done.
+    RoofTagAdjusted,
 }
 
 impl IssueReason {
@@ -189,6 +194,7 @@ impl IssueReason {
             ModelInvalid => "model_invalid",
             ModelSurfaceDropped => "model_surface_dropped",
             ModelTurnedOutward => "model_turned_outward",
+            RoofTagAdjusted => "roof_tag_adjusted",
         }
     }
 }

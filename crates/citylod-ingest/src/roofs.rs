@@ -10,7 +10,7 @@
 use crate::model3d::Meshed;
 use crate::osm::exported_tag as tag;
 use crate::report::IssueReason;
-use citylod_mesh::roof::{roofed_building, RoofRise, RoofShape, RoofSpec};
+use citylod_mesh::roof::{roofed_building, RoofRise, RoofShape, RoofSpec, MIN_WALL_M};
 use citylod_model::{AttrValue, Attributes, BuildingModel, Footprint};
 
 /// The LoD a modelled roof is written as (`mesh_lods` in the report).
@@ -69,16 +69,34 @@ pub(crate) fn roof_model(
             .map(|n| RoofRise::Metres(n * opts.storey_height_m))
     })
     .or_else(|| {
-        value("roof:angle", &|v| v.as_number(), &|a| a > 0.0 && a < 89.0).map(RoofRise::AngleDeg)
+        // 0° is a flat roof, as a roof:height of 0 is.
+        value("roof:angle", &|v| v.as_number(), &|a| {
+            (0.0..89.0).contains(&a)
+        })
+        .map(|a| {
+            if a == 0.0 {
+                RoofRise::Metres(0.0)
+            } else {
+                RoofRise::AngleDeg(a)
+            }
+        })
     })
     .unwrap_or(RoofRise::Default);
-    let direction_deg = value("roof:direction", &|v| direction(v), &|_| true);
-    let across = text(attrs, "roof:orientation").is_some_and(|o| o.eq_ignore_ascii_case("across"));
+    let direction_deg = value("roof:direction", &|v| direction(v), &|d| d.abs() <= 1e6);
+    let orientation = text(attrs, "roof:orientation");
+    let across = orientation
+        .as_deref()
+        .is_some_and(|o| o.eq_ignore_ascii_case("across"));
+    if let Some(o) = orientation
+        .filter(|o| !(o.eq_ignore_ascii_case("across") || o.eq_ignore_ascii_case("along")))
+    {
+        rejected.push(format!("roof:orientation = {o:?} (along or across)"));
+    }
     if !rejected.is_empty() {
         meshed.issues.push((
-            IssueReason::HeightValueRejected,
+            IssueReason::RoofTagAdjusted,
             format!(
-                "{}: not usable for the roof, which takes the next rule",
+                "{}: not usable for the roof, which takes the next rule (or its default)",
                 rejected.join(", ")
             ),
         ));
@@ -91,6 +109,23 @@ pub(crate) fn roof_model(
     };
     match roofed_building(footprint, base_z_m, height_m, &spec) {
         Ok((mesh, surfaces)) => {
+            // A roof asked higher than its building (roof:height or roof:levels over the height) was lowered to
+            // leave the walls their least height: said, with what it became. One exactly as high is a roof-only
+            // part (OSM's building:part from the eaves up, min_height at the eaves), as mapped: not said.
+            if let RoofRise::Metres(m) = spec.rise {
+                if m > height_m + ROOF_OVER_M {
+                    meshed.issues.push((
+                        IssueReason::RoofTagAdjusted,
+                        format!(
+                            "a roof of {} m on a building {} m high: lowered to {} m, over walls of {} m",
+                            crate::height::trim_float(m),
+                            crate::height::trim_float(height_m),
+                            crate::height::trim_float(((height_m - MIN_WALL_M) * 100.0).round() / 100.0),
+                            MIN_WALL_M
+                        ),
+                    ));
+                }
+            }
             meshed.model = Some(BuildingModel {
                 mesh,
                 surfaces,
@@ -101,6 +136,10 @@ pub(crate) fn roof_model(
         Err(why) => meshed.issues.push(flat(why)),
     }
 }
+
+/// A roof higher than its building by more than this (m) is said to be lowered; up to it, it is the building (a
+/// roof-only part) and rounding.
+const ROOF_OVER_M: f64 = 0.01;
 
 fn text(attrs: &Attributes, name: &str) -> Option<String> {
     match tag(attrs, name)? {
@@ -207,6 +246,18 @@ mod tests {
             house(12, json!({ "roof:shape": "round", "roof:height": 4 })),
             house(13, json!({ "roof:shape": "half-hipped", "roof:height": 4 })),
             house(14, json!({ "roof:shape": "cone", "roof:height": 2 })),
+            // 0° is flat, as a roof:height of 0 is.
+            house(15, json!({ "roof:shape": "gabled", "roof:angle": "0" })),
+            // An orientation that is neither along nor across: said, the ridge along the long side.
+            house(
+                16,
+                json!({ "roof:shape": "gabled", "roof:height": 2, "roof:orientation": "sideways" }),
+            ),
+            // Three storeys under a roof storey (OSM counts them apart): 12 m, eaves at 9 m.
+            house(
+                17,
+                json!({ "roof:shape": "gabled", "height": null, "building:levels": "3", "roof:levels": "1" }),
+            ),
         ];
         let out = run(features.clone(), Some("2"));
         // Gabled: eaves at 7 m, ridge at 10 m.
@@ -220,8 +271,10 @@ mod tests {
             z.len() >= 4,
             "a skillion towards NE has corners at several heights: {z:?}"
         );
-        // A 12 m roof on a 10 m building keeps 10 cm of wall.
+        // A 12 m roof on a 10 m building keeps 10 cm of wall (and says so, below).
         assert_eq!(levels(&out, 7), [0, 10, 1000]);
+        assert_eq!(levels(&out, 16), [0, 800, 1000]);
+        assert_eq!(levels(&out, 17), [0, 900, 1200]);
         assert_eq!(levels(&out, 8), [0, 750, 1000]);
         // An onion as a dome: eaves at 6 m, then the bands of a quarter circle to the top.
         let z = levels(&out, 9);
@@ -244,7 +297,7 @@ mod tests {
         assert_eq!(levels(&out, 13), [0, 600, 800, 1000]);
         // A cone is the pyramid over the outline's corners.
         assert_eq!(levels(&out, 14), [0, 800, 1000]);
-        for i in [3, 5, 6] {
+        for i in [3, 5, 6, 15] {
             assert!(out.buildings[i].mesh.is_none(), "{i}");
         }
         // Steep is no height: the default 30° over the 4 m half width, 2.31 m.
@@ -255,22 +308,37 @@ mod tests {
             .iter()
             .map(|i| (i.feature_id.as_str(), i.reason, i.detail.as_str()))
             .collect();
-        assert_eq!(issues.len(), 2, "{issues:#?}");
-        assert_eq!(issues[0].0, "way/3");
-        assert_eq!(issues[0].1, IssueReason::ModelMissing);
-        assert!(issues[0]
-            .2
-            .starts_with("roof:shape=saltbox: this shape is not modelled"));
-        assert_eq!(
-            (issues[1].0, issues[1].1),
-            ("way/4", IssueReason::HeightValueRejected)
+        let said = |id: &str, reason: IssueReason, text: &str| {
+            assert!(
+                issues
+                    .iter()
+                    .any(|i| i.0 == id && i.1 == reason && i.2.contains(text)),
+                "{id}: no {reason:?} saying {text:?} in {issues:#?}"
+            );
+        };
+        said(
+            "way/3",
+            IssueReason::ModelMissing,
+            "roof:shape=saltbox: this shape is not modelled",
         );
-        assert!(
-            issues[1].2.contains("roof:height = \"steep\""),
-            "{}",
-            issues[1].2
+        said(
+            "way/4",
+            IssueReason::RoofTagAdjusted,
+            "roof:height = \"steep\"",
         );
-        assert_eq!(out.report.mesh_lods.get("2"), Some(&12));
+        said(
+            "way/7",
+            IssueReason::RoofTagAdjusted,
+            "a roof of 12 m on a building 10 m high: lowered to 9.9 m, over walls of 0.1 m",
+        );
+        said("way/15", IssueReason::ModelMissing, "a roof rise of 0 m");
+        said(
+            "way/16",
+            IssueReason::RoofTagAdjusted,
+            "roof:orientation = \"sideways\"",
+        );
+        assert_eq!(issues.len(), 5, "{issues:#?}");
+        assert_eq!(out.report.mesh_lods.get("2"), Some(&14));
 
         // Roofs are LoD 2: none without --lod or at LoD 1.x; at 2.2 they are the fall-back below it.
         for lod in [None, Some("1.2")] {
@@ -278,6 +346,6 @@ mod tests {
             assert!(out.buildings.iter().all(|b| b.mesh.is_none()), "{lod:?}");
         }
         let out = run(features, Some("2.2"));
-        assert_eq!(out.report.mesh_lod_fallbacks, 12);
+        assert_eq!(out.report.mesh_lod_fallbacks, 14);
     }
 }

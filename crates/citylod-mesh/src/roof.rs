@@ -101,6 +101,9 @@ pub const BREAK: [f64; 2] = [1.0 / 3.0, 2.0 / 3.0];
 /// A roof below this rise is flat.
 pub const MIN_RISE_M: f64 = 0.05;
 
+/// The least wall under a roof (m): a roof asked as high as its building or higher is lowered to leave this.
+pub const MIN_WALL_M: f64 = 0.1;
+
 /// Outlines with more corners than this are not roofed (a hipped roof clips every face by every edge).
 pub const MAX_CORNERS: usize = 256;
 
@@ -211,8 +214,8 @@ pub fn roofed_building(
         }
         RoofRise::Default => (DEFAULT_ANGLE_DEG.to_radians().tan() * run).min(0.5 * height),
     };
-    // The walls keep at least 10 cm (a roof as high as the building would meet the ground).
-    let rise = rise.min(height - 0.1);
+    // The walls keep at least MIN_WALL_M (a roof as high as the building would meet the ground).
+    let rise = rise.min(height - MIN_WALL_M);
     if !(rise.is_finite() && rise >= MIN_RISE_M) {
         return Err(format!(
             "a roof rise of {} m on a building {height} m high is flat",

@@ -1013,6 +1013,27 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
                 }
             );
         }
+        // The simplified level: how much it removed against --building-rate, so a level that is nearly the full
+        // models (the error bound stopped the simplifier) does not pass unseen.
+        if let Some(m) = lod.model_summary.as_ref().filter(|m| m.triangles_full > 0) {
+            let removed = 1.0 - m.triangles_simplified as f64 / m.triangles_full as f64;
+            eprintln!(
+                "  simplified models: {} of {} triangles ({:.0} % removed, --building-rate {:.0} %){}",
+                m.triangles_simplified,
+                m.triangles_full,
+                100.0 * removed,
+                100.0 * m.rate_target,
+                if m.short_of_target > 0 {
+                    format!(
+                        "; {} of {} stopped short of the rate, where a further step would move a surface more than \
+                         the bound (build-report.json: models.short_of_target)",
+                        m.short_of_target, m.buildings
+                    )
+                } else {
+                    String::new()
+                }
+            );
+        }
         for (reason, n) in &r.mesh_issues_by_reason {
             eprintln!("  3D model {n:>5} × {reason}");
         }

@@ -692,6 +692,7 @@ impl<'h> LodTree<'h> {
             },
         );
         lift_prism_leaves(&mut root);
+        at_least_children(&mut root);
         let summary = (0..h.levels.len())
             .map(|level| {
                 let tiles: Vec<usize> = (0..packing.tiles.len())
@@ -739,6 +740,20 @@ impl<'h> LodTree<'h> {
         };
         (plan, root, summary)
     }
+}
+
+/// Raises every tile's geometric error to its children's (returns it): a tile's error bounds what any cut below
+/// it shows, and a model chain's simplified tile can claim more than the prisms' tile above it, where a
+/// simplifier made models worse than their prisms (`--building-simplifier qem` on the roofs example: 8.7 m under
+/// 6.0 m). The packing's tiles are monotone already ([`citylod_tiles::hlod::tile_errors`]).
+fn at_least_children<C>(tile: &mut TileSpec<C>) -> f64 {
+    let below = tile
+        .children
+        .iter_mut()
+        .map(at_least_children)
+        .fold(0.0, f64::max);
+    tile.geometric_error_m = tile.geometric_error_m.max(below);
+    tile.geometric_error_m
 }
 
 /// Moves the leaf of modelless prisms that [`LodTree::model_chain`] hangs under a tile of buildings up beside that
@@ -1046,6 +1061,36 @@ fn summarize_models(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A model chain whose simplified tile claims more than the prisms' tile above it (a simplifier that made models
+    /// worse than their prisms): every tile above is raised to it, the tiles beside and below keep theirs.
+    #[test]
+    fn a_tile_claims_at_least_what_its_children_do() {
+        let tile = |e: f64, children: Vec<TileSpec<u32>>| TileSpec {
+            features: 0,
+            children,
+            geometric_error_m: e,
+        };
+        let mut root = tile(
+            20.0,
+            vec![
+                tile(6.0, vec![tile(8.7, vec![tile(0.0, vec![])])]),
+                tile(3.0, vec![tile(0.0, vec![])]),
+            ],
+        );
+        assert_eq!(at_least_children(&mut root), 20.0);
+        let errors = |t: &TileSpec<u32>| {
+            [
+                t.children[0].geometric_error_m,
+                t.children[0].children[0].geometric_error_m,
+                t.children[0].children[0].children[0].geometric_error_m,
+                t.children[1].geometric_error_m,
+            ]
+        };
+        assert_eq!(errors(&root), [8.7, 8.7, 0.0, 3.0]);
+        let mut low = tile(1.0, vec![tile(8.7, vec![])]);
+        assert_eq!(at_least_children(&mut low), 8.7);
+    }
 
     /// A chain whose simplified model has `simplified` triangles, with the given errors.
     fn chain(prism_error_m: f64, simplified_error_m: f64, simplified: usize) -> Option<ModelChain> {
