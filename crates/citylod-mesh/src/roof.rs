@@ -57,6 +57,12 @@ impl RoofShape {
         RoofShape::Dome,
     ];
 
+    /// Whether the shape rises to one apex over the outline's centroid, so needs a convex outline without
+    /// courtyards (pyramidal and dome); the others span any outline and its courtyards.
+    pub fn needs_convex(self) -> bool {
+        matches!(self, RoofShape::Pyramidal | RoofShape::Dome)
+    }
+
     /// The shape an OpenStreetMap `roof:shape` value names, if modelled here.
     pub fn from_osm(value: &str) -> Option<RoofShape> {
         match value.trim().to_ascii_lowercase().as_str() {
@@ -151,10 +157,10 @@ pub fn roofed_building(
             ring.len()
         ));
     }
-    if matches!(spec.shape, RoofShape::Pyramidal | RoofShape::Dome) && rings.len() > 1 {
+    if spec.shape.needs_convex() && rings.len() > 1 {
         return Err("a footprint with a courtyard (a hole) takes no pyramidal or dome roof".into());
     }
-    if matches!(spec.shape, RoofShape::Pyramidal | RoofShape::Dome) && !is_convex(&ring) {
+    if spec.shape.needs_convex() && !is_convex(&ring) {
         return Err(
             "the outline is not convex (pyramidal and dome roofs need a convex one)".into(),
         );
@@ -2072,24 +2078,16 @@ mod tests {
         let square: Vec<(f64, f64)> =
             vec![(0.0, 0.0), (12.0, 0.0), (12.0, 9.0), (0.0, 9.0), (0.0, 0.0)];
         let shift = (30_000.0, -21_000.0);
-        for (outline, shapes) in [
-            (
-                &l,
-                &[
-                    RoofShape::Skillion,
-                    RoofShape::Gabled,
-                    RoofShape::Gambrel,
-                    RoofShape::Round,
-                    RoofShape::HalfHipped,
-                    RoofShape::Hipped,
-                    RoofShape::Mansard,
-                ][..],
-            ),
-            (
-                &square,
-                &[RoofShape::Hipped, RoofShape::Pyramidal, RoofShape::Dome][..],
-            ),
-        ] {
+        // The L takes every shape that spans a concave outline, the square the hipped roof and the rest.
+        let spanning: Vec<RoofShape> = RoofShape::ALL
+            .into_iter()
+            .filter(|s| !s.needs_convex())
+            .collect();
+        let on_square: Vec<RoofShape> = RoofShape::ALL
+            .into_iter()
+            .filter(|s| *s == RoofShape::Hipped || s.needs_convex())
+            .collect();
+        for (outline, shapes) in [(&l, &spanning), (&square, &on_square)] {
             let moved: Vec<(f64, f64)> = outline
                 .iter()
                 .map(|&(x, y)| (x + shift.0, y + shift.1))
