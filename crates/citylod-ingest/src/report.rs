@@ -142,8 +142,9 @@ pub enum IssueReason {
     ModelTurnedOutward,
     /// An OpenStreetMap roof tag that could not be taken as given: a value not usable for the roof (roof:height,
     /// roof:levels, roof:angle or roof:direction not a number, out of range; roof:orientation neither along nor
-    /// across), whose next rule then shaped the roof; or a roof higher than the building, lowered to leave 10 cm of
-    /// wall. The detail names the tag, its value and what was done.
+    /// across), whose next rule then shaped the roof; or a roof higher than the building (a roof:height over it, or
+    /// a roof:angle too steep for the outline's width), lowered to leave 10 cm of wall. The detail names the tag,
+    /// its value and what was done.
     RoofTagAdjusted,
 }
 

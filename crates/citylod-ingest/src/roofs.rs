@@ -10,7 +10,7 @@
 use crate::model3d::Meshed;
 use crate::osm::exported_tag as tag;
 use crate::report::IssueReason;
-use citylod_mesh::roof::{roofed_building, RoofRise, RoofShape, RoofSpec, MIN_WALL_M};
+use citylod_mesh::roof::{roofed, RoofRise, RoofShape, RoofSpec, MIN_WALL_M};
 use citylod_model::{AttrValue, Attributes, BuildingModel, Footprint};
 
 /// The LoD a modelled roof is written as (`mesh_lods` in the report).
@@ -107,28 +107,45 @@ pub(crate) fn roof_model(
         direction_deg,
         across,
     };
-    match roofed_building(footprint, base_z_m, height_m, &spec) {
-        Ok((mesh, surfaces)) => {
-            // A roof asked higher than its building (roof:height or roof:levels over the height) was lowered to
-            // leave the walls their least height: said, with what it became. One exactly as high is a roof-only
-            // part (OSM's building:part from the eaves up, min_height at the eaves), as mapped: not said.
-            if let RoofRise::Metres(m) = spec.rise {
-                if m > height_m + ROOF_OVER_M {
+    match roofed(footprint, base_z_m, height_m, &spec) {
+        Ok(built) => {
+            // A roof asked higher than its building (roof:height or roof:levels over the height, or a steep
+            // roof:angle over a wide outline) was lowered to leave the walls their least height: said, with what
+            // it became. One exactly as high is a roof-only part (OSM's building:part from the eaves up, min_height
+            // at the eaves), as mapped: not said.
+            let lowered_to = || crate::height::trim_float((built.rise_m * 100.0).round() / 100.0);
+            match spec.rise {
+                RoofRise::Metres(m) if m > height_m + ROOF_OVER_M => {
                     meshed.issues.push((
                         IssueReason::RoofTagAdjusted,
                         format!(
                             "a roof of {} m on a building {} m high: lowered to {} m, over walls of {} m",
                             crate::height::trim_float(m),
                             crate::height::trim_float(height_m),
-                            crate::height::trim_float(((height_m - MIN_WALL_M) * 100.0).round() / 100.0),
+                            lowered_to(),
                             MIN_WALL_M
                         ),
                     ));
                 }
+                RoofRise::AngleDeg(a) if built.asked_rise_m > built.rise_m + ROOF_OVER_M => {
+                    meshed.issues.push((
+                        IssueReason::RoofTagAdjusted,
+                        format!(
+                            "roof:angle = {}° asks a roof of {} m over this outline, on a building {} m high: \
+                             lowered to {} m, over walls of {} m",
+                            crate::height::trim_float(a),
+                            crate::height::trim_float((built.asked_rise_m * 100.0).round() / 100.0),
+                            crate::height::trim_float(height_m),
+                            lowered_to(),
+                            MIN_WALL_M
+                        ),
+                    ));
+                }
+                _ => {}
             }
             meshed.model = Some(BuildingModel {
-                mesh,
-                surfaces,
+                mesh: built.mesh,
+                surfaces: built.kinds,
                 lod: ROOF_LOD.into(),
             });
             meshed.fell_back = fell_back;
@@ -258,6 +275,10 @@ mod tests {
                 17,
                 json!({ "roof:shape": "gabled", "height": null, "building:levels": "3", "roof:levels": "1" }),
             ),
+            // 80° over the 4 m half width asks 22.69 m of a 10 m building: lowered, and said.
+            house(18, json!({ "roof:shape": "gabled", "roof:angle": "80" })),
+            // 40° asks 3.36 m: built as asked, nothing said.
+            house(19, json!({ "roof:shape": "gabled", "roof:angle": 40 })),
         ];
         let out = run(features.clone(), Some("2"));
         // Gabled: eaves at 7 m, ridge at 10 m.
@@ -275,6 +296,8 @@ mod tests {
         assert_eq!(levels(&out, 7), [0, 10, 1000]);
         assert_eq!(levels(&out, 16), [0, 800, 1000]);
         assert_eq!(levels(&out, 17), [0, 900, 1200]);
+        assert_eq!(levels(&out, 18), [0, 10, 1000]);
+        assert_eq!(levels(&out, 19), [0, 664, 1000]);
         assert_eq!(levels(&out, 8), [0, 750, 1000]);
         // An onion as a dome: eaves at 6 m, then the bands of a quarter circle to the top.
         let z = levels(&out, 9);
@@ -337,8 +360,14 @@ mod tests {
             IssueReason::RoofTagAdjusted,
             "roof:orientation = \"sideways\"",
         );
-        assert_eq!(issues.len(), 5, "{issues:#?}");
-        assert_eq!(out.report.mesh_lods.get("2"), Some(&14));
+        said(
+            "way/18",
+            IssueReason::RoofTagAdjusted,
+            "roof:angle = 80° asks a roof of 22.69 m over this outline, on a building 10 m high: lowered to 9.9 m, \
+             over walls of 0.1 m",
+        );
+        assert_eq!(issues.len(), 6, "{issues:#?}");
+        assert_eq!(out.report.mesh_lods.get("2"), Some(&16));
 
         // Roofs are LoD 2: none without --lod or at LoD 1.x; at 2.2 they are the fall-back below it.
         for lod in [None, Some("1.2")] {
@@ -346,6 +375,6 @@ mod tests {
             assert!(out.buildings.iter().all(|b| b.mesh.is_none()), "{lod:?}");
         }
         let out = run(features, Some("2.2"));
-        assert_eq!(out.report.mesh_lod_fallbacks, 14);
+        assert_eq!(out.report.mesh_lod_fallbacks, 16);
     }
 }

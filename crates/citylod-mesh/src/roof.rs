@@ -136,6 +136,29 @@ pub fn roofed_building(
     height: f64,
     spec: &RoofSpec,
 ) -> Result<(Mesh3d, Vec<SurfaceKind>), String> {
+    roofed(footprint, base_z, height, spec).map(|r| (r.mesh, r.kinds))
+}
+
+/// A roofed building and the rise its roof was asked and given.
+#[derive(Debug, Clone)]
+pub struct Roofed {
+    pub mesh: Mesh3d,
+    /// The kind of every triangle.
+    pub kinds: Vec<SurfaceKind>,
+    /// The rise the spec asked (m): its height, or its angle over this outline's run; for the default, what the
+    /// default rule gives (at most half the building).
+    pub asked_rise_m: f64,
+    /// The rise built (m): the asked one, lowered where the walls would keep less than [`MIN_WALL_M`].
+    pub rise_m: f64,
+}
+
+/// [`roofed_building`] with the rise asked and built, so that a caller can say when a roof was lowered.
+pub fn roofed(
+    footprint: &MultiPolygon<f64>,
+    base_z: f64,
+    height: f64,
+    spec: &RoofSpec,
+) -> Result<Roofed, String> {
     let [polygon] = footprint.0.as_slice() else {
         return Err(format!(
             "a footprint of {} polygons has no single roof",
@@ -221,6 +244,7 @@ pub fn roofed_building(
         RoofRise::Default => (DEFAULT_ANGLE_DEG.to_radians().tan() * run).min(0.5 * height),
     };
     // The walls keep at least MIN_WALL_M (a roof as high as the building would meet the ground).
+    let asked_rise_m = rise;
     let rise = rise.min(height - MIN_WALL_M);
     if !(rise.is_finite() && rise >= MIN_RISE_M) {
         return Err(format!(
@@ -289,13 +313,15 @@ pub fn roofed_building(
         triangles.push([a + n, b, a]);
         kinds.extend([SurfaceKind::Wall; 2]);
     }
-    Ok((
-        Mesh3d {
+    Ok(Roofed {
+        mesh: Mesh3d {
             positions,
             triangles,
         },
         kinds,
-    ))
+        asked_rise_m,
+        rise_m: rise,
+    })
 }
 
 /// Points (x, y, share of the rise) and triangles over them.
