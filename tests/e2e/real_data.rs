@@ -260,14 +260,37 @@ fn blocks_stay_within_their_tile_error(name: &str, report: &Value, ts: &TilesetD
         let Some(content) = &tile.content else {
             continue;
         };
-        for row in content.features.iter().filter(|r| r.class == "cluster") {
-            if row.values.get("landmark") == Some(&PropValue::Bool(true)) {
+        // Each feature's lowest and highest drawn z.
+        let mut z_range = vec![(f64::MAX, f64::MIN); content.features.len()];
+        for (p, &fid) in content.positions_local.iter().zip(&content.feature_ids) {
+            if let Some(r) = z_range.get_mut(fid as usize) {
+                *r = (r.0.min(p[2]), r.1.max(p[2]));
+            }
+        }
+        for (k, row) in content.features.iter().enumerate() {
+            if row.class != "cluster" || row.values.get("landmark") == Some(&PropValue::Bool(true))
+            {
                 continue;
             }
             blocks += 1;
+            // A block is drawn from its ground_z_m up by its height_m (vertices rounded to at most 1/16 of the
+            // tile's error, so within half that; FLOAT32 values); one that fell back shows its buildings.
+            let fell_back = row.values.get("fallback") == Some(&PropValue::Bool(true));
+            let (lo, hi) = z_range[k];
+            if !fell_back && lo <= hi {
+                let ground = f(row, "ground_z_m");
+                let top = ground + f(row, "height_m");
+                let tol = tile.geometric_error_m / 32.0 + 0.011 + 1e-6 * top.abs();
+                assert!(
+                    (lo - ground).abs() <= tol && (hi - top).abs() <= tol,
+                    "{name}: tile {} block {:?} drawn from {lo} to {hi} m, its metadata says {ground} + {} m",
+                    tile.path_in_tree,
+                    row.values.get("node_index"),
+                    f(row, "height_m")
+                );
+            }
             let own = f(row, "dh_m").max(kappa * f(row, "da_m2").sqrt());
             // A block that fell back to its buildings' prisms also claims their distance from any 3D models.
-            let fell_back = row.values.get("fallback") == Some(&PropValue::Bool(true));
             let reported = f(row, "geometric_error_m");
             assert!(
                 (own - reported).abs() <= 1e-6 * own.max(1.0) || (fell_back && reported > own),

@@ -93,6 +93,8 @@ pub(crate) struct EncodedContent {
     pub vertices: u64,
     /// Triangles whose corners collapsed onto each other after quantization, left out.
     pub dropped_triangles: u64,
+    /// Features with triangles of which none is left (smaller than the tile's grid); their rows stay.
+    pub collapsed_features: u64,
     /// Bounds (min, max) of the dequantized positions in local ENU metres: what clients draw.
     pub bounds_enu: ([f64; 3], [f64; 3]),
 }
@@ -228,7 +230,7 @@ pub(crate) fn encode_content(
     let mut fallback = BinBuilder::default();
     // (class, primitive) per node; the property table indices are filled in once the tables are known.
     let mut nodes: Vec<(Node, Vec<(usize, Primitive)>)> = Vec::new();
-    let (mut triangles, mut vertices, mut dropped) = (0u64, 0u64, 0u64);
+    let (mut triangles, mut vertices, mut dropped, mut collapsed) = (0u64, 0u64, 0u64, 0u64);
     let mut drawn_bounds: Option<([f64; 3], [f64; 3])> = None;
 
     for (step, classes) in &chunks {
@@ -289,6 +291,7 @@ pub(crate) fn encode_content(
                 if normals {
                     nor.extend(vertex_normals_yup(m));
                 }
+                let kept_before = idx.len();
                 for t in &m.triangles {
                     let c = t.map(|i| &pos[(v0 + i) as usize][..3]);
                     if c[0] == c[1] || c[1] == c[2] || c[0] == c[2] {
@@ -296,6 +299,9 @@ pub(crate) fn encode_content(
                         continue;
                     }
                     idx.extend(t.map(|i| v0 + i));
+                }
+                if idx.len() == kept_before && !m.triangles.is_empty() {
+                    collapsed += 1;
                 }
             }
             if idx.is_empty() {
@@ -665,6 +671,7 @@ pub(crate) fn encode_content(
         triangles,
         vertices,
         dropped_triangles: dropped,
+        collapsed_features: collapsed,
         bounds_enu,
     }))
 }

@@ -60,7 +60,8 @@ pub(crate) fn schema_json(schema: &MetadataSchema, used: &[&str], descriptions: 
                     let prop = ClassProperty {
                         r#type: ty.into(),
                         component_type: ct.map(Into::into),
-                        name: p.input_name.clone(),
+                        // The spec wants a name of at least one character: an attribute named "" (id `_`) has none.
+                        name: p.input_name.clone().filter(|n| !n.is_empty()),
                         description: p.description.clone().filter(|_| descriptions),
                         no_data: (p.nullable && !no_data.is_null()).then_some(no_data),
                         ..Default::default()
@@ -533,6 +534,11 @@ mod tests {
                         input_name: Some("b:levels".into()),
                         ..def(PropertyKind::UInt32, true)
                     },
+                    PropertyDef {
+                        name: "_".into(),
+                        input_name: Some(String::new()),
+                        ..def(PropertyKind::UInt32, true)
+                    },
                 ],
             }],
         };
@@ -541,6 +547,8 @@ mod tests {
         // A renamed attribute keeps its input name as the property's name, in every glb.
         assert_eq!(props["b"].name.as_deref(), Some("b:levels"));
         assert_eq!(props["a"].name, None);
+        // An attribute named "" has no name (the spec's minLength is 1); its id `_` is all it has.
+        assert_eq!(props["_"].name, None);
         assert_eq!(props["a"].no_data, None);
         assert_eq!(props["b"].no_data, Some(serde_json::json!(u32::MAX)));
         assert!(props.values().all(|p| p.description.is_none()));

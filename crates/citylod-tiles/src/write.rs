@@ -85,6 +85,9 @@ pub struct WriteStats {
     pub features: u64,
     /// Triangles left out because quantization collapsed two of their corners.
     pub dropped_triangles: u64,
+    /// Features none of whose triangles is left after quantization: a block or building smaller than its tile's
+    /// grid (under a pixel where the tile is drawn). Their rows stay in the property table.
+    pub collapsed_features: u64,
 }
 
 /// Smallest half-size of a box axis (m), so no box is flat.
@@ -173,6 +176,7 @@ pub fn write_tileset_with<C: Sync>(
                 vertices: c.vertices,
                 features: features.len() as u64,
                 dropped_triangles: c.dropped_triangles,
+                collapsed_features: c.collapsed_features,
                 ..Default::default()
             };
             // Exact input bounds and the drawn (dequantized) ones, so the box holds both.
@@ -201,6 +205,7 @@ pub fn write_tileset_with<C: Sync>(
         stats.vertices += o.stats.vertices;
         stats.features += o.stats.features;
         stats.dropped_triangles += o.stats.dropped_triangles;
+        stats.collapsed_features += o.stats.collapsed_features;
         outs.push(o);
     }
 
@@ -653,6 +658,41 @@ mod tests {
                 .fold(f64::MAX, f64::min);
             assert!(nearest <= tol, "feature {f}: a vertex moved {nearest} m");
         }
+    }
+
+    #[test]
+    fn a_block_smaller_than_its_grid_keeps_its_row_and_is_counted() {
+        // Blocks that may move 5 m per axis are rounded to a 10.24 m grid (2 cm × 2⁹): a block of 0.5 m there
+        // collapses onto one grid point, its 10 triangles left out; the 80 m one keeps its box.
+        let coarse = |f: ContentFeature| ContentFeature {
+            max_rounding_m: 5.0,
+            ..f
+        };
+        let tiny = ContentFeature {
+            mesh: box_mesh(20.0, 20.0, 0.5, 0.5, 0.0, 0.5),
+            ..coarse(cluster(0.0, 0.0, 2))
+        };
+        let root = TileSpec {
+            features: vec![coarse(cluster(0.0, 0.0, 9)), tiny],
+            ..Default::default()
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let stats = write(&dir.path().join("out"), &root, Compression::Meshopt).unwrap();
+        assert_eq!(
+            (
+                stats.features,
+                stats.collapsed_features,
+                stats.dropped_triangles
+            ),
+            (2, 1, 10)
+        );
+        let back = read_tileset(&dir.path().join("out/tileset.json")).unwrap();
+        let glb = back.tiles[0].content.as_ref().unwrap();
+        assert_eq!(glb.features.len(), 2, "both rows stay");
+        assert!(
+            glb.feature_ids.iter().all(|&f| f == 0),
+            "only the large block is drawn"
+        );
     }
 
     #[test]

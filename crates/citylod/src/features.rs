@@ -294,7 +294,7 @@ fn is_value(v: &AttrValue) -> bool {
 /// Landmarks are features of this class too (`landmark` = true, `building_index` set): CesiumJS picks through one
 /// property table per glb, so a tile must hold a single class for clicks to find the right feature.
 /// (id, kind, nullable, description)
-const CLUSTER: [(&str, PropertyKind, bool, &str); 15] = [
+const CLUSTER: [(&str, PropertyKind, bool, &str); 16] = [
     (
         "level",
         PropertyKind::UInt32,
@@ -324,6 +324,12 @@ const CLUSTER: [(&str, PropertyKind, bool, &str); 15] = [
         PropertyKind::Float32,
         false,
         "area-weighted mean height of the buildings, metres",
+    ),
+    (
+        "ground_z_m",
+        PropertyKind::Float32,
+        false,
+        "area-weighted mean base of the buildings (their ground, or the min_height they stand on) in the tileset's local frame, metres: the block stands from here to ground_z_m + height_m",
     ),
     (
         "h_min_m",
@@ -449,6 +455,7 @@ pub fn cluster_feature(row: ClusterRow<'_>, mesh: Mesh3d) -> ContentFeature {
         row.source_id
             .map_or(PropValue::Null, |s| PropValue::Str(s.to_string())),
         PropValue::Float(n.height_m),
+        PropValue::Float(n.base_z_m),
         PropValue::Float(n.h_min_m),
         PropValue::Float(n.h_max_m),
         PropValue::Float(n.dh_m),
@@ -486,6 +493,7 @@ pub fn landmark_feature(
         PropValue::Int(1),
         PropValue::Str(b.source_id.clone()),
         PropValue::Float(b.height_m),
+        PropValue::Float(b.base_z_m),
         PropValue::Float(b.height_m),
         PropValue::Float(b.height_m),
         PropValue::Float(0.0),
