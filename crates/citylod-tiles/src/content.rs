@@ -91,12 +91,21 @@ pub(crate) struct EncodedContent {
     pub glb: Vec<u8>,
     pub triangles: u64,
     pub vertices: u64,
-    /// Triangles whose corners collapsed onto each other after quantization, left out.
+    /// Triangles whose corners fell on one line (or point) after quantization, left out.
     pub dropped_triangles: u64,
     /// Features with triangles of which none is left (smaller than the tile's grid); their rows stay.
     pub collapsed_features: u64,
     /// Bounds (min, max) of the dequantized positions in local ENU metres: what clients draw.
     pub bounds_enu: ([f64; 3], [f64; 3]),
+}
+
+/// Whether a triangle's corners, rounded to the grid, lie on one line (two of them on one point, or the third on
+/// the line through the others): it has no area to draw. Exact, in integers.
+fn flat_on_the_grid(c: [&[i16]; 3]) -> bool {
+    let d =
+        |a: &[i16], b: &[i16]| -> [i64; 3] { std::array::from_fn(|i| b[i] as i64 - a[i] as i64) };
+    let (u, v) = (d(c[0], c[1]), d(c[0], c[2]));
+    u[1] * v[2] == u[2] * v[1] && u[2] * v[0] == u[0] * v[2] && u[0] * v[1] == u[1] * v[0]
 }
 
 /// ENU (x east, y north, z up) → glTF y-up (east, up, −north).
@@ -294,7 +303,7 @@ pub(crate) fn encode_content(
                 let kept_before = idx.len();
                 for t in &m.triangles {
                     let c = t.map(|i| &pos[(v0 + i) as usize][..3]);
-                    if c[0] == c[1] || c[1] == c[2] || c[0] == c[2] {
+                    if flat_on_the_grid(c) {
                         dropped += 1;
                         continue;
                     }
@@ -818,6 +827,18 @@ fn encode_meshopt(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn triangles_flat_on_the_grid_are_told_exactly() {
+        let t = |a: [i16; 3], b: [i16; 3], c: [i16; 3]| flat_on_the_grid([&a[..], &b[..], &c[..]]);
+        // Two corners on one point; three on a line in 3D; one step off the line.
+        assert!(t([0, 0, 0], [0, 0, 0], [5, 1, 2]));
+        assert!(t([0, 0, 0], [2, 4, -6], [3, 6, -9]));
+        assert!(t([-32767, 0, 5], [0, 10, 5], [32767, 20, 5]));
+        assert!(!t([0, 0, 0], [2, 4, -6], [3, 6, -8]));
+        assert!(!t([-32767, 0, 5], [0, 10, 5], [32767, 21, 5]));
+        assert!(!t([0, 0, 0], [1, 0, 0], [0, 0, 1]));
+    }
 
     /// A grid of `n` × `n` quads (two triangles each), triangles in a scattered order, plus one vertex no triangle uses.
     fn scattered_grid(n: u32) -> Streams {

@@ -83,7 +83,7 @@ pub struct WriteStats {
     pub triangles: u64,
     pub vertices: u64,
     pub features: u64,
-    /// Triangles left out because quantization collapsed two of their corners.
+    /// Triangles left out because quantization put their corners on one line (or point).
     pub dropped_triangles: u64,
     /// Features none of whose triangles is left after quantization: a block or building smaller than its tile's
     /// grid (under a pixel where the tile is drawn). Their rows stay in the property table.
