@@ -119,6 +119,10 @@ fn build_and_check(name: &str, inputs: &[&Path], extra: &[&str]) -> (Value, Tile
     blocks_stay_within_their_tile_error(name, &report, &ts);
     no_tile_is_stored_that_cannot_be_drawn(name, &ts);
     glb_schemas_match_schemas_metadata_json(name, &out);
+    assert!(
+        glb_metadata_follows_the_extensions(name, &out) > 0,
+        "{name}: no property table"
+    );
     top_is_condensed(name, &report, &ts);
     (report, ts)
 }
