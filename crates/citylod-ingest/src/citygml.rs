@@ -20,15 +20,23 @@
 //!   coordinates as `posList`, `pos` or GML 2's `coordinates`, in the `srsDimension` they declare (3 by default).
 //!
 //! Attributes: `gml:name` and `gml:description`, every simple element of the building (`class`, `function`,
-//! `measuredHeight` converted to metres from its `uom` (a unit not known keeps the text), `storeysAboveGround`, `yearOfConstruction`, ADE elements with a
-//! text value …), generic attributes (1.0/2.0 `gen:stringAttribute` … and sets as `SET.NAME`; 3.0
-//! `gen:genericAttribute`), external references as `externalReference:SYSTEM`, the first address's fields as
+//! `measuredHeight` converted to metres from its `uom` (a number in a unit not known is kept with its unit,
+//! `3 furlong`, which the height rules name and do not take as metres), `storeysAboveGround`, `yearOfConstruction`,
+//! ADE elements with a text value …), generic attributes (1.0/2.0 `gen:stringAttribute` … and sets as `SET.NAME`;
+//! 3.0 `gen:genericAttribute`), external references as `externalReference:SYSTEM`, the first address's fields as
 //! `address.FIELD`. The CRS is the `srsName` of the model's envelope, else of the first member that names one; the
 //! usual spellings (EPSG codes and URNs, compound URNs, the German AdV's `urn:adv:crs:…`, Switzerland's CH1903 and
 //! CH1903+) are read.
 //! A geometry that cannot be read (an `xlink:href` to nothing in its member, an odd coordinate count, a GML type not
-//! above) is left out and listed as `geometry_not_read` with its element's line; a building with nothing left is
-//! skipped as `malformed_geometry`.
+//! above) is left out and listed as `geometry_not_read` with its element's line; so is an element inside a geometry
+//! where GML has none (a Polygon straight in a CompositeSurface, an exterior in a Tin), a boundary surface of a type
+//! not known (3.0's WindowSurface, an ADE's), and geometry past the building's budget of points and references
+//! followed (4 for each byte of its member: references to elements holding references multiply). A building with
+//! nothing left is skipped as `malformed_geometry`, one with only implicit geometry as `unsupported_geometry`.
+//! Coordinates are an element's whole text (a comment may split it); GML 2's `coord` is read too. A Building straight
+//! under the CityModel is read as a member, one where a BuildingPart belongs as a part, and buildings in another
+//! element under the model (a misspelt member) are named in the file's notes. UTF-16 files (a byte-order mark, or
+//! `<?` in two bytes) are read.
 
 use crate::cityjson::{self, CityDoc};
 use crate::crs::{Crs, DeclaredCrs};
@@ -114,16 +122,35 @@ fn starts_citygml(raw: Vec<u8>) -> bool {
     root_tag(&head).is_some_and(|(name, tag)| is_root(name, tag))
 }
 
-/// The first 64 KiB of a file's text, inflated when it is gzip-compressed.
+/// The first 64 KiB of a file's text, inflated when it is gzip-compressed, as UTF-8 when it is UTF-16.
 fn inflated_head(raw: Vec<u8>) -> Vec<u8> {
-    if !raw.starts_with(&[0x1f, 0x8b]) {
-        return raw;
+    let head = if raw.starts_with(&[0x1f, 0x8b]) {
+        let mut head = Vec::new();
+        let _ = flate2::read::MultiGzDecoder::new(&raw[..])
+            .take(64 * 1024)
+            .read_to_end(&mut head);
+        head
+    } else {
+        raw
+    };
+    match utf16_of(&head) {
+        // A head cut inside a character ends in a replacement character, after the root's start tag.
+        Some(enc) => enc
+            .decode_with_bom_removal(&head)
+            .0
+            .into_owned()
+            .into_bytes(),
+        None => head,
     }
-    let mut head = Vec::new();
-    let _ = flate2::read::MultiGzDecoder::new(&raw[..])
-        .take(64 * 1024)
-        .read_to_end(&mut head);
-    head
+}
+
+/// UTF-16 text, by its byte-order mark or, without one, by its `<?` written in two bytes each (XML's rule).
+fn utf16_of(bytes: &[u8]) -> Option<&'static encoding_rs::Encoding> {
+    match bytes {
+        [0xFF, 0xFE, ..] | [b'<', 0, b'?', 0, ..] => Some(encoding_rs::UTF_16LE),
+        [0xFE, 0xFF, ..] | [0, b'<', 0, b'?', ..] => Some(encoding_rs::UTF_16BE),
+        _ => None,
+    }
 }
 
 /// The name of the first element of a file's head (gzip-compressed or not), `None` if it does not read as XML.
@@ -201,7 +228,7 @@ pub(crate) fn read(
         .map_err(|e| format!("cannot read the file: {e}"))?;
     let utf8 = declared_encoding(head.strip_prefix(b"\xef\xbb\xbf").unwrap_or(&head))
         .is_none_or(|l| is_utf8(&l));
-    if head.starts_with(&[0x1f, 0x8b]) || !utf8 {
+    if head.starts_with(&[0x1f, 0x8b]) || !utf8 || utf16_of(&head).is_some() {
         // Inflated, or decoded to UTF-8, in memory.
         let bytes = std::fs::read(path).map_err(|e| format!("cannot read the file: {e}"))?;
         let text = decode(bytes)?;
@@ -264,6 +291,16 @@ fn decode(bytes: Vec<u8>) -> Result<String, String> {
     if bytes.len() as u64 > MAX_TEXT {
         return Err("over 8 GiB of XML, more than this reader holds: split the file".into());
     }
+    if let Some(enc) = utf16_of(&bytes) {
+        let (text, bad) = enc.decode_with_bom_removal(&bytes);
+        if bad {
+            return Err(format!(
+                "bytes that are not {} text, as the file's start says it is",
+                enc.name()
+            ));
+        }
+        return Ok(text.into_owned());
+    }
     let bytes = match bytes.strip_prefix(b"\xef\xbb\xbf") {
         Some(rest) => rest.to_vec(),
         None => bytes,
@@ -277,6 +314,13 @@ fn decode(bytes: Vec<u8>) -> Result<String, String> {
                     "the XML declaration names the encoding {l:?}, which this reader does not know"
                 )
             })?;
+            // The declaration was read as single bytes: the file is not in UTF-16, whatever it says.
+            if enc == encoding_rs::UTF_16LE || enc == encoding_rs::UTF_16BE {
+                return Err(format!(
+                    "the XML declaration names the encoding {l:?}, but the file is not UTF-16 (its declaration \
+                     is written in single bytes, and it has no byte-order mark): correct the declaration"
+                ));
+            }
             let (text, _, bad) = enc.decode(&bytes);
             if bad {
                 return Err(format!(
@@ -325,6 +369,8 @@ struct MemberOut {
     srs: Option<String>,
     /// Simple-typed children the attribute rules could not read (complex ADE elements, …), by name.
     not_attributes: Vec<String>,
+    /// What the file's notes should say of this member (a Building read where a BuildingPart belongs, …).
+    notes: Vec<String>,
 }
 
 /// Member text gathered before it is read in parallel: members are read a batch at a time, so a file of any size
@@ -382,6 +428,8 @@ fn read_stream<R: std::io::BufRead>(
     let mut batch_bytes = 0usize;
     let mut members = 0usize;
     let mut outs: Vec<Result<MemberOut, String>> = Vec::new();
+    // Elements under the model that are not members, said in the notes when they hold buildings.
+    let mut outside: Vec<String> = Vec::new();
     let mut flush = |batch: &mut Vec<(usize, String, usize)>, model: &mut Model| {
         let (swap, _) = model
             .axes
@@ -415,6 +463,9 @@ fn read_stream<R: std::io::BufRead>(
             Err(e) => {
                 let at = reader.error_position() as usize;
                 let line = bytes_of(counted, at.max(counted)).map_or(line, |b| line + newlines(&b));
+                if matches!(e, quick_xml::Error::Encoding(_)) {
+                    return Err(not_utf8(line));
+                }
                 return Err(format!("not well-formed XML at line {line}: {e}"));
             }
         };
@@ -459,15 +510,16 @@ fn read_stream<R: std::io::BufRead>(
                 let member_line = line;
                 line += newlines(&chunk[gap..]);
                 counted = end;
-                let text = std::str::from_utf8(&chunk[gap..])
-                    .map_err(|_| format!("not UTF-8 text in the element at line {member_line}"))?;
+                let text = std::str::from_utf8(&chunk[gap..]).map_err(|e| {
+                    not_utf8(member_line + newlines(&chunk[gap..gap + e.valid_up_to()]))
+                })?;
                 let wrapped = format!(
                     "<citylod-member {}>{text}</citylod-member>",
                     model.root_attrs
                 );
                 match name.as_str() {
                     // The model's own envelope names the CRS for every member.
-                    "boundedBy" if members == 0 => {
+                    "boundedBy" if members == 0 && !text.contains("Building") => {
                         if let Ok(doc) = roxmltree::Document::parse(&wrapped) {
                             model.srs = srs_name(&doc);
                             model.first_x = first_coordinate(&doc);
@@ -481,6 +533,43 @@ fn read_stream<R: std::io::BufRead>(
                         if batch_bytes > BATCH_BYTES {
                             flush(&mut batch, &mut model);
                             batch_bytes = 0;
+                        }
+                    }
+                    // A city object straight under the model, where a member belongs: read as a member of its own.
+                    "Building" | "BuildingPart" => {
+                        let wrapped = format!(
+                            "<citylod-member {}><citylod-bare>{text}</citylod-bare></citylod-member>",
+                            model.root_attrs
+                        );
+                        outside.push(format!(
+                            "{} (line {member_line}) stand(s) straight under the CityModel, not in a \
+                             cityObjectMember: read as a member",
+                            buildings_in(&wrapped).join(", ")
+                        ));
+                        batch_bytes += wrapped.len();
+                        batch.push((members, wrapped, member_line));
+                        members += 1;
+                        if batch_bytes > BATCH_BYTES {
+                            flush(&mut batch, &mut model);
+                            batch_bytes = 0;
+                        }
+                    }
+                    // Anything else (an appearance, an ADE's element, a misspelt member): said when it holds
+                    // buildings, which are not read in it.
+                    _ if text.contains("Building") => {
+                        if name == "boundedBy" && members == 0 {
+                            if let Ok(doc) = roxmltree::Document::parse(&wrapped) {
+                                model.srs = srs_name(&doc);
+                                model.first_x = first_coordinate(&doc);
+                            }
+                        }
+                        let held = buildings_in(&wrapped);
+                        if !held.is_empty() {
+                            outside.push(format!(
+                                "<{name}> (line {member_line}) is no member this reader reads (cityObjectMember, \
+                                 featureMember(s), member): the {} in it not read",
+                                held.join(", ")
+                            ));
                         }
                     }
                     _ => {}
@@ -526,8 +615,10 @@ fn read_stream<R: std::io::BufRead>(
     notes.extend(model.axes.and_then(|(_, note)| note));
     let mut member_srs: Vec<(String, usize)> = Vec::new();
     let mut not_attributes: Vec<(String, usize)> = Vec::new();
+    let mut member_notes = outside;
     for out in outs {
         let out = out?;
+        member_notes.extend(out.notes);
         if let Some(s) = out.srs {
             match member_srs.iter_mut().find(|(n, _)| *n == s) {
                 Some((_, c)) => *c += 1,
@@ -562,6 +653,14 @@ fn read_stream<R: std::io::BufRead>(
             ));
         }
     }
+    // Each said once; a file of many says the first few and how many more.
+    const SAID: usize = 20;
+    if member_notes.len() > SAID {
+        let more = member_notes.len() - SAID;
+        member_notes.truncate(SAID);
+        member_notes.push(format!("… and {more} more such notes"));
+    }
+    notes.extend(member_notes);
     if !not_attributes.is_empty() {
         not_attributes.sort();
         notes.push(format!(
@@ -574,6 +673,35 @@ fn read_stream<R: std::io::BufRead>(
         ));
     }
     Ok(GmlDoc { doc, notes })
+}
+
+/// A file read as UTF-8 (the XML declaration names no other encoding) that is not, at the line `line`.
+fn not_utf8(line: usize) -> String {
+    format!(
+        "not UTF-8 text at line {line}, and the XML declaration names no other encoding: declare the encoding the \
+         file is written in (e.g. <?xml version=\"1.0\" encoding=\"ISO-8859-1\"?>) or convert it to UTF-8"
+    )
+}
+
+/// The Buildings and BuildingParts in an element that is not a member (its text wrapped as a member's): each by its
+/// kind and gml:id.
+fn buildings_in(wrapped: &str) -> Vec<String> {
+    let Ok(doc) = roxmltree::Document::parse(wrapped) else {
+        return vec!["Building(s)".to_string()];
+    };
+    doc.descendants()
+        .filter(|d| matches!(d.tag_name().name(), "Building" | "BuildingPart"))
+        .map(|d| match gml_id(d) {
+            Some(id) => format!("{} {id:?}", d.tag_name().name()),
+            None => d.tag_name().name().to_string(),
+        })
+        .enumerate()
+        .filter_map(|(i, b)| match i {
+            0..=9 => Some(b),
+            10 => Some("…".to_string()),
+            _ => None,
+        })
+        .collect()
 }
 
 /// The CityGML version of the model's namespaces (`http://www.opengis.net/citygml/2.0` → `2.0`).
@@ -656,7 +784,7 @@ fn first_coordinate(doc: &roxmltree::Document) -> Option<f64> {
                 "lowerCorner" | "upperCorner" | "pos" | "posList"
             )
         })
-        .find_map(|n| n.text()?.split_ascii_whitespace().next()?.parse().ok())
+        .find_map(|n| text_of(n)?.split_ascii_whitespace().next()?.parse().ok())
 }
 
 /// Whether coordinates in the CRS `name` come latitude first: EPSG defines its geographic CRSs (4326, 4258,
@@ -698,8 +826,7 @@ fn read_member(
     swap: bool,
 ) -> Result<MemberOut, String> {
     let mut out = MemberOut::default();
-    let doc = roxmltree::Document::parse(wrapped)
-        .map_err(|e| format!("the member at line {line} is not well-formed XML: {e}"))?;
+    let doc = roxmltree::Document::parse(wrapped).map_err(|e| member_error(&e, line))?;
     let Some(member) = doc.root_element().first_element_child() else {
         return Ok(out);
     };
@@ -710,6 +837,10 @@ fn read_member(
         .descendants()
         .filter_map(|n| gml_id(n).map(|id| (id, n)))
         .collect();
+    // The points read and references followed at most for each building: 4 for each byte of the member's text (a
+    // point takes a few bytes, and a valid file reads each a few times: inline, and by reference in a solid and a
+    // multi-surface), so that references to elements holding references cannot multiply a few elements into millions.
+    let budget = wrapped.len().saturating_mul(4).saturating_add(4096);
     let city = &mut out.doc;
     for (k, object) in member.children().filter(Node::is_element).enumerate() {
         let kind = object.tag_name().name();
@@ -717,7 +848,7 @@ fn read_member(
             city.non_building_objects += 1;
             continue;
         }
-        let key = gml_id(object).map(str::to_string).unwrap_or_else(|| {
+        let key = named_id(object).map(str::to_string).unwrap_or_else(|| {
             if k == 0 {
                 format!("{file_name}#{index}")
             } else {
@@ -733,6 +864,11 @@ fn read_member(
             objects: Map::new(),
             problems: Vec::new(),
             not_attributes: Vec::new(),
+            unread: std::cell::RefCell::new(Vec::new()),
+            hops: std::cell::Cell::new(0),
+            budget,
+            implicit: Vec::new(),
+            notes: Vec::new(),
         };
         conv.object(object, key, None);
         let Converter {
@@ -740,9 +876,12 @@ fn read_member(
             objects,
             problems,
             not_attributes,
+            implicit,
+            notes,
             ..
         } = conv;
         out.not_attributes.extend(not_attributes);
+        out.notes.extend(notes);
         let no_geometry = objects.values().all(|o| {
             o.get("geometry")
                 .and_then(Value::as_array)
@@ -750,21 +889,65 @@ fn read_member(
         });
         let vertices = match problems.first() {
             Some(p) if no_geometry => Err((IssueReason::MalformedGeometry, p.clone())),
+            None if no_geometry && !implicit.is_empty() => Err((
+                IssueReason::UnsupportedGeometry,
+                format!(
+                    "only implicit geometry ({}: a shared geometry placed by a matrix), which this reader does \
+                     not read",
+                    implicit.join(", ")
+                ),
+            )),
             _ => Ok(vertices),
         };
         let first = city.features.len();
         cityjson::read_objects_with_vertices(&objects, vertices, model_target, city);
         for f in &mut city.features[first..] {
-            if f.skip.is_none() {
-                f.repairs.extend(
+            match &mut f.skip {
+                None => f.repairs.extend(
                     problems
                         .iter()
                         .map(|p| (IssueReason::GeometryNotRead, p.clone())),
-                );
+                ),
+                // Skipped (for no footprint, …, or the first geometry not read): what else was not read, which may
+                // explain it, the first few of it.
+                Some((_, detail)) => {
+                    let rest = &problems[usize::from(no_geometry).min(problems.len())..];
+                    for (i, p) in rest.iter().enumerate() {
+                        if i == 8 {
+                            detail.push_str(&format!("; and {} more", rest.len() - i));
+                            break;
+                        }
+                        detail.push_str(if i == 0 { "; besides, " } else { "; " });
+                        detail.push_str(p);
+                    }
+                }
             }
         }
     }
     Ok(out)
+}
+
+/// Where a member's tree does not parse: the problem and the file's line (roxmltree counts the rows of the member,
+/// its first row behind the element put around it).
+fn member_error(e: &roxmltree::Error, line: usize) -> String {
+    let pos = e.pos();
+    let text = e.to_string();
+    let what = text
+        .strip_suffix(&format!(" at {}:{}", pos.row, pos.col))
+        .unwrap_or(&text);
+    let at = line + pos.row.max(1) as usize - 1;
+    let column = if pos.row > 1 {
+        format!(", column {}", pos.col)
+    } else {
+        String::new()
+    };
+    format!("the member at line {line} is not well-formed XML: {what} (line {at}{column})")
+}
+
+/// The `gml:id` of a city object, when it is not blank (a blank one names nothing: the object is named as one without
+/// an id).
+fn named_id<'a>(n: Node<'a, '_>) -> Option<&'a str> {
+    gml_id(n).filter(|id| !id.trim().is_empty())
 }
 
 /// The `gml:id` of an element.
@@ -845,6 +1028,16 @@ struct Converter<'m, 'a, 'input> {
     /// Geometries not read: what (of which object) and why.
     problems: Vec<String>,
     not_attributes: Vec<String>,
+    /// Elements inside a geometry being read that are not read (an element where the reader reads none), and why:
+    /// the geometry's other elements are read, and these become problems of its object.
+    unread: std::cell::RefCell<Vec<(Node<'a, 'input>, String)>>,
+    /// The points read and `xlink:href`s followed for this building, and how many at most.
+    hops: std::cell::Cell<usize>,
+    budget: usize,
+    /// Implicit geometries (`lod2ImplicitRepresentation`, line), which are not read.
+    implicit: Vec<String>,
+    /// Notes for the file (see [`MemberOut::notes`]).
+    notes: Vec<String>,
 }
 
 impl<'a, 'input> Converter<'_, 'a, 'input> {
@@ -856,11 +1049,11 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
         for c in e.children().filter(Node::is_element) {
             let name = c.tag_name().name();
             if let Some((lod, kind)) = geometry_property(name) {
-                match self.geometry(c) {
-                    Ok(Geom::Solids(solids)) if kind == Kind::Solid => {
+                match self.read_geometry(&key, c) {
+                    Some(Geom::Solids(solids)) if kind == Kind::Solid => {
                         lods[lod].solids.extend(solids)
                     }
-                    Ok(g) => {
+                    Some(g) => {
                         let semantic = match kind {
                             Kind::Footprint => Some("GroundSurface"),
                             Kind::RoofEdge => Some("RoofSurface"),
@@ -870,9 +1063,13 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
                             .surfaces
                             .extend(g.polygons().into_iter().map(|p| (p, semantic)));
                     }
-                    Err(why) => self.problem(&key, c, why),
+                    None => {}
                 }
                 continue;
+            }
+            if is_implicit(name) {
+                self.implicit
+                    .push(format!("{name} (line {})", self.line_of(c)));
             }
             match name {
                 "boundedBy" | "boundary" if !is_gml(c) => {
@@ -881,10 +1078,33 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
                     }
                 }
                 "consistsOfBuildingPart" | "buildingPart" => {
-                    parts.extend(
-                        c.children()
-                            .filter(|p| p.is_element() && p.tag_name().name() == "BuildingPart"),
-                    );
+                    if let Some(h) = href(c) {
+                        self.problem(
+                            &key,
+                            c,
+                            format!("a part by reference (xlink:href {h:?}), which this reader does not follow"),
+                        );
+                    }
+                    for p in c.children().filter(Node::is_element) {
+                        match p.tag_name().name() {
+                            "BuildingPart" => parts.push(p),
+                            // A Building where a part belongs: read as the part it stands for.
+                            "Building" => {
+                                self.notes.push(format!(
+                                    "a Building{} (line {}) in {name} of {key}, where a BuildingPart belongs, was \
+                                     read as a part",
+                                    gml_id(p).map(|i| format!(" {i:?}")).unwrap_or_default(),
+                                    self.line_of(p)
+                                ));
+                                parts.push(p);
+                            }
+                            other => self.problem(
+                                &key,
+                                p,
+                                format!("a {other} in {name}, where a BuildingPart belongs"),
+                            ),
+                        }
+                    }
                 }
                 // The envelope: where the building is, which its geometry says.
                 "boundedBy" => {}
@@ -899,11 +1119,13 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
         let mut object = Map::new();
         object.insert(
             "type".into(),
-            Value::from(if e.tag_name().name() == "BuildingPart" {
-                "BuildingPart"
-            } else {
-                "Building"
-            }),
+            Value::from(
+                if parent.is_some() || e.tag_name().name() == "BuildingPart" {
+                    "BuildingPart"
+                } else {
+                    "Building"
+                },
+            ),
         );
         object.insert("attributes".into(), Value::Object(attributes));
         object.insert("geometry".into(), Value::Array(geometry));
@@ -913,7 +1135,7 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
         let mut children = Vec::new();
         let mut part_keys = Vec::new();
         for (i, p) in parts.iter().enumerate() {
-            let mut k = gml_id(*p)
+            let mut k = named_id(*p)
                 .map(str::to_string)
                 .unwrap_or_else(|| format!("{key}/part{}", i + 1));
             while self.objects.contains_key(&k) || k == key || part_keys.contains(&k) {
@@ -931,8 +1153,13 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
         }
     }
 
+    /// The file's line of an element of the member.
+    fn line_of(&self, at: Node) -> usize {
+        at.document().text_pos_at(at.range().start).row as usize + self.base_line - 1
+    }
+
     fn problem(&mut self, key: &str, at: Node, why: String) {
-        let line = at.document().text_pos_at(at.range().start).row as usize + self.base_line - 1;
+        let line = self.line_of(at);
         self.problems.push(format!(
             "{} (line {line}) of {key} not read: {why}",
             at.tag_name().name()
@@ -942,16 +1169,25 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
     /// A thematic surface (`RoofSurface`, …) and the openings in it: their `lodNMultiSurface`s.
     fn thematic(&mut self, s: Node<'a, 'input>, key: &str, lods: &mut [ByLod; 5], depth: usize) {
         let Some(&kind) = THEMATIC.iter().find(|t| **t == s.tag_name().name()) else {
+            if holds_geometry(s) {
+                self.problem(
+                    key,
+                    s,
+                    format!(
+                        "a boundary surface of a type this reader does not know (it reads {})",
+                        THEMATIC.join(", ")
+                    ),
+                );
+            }
             return;
         };
         for c in s.children().filter(Node::is_element) {
             let name = c.tag_name().name();
             if let Some((lod, _)) = geometry_property(name) {
-                match self.geometry(c) {
-                    Ok(g) => lods[lod]
+                if let Some(g) = self.read_geometry(key, c) {
+                    lods[lod]
                         .thematic
-                        .extend(g.polygons().into_iter().map(|p| (p, kind))),
-                    Err(why) => self.problem(key, c, why),
+                        .extend(g.polygons().into_iter().map(|p| (p, kind)));
                 }
             } else if (name == "opening" || name == "filling") && depth < 4 {
                 for o in c.children().filter(Node::is_element) {
@@ -959,6 +1195,49 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
                 }
             }
         }
+    }
+
+    /// The content of a geometry property element of the object `key`; what of it is not read is listed as its
+    /// problems.
+    fn read_geometry(&mut self, key: &str, property: Node<'a, 'input>) -> Option<Geom> {
+        let g = self.geometry(property);
+        for (at, why) in std::mem::take(self.unread.get_mut()) {
+            self.problem(key, at, why);
+        }
+        g.map_err(|why| self.problem(key, property, why)).ok()
+    }
+
+    /// Notes an element inside a geometry that is not read there (unless it is GML's description of an object,
+    /// holding no coordinates).
+    fn not_read(&self, child: Node<'a, 'input>, within: Node) {
+        let name = child.tag_name().name();
+        let described = matches!(
+            name,
+            "name" | "description" | "descriptionReference" | "identifier" | "metaDataProperty"
+        );
+        if !described || holds_coordinates(child) {
+            self.unread.borrow_mut().push((
+                child,
+                format!(
+                    "a {name} in a {}, where this reader does not read one",
+                    within.tag_name().name()
+                ),
+            ));
+        }
+    }
+
+    /// Counts `work` points read or references followed against the building's budget.
+    fn spend(&self, work: usize) -> Result<(), String> {
+        let spent = self.hops.get().saturating_add(work);
+        self.hops.set(spent);
+        if spent > self.budget {
+            return Err(format!(
+                "the building's geometry, its xlink:hrefs followed, comes to more than {} points and references \
+                 (4 for each byte of its member's text): references to elements holding references multiply",
+                self.budget
+            ));
+        }
+        Ok(())
     }
 
     /// The content of a geometry property element (inline or by `xlink:href`).
@@ -981,7 +1260,7 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
                                 solids.push(self.solid_of(s)?);
                             }
                         }
-                        _ => {}
+                        _ => self.not_read(m, g),
                     }
                 }
                 Ok(Geom::Solids(solids))
@@ -1007,6 +1286,11 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
     /// A Solid's shells: its exterior, then its interiors (cavities).
     fn solid(&self, s: Node<'a, 'input>) -> Result<Vec<Vec<Poly>>, String> {
         let mut shells = Vec::new();
+        for c in s.children().filter(Node::is_element) {
+            if !matches!(c.tag_name().name(), "exterior" | "interior") {
+                self.not_read(c, s);
+            }
+        }
         for side in ["exterior", "interior"] {
             for b in s
                 .children()
@@ -1030,8 +1314,14 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
         let mut n = property;
         for _ in 0..MAX_HOPS {
             let Some(h) = href(n) else {
-                return Ok(n.first_element_child());
+                let first = n.first_element_child();
+                if let Some(second) = first.and_then(|f| f.next_sibling_element()) {
+                    self.not_read(second, n);
+                }
+                return Ok(first);
             };
+            self.spend(1)
+                .map_err(|why| format!("xlink:href {h:?} not followed: {why}"))?;
             let id = h.strip_prefix('#').ok_or_else(|| {
                 format!("xlink:href {h:?} points outside this file's member (only #id references are read)")
             })?;
@@ -1101,7 +1391,9 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
                                 self.surfaces(t, depth + 1, out)?;
                             }
                         }
-                        _ => {}
+                        // A Tin's constraints on its triangulation, which its triangles are.
+                        "stopLines" | "breakLines" | "maxLength" if name == "Tin" => {}
+                        _ => self.not_read(m, g),
                     }
                 }
                 Ok(())
@@ -1111,6 +1403,14 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
     }
 
     fn polygon(&self, p: Node<'a, 'input>) -> Result<Poly, String> {
+        for c in p.children().filter(Node::is_element) {
+            if !matches!(
+                c.tag_name().name(),
+                "exterior" | "interior" | "outerBoundaryIs" | "innerBoundaryIs"
+            ) {
+                self.not_read(c, p);
+            }
+        }
         let mut rings = Vec::new();
         for side in [
             ["exterior", "outerBoundaryIs"],
@@ -1147,6 +1447,11 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
     /// A gml:Ring's points, open: its curve members (LineStrings, or Curves of LineStringSegments, inline or by
     /// reference) joined end to start. Arcs are refused with their name.
     fn curve_ring(&self, r: Node<'a, 'input>) -> Result<Ring, String> {
+        for c in r.children().filter(Node::is_element) {
+            if c.tag_name().name() != "curveMember" {
+                self.not_read(c, r);
+            }
+        }
         let mut pts: Ring = Vec::new();
         let mut add = |piece: Ring| {
             let skip = usize::from(pts.last().is_some() && pts.last() == piece.first());
@@ -1202,10 +1507,16 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
     fn points(&self, r: Node<'a, 'input>) -> Result<Ring, String> {
         let mut pts: Ring = Vec::new();
         for c in r.children().filter(Node::is_element) {
+            // Coordinates are text: an element inside them is not read.
+            if matches!(c.tag_name().name(), "posList" | "pos" | "coordinates") {
+                for x in c.children().filter(Node::is_element) {
+                    self.not_read(x, c);
+                }
+            }
             match c.tag_name().name() {
                 "posList" => {
                     let dim = dimension(c)?;
-                    let nums = numbers(c.text().unwrap_or(""), "posList")?;
+                    let nums = numbers(&text_of(c).unwrap_or_default(), "posList")?;
                     if nums.len() % dim != 0 {
                         return Err(format!(
                             "a posList of {} numbers, not a multiple of its dimension {dim}",
@@ -1231,9 +1542,8 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
                     let cs = c.attribute("cs").unwrap_or(",");
                     let ts = c.attribute("ts").unwrap_or(" ");
                     let decimal = c.attribute("decimal").unwrap_or(".");
-                    for tuple in c
-                        .text()
-                        .unwrap_or("")
+                    let text = text_of(c).unwrap_or_default();
+                    for tuple in text
                         .split(|ch: char| ts.contains(ch) || (ts == " " && ch.is_whitespace()))
                         .filter(|t| !t.is_empty())
                     {
@@ -1251,9 +1561,23 @@ impl<'a, 'input> Converter<'_, 'a, 'input> {
                         }
                     }
                 }
-                _ => {}
+                // GML 2's point: X, Y and Z each an element.
+                "coord" => {
+                    let axis = |a: &str| {
+                        c.children()
+                            .find(|x| x.is_element() && x.tag_name().name() == a)
+                            .map(|x| text_of(x).unwrap_or_default().trim().parse::<f64>())
+                    };
+                    match (axis("X"), axis("Y"), axis("Z")) {
+                        (Some(Ok(x)), Some(Ok(y)), None) => pts.push([x, y, 0.0]),
+                        (Some(Ok(x)), Some(Ok(y)), Some(Ok(z))) => pts.push([x, y, z]),
+                        _ => return Err("a coord whose X, Y (and Z) are not numbers".into()),
+                    }
+                }
+                _ => self.not_read(c, r),
             }
         }
+        self.spend(pts.len())?;
         if pts.iter().flatten().any(|v| !v.is_finite()) {
             return Err("a coordinate that is not a finite number".into());
         }
@@ -1387,6 +1711,29 @@ fn geometry_property(name: &str) -> Option<(usize, Kind)> {
     }
 }
 
+/// A building's implicit geometry property (`lod2ImplicitRepresentation`), which is not read.
+fn is_implicit(name: &str) -> bool {
+    name.strip_prefix("lod")
+        .and_then(|r| r.get(1..))
+        .is_some_and(|r| r == "ImplicitRepresentation")
+}
+
+/// An element holding coordinates or references (a thematic surface with geometry).
+fn holds_geometry(n: Node) -> bool {
+    holds_coordinates(n) || n.descendants().any(|d| d.is_element() && href(d).is_some())
+}
+
+/// An element holding coordinates.
+fn holds_coordinates(n: Node) -> bool {
+    n.descendants().any(|d| {
+        d.is_element()
+            && matches!(
+                d.tag_name().name(),
+                "posList" | "pos" | "coordinates" | "coord"
+            )
+    })
+}
+
 /// GML's own `boundedBy` (an envelope), not a building's thematic surfaces.
 fn is_gml(n: Node) -> bool {
     n.tag_name()
@@ -1416,7 +1763,7 @@ fn numbers(text: &str, what: &str) -> Result<Vec<f64>, String> {
 }
 
 fn point(pos: Node) -> Result<[f64; 3], String> {
-    match numbers(pos.text().unwrap_or(""), "pos")?[..] {
+    match numbers(&text_of(pos).unwrap_or_default(), "pos")?[..] {
         [x, y] => Ok([x, y, 0.0]),
         [x, y, z] => Ok([x, y, z]),
         ref v => Err(format!("a pos of {} numbers", v.len())),
@@ -1431,10 +1778,39 @@ fn metres_per(uom: Option<&str>) -> Option<f64> {
         "" | "m" | "metre" | "meter" | "metres" | "meters" => Some(1.0),
         "ft" | "[ft_i]" | "foot" | "feet" => Some(0.3048),
         "[ft_us]" | "us-ft" | "ftUS" => Some(1200.0 / 3937.0),
+        "km" => Some(1000.0),
+        "dm" => Some(0.1),
         "cm" => Some(0.01),
         "mm" => Some(0.001),
         _ => None,
     }
+}
+
+/// A length's text in metres, converted from its `uom`. A number in a unit not known keeps its text with the unit
+/// after it (`3 furlong`), which the height rules do not take as metres: they name it, and the next rule gives the
+/// height. Text that is not a number stays as it is.
+fn length(t: String, uom: Option<&str>) -> Value {
+    match (t.parse::<f64>(), metres_per(uom)) {
+        (Ok(x), Some(f)) => Value::from(x * f),
+        (Ok(_), None) => Value::from(format!("{t} {}", uom.unwrap_or("").trim())),
+        _ => Value::from(t),
+    }
+}
+
+/// An element's character data: its text pieces joined (a comment or processing instruction between them splits
+/// it, and roxmltree's `Node::text` is the first piece only); `None` without any.
+fn text_of<'a>(n: Node<'a, '_>) -> Option<std::borrow::Cow<'a, str>> {
+    let mut pieces = n.children().filter(Node::is_text).filter_map(|c| c.text());
+    let first = pieces.next()?;
+    Some(match pieces.next() {
+        None => std::borrow::Cow::Borrowed(first),
+        Some(second) => {
+            let mut all = String::from(first);
+            all.push_str(second);
+            all.extend(pieces);
+            std::borrow::Cow::Owned(all)
+        }
+    })
 }
 
 /// Elements holding a count or a year, read as whole numbers.
@@ -1449,7 +1825,13 @@ const WHOLE: &[&str] = &[
 /// references, the address. Elements with structure this reader does not know are named in `skipped`.
 fn attribute(c: Node, out: &mut Map<String, Value>, skipped: &mut Vec<String>) {
     let name = c.tag_name().name();
-    let text = || c.text().map(str::trim).unwrap_or("").to_string();
+    let text = || {
+        text_of(c)
+            .as_deref()
+            .map(str::trim)
+            .unwrap_or("")
+            .to_string()
+    };
     match name {
         "stringAttribute"
         | "intAttribute"
@@ -1500,7 +1882,8 @@ fn attribute(c: Node, out: &mut Map<String, Value>, skipped: &mut Vec<String>) {
                 .descendants()
                 .filter(|d| d.is_element() && !d.children().any(|x| x.is_element()))
             {
-                let t = leaf.text().map(str::trim).unwrap_or("");
+                let t = text_of(leaf);
+                let t = t.as_deref().map(str::trim).unwrap_or("");
                 if !t.is_empty() {
                     put(
                         out,
@@ -1520,22 +1903,17 @@ fn attribute(c: Node, out: &mut Map<String, Value>, skipped: &mut Vec<String>) {
                 .children()
                 .find(|x| x.is_element() && x.tag_name().name() == "value");
             if let Some(v) = value {
-                let m = v
-                    .text()
-                    .and_then(|t| t.trim().parse::<f64>().ok())
-                    .zip(metres_per(v.attribute("uom")))
-                    .map(|(x, f)| x * f);
+                let t = text_of(v)
+                    .as_deref()
+                    .map(str::trim)
+                    .unwrap_or("")
+                    .to_string();
                 let key = if high == "highestPoint" && low == "lowestGroundPoint" {
                     "measuredHeight".to_string()
                 } else {
                     format!("height.{high}.{low}")
                 };
-                put(
-                    out,
-                    key,
-                    m.map(Value::from)
-                        .unwrap_or_else(|| Value::from(v.text().unwrap_or("").trim())),
-                );
+                put(out, key, length(t, v.attribute("uom")));
             }
             return;
         }
@@ -1549,10 +1927,7 @@ fn attribute(c: Node, out: &mut Map<String, Value>, skipped: &mut Vec<String>) {
     }
     let t = text();
     let value = if name == "measuredHeight" {
-        match (t.parse::<f64>(), metres_per(c.attribute("uom"))) {
-            (Ok(x), Some(f)) => Value::from(x * f),
-            _ => Value::from(t),
-        }
+        length(t, c.attribute("uom"))
     } else if WHOLE.contains(&name) {
         t.parse::<i64>()
             .map(Value::from)
@@ -1596,7 +1971,11 @@ fn generic(c: Node, prefix: &str, out: &mut Map<String, Value>) {
     else {
         return;
     };
-    let t = v.text().map(str::trim).unwrap_or("").to_string();
+    let t = text_of(v)
+        .as_deref()
+        .map(str::trim)
+        .unwrap_or("")
+        .to_string();
     let value = match kind.to_ascii_lowercase().as_str() {
         "intattribute" => t
             .parse::<i64>()
@@ -1615,7 +1994,7 @@ fn generic(c: Node, prefix: &str, out: &mut Map<String, Value>) {
 fn child_text(n: Node, name: &str) -> Option<String> {
     n.children()
         .find(|c| c.is_element() && c.tag_name().name() == name)
-        .and_then(|c| c.text())
+        .and_then(text_of)
         .map(|t| t.trim().to_string())
 }
 

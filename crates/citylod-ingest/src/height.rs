@@ -136,10 +136,26 @@ impl Rejected {
                  write the number without it"
                     .to_string()
             }
+            (None, AttrValue::String(t)) if unit_not_known(t).is_some() => format!(
+                "a length in {:?}, a unit not known: not taken as metres",
+                unit_not_known(t).unwrap_or_default()
+            ),
             _ => "not a number".to_string(),
         };
         Rejected::new(name, Some(v), &why)
     }
+}
+
+/// The unit of a text that is a number followed by a unit's name (`3 furlong`, `20 m2`, as the CityGML reader keeps a
+/// `measuredHeight` whose `uom` it does not know): that name.
+fn unit_not_known(t: &str) -> Option<&str> {
+    let t = t.trim();
+    let (number, unit) = t.split_once(char::is_whitespace)?;
+    let unit = unit.trim();
+    (number.parse::<f64>().is_ok()
+        && unit.starts_with(|c: char| c.is_alphabetic() || c == '#' || c == '[')
+        && !unit.contains(char::is_whitespace))
+    .then_some(unit)
 }
 
 pub(crate) fn trim_float(m: f64) -> String {
@@ -694,6 +710,11 @@ mod tests {
                 "height = 5000: 5000 m, not a height between 0.1 and 1000 m",
             ),
             (AttrValue::Bool(true), "height = true: not a number"),
+            // As the CityGML reader keeps a measuredHeight whose uom it does not know.
+            (
+                AttrValue::String("3 furlong".into()),
+                "height = \"3 furlong\": a length in \"furlong\", a unit not known",
+            ),
         ] {
             let h = resolve(&attrs(&[("height", v.clone())]), None, None, &o);
             assert_eq!(h.source, HeightSource::Default, "{v:?}");
