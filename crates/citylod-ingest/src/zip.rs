@@ -191,7 +191,9 @@ impl Archive {
             .map_err(|e| what(format!("cannot be read: {e}")))?;
         let raw = (&mut *file).take(member.compressed);
         let prefix = limit.filter(|&n| n < member.size);
-        let mut out = Vec::with_capacity(prefix.unwrap_or(member.size).min(1 << 30) as usize);
+        // The size is the archive's claim: reserve at most 64 MiB on its word (a damaged header may claim 16 GiB,
+        // and a strict-overcommit system would refuse that up front); reading grows the buffer past it as needed.
+        let mut out = Vec::with_capacity(prefix.unwrap_or(member.size).min(1 << 26) as usize);
         let limit = prefix.unwrap_or(member.size + 1);
         let read = match member.method {
             0 => raw.take(limit).read_to_end(&mut out),
