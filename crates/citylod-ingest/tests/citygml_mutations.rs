@@ -25,14 +25,15 @@
 //! `CITYGML_MUTATIONS_VERBOSE=1` prints every case and what it gave; `CITYGML_MUTATIONS_MESSAGES=1` counts the errors
 //! by their text, to read what they say. A failing run lists its failures by kind, each with its shortest first case.
 
+mod harness;
+
 use citylod_ingest::{ingest, IngestError, IngestOptions, Ingested, LodChoice};
 use citylod_testdata::SplitMix64;
+use harness::{check, guarded, Outcome};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{mpsc, Mutex, Once};
 use std::time::{Duration, Instant};
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -2723,69 +2724,6 @@ struct Tally {
     failures: Vec<(String, String)>,
 }
 
-/// What one ingest must satisfy when it succeeds.
-fn check(out: &Ingested) -> Result<(), String> {
-    let r = &out.report;
-    r.check_invariants()?;
-    if out.buildings.len() != r.buildings_written {
-        return Err(format!(
-            "{} buildings returned, report says {} written",
-            out.buildings.len(),
-            r.buildings_written
-        ));
-    }
-    for f in &r.files {
-        if f.features_read != f.buildings_written + f.skipped {
-            return Err(format!(
-                "{}: {} features read, {} written + {} skipped",
-                f.path, f.features_read, f.buildings_written, f.skipped
-            ));
-        }
-    }
-    for i in r.skipped.iter().chain(&r.repaired).chain(&r.mesh_issues) {
-        if i.feature_id.trim().is_empty() || i.detail.trim().is_empty() || i.file.is_empty() {
-            return Err(format!(
-                "an issue without its feature's id, file or detail: {i:?}"
-            ));
-        }
-    }
-    if let Some(b) = out.buildings.iter().find(|b| b.source_id.trim().is_empty()) {
-        return Err(format!("a building without an id: {:?}", b.source_id));
-    }
-    let f = &out.frame;
-    if !(f.origin_lon_deg.is_finite() && f.origin_lat_deg.is_finite() && f.origin_h_m.is_finite()) {
-        return Err(format!("frame origin not finite: {f:?}"));
-    }
-    for b in &out.buildings {
-        let id = &b.source_id;
-        if !(b.height_m > 0.0 && b.height_m.is_finite() && b.base_z_m.is_finite()) {
-            return Err(format!(
-                "{id}: height {} on base {}",
-                b.height_m, b.base_z_m
-            ));
-        }
-        let finite = |c: &geo_types::Coord| c.x.is_finite() && c.y.is_finite();
-        if b.footprint.0.is_empty()
-            || !b.footprint.0.iter().all(|p| {
-                p.exterior().0.iter().all(finite)
-                    && p.interiors().iter().all(|r| r.0.iter().all(finite))
-            })
-        {
-            return Err(format!("{id}: empty footprint or a coordinate not finite"));
-        }
-        citylod_ingest::check_footprint(&b.footprint)
-            .map_err(|e| format!("{id}: footprint: {e}"))?;
-        if let Some(m) = &b.mesh {
-            m.check_invariants()
-                .map_err(|e| format!("{id}: model: {e}"))?;
-            if !m.mesh.positions.iter().flatten().all(|c| c.is_finite()) {
-                return Err(format!("{id}: model vertex not finite"));
-            }
-        }
-    }
-    Ok(())
-}
-
 /// Every Building that is a member's city object read as a feature (written, or skipped with its id), and every
 /// building or surface the reader does not reach named in the report.
 fn check_accounted(
@@ -3002,74 +2940,6 @@ fn message_kind(e: &IngestError) -> String {
 // ---------------------------------------------------------------------------------------------------------------
 // Running the cases
 
-/// Where the panic hook puts what a panic said, and where (the case thread, or a rayon worker).
-static PANICS: Mutex<Vec<String>> = Mutex::new(Vec::new());
-/// Cases running: while > 0 a panic is recorded rather than printed (the case's report says it).
-static QUIET: AtomicUsize = AtomicUsize::new(0);
-
-fn install_hook() {
-    static ONCE: Once = Once::new();
-    ONCE.call_once(|| {
-        let default = std::panic::take_hook();
-        std::panic::set_hook(Box::new(move |info| {
-            if QUIET.load(Ordering::SeqCst) == 0 {
-                return default(info);
-            }
-            let msg = panic_text(info.payload());
-            let at = info.location().map(|l| l.to_string()).unwrap_or_default();
-            PANICS.lock().unwrap().push(format!("{msg} (at {at})"));
-        }));
-    });
-}
-
-fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
-    payload
-        .downcast_ref::<&str>()
-        .map(|s| s.to_string())
-        .or_else(|| payload.downcast_ref::<String>().cloned())
-        .unwrap_or_default()
-}
-
-/// What one guarded ingest gave.
-enum Outcome {
-    /// What the panic said, and where (in the case's thread or a rayon worker).
-    Panicked(String),
-    Failed(IngestError),
-    Read(Box<Ingested>),
-}
-
-/// Runs `f` on a thread of its own and waits up to [`HANG`] for it: what it gave, or what its panic said; `Err` with
-/// the time waited when it did not answer (a hang). With `quiet`, a panic is only recorded, not printed.
-fn guarded(
-    quiet: bool,
-    f: impl FnOnce() -> Result<Ingested, IngestError> + Send + 'static,
-) -> Result<Outcome, Duration> {
-    install_hook();
-    let (tx, rx) = mpsc::channel();
-    std::thread::spawn(move || {
-        if quiet {
-            QUIET.fetch_add(1, Ordering::SeqCst);
-        }
-        let got = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
-        if quiet {
-            QUIET.fetch_sub(1, Ordering::SeqCst);
-        }
-        let _ = tx.send(got);
-    });
-    let got = rx.recv_timeout(HANG).map_err(|_| HANG)?;
-    Ok(match got {
-        Err(payload) => {
-            let mut said = std::mem::take(&mut *PANICS.lock().unwrap());
-            if said.is_empty() {
-                said.push(panic_text(payload.as_ref()));
-            }
-            Outcome::Panicked(said.join(" | "))
-        }
-        Ok(Err(e)) => Outcome::Failed(e),
-        Ok(Ok(out)) => Outcome::Read(Box::new(out)),
-    })
-}
-
 /// One line saying what a case gave: the error, or the counts and the reasons of skips and model issues.
 fn outcome_line(got: &Outcome) -> String {
     match got {
@@ -3215,7 +3085,7 @@ fn run(input: &Input, cases: u64) -> Tally {
             tally.ingests += 1;
             let started = Instant::now();
             let ps = paths.clone();
-            let got = match guarded(only.is_none(), move || ingest(&ps, &opts)) {
+            let got = match guarded(HANG, only.is_none(), move || ingest(&ps, &opts)) {
                 Ok(got) => got,
                 Err(waited) => {
                     tally.failures.push((
@@ -3476,7 +3346,7 @@ fn the_tree_writes_back_the_text_it_read() {
 
 #[test]
 fn a_panic_or_a_hang_in_a_case_is_caught_and_said() {
-    let got = guarded(true, || {
+    let got = guarded(HANG, true, || {
         use rayon::prelude::*;
         (0..64u32)
             .into_par_iter()
@@ -3490,7 +3360,7 @@ fn a_panic_or_a_hang_in_a_case_is_caught_and_said() {
         ),
         _ => panic!("the panic was not caught"),
     }
-    let got = guarded(true, || ingest(&[], &IngestOptions::default()));
+    let got = guarded(HANG, true, || ingest(&[], &IngestOptions::default()));
     assert!(matches!(got, Ok(Outcome::Read(_))));
 }
 
@@ -3532,7 +3402,7 @@ fn ingest_text(name: &str, text: &[u8], opts: &IngestOptions) -> Result<Ingested
     let p = dir.path().join(name);
     std::fs::write(&p, text).unwrap();
     let opts = opts.clone();
-    match guarded(false, move || ingest(&[p], &opts)) {
+    match guarded(HANG, false, move || ingest(&[p], &opts)) {
         Ok(Outcome::Read(out)) => Ok(*out),
         Ok(Outcome::Failed(e)) => Err(e),
         Ok(Outcome::Panicked(said)) => panic!("{name}: PANIC {said}"),

@@ -8,12 +8,13 @@
 //! input, seed and mutations (rerun one with `JSON_MUTATIONS_ONLY=<input>:<seed>`). Counts of the outcomes make sure
 //! the mutations reach the readers: some cases give buildings, some skips, some errors, some 3D models.
 
-use citylod_ingest::{ingest, IngestError, IngestOptions, Ingested, LodChoice};
+mod harness;
+
+use citylod_ingest::{ingest, IngestError, IngestOptions, LodChoice};
 use citylod_testdata::SplitMix64;
+use harness::{check, guarded, Outcome};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{mpsc, Mutex, Once};
 use std::time::{Duration, Instant};
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -1300,26 +1301,6 @@ fn fnv(s: &str) -> u64 {
 // ---------------------------------------------------------------------------------------------------------------
 // Running the cases
 
-/// Where the panic hook puts what a panic said, and where (the case thread, or a rayon worker).
-static PANICS: Mutex<Vec<String>> = Mutex::new(Vec::new());
-/// Cases running: while > 0 a panic is recorded rather than printed (the case's report says it).
-static QUIET: AtomicUsize = AtomicUsize::new(0);
-
-fn install_hook() {
-    static ONCE: Once = Once::new();
-    ONCE.call_once(|| {
-        let default = std::panic::take_hook();
-        std::panic::set_hook(Box::new(move |info| {
-            if QUIET.load(Ordering::SeqCst) == 0 {
-                return default(info);
-            }
-            let msg = panic_text(info.payload());
-            let at = info.location().map(|l| l.to_string()).unwrap_or_default();
-            PANICS.lock().unwrap().push(format!("{msg} (at {at})"));
-        }));
-    });
-}
-
 /// A case not answered after this is a hang, and one that took a quarter of it a failure too (each input is a few
 /// kB: a case takes milliseconds).
 const HANG: Duration = Duration::from_secs(60);
@@ -1337,59 +1318,6 @@ struct Tally {
     /// The longest a case took, and which.
     slowest: (Duration, String),
     failures: Vec<String>,
-}
-
-/// What one ingest must satisfy when it succeeds.
-fn check(out: &Ingested) -> Result<(), String> {
-    let r = &out.report;
-    r.check_invariants()?;
-    if out.buildings.len() != r.buildings_written {
-        return Err(format!(
-            "{} buildings returned, report says {} written",
-            out.buildings.len(),
-            r.buildings_written
-        ));
-    }
-    for f in &r.files {
-        if f.features_read != f.buildings_written + f.skipped {
-            return Err(format!(
-                "{}: {} features read, {} written + {} skipped",
-                f.path, f.features_read, f.buildings_written, f.skipped
-            ));
-        }
-    }
-    let f = &out.frame;
-    if !(f.origin_lon_deg.is_finite() && f.origin_lat_deg.is_finite() && f.origin_h_m.is_finite()) {
-        return Err(format!("frame origin not finite: {f:?}"));
-    }
-    for b in &out.buildings {
-        let id = &b.source_id;
-        if !(b.height_m > 0.0 && b.height_m.is_finite() && b.base_z_m.is_finite()) {
-            return Err(format!(
-                "{id}: height {} on base {}",
-                b.height_m, b.base_z_m
-            ));
-        }
-        let finite = |c: &geo_types::Coord| c.x.is_finite() && c.y.is_finite();
-        if b.footprint.0.is_empty()
-            || !b.footprint.0.iter().all(|p| {
-                p.exterior().0.iter().all(finite)
-                    && p.interiors().iter().all(|r| r.0.iter().all(finite))
-            })
-        {
-            return Err(format!("{id}: empty footprint or a coordinate not finite"));
-        }
-        citylod_ingest::check_footprint(&b.footprint)
-            .map_err(|e| format!("{id}: footprint: {e}"))?;
-        if let Some(m) = &b.mesh {
-            m.check_invariants()
-                .map_err(|e| format!("{id}: model: {e}"))?;
-            if !m.mesh.positions.iter().flatten().all(|c| c.is_finite()) {
-                return Err(format!("{id}: model vertex not finite"));
-            }
-        }
-    }
-    Ok(())
 }
 
 fn options(input: &Input, rng: &mut SplitMix64) -> Vec<(String, IngestOptions)> {
@@ -1410,46 +1338,6 @@ fn options(input: &Input, rng: &mut SplitMix64) -> Vec<(String, IngestOptions)> 
         plain.height_unit_m = Some(0.3048);
     }
     vec![("no lod".into(), plain), (format!("lod {lod}"), with_lod)]
-}
-
-/// What one guarded ingest gave.
-enum Outcome {
-    /// What the panic said, and where (in the case's thread or a rayon worker).
-    Panicked(String),
-    Failed(IngestError),
-    Read(Box<Ingested>),
-}
-
-/// Runs `f` on a thread of its own and waits up to [`HANG`] for it: what it gave, or what its panic said; `Err` with
-/// the time waited when it did not answer (a hang). With `quiet`, a panic is only recorded, not printed.
-fn guarded(
-    quiet: bool,
-    f: impl FnOnce() -> Result<Ingested, IngestError> + Send + 'static,
-) -> Result<Outcome, Duration> {
-    install_hook();
-    let (tx, rx) = mpsc::channel();
-    std::thread::spawn(move || {
-        if quiet {
-            QUIET.fetch_add(1, Ordering::SeqCst);
-        }
-        let got = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
-        if quiet {
-            QUIET.fetch_sub(1, Ordering::SeqCst);
-        }
-        let _ = tx.send(got);
-    });
-    let got = rx.recv_timeout(HANG).map_err(|_| HANG)?;
-    Ok(match got {
-        Err(payload) => {
-            let mut said = std::mem::take(&mut *PANICS.lock().unwrap());
-            if said.is_empty() {
-                said.push(panic_text(payload.as_ref()));
-            }
-            Outcome::Panicked(said.join(" | "))
-        }
-        Ok(Err(e)) => Outcome::Failed(e),
-        Ok(Ok(out)) => Outcome::Read(Box::new(out)),
-    })
 }
 
 /// One line saying what a case gave: the error, or the counts and the reasons of skips and model issues.
@@ -1483,14 +1371,6 @@ fn outcome_line(got: &Outcome) -> String {
             )
         }
     }
-}
-
-fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
-    payload
-        .downcast_ref::<&str>()
-        .map(|s| s.to_string())
-        .or_else(|| payload.downcast_ref::<String>().cloned())
-        .unwrap_or_default()
 }
 
 /// Runs `cases` mutated cases of `input` (or only the one `JSON_MUTATIONS_ONLY=<name>:<seed>` names).
@@ -1570,7 +1450,7 @@ fn run(input: &Input, cases: u64) -> Tally {
             tally.ingests += 1;
             let started = Instant::now();
             let ps = paths.clone();
-            let got = guarded(only.is_none(), move || ingest(&ps, &opts))
+            let got = guarded(HANG, only.is_none(), move || ingest(&ps, &opts))
                 .unwrap_or_else(|waited| panic!("{case}: no answer after {waited:?} (a hang?)"));
             if started.elapsed() > tally.slowest.0 {
                 tally.slowest = (started.elapsed(), case.clone());
@@ -1830,7 +1710,7 @@ fn the_handmade_inputs_are_what_they_say() {
 #[test]
 fn a_panic_or_a_hang_in_a_case_is_caught_and_said() {
     // A panic on a rayon worker, as one inside `ingest` would be: caught with what it said and where.
-    let got = guarded(true, || {
+    let got = guarded(HANG, true, || {
         use rayon::prelude::*;
         (0..64u32)
             .into_par_iter()
@@ -1844,7 +1724,7 @@ fn a_panic_or_a_hang_in_a_case_is_caught_and_said() {
         ),
         _ => panic!("the panic was not caught"),
     }
-    let got = guarded(true, || ingest(&[], &IngestOptions::default()));
+    let got = guarded(HANG, true, || ingest(&[], &IngestOptions::default()));
     assert!(matches!(got, Ok(Outcome::Read(_))));
 }
 
