@@ -389,6 +389,25 @@ fn read_class(
     let table = Table::open(&source, &stem)
         .map_err(|e| format!("feature class {name:?} ({stem}.gdbtable): {e}"))?;
     let mut notes = Vec::new();
+    // Row indexes whose counts disagree, and what was read of them.
+    notes.extend(
+        catalog
+            .index_note
+            .as_ref()
+            .map(|n| format!("its catalog {CATALOG}: {n}")),
+    );
+    notes.extend(
+        items
+            .index_note
+            .as_ref()
+            .map(|n| format!("its table GDB_Items: {n}")),
+    );
+    notes.extend(
+        table
+            .index_note
+            .as_ref()
+            .map(|n| format!("feature class {name:?} ({stem}.gdbtable): {n}")),
+    );
     let others = holds(&classes);
     notes.push(if others == "none" {
         format!("read feature class {name:?}")
@@ -455,6 +474,8 @@ struct Items {
     field_domains: std::collections::HashMap<String, Vec<(String, String)>>,
     /// Coded value domains by name: (code as text, description).
     domains: std::collections::HashMap<String, Vec<(String, String)>>,
+    /// What was made of GDB_Items's row index, when its counts disagree (see [`offsets`]).
+    index_note: Option<String>,
 }
 
 /// The text of the first child element of `node` named `name`.
@@ -508,6 +529,7 @@ fn items(source: &Source, tables: &[(String, u64)]) -> Items {
     let Ok(table) = Table::open(source, &format!("a{oid:08x}")) else {
         return out;
     };
+    out.index_note = table.index_note.clone();
     let field = |name: &str| {
         table
             .fields
@@ -766,6 +788,8 @@ struct Table {
     bytes: Vec<u8>,
     /// Where each row is, by OBJECTID (deleted rows left out).
     offsets: Vec<(u64, u64)>,
+    /// What was made of a row index whose count of rows and offsets disagree (see [`offsets`]), for the file's notes.
+    index_note: Option<String>,
     fields: Vec<Field>,
     layout: Layout,
     nullable: usize,
@@ -786,11 +810,14 @@ impl Table {
     /// A table from the bytes of its `.gdbtable` and `.gdbtablx`.
     fn parse(bytes: Vec<u8>, tablx: &[u8]) -> Result<Table, String> {
         let (fields, layout) = describe(&bytes)?;
-        let offsets = offsets(tablx, layout.version)?;
+        // The table header's count of live rows (deleted ones not counted), after its version.
+        let live = Cursor::at(&bytes, 4).u32().map_or(0, u64::from);
+        let (offsets, index_note) = offsets(tablx, layout.version, live)?;
         let nullable = fields.iter().filter(|f| f.nullable).count();
         Ok(Table {
             bytes,
             offsets,
+            index_note,
             fields,
             layout,
             nullable,
@@ -1188,10 +1215,15 @@ fn raster_def(c: &mut Cursor) -> Result<(bool, u8), String> {
     Ok((nullable, storage))
 }
 
+/// A row index read: each row's (OBJECTID, offset), and a note when its counts disagree.
+type RowIndex = (Vec<(u64, u64)>, Option<String>);
+
 /// The rows' offsets from a `.gdbtablx`, by OBJECTID: blocks of 1,024 offsets, some left out when a whole block
 /// of OBJECTIDs has no row (then a bitmap after them says which blocks are there). `version` is the table's: 4 has
-/// 64-bit counts.
-fn offsets(x: &[u8], version: u32) -> Result<Vec<(u64, u64)>, String> {
+/// 64-bit counts. `live` is the table header's count of live rows: when the index holds offsets past the rows its own
+/// header counts, it tells whether those are rows (all read, said in the note returned) or not (left, said so); when
+/// it agrees with neither, the index is refused.
+fn offsets(x: &[u8], version: u32, live: u64) -> Result<RowIndex, String> {
     let mut h = Cursor::at(x, 0);
     let short = || "its row index (.gdbtablx) is cut short".to_string();
     if h.u32() != Some(version) {
@@ -1259,13 +1291,13 @@ fn offsets(x: &[u8], version: u32) -> Result<Vec<(u64, u64)>, String> {
             }
         }
     };
+    // Every offset the index holds, in OBJECTID order: those past the rows its header counts too, for telling a
+    // count that is wrong from padding.
     let mut out = Vec::new();
+    let mut within = 0usize;
     for (k, block) in present.into_iter().enumerate() {
         for j in 0..1024u64 {
             let oid = block * 1024 + j + 1;
-            if oid > rows {
-                break;
-            }
             let at = (16 + (k as u64 * 1024 + j) * size) as usize;
             let offset = x[at..at + size as usize]
                 .iter()
@@ -1273,10 +1305,42 @@ fn offsets(x: &[u8], version: u32) -> Result<Vec<(u64, u64)>, String> {
                 .fold(0u64, |v, &byte| (v << 8) | u64::from(byte));
             if offset != 0 {
                 out.push((oid, offset));
+                within += usize::from(oid <= rows);
             }
         }
     }
-    Ok(out)
+    if within == out.len() {
+        return Ok((out, None));
+    }
+    let last = out.last().map_or(0, |&(oid, _)| oid);
+    let held = out.len();
+    // The table's header (its count of live rows) tells which of the index's two counts is right.
+    if within as u64 == live {
+        out.truncate(within);
+        return Ok((
+            out,
+            Some(format!(
+                "its row index (.gdbtablx) holds {} row offset(s) past the {rows} rows its header counts (OBJECTIDs \
+                 up to {last}); not read, as the table's header counts {live} live rows, the {within} read",
+                held - within
+            )),
+        ));
+    }
+    if held as u64 == live {
+        return Ok((
+            out,
+            Some(format!(
+                "its row index (.gdbtablx) counts {rows} rows but holds offsets of {held} (OBJECTIDs up to {last}), \
+                 as many as the table's header counts live rows: all {held} read"
+            )),
+        ));
+    }
+    Err(format!(
+        "its row index (.gdbtablx) counts {rows} rows and holds offsets of {held} (OBJECTIDs up to {last}), {within} \
+         of them within its count, while the table's header counts {live} live rows: the index and its table \
+         disagree, so which rows the table holds cannot be told. The geodatabase is damaged: repair it in ArcGIS \
+         (Recover File Geodatabase) or export the feature class again"
+    ))
 }
 
 /// The blocks a row index's bitmap marks present (bit i of the little-endian bytes: block i), of `bits`; there

@@ -31,6 +31,14 @@ const SQLITE_MAGIC: &[u8; 16] = b"SQLite format 3\0";
 /// Deepest nesting of GeometryCollections read; deeper is a malformed geometry (a hostile file, not a building).
 const MAX_NESTING: usize = 16;
 
+/// One feature table `gpkg_contents` lists (data_type 'features'), with the rows `gpkg_geometry_columns` has for it:
+/// one in a well-formed GeoPackage (the standard gives a feature table one geometry column); none or several make
+/// the table unreadable, said by `choose` when it is the one to read.
+struct Table {
+    name: String,
+    columns: Vec<Layer>,
+}
+
 /// One feature table with a geometry column, as `gpkg_contents` and `gpkg_geometry_columns` list it.
 struct Layer {
     table: String,
@@ -73,14 +81,28 @@ pub(crate) fn read(path: &Path, layer: Option<&str>, want: Want) -> Result<Vecto
             ));
         }
     }
-    let layers = layers(&db).map_err(sql)?;
-    let chosen = choose(&layers, layer, want)?;
-    if layers.len() > 1 {
+    let (tables, orphans) = layers(&db).map_err(sql)?;
+    let chosen = choose(&tables, &orphans, layer, want)?;
+    if tables.len() > 1 {
         notes.push(format!(
             "layer {:?} read, of {} feature tables ({})",
             chosen.table,
-            layers.len(),
-            crate::geojson::listing(&layers.iter().map(|l| l.table.clone()).collect::<Vec<_>>())
+            tables.len(),
+            crate::geojson::listing(&tables.iter().map(|t| t.name.clone()).collect::<Vec<_>>())
+        ));
+    }
+    // Feature tables gpkg_contents lists that cannot be read for want of their geometry column: said, not dropped
+    // without a word (the table read was chosen among those that can).
+    let unregistered: Vec<String> = tables
+        .iter()
+        .filter(|t| t.columns.is_empty())
+        .map(|t| format!("{:?}", t.name))
+        .collect();
+    if !unregistered.is_empty() {
+        notes.push(format!(
+            "feature table(s) {} not read: gpkg_contents lists them with data_type 'features', but \
+             gpkg_geometry_columns has no row naming their geometry column",
+            crate::geojson::listing(&unregistered)
         ));
     }
     let declared_crs = declared_crs(&db, chosen, &mut notes).map_err(sql)?;
@@ -147,21 +169,56 @@ fn quoted(name: &str) -> String {
     format!("\"{}\"", name.replace('"', "\"\""))
 }
 
-fn layers(db: &Connection) -> rusqlite::Result<Vec<Layer>> {
+/// The feature tables `gpkg_contents` lists, in name order, each with its rows of `gpkg_geometry_columns` (matched
+/// by exact name, as SQL compares them), and the names `gpkg_geometry_columns` has that `gpkg_contents` does not
+/// list as feature tables (for saying why a table is missing).
+fn layers(db: &Connection) -> rusqlite::Result<(Vec<Table>, Vec<String>)> {
     let mut st = db.prepare(
-        "SELECT c.table_name, g.column_name, g.geometry_type_name, g.srs_id \
-         FROM gpkg_contents c JOIN gpkg_geometry_columns g ON c.table_name = g.table_name \
-         WHERE lower(c.data_type) = 'features' ORDER BY c.table_name",
+        "SELECT DISTINCT c.table_name, g.column_name, g.geometry_type_name, g.srs_id \
+         FROM gpkg_contents c LEFT JOIN gpkg_geometry_columns g ON c.table_name = g.table_name \
+         WHERE lower(c.data_type) = 'features' AND c.table_name IS NOT NULL \
+         ORDER BY c.table_name, g.column_name",
     )?;
     let rows = st.query_map([], |r| {
-        Ok(Layer {
-            table: r.get(0)?,
-            column: r.get(1)?,
-            geometry_type: r.get::<_, Option<String>>(2)?.unwrap_or_default(),
-            srs_id: r.get::<_, Option<i64>>(3)?.unwrap_or(-1),
-        })
+        Ok((
+            r.get::<_, String>(0)?,
+            r.get::<_, Option<String>>(1)?,
+            r.get::<_, Option<String>>(2)?,
+            r.get::<_, Option<i64>>(3)?,
+        ))
     })?;
-    rows.collect()
+    let mut tables: Vec<Table> = Vec::new();
+    for row in rows {
+        let (table, column, geometry_type, srs_id) = row?;
+        if tables.last().is_none_or(|t| t.name != table) {
+            tables.push(Table {
+                name: table.clone(),
+                columns: Vec::new(),
+            });
+        }
+        let Some(column) = column else { continue };
+        // (A row repeated by gpkg_contents listing the table twice is one row here: SELECT DISTINCT.)
+        tables
+            .last_mut()
+            .expect("pushed above")
+            .columns
+            .push(Layer {
+                table,
+                column,
+                geometry_type: geometry_type.unwrap_or_default(),
+                srs_id: srs_id.unwrap_or(-1),
+            });
+    }
+    let mut st = db.prepare(
+        "SELECT DISTINCT table_name FROM gpkg_geometry_columns WHERE table_name NOT IN \
+         (SELECT table_name FROM gpkg_contents WHERE lower(data_type) = 'features' AND table_name IS NOT NULL) \
+         ORDER BY table_name",
+    )?;
+    let orphans = st
+        .query_map([], |r| r.get::<_, Option<String>>(0))?
+        .filter_map(|r| r.transpose())
+        .collect::<rusqlite::Result<Vec<String>>>()?;
+    Ok((tables, orphans))
 }
 
 /// The geometry type names of `gpkg_geometry_columns` that hold lines.
@@ -174,47 +231,129 @@ const LINE_TYPES: [&str; 5] = [
 ];
 
 /// The layer asked for; else for buildings the only one, for streets the only one of lines (or the only one, when its
-/// type is any geometry); else an error listing what there is.
-fn choose<'a>(layers: &'a [Layer], asked: Option<&str>, want: Want) -> Result<&'a Layer, String> {
-    let list = || {
-        layers
-            .iter()
-            .map(|l| format!("{} ({})", l.table, l.geometry_type))
+/// type is any geometry); else an error listing what there is. A feature table without a row in
+/// `gpkg_geometry_columns` is refused when asked for, and no candidate for streets (`read` notes it); one with several
+/// rows there is refused when it is the one to read: which column is its geometry cannot be told.
+fn choose<'a>(
+    tables: &'a [Table],
+    orphans: &[String],
+    asked: Option<&str>,
+    want: Want,
+) -> Result<&'a Layer, String> {
+    let describe = |t: &Table| match t.columns.as_slice() {
+        [] => format!("{} (no row in gpkg_geometry_columns)", t.name),
+        [one] => format!("{} ({})", t.name, one.geometry_type),
+        many => format!("{} ({} geometry columns)", t.name, many.len()),
+    };
+    let list = |of: &[&Table]| {
+        of.iter()
+            .map(|t| describe(t))
             .collect::<Vec<_>>()
             .join(", ")
     };
-    match (asked, layers) {
-        (_, []) => Err("a GeoPackage without feature tables (gpkg_contents lists none with data_type 'features')".into()),
+    let all: Vec<&Table> = tables.iter().collect();
+    // gpkg_geometry_columns naming tables gpkg_contents does not list as features, said where it explains a miss.
+    let orphaned = || {
+        (!orphans.is_empty()).then(|| {
+            format!(
+                "; gpkg_geometry_columns names {}, which gpkg_contents does not list with data_type 'features'",
+                crate::geojson::listing(&orphans.iter().map(|o| format!("{o:?}")).collect::<Vec<_>>())
+            )
+        })
+    };
+    let fix = "gpkg_contents and gpkg_geometry_columns must name the same feature tables, each with one geometry \
+               column: correct their rows, or write the file again (e.g. with GDAL's ogr2ogr or QGIS)";
+    // The one geometry column of table `t`, or why it has none to read.
+    let one = |t: &'a Table| -> Result<&'a Layer, String> {
+        match t.columns.as_slice() {
+            [one] => Ok(one),
+            [] => Err(format!(
+                "feature table {:?} has no row in gpkg_geometry_columns, which names a feature table's geometry \
+                 column, so it cannot be read{}; {fix}",
+                t.name,
+                orphaned().unwrap_or_default()
+            )),
+            many => Err(format!(
+                "feature table {:?} has {} rows in gpkg_geometry_columns ({}), where a GeoPackage feature table has \
+                 one geometry column: which one holds its geometry cannot be told; {fix}",
+                t.name,
+                many.len(),
+                many.iter()
+                    .map(|l| format!("column {:?} {}", l.column, l.geometry_type))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )),
+        }
+    };
+    if tables.is_empty() {
+        return Err(format!(
+            "a GeoPackage without feature tables (gpkg_contents lists none with data_type 'features'){}",
+            orphaned().unwrap_or_default()
+        ));
+    }
+    let candidates: Vec<&Table> = tables.iter().filter(|t| !t.columns.is_empty()).collect();
+    match (asked, candidates.as_slice()) {
         // SQLite's names are case-insensitive: an exact match first, else the one equal but for case.
-        (Some(name), _) => layers
+        (Some(name), _) => tables
             .iter()
-            .find(|l| l.table == name)
+            .find(|t| t.name == name)
             .or_else(|| {
-                let mut same = layers.iter().filter(|l| l.table.eq_ignore_ascii_case(name));
+                let mut same = tables.iter().filter(|t| t.name.eq_ignore_ascii_case(name));
                 same.next().filter(|_| same.next().is_none())
             })
-            .ok_or_else(|| format!("no feature table {name:?} (its feature tables: {})", list())),
-        (None, [one]) if want == Want::Footprints => Ok(one),
-        (None, _) if want == Want::Footprints => Err(format!(
-            "it holds {} feature tables; name the one to read with --layer (feature tables: {})",
-            layers.len(),
-            list()
-        )),
+            .ok_or_else(|| {
+                let orphan = orphans.iter().any(|o| o.eq_ignore_ascii_case(name));
+                if orphan {
+                    format!(
+                        "no feature table {name:?} in gpkg_contents (gpkg_geometry_columns names it, but \
+                         gpkg_contents does not list it with data_type 'features'; its feature tables: {}); {fix}",
+                        list(&all)
+                    )
+                } else {
+                    format!("no feature table {name:?} (its feature tables: {})", list(&all))
+                }
+            })
+            .and_then(one),
+        // None to choose from: why the tables listed cannot be read.
+        (None, []) => match tables {
+            [t] => one(t),
+            _ => Err(format!(
+                "none of its {} feature tables has a row in gpkg_geometry_columns, which names a feature table's \
+                 geometry column, so none can be read (feature tables: {}){}; {fix}",
+                tables.len(),
+                list(&all),
+                orphaned().unwrap_or_default()
+            )),
+        },
+        // Buildings: the only feature table. One that cannot be read still counts, so that another is not read in
+        // its place (a table of roads as footprints) but named with --layer.
+        (None, _) if want == Want::Footprints => match tables {
+            [t] => one(t),
+            _ => Err(format!(
+                "it holds {} feature tables; name the one to read with --layer (feature tables: {})",
+                tables.len(),
+                list(&all)
+            )),
+        },
         (None, _) => {
             // Streets: the only table of lines; else the only table of any geometry type (which may hold lines).
-            let is = |l: &Layer, types: &[&str]| types.iter().any(|t| l.geometry_type.eq_ignore_ascii_case(t));
-            let lines: Vec<&Layer> = layers.iter().filter(|l| is(l, &LINE_TYPES)).collect();
-            match (lines.as_slice(), layers) {
-                ([one], _) => Ok(one),
-                ([], [one]) if is(one, &["GEOMETRY", "GEOMETRYCOLLECTION"]) => Ok(one),
+            let is = |t: &Table, types: &[&str]| {
+                t.columns
+                    .iter()
+                    .any(|l| types.iter().any(|ty| l.geometry_type.eq_ignore_ascii_case(ty)))
+            };
+            let lines: Vec<&Table> = candidates.iter().copied().filter(|t| is(t, &LINE_TYPES)).collect();
+            match (lines.as_slice(), candidates.as_slice()) {
+                ([t], _) => one(t),
+                ([], [t]) if is(t, &["GEOMETRY", "GEOMETRYCOLLECTION"]) => one(t),
                 ([], _) => Err(format!(
                     "it holds no table of lines, which street lines are (feature tables: {})",
-                    list()
+                    list(&candidates)
                 )),
                 (many, _) => Err(format!(
                     "it holds {} tables of lines; name the one to read with --streets-layer (feature tables: {})",
                     many.len(),
-                    list()
+                    list(&candidates)
                 )),
             }
         }

@@ -463,6 +463,15 @@ pub(crate) fn mesh(
         }
     };
     match built {
+        // A model with no height (every vertex within FLAT_M, as a building flattened onto one z) would draw the
+        // building flat at full detail: its prism stands for it, said.
+        Ok((model3d, _)) if flat(&model3d) => out.issues.push((
+            IssueReason::ModelInvalid,
+            format!(
+                "a flat 3D model (its vertices within {} m in height): drawn as its prism",
+                crate::surface_model::FLAT_M
+            ),
+        )),
         Ok((model3d, notes)) => {
             out.model = Some(model3d);
             out.fell_back = model.fell_back;
@@ -471,6 +480,19 @@ pub(crate) fn mesh(
         Err(issue) => out.issues.push(issue),
     }
     out
+}
+
+/// Whether a model's vertices all lie within [`crate::surface_model::FLAT_M`] of one height.
+fn flat(m: &BuildingModel) -> bool {
+    let (lo, hi) = m
+        .mesh
+        .positions
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| {
+            (l.min(p[2]), h.max(p[2]))
+        });
+    let span = hi - lo;
+    span.is_nan() || span < crate::surface_model::FLAT_M
 }
 
 /// Drops consecutive repeated vertices and a closing repeat of the first.
@@ -657,7 +679,8 @@ mod tests {
 
     #[test]
     fn multisurface_hole_is_left_open_and_its_area_kept() {
-        // A 10 m × 10 m roof at z = 3 with a 2 m × 2 m hole (ring CW), LoD 2 as a number.
+        // A 10 m × 10 m roof from z = 3 to 4 m (a flat one alone would be no model) with a 2 m × 2 m hole (ring
+        // CW), LoD 2 as a number.
         let v: Vec<[i64; 3]> = [
             [0, 0],
             [10, 0],
@@ -669,7 +692,7 @@ mod tests {
             [6, 4],
         ]
         .iter()
-        .map(|p| [p[0] * 1000, p[1] * 1000, 3000])
+        .map(|p| [p[0] * 1000, p[1] * 1000, 3000 + p[0] * 100])
         .collect();
         let g = json!({"type": "MultiSurface", "lod": 2,
             "boundaries": [[[0, 1, 2, 3], [4, 5, 6, 7]]],
@@ -699,6 +722,29 @@ mod tests {
         assert!((area - 96.0).abs() < 0.05, "{area}");
         assert_eq!(m.lod, "2");
         assert_eq!(count(m, SurfaceKind::Roof), m.surfaces.len());
+    }
+
+    #[test]
+    fn a_flat_model_is_no_model_and_said() {
+        // A building whose only LoD 2 geometry is one horizontal roof (every vertex at z = 3 m, as a building
+        // flattened onto one height): drawn as its prism, with the reason.
+        let v: Vec<[i64; 3]> = [[0, 0], [10, 0], [10, 10], [0, 10]]
+            .iter()
+            .map(|p| [p[0] * 1000, p[1] * 1000, 3000])
+            .collect();
+        let g = json!({"type": "MultiSurface", "lod": 2, "boundaries": [[[0, 1, 2, 3]]]});
+        let out = run(
+            &doc(
+                "2.0",
+                json!({"B": {"type": "Building", "geometry": [g]}}),
+                &v,
+            ),
+            Some("2"),
+        );
+        assert!(out.buildings[0].mesh.is_none());
+        let issue = &out.report.mesh_issues[0];
+        assert_eq!(issue.reason, IssueReason::ModelInvalid);
+        assert!(issue.detail.contains("a flat 3D model"), "{}", issue.detail);
     }
 
     #[test]

@@ -54,6 +54,14 @@ pub(crate) fn gather(bytes: &[u8], want: Want) -> Result<Gathered, String> {
         g.notes
             .push("node locations read from the ways (LocationsOnWays)".into());
     }
+    if !file.skipped.is_empty() {
+        g.notes.push(format!(
+            "{} blob(s) of a type this reader does not know skipped (only OSMHeader and OSMData are read; the PBF \
+             format lets readers skip others), so any objects in them are not read: {}",
+            file.skipped.len(),
+            crate::geojson::listing(&file.skipped)
+        ));
+    }
     Ok(g)
 }
 
@@ -61,6 +69,9 @@ struct File<'a> {
     /// The data blobs, in file order.
     blobs: Vec<Blob<'a>>,
     locations_on_ways: bool,
+    /// The blobs of a type this reader does not know, skipped (as the format allows), for the file's notes: each
+    /// as "blob N (at byte B) of type T".
+    skipped: Vec<String>,
 }
 
 /// A data blob: where it is (its number among all blobs and its byte offset, for messages) and its data.
@@ -80,6 +91,7 @@ impl<'a> File<'a> {
         let mut pos = 0usize;
         let mut blobs = Vec::new();
         let mut header = None;
+        let mut skipped = Vec::new();
         let mut index = 0usize;
         let not_pbf = || {
             "not an OpenStreetMap PBF file (it does not start with an OSMHeader blob)".to_string()
@@ -149,8 +161,16 @@ impl<'a> File<'a> {
                 }
                 _ if index == 0 => return Err(not_pbf()),
                 b"OSMData" => blobs.push(blob),
-                // Other blob types are allowed by the format and skipped by readers.
-                _ => {}
+                // Other blob types are allowed by the format and skipped by readers; said in the notes.
+                _ => {
+                    // The type as text, its first 40 characters (a header may be 64 KiB).
+                    let text = String::from_utf8_lossy(kind);
+                    let mut name: String = text.chars().take(40).collect();
+                    if text.chars().nth(40).is_some() {
+                        name.push('…');
+                    }
+                    skipped.push(format!("blob {index} (at byte {at}) of type {name:?}"));
+                }
             }
             index += 1;
         }
@@ -160,6 +180,7 @@ impl<'a> File<'a> {
         Ok(File {
             blobs,
             locations_on_ways,
+            skipped,
         })
     }
 

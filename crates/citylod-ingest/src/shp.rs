@@ -209,12 +209,31 @@ fn shapes(b: &[u8]) -> Result<(Vec<ShapeResult>, Option<String>), String> {
                 at += 8 + len;
             }
             _ if at < declared => {
-                return Err(format!(
-                    "is cut short: record {n} starts {} bytes before the end of the file and does not fit in them \
-                     (its header gives the file {declared} bytes, it has {})",
-                    b.len() - at,
-                    b.len()
-                ))
+                // A record header whose content length no record can have (negative, or ending past both the file
+                // and the length its header gives it) is a damaged record, not a file cut short.
+                let words = be_i32(b, at + 4).filter(|_| at + 8 <= b.len());
+                let room = b.len().saturating_sub(at + 8);
+                return Err(match words {
+                    Some(w) if w < 0 => format!(
+                        "is damaged: its record {n} (at byte {at}) gives its content length as {w} 16-bit words, \
+                         a negative length no record can have, so its records from {n} on cannot be found; write \
+                         the shapefile again from its source"
+                    ),
+                    Some(w) if at as u64 + 8 + 2 * w as u64 > declared.max(b.len()) as u64 => format!(
+                        "is damaged: its record {n} (at byte {at}) gives its content length as {w} 16-bit words \
+                         ({} bytes), more than the {room} bytes after it (its header gives the file {declared} \
+                         bytes, it has {}): an impossible length, so its records from {n} on cannot be found; write \
+                         the shapefile again from its source",
+                        2 * w as u64,
+                        b.len()
+                    ),
+                    _ => format!(
+                        "is cut short: record {n} starts {} bytes before the end of the file and does not fit in \
+                         them (its header gives the file {declared} bytes, it has {})",
+                        b.len() - at,
+                        b.len()
+                    ),
+                });
             }
             _ => break,
         }

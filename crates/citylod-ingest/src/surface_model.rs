@@ -34,7 +34,7 @@ struct Standing {
 /// Faces whose normal's z share is under this are walls in a model's surface kinds (steeper than ~84°).
 const WALL: f64 = 0.1;
 /// A model whose highest vertex is less than this above its lowest is flat: it gives no heights and no model.
-const FLAT_M: f64 = 0.1;
+pub(crate) const FLAT_M: f64 = 0.1;
 
 /// Gives each feature holding a 3D surface model its footprint and heights (see [`standing`]), and with `want_model` the
 /// faces as its model, counted in the report's `mesh_lods` under `label` (the format's models have no LoD of
@@ -55,11 +55,33 @@ pub(crate) fn stand(
     let z_to_m = vertical_unit_m.unwrap_or(xy_to_m);
     for (i, name, mut faces) in surfaces {
         if z_to_m != 1.0 {
+            let finite =
+                |faces: &[Face]| faces.iter().flatten().flatten().all(|v| v[2].is_finite());
+            let was_finite = finite(&faces);
             faces
                 .iter_mut()
                 .flatten()
                 .flatten()
                 .for_each(|v| v[2] *= z_to_m);
+            // Heights the unit makes infinite (a unit out of reach, e.g. a .prj's VERTCS of 1e308 m): the model has
+            // no height to read, and what is left of it (its faces at z 0) would be a flat model; skipped, said.
+            if was_finite && !finite(&faces) {
+                features[i].skip = Some((
+                    IssueReason::NonFiniteCoordinate,
+                    format!(
+                        "{name}: heights out of reach: its z values in units of {unit} m (its vertical CRS's \
+                         unit, else its CRS's linear unit) are not finite numbers in metres; check the unit the \
+                         file's CRS gives (its .prj's VERTCS)",
+                        // A unit out of reach is written short (1e308, not 309 digits).
+                        unit = if (1e-6..1e9).contains(&z_to_m.abs()) {
+                            z_to_m.to_string()
+                        } else {
+                            format!("{z_to_m:e}")
+                        }
+                    ),
+                ));
+                continue;
+            }
         }
         let out = &mut features[i];
         let slopes: Vec<f64> = faces

@@ -28,6 +28,12 @@ fn install_hook() {
     });
 }
 
+/// Panics recorded since the last call that no case's outcome took: panics a reader caught itself (the GeoParquet
+/// reader guards the parquet crate so), which print nothing but are said here.
+pub fn take_caught_panics() -> Vec<String> {
+    std::mem::take(&mut *PANICS.lock().unwrap())
+}
+
 /// The text a panic's payload carries (empty for a payload of another type).
 pub fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
     payload
@@ -81,7 +87,7 @@ pub fn guarded(
 /// What one ingest must satisfy when it succeeds: the report's invariants, as many buildings as it says written,
 /// features read = written + skipped per file, every issue and building with an id, a finite frame, positive
 /// finite heights on finite bases, valid non-empty footprints, and models that pass their own invariants with
-/// finite vertices.
+/// finite vertices and are not flat.
 pub fn check(out: &Ingested) -> Result<(), String> {
     let r = &out.report;
     r.check_invariants()?;
@@ -138,6 +144,20 @@ pub fn check(out: &Ingested) -> Result<(), String> {
                 .map_err(|e| format!("{id}: model: {e}"))?;
             if !m.mesh.positions.iter().flatten().all(|c| c.is_finite()) {
                 return Err(format!("{id}: model vertex not finite"));
+            }
+            // The readers refuse a flat 3D model (its footprint then stands for it): none is written.
+            let (lo, hi) = m
+                .mesh
+                .positions
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| {
+                    (l.min(p[2]), h.max(p[2]))
+                });
+            if hi - lo < 0.1 {
+                return Err(format!(
+                    "{id}: a flat model written (z {lo}..{hi}, {} vertices)",
+                    m.mesh.positions.len()
+                ));
             }
         }
     }
