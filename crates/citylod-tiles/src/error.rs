@@ -29,6 +29,9 @@ pub enum TilesError {
     },
     #[error("tile {tile}: {msg}")]
     Tile { tile: String, msg: String },
+    /// A file that is unusable as a whole (not a regular file, too large, a top-level value out of range).
+    #[error("{path}: {msg}")]
+    File { path: PathBuf, msg: String },
 }
 
 impl TilesError {

@@ -11,8 +11,10 @@ use crate::tileset_json as tj;
 use serde::Deserialize;
 
 /// Most tiles an implicit tree may expand to: far beyond what a checker can draw, and a bound on memory
-/// whatever availability a file claims (a constant 1 over 20 levels would be 4^20 tiles).
-pub const MAX_IMPLICIT_TILES: usize = 2_000_000;
+/// whatever availability a file claims (a constant 1 over 20 levels would be 4^20 tiles). The tree read holds
+/// about 1.2 kB a tile, so a file of a few hundred bytes claiming this many takes ~0.6 GB (under the former bound
+/// of 2,000,000, 11 levels of a quadtree, 1.4 million tiles, took 1.6 GB).
+pub const MAX_IMPLICIT_TILES: usize = 500_000;
 
 /// Deepest level an implicit tree may claim: tile coordinates stay exact, and no real tree comes close.
 pub const MAX_IMPLICIT_LEVELS: u32 = 40;

@@ -171,8 +171,8 @@ const MAX_FILE_BYTES: u64 = u32::MAX as u64;
 fn read_file(path: &Path) -> Result<Vec<u8>, TilesError> {
     let meta = std::fs::metadata(path).map_err(TilesError::io(path))?;
     if !meta.is_file() || meta.len() > MAX_FILE_BYTES {
-        return Err(TilesError::Tile {
-            tile: path.display().to_string(),
+        return Err(TilesError::File {
+            path: path.to_path_buf(),
             msg: if meta.is_file() {
                 format!(
                     "{} bytes: larger than any glb or tileset.json can be",
@@ -184,6 +184,21 @@ fn read_file(path: &Path) -> Result<Vec<u8>, TilesError> {
         });
     }
     std::fs::read(path).map_err(TilesError::io(path))
+}
+
+/// An error of a tile's content file told with the tile that names it (a third-party tileset's file names need not
+/// follow its tree, and one file may hang under several tiles); errors that already name a tile stay as they are.
+fn named_by_tile(e: TilesError, fail: &dyn Fn(String) -> TilesError) -> TilesError {
+    if matches!(e, TilesError::Tile { .. } | TilesError::Feature { .. }) {
+        return e;
+    }
+    let mut msg = e.to_string();
+    let mut source = std::error::Error::source(&e);
+    while let Some(s) = source {
+        msg.push_str(&format!(": {s}"));
+        source = s.source();
+    }
+    fail(format!("its content {msg}"))
 }
 
 /// Parses a `tileset.json` whose root is tile `root_path` of the whole tree.
@@ -199,9 +214,9 @@ fn load_json(path: &Path, root_path: &str) -> Result<tj::Tileset, TilesError> {
             }
         }
     })?;
-    check_error(ts.geometric_error).map_err(|msg| TilesError::Tile {
-        tile: path.display().to_string(),
-        msg,
+    check_error(ts.geometric_error).map_err(|msg| TilesError::File {
+        path: path.to_path_buf(),
+        msg: format!("the tileset's own geometricError (beside its root tile's): {msg}"),
     })?;
     Ok(ts)
 }
@@ -580,7 +595,7 @@ fn walk(
                 )));
             }
             let ext_path = format!("{path}/ext");
-            let ts = load_json(ext, &ext_path)?;
+            let ts = load_json(ext, &ext_path).map_err(|e| named_by_tile(e, &fail))?;
             let place = Place {
                 json: ext,
                 path: ext_path,
@@ -594,7 +609,10 @@ fn walk(
     if children.is_empty() && !files.is_empty() {
         let mut glb = GlbData::default();
         for file in &files {
-            glb.append(content_at_depth(&read_file(file)?, file, 0, w.z_up)?);
+            let bytes = read_file(file).map_err(|e| named_by_tile(e, &fail))?;
+            glb.append(
+                content_at_depth(&bytes, file, 0, w.z_up).map_err(|e| named_by_tile(e, &fail))?,
+            );
         }
         for p in &mut glb.positions_local {
             *p = apply(&to_root, *p);
@@ -1041,16 +1059,20 @@ impl Decoder<'_> {
                                     .into(),
                             );
                         }
-                        let offset = set
-                            .property_table
-                            .map(|t| {
-                                table_offsets
-                                    .get(t)
+                        // Where the table's rows start among the features, and how many it has: an id past them
+                        // (a featureCount over the table's count) names no row.
+                        let (offset, rows) = match set.property_table {
+                            Some(t) => {
+                                let start =
+                                    *table_offsets.get(t).ok_or("property table out of range")?;
+                                let end = table_offsets
+                                    .get(t + 1)
                                     .copied()
-                                    .ok_or("property table out of range")
-                            })
-                            .transpose()?
-                            .unwrap_or(0);
+                                    .unwrap_or(out.features.len() as u32);
+                                (start, end.saturating_sub(start) as usize)
+                            }
+                            None => (0, usize::MAX),
+                        };
                         // Without an attribute (or texture) the ids are implicit: each vertex's index.
                         let raw: Vec<f64> = match set.attribute {
                             Some(attr) => get(*prim
@@ -1063,11 +1085,11 @@ impl Decoder<'_> {
                             .map(|&f| {
                                 let id = f as u32;
                                 if Some(id) == set.null_feature_id
-                                    || id as usize >= set.feature_count
+                                    || id as usize >= set.feature_count.min(rows)
                                 {
                                     u32::MAX
                                 } else {
-                                    id + offset
+                                    id.saturating_add(offset)
                                 }
                             })
                             .collect()
@@ -1157,7 +1179,7 @@ impl Decoder<'_> {
         if let Some(mo) = bv.extensions.as_ref().and_then(|e| e.meshopt.as_ref()) {
             let src = self.buffer(mo.buffer)?;
             let data = src
-                .get(mo.byte_offset..mo.byte_offset + mo.byte_length)
+                .get(mo.byte_offset..mo.byte_offset.saturating_add(mo.byte_length))
                 .ok_or("compressed view out of range")?;
 
             if mo.count.checked_mul(mo.byte_stride) != Some(bv.byte_length)
@@ -1178,7 +1200,7 @@ impl Decoder<'_> {
             return Ok(bytes);
         }
         let src = self.buffer(bv.buffer)?;
-        src.get(bv.byte_offset..bv.byte_offset + bv.byte_length)
+        src.get(bv.byte_offset..bv.byte_offset.saturating_add(bv.byte_length))
             .map(<[u8]>::to_vec)
             .ok_or_else(|| format!("buffer view {i} out of range"))
     }
