@@ -28,6 +28,7 @@
 mod harness;
 
 use citylod_ingest::{ingest, IngestError, IngestOptions, LodChoice};
+use citylod_testdata::fgdb::{varint as put_varint, varuint as put_varuint};
 use citylod_testdata::SplitMix64;
 use harness::{check, guarded, take_caught_panics, Outcome};
 use serde_json::{json, Value};
@@ -1026,32 +1027,6 @@ fn gdb_fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("tests/fgdb")
         .join(name)
-}
-
-/// The format's variable-length unsigned integer (7 bits a byte, low first).
-fn put_varuint(out: &mut Vec<u8>, mut v: u64) {
-    loop {
-        let b = (v & 0x7f) as u8;
-        v >>= 7;
-        if v == 0 {
-            out.push(b);
-            return;
-        }
-        out.push(b | 0x80);
-    }
-}
-
-/// Its signed one: 6 bits and the sign in the first byte.
-fn put_varint(out: &mut Vec<u8>, v: i64) {
-    let (sign, mut m) = (if v < 0 { 0x40 } else { 0 }, v.unsigned_abs());
-    let first = (m & 0x3f) as u8 | sign;
-    m >>= 6;
-    if m == 0 {
-        out.push(first);
-        return;
-    }
-    out.push(first | 0x80);
-    put_varuint(out, m);
 }
 
 fn get_varuint(b: &[u8], at: &mut usize) -> Option<u64> {

@@ -38,7 +38,8 @@ impl Default for GdbOptions {
     }
 }
 
-fn varuint(out: &mut Vec<u8>, mut v: u64) {
+/// The format's variable-length unsigned integer (7 bits a byte, low first).
+pub fn varuint(out: &mut Vec<u8>, mut v: u64) {
     loop {
         let b = (v & 0x7f) as u8;
         v >>= 7;
@@ -50,7 +51,8 @@ fn varuint(out: &mut Vec<u8>, mut v: u64) {
     }
 }
 
-fn varint(out: &mut Vec<u8>, v: i64) {
+/// Its signed one: 6 bits and the sign in the first byte, then as [`varuint`].
+pub fn varint(out: &mut Vec<u8>, v: i64) {
     let (sign, mut m) = (if v < 0 { 0x40 } else { 0 }, v.unsigned_abs());
     let first = (m & 0x3f) as u8 | sign;
     m >>= 6;
