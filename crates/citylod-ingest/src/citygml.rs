@@ -517,24 +517,16 @@ fn read_stream<R: std::io::BufRead>(
                     "<citylod-member {}>{text}</citylod-member>",
                     model.root_attrs
                 );
-                match name.as_str() {
-                    // The model's own envelope names the CRS for every member.
-                    "boundedBy" if members == 0 && !text.contains("Building") => {
-                        if let Ok(doc) = roxmltree::Document::parse(&wrapped) {
-                            model.srs = srs_name(&doc);
-                            model.first_x = first_coordinate(&doc);
-                        }
+                // The model's own envelope names the CRS for every member.
+                if name == "boundedBy" && members == 0 {
+                    if let Ok(doc) = roxmltree::Document::parse(&wrapped) {
+                        model.srs = srs_name(&doc);
+                        model.first_x = first_coordinate(&doc);
                     }
+                }
+                let member = match name.as_str() {
                     // `member` and `featureMember(s)`: a WFS answer's.
-                    "cityObjectMember" | "featureMember" | "featureMembers" | "member" => {
-                        batch_bytes += wrapped.len();
-                        batch.push((members, wrapped, member_line));
-                        members += 1;
-                        if batch_bytes > BATCH_BYTES {
-                            flush(&mut batch, &mut model);
-                            batch_bytes = 0;
-                        }
-                    }
+                    "cityObjectMember" | "featureMember" | "featureMembers" | "member" => Some(wrapped),
                     // A city object straight under the model, where a member belongs: read as a member of its own.
                     "Building" | "BuildingPart" => {
                         let wrapped = format!(
@@ -546,23 +538,11 @@ fn read_stream<R: std::io::BufRead>(
                              cityObjectMember: read as a member",
                             buildings_in(&wrapped).join(", ")
                         ));
-                        batch_bytes += wrapped.len();
-                        batch.push((members, wrapped, member_line));
-                        members += 1;
-                        if batch_bytes > BATCH_BYTES {
-                            flush(&mut batch, &mut model);
-                            batch_bytes = 0;
-                        }
+                        Some(wrapped)
                     }
-                    // Anything else (an appearance, an ADE's element, a misspelt member): said when it holds
-                    // buildings, which are not read in it.
+                    // Anything else (the envelope, an appearance, an ADE's element, a misspelt member): said when
+                    // it holds buildings, which are not read in it.
                     _ if text.contains("Building") => {
-                        if name == "boundedBy" && members == 0 {
-                            if let Ok(doc) = roxmltree::Document::parse(&wrapped) {
-                                model.srs = srs_name(&doc);
-                                model.first_x = first_coordinate(&doc);
-                            }
-                        }
                         let held = buildings_in(&wrapped);
                         if !held.is_empty() {
                             outside.push(format!(
@@ -571,8 +551,18 @@ fn read_stream<R: std::io::BufRead>(
                                 held.join(", ")
                             ));
                         }
+                        None
                     }
-                    _ => {}
+                    _ => None,
+                };
+                if let Some(wrapped) = member {
+                    batch_bytes += wrapped.len();
+                    batch.push((members, wrapped, member_line));
+                    members += 1;
+                    if batch_bytes > BATCH_BYTES {
+                        flush(&mut batch, &mut model);
+                        batch_bytes = 0;
+                    }
                 }
             }
             Event::Empty(e) if depth == 0 => {

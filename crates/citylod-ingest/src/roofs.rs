@@ -113,35 +113,29 @@ pub(crate) fn roof_model(
             // roof:angle over a wide outline) was lowered to leave the walls their least height: said, with what
             // it became. One exactly as high is a roof-only part (OSM's building:part from the eaves up, min_height
             // at the eaves), as mapped: not said.
-            let lowered_to = || crate::height::trim_float((built.rise_m * 100.0).round() / 100.0);
-            match spec.rise {
+            let cm = |m: f64| crate::height::trim_float((m * 100.0).round() / 100.0);
+            let asked = match spec.rise {
                 RoofRise::Metres(m) if m > height_m + ROOF_OVER_M => {
-                    meshed.issues.push((
-                        IssueReason::RoofTagAdjusted,
-                        format!(
-                            "a roof of {} m on a building {} m high: lowered to {} m, over walls of {} m",
-                            crate::height::trim_float(m),
-                            crate::height::trim_float(height_m),
-                            lowered_to(),
-                            MIN_WALL_M
-                        ),
-                    ));
+                    Some(format!("a roof of {} m", crate::height::trim_float(m)))
                 }
                 RoofRise::AngleDeg(a) if built.asked_rise_m > built.rise_m + ROOF_OVER_M => {
-                    meshed.issues.push((
-                        IssueReason::RoofTagAdjusted,
-                        format!(
-                            "roof:angle = {}° asks a roof of {} m over this outline, on a building {} m high: \
-                             lowered to {} m, over walls of {} m",
-                            crate::height::trim_float(a),
-                            crate::height::trim_float((built.asked_rise_m * 100.0).round() / 100.0),
-                            crate::height::trim_float(height_m),
-                            lowered_to(),
-                            MIN_WALL_M
-                        ),
-                    ));
+                    Some(format!(
+                        "roof:angle = {}° asks a roof of {} m over this outline,",
+                        crate::height::trim_float(a),
+                        cm(built.asked_rise_m)
+                    ))
                 }
-                _ => {}
+                _ => None,
+            };
+            if let Some(asked) = asked {
+                meshed.issues.push((
+                    IssueReason::RoofTagAdjusted,
+                    format!(
+                        "{asked} on a building {} m high: lowered to {} m, over walls of {MIN_WALL_M} m",
+                        crate::height::trim_float(height_m),
+                        cm(built.rise_m)
+                    ),
+                ));
             }
             meshed.model = Some(BuildingModel {
                 mesh: built.mesh,
