@@ -29,8 +29,9 @@ mod harness;
 
 use citylod_ingest::{ingest, IngestError, IngestOptions, LodChoice};
 use citylod_testdata::fgdb::{varint as put_varint, varuint as put_varuint};
-use citylod_testdata::SplitMix64;
-use harness::{check, guarded, take_caught_panics, Outcome};
+use citylod_testdata::guard::take_caught_panics;
+use citylod_testdata::{fnv1a as fnv, SplitMix64};
+use harness::{check, guarded, Outcome};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -156,12 +157,6 @@ fn options(case: &Case, rng: &mut SplitMix64) -> Vec<(String, IngestOptions)> {
         with_lod.height_unit_m = Some(0.3048);
     }
     vec![("no lod".into(), plain), (format!("lod {lod}"), with_lod)]
-}
-
-fn fnv(s: &str) -> u64 {
-    s.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
-        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
-    })
 }
 
 fn env_cases(default: u64) -> u64 {

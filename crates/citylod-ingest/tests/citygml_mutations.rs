@@ -28,7 +28,7 @@
 mod harness;
 
 use citylod_ingest::{ingest, IngestError, IngestOptions, Ingested, LodChoice};
-use citylod_testdata::SplitMix64;
+use citylod_testdata::{fnv1a as fnv, SplitMix64};
 use harness::{check, guarded, Outcome};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -2445,12 +2445,6 @@ fn mutated(input: &Input, seed: u64, companion_text: &[u8]) -> Case {
         bytes,
         done,
     }
-}
-
-fn fnv(s: &str) -> u64 {
-    s.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
-        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
-    })
 }
 
 // ---------------------------------------------------------------------------------------------------------------

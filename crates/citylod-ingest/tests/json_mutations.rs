@@ -11,7 +11,7 @@
 mod harness;
 
 use citylod_ingest::{ingest, IngestError, IngestOptions, LodChoice};
-use citylod_testdata::SplitMix64;
+use citylod_testdata::{fnv1a as fnv, SplitMix64};
 use harness::{check, guarded, Outcome};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
@@ -1290,12 +1290,6 @@ fn mutated(input: &Input, seed: u64) -> (Vec<u8>, Vec<String>) {
         done.push(mutate_text(&mut text, &mut rng));
     }
     (text, done)
-}
-
-fn fnv(s: &str) -> u64 {
-    s.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
-        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
-    })
 }
 
 // ---------------------------------------------------------------------------------------------------------------

@@ -9,6 +9,7 @@ pub mod citygml;
 pub mod fgdb;
 pub mod geopackage;
 pub mod geoparquet;
+pub mod guard;
 pub mod osm_pbf;
 pub mod osm_xml;
 pub mod shapefile;
@@ -95,8 +96,24 @@ impl SplitMix64 {
         self.unit() < p
     }
 
+    /// Uniform in 0..n (0 when n is 0).
+    pub fn below(&mut self, n: usize) -> usize {
+        if n == 0 {
+            0
+        } else {
+            (self.next_u64() % n as u64) as usize
+        }
+    }
+
     /// One of `items` (not empty).
     pub fn pick<'a, T>(&mut self, items: &'a [T]) -> &'a T {
-        &items[(self.next_u64() % items.len() as u64) as usize]
+        &items[self.below(items.len())]
     }
+}
+
+/// FNV-1a of a text: a seed from a name (an input's, a reader's), the same on every machine.
+pub fn fnv1a(s: &str) -> u64 {
+    s.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    })
 }

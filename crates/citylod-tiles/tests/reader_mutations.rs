@@ -17,48 +17,14 @@
 //! `READER_MUTATIONS_BIN=target/release/citylod`): exit codes 0, 1 or 2 only, no "panicked", no hang.
 
 use citylod_model::{LocalFrame, Mesh3d};
+use citylod_testdata::{fnv1a as fnv, SplitMix64};
 use citylod_tiles::read::{read_glb, read_tileset, TilesetData};
 use citylod_tiles::*;
 use serde_json::{json, Value};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{mpsc, Mutex, Once, OnceLock};
+use std::sync::OnceLock;
 use std::time::{Duration, Instant};
-
-// ---------------------------------------------------------------------------------------------------------------
-// Randomness (citylod-testdata's SplitMix64 is not a dev-dependency of this crate)
-
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        if n == 0 {
-            0
-        } else {
-            (self.next_u64() % n as u64) as usize
-        }
-    }
-    fn chance(&mut self, p: f64) -> bool {
-        ((self.next_u64() >> 11) as f64 / (1u64 << 53) as f64) < p
-    }
-    fn pick<'a, T>(&mut self, v: &'a [T]) -> &'a T {
-        &v[self.below(v.len())]
-    }
-}
-
-fn fnv(s: &str) -> u64 {
-    s.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
-        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
-    })
-}
 
 // ---------------------------------------------------------------------------------------------------------------
 // Containers: glb, b3dm, cmpt, binary subtree (written here, not through the crate's private helpers)
@@ -1150,32 +1116,6 @@ fn mutated(fx: &Fixture, seed: u64) -> (BTreeMap<String, Vec<u8>>, Vec<String>) 
 // ---------------------------------------------------------------------------------------------------------------
 // Running the cases
 
-static PANICS: Mutex<Vec<String>> = Mutex::new(Vec::new());
-static QUIET: AtomicUsize = AtomicUsize::new(0);
-
-fn install_hook() {
-    static ONCE: Once = Once::new();
-    ONCE.call_once(|| {
-        let default = std::panic::take_hook();
-        std::panic::set_hook(Box::new(move |info| {
-            if QUIET.load(Ordering::SeqCst) == 0 {
-                return default(info);
-            }
-            let msg = panic_text(info.payload());
-            let at = info.location().map(|l| l.to_string()).unwrap_or_default();
-            PANICS.lock().unwrap().push(format!("{msg} (at {at})"));
-        }));
-    });
-}
-
-fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
-    payload
-        .downcast_ref::<&str>()
-        .map(|s| s.to_string())
-        .or_else(|| payload.downcast_ref::<String>().cloned())
-        .unwrap_or_default()
-}
-
 const HANG: Duration = Duration::from_secs(30);
 
 /// Peak resident memory of this process so far (kB), from /proc (0 elsewhere).
@@ -1190,30 +1130,11 @@ fn peak_kb() -> u64 {
         .unwrap_or(0)
 }
 
-enum Outcome {
-    Done(Result<TilesetData, String>, Vec<Result<(), String>>),
-}
-
-/// Runs `f` on a thread of its own, waiting up to [`HANG`]; `Err` on a hang.
+/// Runs `f` on a thread of its own, waiting up to [`HANG`]; `Err` on a hang (a panic is recorded, not printed).
 fn guarded<T: Send + 'static>(
     f: impl FnOnce() -> T + Send + 'static,
 ) -> Result<Result<T, String>, Duration> {
-    install_hook();
-    let (tx, rx) = mpsc::channel();
-    std::thread::spawn(move || {
-        QUIET.fetch_add(1, Ordering::SeqCst);
-        let got = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
-        QUIET.fetch_sub(1, Ordering::SeqCst);
-        let _ = tx.send(got);
-    });
-    let got = rx.recv_timeout(HANG).map_err(|_| HANG)?;
-    Ok(got.map_err(|payload| {
-        let mut said = std::mem::take(&mut *PANICS.lock().unwrap());
-        if said.is_empty() {
-            said.push(panic_text(payload.as_ref()));
-        }
-        said.join(" | ")
-    }))
+    citylod_testdata::guard::guarded(HANG, true, f)
 }
 
 /// Full text of an error and its sources.
@@ -1411,7 +1332,7 @@ fn run_case(fx: &Fixture, seed: u64, t: &mut Tally) -> Option<String> {
                 }
             })
             .collect();
-        Outcome::Done(ts, g)
+        (ts, g)
     });
     let took = start.elapsed();
     t.cases += 1;
@@ -1428,7 +1349,7 @@ fn run_case(fx: &Fixture, seed: u64, t: &mut Tally) -> Option<String> {
     let out = match got {
         Err(d) => return Some(format!("{name}: HANG (no answer in {d:?})")),
         Ok(Err(p)) => return Some(format!("{name}: PANIC {p}")),
-        Ok(Ok(Outcome::Done(ts, g))) => (ts, g),
+        Ok(Ok(read)) => read,
     };
     if took > HANG / 4 {
         return Some(format!("{name}: SLOW {took:?}"));

@@ -4,44 +4,7 @@
 #![allow(dead_code)]
 
 use citylod_ingest::{IngestError, Ingested};
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{mpsc, Mutex, Once};
 use std::time::Duration;
-
-/// Where the panic hook puts what a panic said, and where (the case thread, or a rayon worker).
-static PANICS: Mutex<Vec<String>> = Mutex::new(Vec::new());
-/// Cases running: while > 0 a panic is recorded rather than printed (the case's report says it).
-static QUIET: AtomicUsize = AtomicUsize::new(0);
-
-fn install_hook() {
-    static ONCE: Once = Once::new();
-    ONCE.call_once(|| {
-        let default = std::panic::take_hook();
-        std::panic::set_hook(Box::new(move |info| {
-            if QUIET.load(Ordering::SeqCst) == 0 {
-                return default(info);
-            }
-            let msg = panic_text(info.payload());
-            let at = info.location().map(|l| l.to_string()).unwrap_or_default();
-            PANICS.lock().unwrap().push(format!("{msg} (at {at})"));
-        }));
-    });
-}
-
-/// Panics recorded since the last call that no case's outcome took: panics a reader caught itself (the GeoParquet
-/// reader guards the parquet crate so), which print nothing but are said here.
-pub fn take_caught_panics() -> Vec<String> {
-    std::mem::take(&mut *PANICS.lock().unwrap())
-}
-
-/// The text a panic's payload carries (empty for a payload of another type).
-pub fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
-    payload
-        .downcast_ref::<&str>()
-        .map(|s| s.to_string())
-        .or_else(|| payload.downcast_ref::<String>().cloned())
-        .unwrap_or_default()
-}
 
 /// What one guarded ingest gave.
 pub enum Outcome {
@@ -51,34 +14,16 @@ pub enum Outcome {
     Read(Box<Ingested>),
 }
 
-/// Runs `f` on a thread of its own and waits up to `hang` for it: what it gave, or what its panic said; `Err` with
-/// the time waited when it did not answer (a hang). With `quiet`, a panic is only recorded, not printed.
+/// Runs the ingest `f` on a thread of its own and waits up to `hang` for it ([`citylod_testdata::guard::guarded`]):
+/// what it gave, or what its panic said; `Err` with the time waited when it did not answer (a hang). With `quiet`,
+/// a panic is only recorded, not printed.
 pub fn guarded(
     hang: Duration,
     quiet: bool,
     f: impl FnOnce() -> Result<Ingested, IngestError> + Send + 'static,
 ) -> Result<Outcome, Duration> {
-    install_hook();
-    let (tx, rx) = mpsc::channel();
-    std::thread::spawn(move || {
-        if quiet {
-            QUIET.fetch_add(1, Ordering::SeqCst);
-        }
-        let got = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
-        if quiet {
-            QUIET.fetch_sub(1, Ordering::SeqCst);
-        }
-        let _ = tx.send(got);
-    });
-    let got = rx.recv_timeout(hang).map_err(|_| hang)?;
-    Ok(match got {
-        Err(payload) => {
-            let mut said = std::mem::take(&mut *PANICS.lock().unwrap());
-            if said.is_empty() {
-                said.push(panic_text(payload.as_ref()));
-            }
-            Outcome::Panicked(said.join(" | "))
-        }
+    Ok(match citylod_testdata::guard::guarded(hang, quiet, f)? {
+        Err(said) => Outcome::Panicked(said),
         Ok(Err(e)) => Outcome::Failed(e),
         Ok(Ok(out)) => Outcome::Read(Box::new(out)),
     })
