@@ -30,6 +30,7 @@ mod harness;
 use citylod_ingest::{ingest, IngestError, IngestOptions, LodChoice};
 use citylod_testdata::fgdb::{varint as put_varint, varuint as put_varuint};
 use citylod_testdata::guard::take_caught_panics;
+use citylod_testdata::zip::{zip, Zip};
 use citylod_testdata::{fnv1a as fnv, SplitMix64};
 use harness::{check, guarded, Outcome};
 use serde_json::{json, Value};
@@ -2012,80 +2013,7 @@ fn catalog_names(t: &GTable) -> Vec<(usize, String)> {
 
 // ---- ZIP
 
-struct ZipOut {
-    b: Vec<u8>,
-    locals: Vec<usize>,
-    central: Vec<usize>,
-    eocd: usize,
-}
-
-fn zip_bytes(entries: &[(String, Vec<u8>)], deflate: bool) -> ZipOut {
-    use std::io::Write;
-    let mut b = Vec::new();
-    let mut locals = Vec::new();
-    let mut cd = Vec::new();
-    let mut cd_starts = Vec::new();
-    for (name, data) in entries {
-        let mut crc = flate2::Crc::new();
-        crc.update(data);
-        let crc = crc.sum();
-        let (method, body) = if deflate {
-            let mut e = flate2::write::DeflateEncoder::new(Vec::new(), flate2::Compression::fast());
-            e.write_all(data).unwrap();
-            (8u16, e.finish().unwrap())
-        } else {
-            (0u16, data.clone())
-        };
-        let at = b.len();
-        locals.push(at);
-        let head = |sig: u32, central: bool| {
-            let mut h = sig.to_le_bytes().to_vec();
-            if central {
-                h.extend(20u16.to_le_bytes());
-            }
-            h.extend(20u16.to_le_bytes());
-            h.extend(0u16.to_le_bytes());
-            h.extend(method.to_le_bytes());
-            h.extend([0u8; 4]);
-            h.extend(crc.to_le_bytes());
-            h.extend((body.len() as u32).to_le_bytes());
-            h.extend((data.len() as u32).to_le_bytes());
-            h.extend((name.len() as u16).to_le_bytes());
-            h.extend(0u16.to_le_bytes());
-            if central {
-                // Comment length, disk, internal and external attributes.
-                h.extend([0u8; 6]);
-                h.extend(0u32.to_le_bytes());
-                h.extend((at as u32).to_le_bytes());
-            }
-            h.extend_from_slice(name.as_bytes());
-            h
-        };
-        b.extend(head(0x0403_4b50, false));
-        b.extend_from_slice(&body);
-        cd_starts.push(cd.len());
-        cd.extend(head(0x0201_4b50, true));
-    }
-    let cd_at = b.len();
-    let central = cd_starts.iter().map(|s| s + cd_at).collect();
-    b.extend_from_slice(&cd);
-    let eocd = b.len();
-    b.extend(0x0605_4b50u32.to_le_bytes());
-    b.extend([0u8; 4]);
-    b.extend((entries.len() as u16).to_le_bytes());
-    b.extend((entries.len() as u16).to_le_bytes());
-    b.extend((cd.len() as u32).to_le_bytes());
-    b.extend((cd_at as u32).to_le_bytes());
-    b.extend(0u16.to_le_bytes());
-    ZipOut {
-        b,
-        locals,
-        central,
-        eocd,
-    }
-}
-
-fn mutate_zip(z: &mut ZipOut, rng: &mut SplitMix64) -> String {
+fn mutate_zip(z: &mut Zip, rng: &mut SplitMix64) -> String {
     let put16 =
         |b: &mut Vec<u8>, at: usize, v: u16| b[at..at + 2].copy_from_slice(&v.to_le_bytes());
     let put32 =
@@ -2094,49 +2022,49 @@ fn mutate_zip(z: &mut ZipOut, rng: &mut SplitMix64) -> String {
     match rng.next_u64() % 11 {
         0 => {
             let v = *rng.pick(&[0u16, 1, 12, 14, 99, 8]);
-            put16(&mut z.b, z.central[k] + 10, v);
+            put16(&mut z.bytes, z.central[k] + 10, v);
             format!("zip member {k}'s method := {v}")
         }
         1 => {
             let v = *rng.pick(&[0u32, 1, u32::MAX, 0x7fff_ffff]);
-            put32(&mut z.b, z.central[k] + 20, v);
+            put32(&mut z.bytes, z.central[k] + 20, v);
             format!("zip member {k}'s compressed size := {v}")
         }
         2 => {
             let v = *rng.pick(&[0u32, 1, u32::MAX, 0x7fff_ffff]);
-            put32(&mut z.b, z.central[k] + 24, v);
+            put32(&mut z.bytes, z.central[k] + 24, v);
             format!("zip member {k}'s size := {v}")
         }
         3 => {
             let other = z.locals[(rng.next_u64() % z.locals.len() as u64) as usize] as u32;
             let v = *rng.pick(&[u32::MAX, other, other + 1, z.eocd as u32]);
-            put32(&mut z.b, z.central[k] + 42, v);
+            put32(&mut z.bytes, z.central[k] + 42, v);
             format!("zip member {k}'s local header offset := {v}")
         }
         4 => {
             let v = *rng.pick(&[0u16, 1, u16::MAX]);
-            put16(&mut z.b, z.central[k] + 28, v);
+            put16(&mut z.bytes, z.central[k] + 28, v);
             format!("zip member {k}'s name length := {v}")
         }
         5 => {
-            put16(&mut z.b, z.central[k] + 8, 1);
+            put16(&mut z.bytes, z.central[k] + 8, 1);
             format!("zip member {k} marked encrypted")
         }
         6 => {
             let at = z.central[k] + 16;
-            z.b[at] ^= 0x5a;
+            z.bytes[at] ^= 0x5a;
             format!("zip member {k}'s CRC changed")
         }
         7 => {
             let v = *rng.pick(&[0u16, 1, u16::MAX]);
-            put16(&mut z.b, z.eocd + 10, v);
-            put16(&mut z.b, z.eocd + 8, v);
+            put16(&mut z.bytes, z.eocd + 10, v);
+            put16(&mut z.bytes, z.eocd + 8, v);
             format!("zip entries := {v}")
         }
         8 => {
             let v = *rng.pick(&[0u32, 1, u32::MAX]);
             let at = z.eocd + if rng.chance(0.5) { 12 } else { 16 };
-            put32(&mut z.b, at, v);
+            put32(&mut z.bytes, at, v);
             format!(
                 "zip central directory {} := {v}",
                 if at == z.eocd + 12 { "size" } else { "offset" }
@@ -2144,13 +2072,13 @@ fn mutate_zip(z: &mut ZipOut, rng: &mut SplitMix64) -> String {
         }
         9 => {
             let v = *rng.pick(&[0u16, u16::MAX, 200]);
-            put16(&mut z.b, z.locals[k] + 26, v);
+            put16(&mut z.bytes, z.locals[k] + 26, v);
             format!("zip member {k}'s local name length := {v}")
         }
         _ => {
             let at = z.locals[k] + 30 + 5;
-            if at < z.b.len() {
-                z.b[at] ^= 0xff;
+            if at < z.bytes.len() {
+                z.bytes[at] ^= 0xff;
             }
             format!("zip member {k}'s data changed at byte 5")
         }
@@ -2295,7 +2223,7 @@ fn make_fgdb(dir: &Path, _seed: u64, rng: &mut SplitMix64) -> Case {
             .map(|(n, b)| (format!("{prefix}{n}"), b.clone()))
             .collect();
         let deflate = rng.chance(0.5);
-        let mut z = zip_bytes(&entries, deflate);
+        let mut z = zip(&entries, deflate);
         let mut said = format!("zipped ({})", if deflate { "deflated" } else { "stored" });
         if rng.chance(0.6) {
             said.push_str(": ");
@@ -2304,7 +2232,7 @@ fn make_fgdb(dir: &Path, _seed: u64, rng: &mut SplitMix64) -> Case {
         }
         done.push(said);
         path = dir.join(format!("{name}.zip"));
-        std::fs::write(&path, &z.b).unwrap();
+        std::fs::write(&path, &z.bytes).unwrap();
     }
     let rows = local.then(|| gdb_rows(name, layer, crs));
     Case {

@@ -2306,62 +2306,6 @@ fn gzip(bytes: &[u8]) -> Vec<u8> {
     e.finish().unwrap()
 }
 
-/// A ZIP archive of `members` (PKWARE's APPNOTE: local headers, the central directory, its end record).
-fn zip(members: &[(String, Vec<u8>)], deflated: bool) -> Vec<u8> {
-    let mut out = Vec::new();
-    let mut central = Vec::new();
-    for (name, data) in members {
-        let mut crc = flate2::Crc::new();
-        crc.update(data);
-        let crc = crc.sum();
-        let (method, body) = if deflated {
-            let mut e = flate2::write::DeflateEncoder::new(Vec::new(), flate2::Compression::fast());
-            e.write_all(data).unwrap();
-            (8u16, e.finish().unwrap())
-        } else {
-            (0u16, data.clone())
-        };
-        let offset = out.len() as u32;
-        let common = |h: &mut Vec<u8>| {
-            h.extend(20u16.to_le_bytes()); // version needed
-            h.extend(0u16.to_le_bytes()); // flags
-            h.extend(method.to_le_bytes());
-            h.extend(0u16.to_le_bytes()); // time
-            h.extend(0x21u16.to_le_bytes()); // date
-            h.extend(crc.to_le_bytes());
-            h.extend((body.len() as u32).to_le_bytes());
-            h.extend((data.len() as u32).to_le_bytes());
-            h.extend((name.len() as u16).to_le_bytes());
-            h.extend(0u16.to_le_bytes()); // extra
-        };
-        out.extend(0x0403_4b50u32.to_le_bytes());
-        common(&mut out);
-        out.extend(name.bytes());
-        out.extend(&body);
-        central.extend(0x0201_4b50u32.to_le_bytes());
-        central.extend(20u16.to_le_bytes()); // made by
-        common(&mut central);
-        central.extend(0u16.to_le_bytes()); // comment
-        central.extend(0u16.to_le_bytes()); // disk
-        central.extend(0u16.to_le_bytes()); // internal
-        central.extend(0u32.to_le_bytes()); // external
-        central.extend(offset.to_le_bytes());
-        central.extend(name.bytes());
-    }
-    let cd_offset = out.len() as u32;
-    let cd_size = central.len() as u32;
-    out.extend(central);
-    out.extend(0x0605_4b50u32.to_le_bytes());
-    out.extend(0u16.to_le_bytes());
-    out.extend(0u16.to_le_bytes());
-    out.extend((members.len() as u16).to_le_bytes());
-    out.extend((members.len() as u16).to_le_bytes());
-    out.extend(cd_size.to_le_bytes());
-    out.extend(cd_offset.to_le_bytes());
-    out.extend(0u16.to_le_bytes());
-    out
-}
-
 /// A mutated case: the document's tree (for the checks that need it), the file's bytes, and what was done.
 struct Case {
     doc: Doc,
@@ -2428,7 +2372,10 @@ fn mutated(input: &Input, seed: u64, companion_text: &[u8]) -> Case {
                 if deflated { "deflated" } else { "stored" },
                 if others { ", after a valid tile" } else { "" }
             ));
-            (format!("{}.zip", input.name), zip(&members, deflated))
+            (
+                format!("{}.zip", input.name),
+                citylod_testdata::zip::zip(&members, deflated).bytes,
+            )
         }
     };
     // The compressed bytes themselves cut short or changed now and then (a download cut short, a bad sector).

@@ -13,6 +13,7 @@ pub mod guard;
 pub mod osm_pbf;
 pub mod osm_xml;
 pub mod shapefile;
+pub mod zip;
 
 /// The folder holding the real data sets (it may not exist).
 pub fn shared_data_dir() -> PathBuf {
