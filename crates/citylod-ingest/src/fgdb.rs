@@ -1309,20 +1309,37 @@ fn offsets(x: &[u8], version: u32, live: u64) -> Result<RowIndex, String> {
             }
         }
     }
-    if within == out.len() {
-        return Ok((out, None));
-    }
     let last = out.last().map_or(0, |&(oid, _)| oid);
     let held = out.len();
+    let live_rows = counted(live, "live row");
+    if within == held {
+        // An index within its own count: its offsets are the rows, unless the table's header counts more live rows
+        // than it locates (those cannot be found) or fewer (all are read).
+        let note = match (held as u64).cmp(&live) {
+            std::cmp::Ordering::Equal => None,
+            std::cmp::Ordering::Less => Some(format!(
+                "its header counts {live_rows} but its row index (.gdbtablx) locates {held}: {} not found, not \
+                 read. The geodatabase is damaged: repair it in ArcGIS (Recover File Geodatabase) or export the \
+                 feature class again",
+                counted(live - held as u64, "row")
+            )),
+            std::cmp::Ordering::Greater => Some(format!(
+                "its header counts {live_rows} but its row index (.gdbtablx) locates {held} (OBJECTIDs up to \
+                 {last}): all {held} read"
+            )),
+        };
+        return Ok((out, note));
+    }
     // The table's header (its count of live rows) tells which of the index's two counts is right.
     if within as u64 == live {
         out.truncate(within);
         return Ok((
             out,
             Some(format!(
-                "its row index (.gdbtablx) holds {} row offset(s) past the {rows} rows its header counts (OBJECTIDs \
-                 up to {last}); not read, as the table's header counts {live} live rows, the {within} read",
-                held - within
+                "its row index (.gdbtablx) holds {} past the {} its header counts (OBJECTIDs up to {last}); not \
+                 read, as the table's header counts {live_rows}, the {within} read",
+                counted((held - within) as u64, "row offset"),
+                counted(rows, "row")
             )),
         ));
     }
@@ -1330,17 +1347,28 @@ fn offsets(x: &[u8], version: u32, live: u64) -> Result<RowIndex, String> {
         return Ok((
             out,
             Some(format!(
-                "its row index (.gdbtablx) counts {rows} rows but holds offsets of {held} (OBJECTIDs up to {last}), \
-                 as many as the table's header counts live rows: all {held} read"
+                "its row index (.gdbtablx) counts {} but holds offsets of {held} (OBJECTIDs up to {last}), as many \
+                 as the table's header counts live rows: all {held} read",
+                counted(rows, "row")
             )),
         ));
     }
     Err(format!(
-        "its row index (.gdbtablx) counts {rows} rows and holds offsets of {held} (OBJECTIDs up to {last}), {within} \
-         of them within its count, while the table's header counts {live} live rows: the index and its table \
-         disagree, so which rows the table holds cannot be told. The geodatabase is damaged: repair it in ArcGIS \
-         (Recover File Geodatabase) or export the feature class again"
+        "its row index (.gdbtablx) counts {} and holds offsets of {held} (OBJECTIDs up to {last}), {within} of them \
+         within its count, while the table's header counts {live_rows}: the index and its table disagree, so which \
+         rows the table holds cannot be told. The geodatabase is damaged: repair it in ArcGIS (Recover File \
+         Geodatabase) or export the feature class again",
+        counted(rows, "row")
     ))
+}
+
+/// `n` and its noun, plural unless `n` is 1 ("1 row", "3 rows").
+fn counted(n: u64, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
+    }
 }
 
 /// The blocks a row index's bitmap marks present (bit i of the little-endian bytes: block i), of `bits`; there

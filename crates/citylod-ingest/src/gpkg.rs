@@ -169,13 +169,13 @@ fn quoted(name: &str) -> String {
     format!("\"{}\"", name.replace('"', "\"\""))
 }
 
-/// The feature tables `gpkg_contents` lists, in name order, each with its rows of `gpkg_geometry_columns` (matched
-/// by exact name, as SQL compares them), and the names `gpkg_geometry_columns` has that `gpkg_contents` does not
-/// list as feature tables (for saying why a table is missing).
+/// The feature tables `gpkg_contents` lists, in name order, each with its rows of `gpkg_geometry_columns` (names
+/// matched whatever their case, as SQLite resolves table names), and the names `gpkg_geometry_columns` has that
+/// `gpkg_contents` does not list as feature tables (for saying why a table is missing).
 fn layers(db: &Connection) -> rusqlite::Result<(Vec<Table>, Vec<String>)> {
     let mut st = db.prepare(
         "SELECT DISTINCT c.table_name, g.column_name, g.geometry_type_name, g.srs_id \
-         FROM gpkg_contents c LEFT JOIN gpkg_geometry_columns g ON c.table_name = g.table_name \
+         FROM gpkg_contents c LEFT JOIN gpkg_geometry_columns g ON c.table_name = g.table_name COLLATE NOCASE \
          WHERE lower(c.data_type) = 'features' AND c.table_name IS NOT NULL \
          ORDER BY c.table_name, g.column_name",
     )?;
@@ -210,7 +210,7 @@ fn layers(db: &Connection) -> rusqlite::Result<(Vec<Table>, Vec<String>)> {
             });
     }
     let mut st = db.prepare(
-        "SELECT DISTINCT table_name FROM gpkg_geometry_columns WHERE table_name NOT IN \
+        "SELECT DISTINCT table_name FROM gpkg_geometry_columns WHERE table_name COLLATE NOCASE NOT IN \
          (SELECT table_name FROM gpkg_contents WHERE lower(data_type) = 'features' AND table_name IS NOT NULL) \
          ORDER BY table_name",
     )?;

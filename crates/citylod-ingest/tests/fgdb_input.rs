@@ -534,6 +534,27 @@ fn damaged_geodatabases_are_refused_with_what_is_wrong() {
         skipped.detail,
         "OBJECTID 1: the row cannot be read: its offset lies past the end of the table"
     );
+    // A row index that lost a row's offset (the table's header still counts it live): the rows it locates are read
+    // and the one it cannot is said, not lost silently.
+    let whole = read(&fixture("nyc-les-2263.gdb"), None).unwrap();
+    let gdb = scratch_copy("nyc-les-2263.gdb", "lost-offset");
+    let tablx = gdb.join("a00000009.gdbtablx");
+    let mut x = std::fs::read(&tablx).unwrap();
+    let size = u32::from_le_bytes(x[12..16].try_into().unwrap()) as usize;
+    x[16..16 + size].fill(0);
+    std::fs::write(&tablx, &x).unwrap();
+    let out = read(&gdb, None).unwrap();
+    let live = whole.buildings.len() + whole.report.skipped.len();
+    assert_eq!(out.buildings.len() + out.report.skipped.len(), live - 1);
+    let said = format!(
+        "its header counts {live} live rows but its row index (.gdbtablx) locates {}: 1 row not found, not read.",
+        live - 1
+    );
+    assert!(
+        out.report.files[0].notes.iter().any(|n| n.contains(&said)),
+        "{:?}",
+        out.report.files[0].notes
+    );
 }
 
 #[test]

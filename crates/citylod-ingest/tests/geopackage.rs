@@ -1272,6 +1272,24 @@ fn tables_as_gdal_and_qgis_read_them() {
             .collect::<Vec<_>>(),
         ["tables.gpkg#20", "tables.gpkg#30"]
     );
+    // gpkg_geometry_columns spelling the table in another case than gpkg_contents (SQLite's names ignore case): the
+    // same table, read.
+    let db = rusqlite::Connection::open(&p).unwrap();
+    db.execute_batch(
+        "UPDATE gpkg_geometry_columns SET table_name = 'LOD12_2d' WHERE table_name = 'Lod12_2D';",
+    )
+    .unwrap();
+    drop(db);
+    let r = ingest(std::slice::from_ref(&p), &with_layer("Lod12_2D")).unwrap();
+    assert_eq!(r.buildings.len(), 3);
+    assert!(
+        r.report.files[0]
+            .notes
+            .iter()
+            .all(|n| !n.contains("gpkg_geometry_columns")),
+        "{:?}",
+        r.report.files[0].notes
+    );
 }
 
 #[test]
