@@ -421,7 +421,11 @@ fn a_tileset_refining_by_add_is_refused_with_the_reason() {
     ]);
     assert_eq!(o.status.code(), Some(2));
     let e = String::from_utf8_lossy(&o.stderr);
-    assert!(e.contains("tile 0 refines by ADD"), "{e}");
+    let named = format!(
+        "{}: tile 0 refines by ADD",
+        dir.join("tileset.json").display()
+    );
+    assert!(e.contains(&named), "{e}");
 }
 
 /// A copy of the NYC tileset with `edit` applied to its tileset.json.

@@ -337,7 +337,7 @@ impl Expander<'_> {
     /// Reads the subtree rooted at `root`.
     fn subtree(&self, root: Coord) -> Result<Subtree, String> {
         let uri = fill(&self.it.subtrees.uri, root);
-        let bytes = (self.open)(&uri)?;
+        let bytes = (self.open)(&uri).map_err(|e| format!("subtree {uri}: {e}"))?;
         // External buffers are named relative to the subtree file.
         let dir = uri.rsplit_once('/').map(|(d, _)| d);
         let open_buffer = |b: &str| match dir {

@@ -394,17 +394,28 @@ pub fn names_json(path: &str) -> bool {
 
 /// The file a content uri names, which must stay inside the tileset's folder (`folder`, canonical).
 fn content_file(base: &Path, uri: &str, folder: &Path) -> Result<std::path::PathBuf, String> {
+    local_file("content", base, uri, folder)
+}
+
+/// The file a uri of `what` (content, subtree) names, which must stay inside the tileset's folder (`folder`,
+/// canonical).
+fn local_file(
+    what: &str,
+    base: &Path,
+    uri: &str,
+    folder: &Path,
+) -> Result<std::path::PathBuf, String> {
     if uri.contains("://") || uri.starts_with("data:") {
         return Err(format!(
-            "content uri {uri:?} is not a relative file path (only local tilesets are read)"
+            "{what} uri {uri:?} is not a relative file path (only local tilesets are read)"
         ));
     }
     let file = base.join(uri);
     let real =
-        std::fs::canonicalize(&file).map_err(|e| format!("content {}: {e}", file.display()))?;
+        std::fs::canonicalize(&file).map_err(|e| format!("{what} {}: {e}", file.display()))?;
     if !real.starts_with(folder) {
         return Err(format!(
-            "content uri {uri:?} points outside the tileset's folder"
+            "{what} uri {uri:?} points outside the tileset's folder"
         ));
     }
     Ok(file)
@@ -418,7 +429,7 @@ fn expand_implicit(t: &tj::Tile, json: &Path, folder: &Path) -> Result<Option<tj
     };
     let base = json.parent().unwrap_or(Path::new(""));
     let open = |uri: &str| -> Result<Vec<u8>, String> {
-        let file = content_file(base, uri, folder)?;
+        let file = local_file("file", base, uri, folder)?;
         read_file(&file).map_err(|e| e.to_string())
     };
     crate::implicit::expand(t, &it, &open).map(Some)
@@ -2849,7 +2860,7 @@ mod volume_and_contents_tests {
             .unwrap_err()
             .to_string();
         assert!(
-            e.contains("tile 0 (") && e.contains("subtrees/2/2/2.subtree"),
+            e.contains("tile 0 (") && e.contains("subtree subtrees/2/2/2.subtree: file "),
             "{e}"
         );
         // And so is a content template whose tile has children of its own.

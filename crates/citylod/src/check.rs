@@ -327,7 +327,8 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
         t.refine_add && !t.children.is_empty() && draws
     }) {
         bail!(
-            "tile {} refines by ADD; citylod check simulates REPLACE refinement only (what citylod writes)",
+            "{}: tile {} refines by ADD; citylod check simulates REPLACE refinement only (what citylod writes)",
+            path.display(),
             t.path_in_tree
         );
     }
