@@ -604,7 +604,9 @@ fn declared_crs(wkt: &str, notes: &mut Vec<String>) -> (Option<DeclaredCrs>, Opt
     };
     let (crs, note) = crate::prj::declared_crs(wkt, &source);
     notes.extend(note);
-    (Some(crs), crate::prj::vertical_unit_m(wkt))
+    let (z_unit_m, note) = crate::prj::vertical_unit_m(wkt);
+    notes.extend(note);
+    (Some(crs), z_unit_m)
 }
 
 /// Every row of the feature class, in OBJECTID order: its attributes, and its polygons or its model's faces.

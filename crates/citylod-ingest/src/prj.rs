@@ -170,22 +170,49 @@ fn parse_node(s: &str, whole: bool) -> Option<Node> {
     (p.at == p.b.len()).then_some(n)
 }
 
+/// Metres per unit a length unit may have: from the millimetre to past the league and the nautical mile. A vertical
+/// unit outside (a damaged `.prj`'s 1e7 m) would make every model thousands of kilometres tall.
+const LENGTH_UNIT_M: std::ops::RangeInclusive<f64> = 1e-3..=1e4;
+
 /// Metres per unit of z when the WKT declares a vertical CRS: Esri's `VERTCS[…]` after the horizontal CRS, or a
-/// `VERT_CS`/`VERTCRS` inside a compound one, by its `UNIT` (`LENGTHUNIT`).
-pub(crate) fn vertical_unit_m(wkt: &str) -> Option<f64> {
+/// `VERT_CS`/`VERTCRS` inside a compound one, by its `UNIT` (`LENGTHUNIT`); with a note when it declares one whose
+/// unit is not a length (z is then taken as without a vertical CRS).
+pub(crate) fn vertical_unit_m(wkt: &str) -> (Option<f64>, Option<String>) {
     let upper = wkt.to_ascii_uppercase();
-    let at = ["VERTCS[", "VERT_CS[", "VERTCRS["]
+    let Some(at) = ["VERTCS[", "VERT_CS[", "VERTCRS["]
         .iter()
         .filter_map(|k| upper.find(k))
-        .min()?;
-    parse_node(&wkt[at..], false)?
-        .children()
-        .filter(|c| c.key == "UNIT" || c.key == "LENGTHUNIT")
-        .last()
-        .and_then(|u| match u.args.get(1)? {
-            Arg::Number(x) if *x > 0.0 && x.is_finite() => Some(*x),
-            _ => None,
-        })
+        .min()
+    else {
+        return (None, None);
+    };
+    let unit = parse_node(&wkt[at..], false).and_then(|n| {
+        n.children()
+            .filter(|c| c.key == "UNIT" || c.key == "LENGTHUNIT")
+            .last()
+            .map(|u| u.args.get(1).cloned())
+    });
+    match unit {
+        Some(Some(Arg::Number(x))) if LENGTH_UNIT_M.contains(&x) => (Some(x), None),
+        Some(Some(Arg::Number(x))) => (
+            None,
+            Some(format!(
+                "its vertical CRS gives {x} m per unit of z, which is no length unit (from {} to {} m): z is read \
+                 as without a vertical CRS, in the horizontal unit",
+                LENGTH_UNIT_M.start(),
+                LENGTH_UNIT_M.end()
+            )),
+        ),
+        Some(_) => (
+            None,
+            Some(
+                "its vertical CRS's unit gives no number of metres: z is read as without a vertical CRS, in the \
+                 horizontal unit"
+                    .to_string(),
+            ),
+        ),
+        None => (None, None),
+    }
 }
 
 /// Letters and digits of a name, upper case: `North_American_Datum_1983` → `NORTHAMERICANDATUM1983`.

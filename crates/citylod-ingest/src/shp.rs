@@ -110,7 +110,9 @@ pub(crate) fn read(path: &Path) -> Result<VectorDoc, String> {
             };
             let (crs, note) = crate::prj::declared_crs(&text, &crate::prj::PRJ);
             notes.extend(note);
-            z_unit_m = crate::prj::vertical_unit_m(&text);
+            let (unit, note) = crate::prj::vertical_unit_m(&text);
+            z_unit_m = unit;
+            notes.extend(note);
             Some(crs)
         }
         None => None,

@@ -1212,9 +1212,16 @@ fn a_vertcs_in_the_prj_gives_the_unit_of_z() {
     t.push([text("tower")]);
     let shapes = vec![Shape::MultiPatch(patch_box(&ring, 0.0, 30.0, true))];
     let dir = tempfile::tempdir().unwrap();
+    // A vertical unit no length has (a damaged .prj: 10,000 km) is said and z read as without a VERTCS.
+    let far = vertcs.replace("UNIT[\"Meter\",1.0]", "UNIT[\"Far\",1e7]");
     for (name, prj, want) in [
         ("metres", format!("{esri_2263}{vertcs}"), 30.0),
         ("feet", esri_2263.to_string(), 30.0 * 0.3048006096012192),
+        (
+            "far",
+            format!("{esri_2263}{far}"),
+            30.0 * 0.3048006096012192,
+        ),
     ] {
         let shp = write(dir.path(), name, &shapes, &t, Some(&prj), None);
         let r = ingest(&[shp], &IngestOptions::default()).unwrap();
@@ -1224,5 +1231,9 @@ fn a_vertcs_in_the_prj_gives_the_unit_of_z() {
             "{name}: {}",
             r.buildings[0].height_m
         );
+        let said = r.report.files[0].notes.iter().any(|n| {
+            n.contains("its vertical CRS gives 10000000 m per unit of z, which is no length unit")
+        });
+        assert_eq!(said, name == "far", "{name}: {:?}", r.report.files[0].notes);
     }
 }
