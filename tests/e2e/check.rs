@@ -1157,3 +1157,83 @@ fn bad_options_and_out_inside_the_tileset_are_exit_2() {
         "the tileset's folder was written to"
     );
 }
+
+/// The root's content edited in its glb node's transform (its quantization scale): blocks flattened to half their
+/// height are drawn otherwise than their ground_z_m and height_m say, and blocks shrunk to a twentieth across leave
+/// their buildings undrawn — whatever the metadata and the errors declare (views may pass or not: the tree's
+/// measurements alone find both).
+#[test]
+fn coarse_content_drawn_otherwise_than_it_declares_is_found() {
+    let root_glb = |dir: &Path| {
+        let ts = read_json(&dir.join("tileset.json"));
+        dir.join(ts["root"]["content"]["uri"].as_str().unwrap())
+    };
+    let rescale = |name: &str, axes: [f64; 3]| {
+        let dir = damaged(name, |_| {});
+        let glb = root_glb(&dir);
+        let bytes = std::fs::read(&glb).unwrap();
+        std::fs::write(
+            &glb,
+            edit_glb_json(&bytes, |g| {
+                let scale = g["nodes"][0]["scale"].as_array_mut().unwrap();
+                for (s, f) in scale.iter_mut().zip(axes) {
+                    *s = Value::from(s.as_f64().unwrap() * f);
+                }
+            }),
+        )
+        .unwrap();
+        run_damaged(name, &dir)
+    };
+    let root = |kind: &str| (kind.to_string(), "0".to_string());
+    // glTF is y-up: y is the height.
+    let flat = rescale("flattened", [1.0, 0.5, 1.0]);
+    assert!(flat.contains(&root("block_misdrawn")), "{flat:?}");
+    let specks = rescale("specks", [0.05, 1.0, 0.05]);
+    assert!(specks.contains(&root("building_vanishes")), "{specks:?}");
+    // Untouched, neither is found (nyc_every_view_passes_and_report_validates holds the whole report to no finding).
+    let (code, report) = check(nyc(), &scratch_dir("check-measured-untouched"), &["--views", "1"]);
+    assert_eq!(code, 0, "{:?}", findings(&report));
+}
+
+/// Delft read at LoD 2.2 draws each building as a prism and a simplified model above its full model, each tile's
+/// error the distance between them: those tiles given an error of 0 (still monotone) claim the prisms are exact,
+/// which the distance from each prism to its full model, measured, denies.
+#[test]
+fn building_tiles_claiming_less_error_than_their_models_differ_by_are_found() {
+    let Some(input) = shared_data("delft-3dbag/delft.city.jsonl") else {
+        return;
+    };
+    let tiles = process_dir("check-delft-lod22");
+    build(&[&input], &tiles, &["--lod", "2.2"]);
+    let (code, report) = check(&tiles, &scratch_dir("check-delft-lod22-out"), &["--views", "1"]);
+    assert_eq!(code, 0, "{:?}", findings(&report));
+    // The tiles of buildings drawn as themselves above their leaves: those whose glb has a `building` property table
+    // and that have children.
+    let dir = scratch_dir("damaged-delft-exact-prisms");
+    for (rel, bytes) in tree_bytes(&tiles) {
+        let p = dir.join(&rel);
+        std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+        std::fs::write(p, bytes).unwrap();
+    }
+    let mut ts = read_json(&dir.join("tileset.json"));
+    let mut zeroed = 0;
+    for (_, ptr) in tile_pointers(&ts) {
+        let t = ts.pointer_mut(&ptr).unwrap();
+        let Some(uri) = t["content"]["uri"].as_str() else { continue };
+        if children_len(t) == 0 {
+            continue;
+        }
+        let glb = std::fs::read(dir.join(uri)).unwrap();
+        let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
+        let g: Value = serde_json::from_slice(&glb[20..20 + json_len]).unwrap();
+        let classes = &g["extensions"]["EXT_structural_metadata"]["propertyTables"];
+        if classes.as_array().unwrap().iter().all(|t| t["class"] == "building") {
+            t["geometricError"] = Value::from(0.0);
+            zeroed += 1;
+        }
+    }
+    assert!(zeroed > 0, "no tile of buildings above the leaves");
+    std::fs::write(dir.join("tileset.json"), serde_json::to_vec(&ts).unwrap()).unwrap();
+    let f = run_damaged("delft-exact-prisms", &dir);
+    assert!(f.iter().any(|(k, _)| k == "error_understated"), "{f:?}");
+}

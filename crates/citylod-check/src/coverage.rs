@@ -428,6 +428,7 @@ mod tests {
             area_m2: None,
             fallback: false,
             bounds_m: None,
+            heights: None,
         }
     }
 
@@ -444,6 +445,7 @@ mod tests {
             area_m2: None,
             fallback: false,
             bounds_m: None,
+            heights: None,
         }
     }
 

@@ -243,6 +243,7 @@ mod tests {
                 area_m2: None,
                 fallback: false,
                 bounds_m: Some(([0.0; 3], [100.0, 100.0, 0.0])),
+                heights: None,
             }],
             triangle_features: vec![0; 4],
             under: Vec::new(),

@@ -39,6 +39,14 @@ pub enum FindingKind {
     /// A feature of a tile's property table draws no triangle with any area: the buildings it stands for count as
     /// covered but are not drawn.
     FeatureDrawsNothing,
+    /// A building of the leaves that a tile above them does not draw at all, though it is too large for the tile's
+    /// geometricError to let it vanish.
+    BuildingVanishes,
+    /// A block drawn otherwise than its metadata says (its ground and height), or whose heights contradict each other.
+    BlockMisdrawn,
+    /// What a tile draws lies farther from full detail than it declares: a block's Δh below what its buildings
+    /// measure, or a building drawn above its leaf farther from its leaf geometry than the tile's geometricError.
+    ErrorUnderstated,
 }
 
 /// One problem.

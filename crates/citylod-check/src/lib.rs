@@ -29,6 +29,7 @@ mod criterion;
 mod error;
 mod finding;
 mod image;
+mod measured;
 mod render;
 mod scene;
 mod select;
@@ -48,13 +49,14 @@ pub use criterion::{check_criterion, view_error, CriterionStats, Tolerances, Vie
 pub use error::CheckError;
 pub use finding::{Finding, FindingKind, MAX_LISTED};
 pub use image::Image;
+pub use measured::check_measured;
 pub use render::{Canvas, RenderLayers, Renderer, NO_FEATURE, SKY};
 pub use scene::{box_mesh, Scene};
 pub use select::{
     compute_sse, meets_threshold, select, OrientedBox, Selection, TileNode, TileTree,
 };
 pub use sheet::contact_sheet;
-pub use tileset::{FeatureInfo, LoadedTileset, NodeRef, TileInfo};
+pub use tileset::{BlockHeights, FeatureInfo, LoadedTileset, NodeRef, TileInfo};
 pub use view_check::{
     check_view, skyline, CheckSettings, Skyline, ViewOutcome, SKYLINE_TOLERANCE_PX,
 };

@@ -46,6 +46,17 @@ pub struct FeatureInfo {
     pub fallback: bool,
     /// Axis-aligned bounds (min, max) of the feature's vertices; `None` without geometry.
     pub bounds_m: Option<(Vec3, Vec3)>,
+    /// The heights a block declares, when it declares all four (citylod's blocks).
+    pub heights: Option<BlockHeights>,
+}
+
+/// What a block says of its heights (m): where it stands, how high it is drawn, its buildings' lowest and highest.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BlockHeights {
+    pub ground_z_m: f64,
+    pub height_m: f64,
+    pub h_min_m: f64,
+    pub h_max_m: f64,
 }
 
 /// One tile as the checks see it.
@@ -524,6 +535,23 @@ fn feature_info(
         area_m2: as_f64(get("area_m2")).filter(|a| *a >= 0.0),
         fallback: matches!(get("fallback"), Some(PropValue::Bool(true))),
         bounds_m,
+        heights: match (
+            matches!(node, NodeRef::Cluster { .. }),
+            as_f64(get("ground_z_m")),
+            as_f64(get("height_m")),
+            as_f64(get("h_min_m")),
+            as_f64(get("h_max_m")),
+        ) {
+            (true, Some(ground_z_m), Some(height_m), Some(h_min_m), Some(h_max_m)) => {
+                Some(BlockHeights {
+                    ground_z_m,
+                    height_m,
+                    h_min_m,
+                    h_max_m,
+                })
+            }
+            _ => None,
+        },
     }
 }
 

@@ -332,6 +332,7 @@ mod tests {
             area_m2: None,
             fallback: false,
             bounds_m: Some((lo, hi)),
+            heights: None,
         };
         let b = |i| NodeRef::Building { building_index: i };
         let block = f(

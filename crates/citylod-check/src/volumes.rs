@@ -208,6 +208,7 @@ mod tests {
                 area_m2: None,
                 fallback: false,
                 bounds_m: None,
+                heights: None,
             }],
             under: vec![],
         }

@@ -201,11 +201,92 @@ fn named_by_tile(e: TilesError, fail: &dyn Fn(String) -> TilesError) -> TilesErr
     fail(format!("its content {msg}"))
 }
 
-/// Parses a `tileset.json` whose root is tile `root_path` of the whole tree.
+/// 3D Tiles versions (`asset.version`) the reader reads: CesiumJS refuses a tileset.json of any other (its
+/// `Cesium3DTileset.loadTileset` takes "0.0", the version of the drafts before 1.0, as well).
+const KNOWN_VERSIONS: &[&str] = &["1.0", "1.1", "0.0"];
+
+/// 3D Tiles extensions a tileset.json may require (`extensionsRequired`) of the reader, each read as its 3D Tiles
+/// 1.1 core feature: implicit tiling (`implicit.rs` reads the extension's object on a tile) and glTF content (glb;
+/// `.gltf` JSON content is refused by name). A tileset requiring any other is refused, as a client that does not
+/// support a required extension must. Not among them: `3DTILES_multiple_contents` (the reader reads 1.1
+/// `contents`, not the extension's object on a tile), `3DTILES_bounding_volume_S2`, `3DTILES_batch_table_hierarchy`
+/// (inherited properties are not read), `3DTILES_draco_point_compression` (point clouds are refused).
+const READ_TILES_EXTENSIONS: &[&str] = &["3DTILES_implicit_tiling", "3DTILES_content_gltf"];
+
+/// 3D Tiles extensions the reader skips as it skips their 1.1 core form: `3DTILES_metadata` (the schema,
+/// groups and tileset, tile and content metadata of a tileset.json) changes neither geometry nor the glb's
+/// features, which are all the reader reads.
+const SKIPPED_TILES_EXTENSIONS: &[&str] = &["3DTILES_metadata"];
+
+/// A tileset.json as [`load_json`] reads it: [`tj::Tileset`] and the extensions it requires.
+#[derive(serde::Deserialize)]
+#[serde(rename_all = "camelCase")]
+struct TilesetFile {
+    asset: tj::Asset,
+    geometric_error: f64,
+    #[serde(default)]
+    extras: Option<serde_json::Value>,
+    root: tj::Tile,
+    #[serde(default)]
+    extensions_required: Vec<String>,
+}
+
+/// What a tileset.json says it is, read alone when the whole does not parse: a file of another version, or
+/// requiring an extension, need not have the shape the reader expects, and that is the error to tell.
+#[derive(serde::Deserialize)]
+#[serde(rename_all = "camelCase")]
+struct TilesetHead {
+    asset: HeadAsset,
+    #[serde(default)]
+    extensions_required: Vec<String>,
+}
+
+#[derive(serde::Deserialize)]
+struct HeadAsset {
+    version: String,
+}
+
+/// Why a tileset.json of `version` requiring `required` is not read (`None` when it is).
+fn unread_version_or_extension(version: &str, required: &[String]) -> Option<String> {
+    if !KNOWN_VERSIONS.contains(&version) {
+        return Some(format!(
+            "asset.version {version:?}: 3D Tiles 1.0 and 1.1 are known (and \"0.0\", of the drafts before 1.0); \
+             CesiumJS refuses other versions"
+        ));
+    }
+    let x = required.iter().find(|x| {
+        !(READ_TILES_EXTENSIONS.contains(&x.as_str())
+            || SKIPPED_TILES_EXTENSIONS.contains(&x.as_str()))
+    })?;
+    Some(format!(
+        "it requires the 3D Tiles extension {x:?}, which citylod's reader does not read (the required extensions \
+         it takes: {})",
+        READ_TILES_EXTENSIONS
+            .iter()
+            .chain(SKIPPED_TILES_EXTENSIONS)
+            .copied()
+            .collect::<Vec<_>>()
+            .join(", ")
+    ))
+}
+
+/// Parses a `tileset.json` (the main one or an external one) whose root is tile `root_path` of the whole tree:
+/// refuses versions and required extensions the reader does not know, before anything else of the file.
 fn load_json(path: &Path, root_path: &str) -> Result<tj::Tileset, TilesError> {
     let bytes = read_file(path)?;
-    let ts: tj::Tileset = serde_json::from_slice(&bytes).map_err(|source| {
-        if source.to_string().starts_with("recursion limit exceeded") {
+    let unread = |version: &str, required: &[String]| {
+        unread_version_or_extension(version, required).map(|msg| TilesError::File {
+            path: path.to_path_buf(),
+            msg,
+        })
+    };
+    let ts: TilesetFile = serde_json::from_slice(&bytes).map_err(|source| {
+        if let Some(e) = serde_json::from_slice::<TilesetHead>(&bytes)
+            .ok()
+            .and_then(|h| unread(&h.asset.version, &h.extensions_required))
+        {
+            e
+        } else if source.to_string().starts_with("recursion limit exceeded") {
             too_deep(&bytes, path, root_path, &source)
         } else {
             TilesError::Json {
@@ -214,11 +295,19 @@ fn load_json(path: &Path, root_path: &str) -> Result<tj::Tileset, TilesError> {
             }
         }
     })?;
+    if let Some(e) = unread(&ts.asset.version, &ts.extensions_required) {
+        return Err(e);
+    }
     check_error(ts.geometric_error).map_err(|msg| TilesError::File {
         path: path.to_path_buf(),
         msg: format!("the tileset's own geometricError (beside its root tile's): {msg}"),
     })?;
-    Ok(ts)
+    Ok(tj::Tileset {
+        asset: ts.asset,
+        geometric_error: ts.geometric_error,
+        extras: ts.extras,
+        root: ts.root,
+    })
 }
 
 /// How deep JSON may nest in one file: serde_json's limit. A tile at level L below its file's root opens its
@@ -2942,6 +3031,114 @@ mod volume_and_contents_tests {
         );
         assert!(e.contains("JSON nesting limit 127"), "{e}");
         assert!(e.contains("external tilesets"), "{e}");
+    }
+
+    #[test]
+    fn unknown_versions_are_refused_and_known_ones_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let bx = json!({"box": [0, 0, 0, 50, 0, 0, 0, 50, 0, 0, 0, 50]});
+        let p = dir.path().join("tileset.json");
+        let with_version = |v: &str| {
+            json!({"asset": {"version": v}, "geometricError": 1,
+                "root": {"boundingVolume": bx, "geometricError": 0}})
+        };
+        for v in ["1.0", "1.1", "0.0"] {
+            std::fs::write(&p, with_version(v).to_string()).unwrap();
+            assert_eq!(read_tileset(&p).unwrap().tiles.len(), 1, "{v}");
+        }
+        for v in ["7.3", "1.2", "1", "2.0.0", ""] {
+            std::fs::write(&p, with_version(v).to_string()).unwrap();
+            let e = read_tileset(&p).unwrap_err().to_string();
+            let want = format!(
+                "{}: asset.version {v:?}: 3D Tiles 1.0 and 1.1 are known (and \"0.0\", of the drafts before \
+                 1.0); CesiumJS refuses other versions",
+                p.display()
+            );
+            assert_eq!(e, want);
+        }
+        // A file of another version need not have the shape of 1.x: its version is the error, not its shape.
+        std::fs::write(&p, r#"{"asset": {"version": "7.3"}, "root": []}"#).unwrap();
+        let e = read_tileset(&p).unwrap_err().to_string();
+        assert!(e.contains(r#"asset.version "7.3""#), "{e}");
+        // Without asset.version the file is not a tileset.
+        std::fs::write(&p, r#"{"asset": {}, "geometricError": 1, "root": {}}"#).unwrap();
+        let e = read_tileset(&p).unwrap_err().to_string();
+        assert!(e.contains("invalid JSON"), "{e}");
+    }
+
+    #[test]
+    fn required_3d_tiles_extensions_the_reader_does_not_read_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let bx = json!({"box": [0, 0, 0, 50, 0, 0, 0, 50, 0, 0, 0, 50]});
+        std::fs::write(dir.path().join("a.glb"), glb_of(&["a0"])).unwrap();
+        let leaf = json!({"boundingVolume": bx, "geometricError": 0, "content": {"uri": "a.glb"}});
+        let with = |used: &[&str], required: &[&str], root: &serde_json::Value| {
+            json!({"asset": {"version": "1.0"}, "geometricError": 1, "extensionsUsed": used,
+                "extensionsRequired": required, "root": root})
+            .to_string()
+        };
+        let p = dir.path().join("tileset.json");
+        let refused = |x: &str| {
+            format!(
+                "it requires the 3D Tiles extension {x:?}, which citylod's reader does not read (the required \
+                 extensions it takes: 3DTILES_implicit_tiling, 3DTILES_content_gltf, 3DTILES_metadata)"
+            )
+        };
+        // The root tileset.
+        for x in [
+            "FOO_unknown",
+            "3DTILES_multiple_contents",
+            "3DTILES_bounding_volume_S2",
+        ] {
+            std::fs::write(&p, with(&[x], &["3DTILES_content_gltf", x], &leaf)).unwrap();
+            let e = read_tileset(&p).unwrap_err().to_string();
+            assert_eq!(e, format!("{}: {}", p.display(), refused(x)));
+        }
+        // Extensions only used, and required ones the reader takes, read.
+        let takes = [
+            "3DTILES_content_gltf",
+            "3DTILES_implicit_tiling",
+            "3DTILES_metadata",
+        ];
+        for (used, required) in [(&["FOO_unknown"][..], &[][..]), (&takes[..], &takes[..])] {
+            std::fs::write(&p, with(used, required, &leaf)).unwrap();
+            let back = read_tileset(&p).unwrap();
+            assert_eq!(back.tiles[0].content.as_ref().unwrap().features.len(), 1);
+        }
+        // An external tileset: its own file is named, under the tile that names it.
+        std::fs::create_dir(dir.path().join("sub")).unwrap();
+        std::fs::write(dir.path().join("sub/a.glb"), glb_of(&["a0"])).unwrap();
+        let ext = dir.path().join("sub").join("tileset.json");
+        let outer = json!({"boundingVolume": bx, "geometricError": 1,
+            "children": [{"boundingVolume": bx, "geometricError": 1, "content": {"uri": "sub/tileset.json"}}]});
+        std::fs::write(&p, with(&[], &[], &outer)).unwrap();
+        std::fs::write(&ext, with(&["FOO_unknown"], &["FOO_unknown"], &leaf)).unwrap();
+        let e = read_tileset(&p).unwrap_err().to_string();
+        assert!(e.starts_with("tile 0/0"), "{e}");
+        assert!(e.contains(&ext.display().to_string()), "{e}");
+        assert!(e.contains(&refused("FOO_unknown")), "{e}");
+        std::fs::write(&ext, with_version_of(&with(&[], &[], &leaf), "7.3")).unwrap();
+        let e = read_tileset(&p).unwrap_err().to_string();
+        assert!(
+            e.starts_with("tile 0/0") && e.contains(&ext.display().to_string()),
+            "{e}"
+        );
+        assert!(
+            e.contains(r#"asset.version "7.3": 3D Tiles 1.0 and 1.1 are known"#),
+            "{e}"
+        );
+        // Only used there, it reads.
+        std::fs::write(&ext, with(&["FOO_unknown"], &[], &leaf)).unwrap();
+        let back = read_tileset(&p).unwrap();
+        assert_eq!(back.tiles[2].path_in_tree, "0/0/ext");
+        assert!(back.tiles[2].content.is_some());
+    }
+
+    /// `tileset` (JSON text) with its `asset.version` set to `v`.
+    fn with_version_of(tileset: &str, v: &str) -> String {
+        let mut t: serde_json::Value = serde_json::from_str(tileset).unwrap();
+        t["asset"]["version"] = json!(v);
+        t.to_string()
     }
 
     #[test]

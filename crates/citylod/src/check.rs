@@ -395,6 +395,7 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
 
     let mut tree_findings = check_tree(&ts);
     tree_findings.extend(check_features_drawn(&ts, tol));
+    tree_findings.extend(citylod_check::check_measured(&ts, tol));
     let features: usize = ts.tiles.iter().map(|t| t.features.len()).sum();
     let identity_checked = ts.identity_checked();
     if !identity_checked && !args.quiet {
