@@ -587,6 +587,285 @@ fn output_paths_that_are_not_tilesets_are_refused() {
     assert!(inspect.status.success(), "{}", stderr_of(&inspect));
 }
 
+/// The names in `dir`, sorted.
+fn names_in(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+/// A pid no process has (above the kernel's largest, 2^22 - 1): that of a build that was killed. (Whether a build
+/// still runs is told by the lock on its staging folder's marker, which the system releases when it dies.)
+const KILLED_PID: u32 = 4194303;
+
+/// A staging folder as a killed build leaves it: citylod's marker (unlocked) in a folder named for `pid`.
+fn killed_staging(folder: &Path) {
+    std::fs::create_dir_all(folder).unwrap();
+    std::fs::write(folder.join(".citylod-staging"), "citylod staging folder").unwrap();
+}
+
+/// Only a folder citylod wrote is replaced without --force: a `tileset.json` that is not citylod's (not JSON,
+/// another generator's) and anything beside citylod's own entries (a page, assets, a file in tiles/) are refused,
+/// named, and left as they were.
+#[test]
+fn only_what_citylod_wrote_is_replaced_without_force() {
+    let d = scratch_dir("foreign-out");
+    let input = repo_root().join("examples/nyc-les/les_buildings.geojson");
+    let i = input.to_str().unwrap();
+    // A project folder with a file that happens to be called tileset.json.
+    let proj = d.join("proj");
+    std::fs::create_dir_all(proj.join("data")).unwrap();
+    std::fs::write(proj.join("tileset.json"), "not json at all\n").unwrap();
+    std::fs::write(proj.join("data/survey.csv"), "precious\n").unwrap();
+    // Another tool's tileset.
+    let other = d.join("other-tool");
+    std::fs::create_dir_all(&other).unwrap();
+    std::fs::write(
+        other.join("tileset.json"),
+        r#"{"asset":{"version":"1.1","generator":"py3dtiles"},"geometricError":1,"root":{"geometricError":0}}"#,
+    )
+    .unwrap();
+    // citylod's tileset with a viewer page, its assets and a note put beside and into it.
+    let tiles = d.join("tiles");
+    build(&[&input], &tiles, &[]);
+    std::fs::write(tiles.join("index.html"), "<html>").unwrap();
+    std::fs::create_dir_all(tiles.join("assets")).unwrap();
+    std::fs::write(tiles.join("assets/app.js"), "app").unwrap();
+    std::fs::write(tiles.join("tiles/notes.txt"), "notes").unwrap();
+    let before = tree_bytes(&d);
+    let cases = [
+        (&proj, "holds a tileset.json that citylod did not write (it is not JSON"),
+        (&other, r#"holds a tileset.json that citylod did not write (its asset.generator is "py3dtiles")"#),
+        (
+            &tiles,
+            "holds a tileset citylod wrote and entries it did not write: assets/, index.html, tiles/notes.txt; \
+             the build replaces the whole folder",
+        ),
+    ];
+    for (out, expect) in cases {
+        let o = citylod(&["build", i, "--out", out.to_str().unwrap(), "-q"]);
+        assert_no_panic(&o);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr_of(&o));
+        let e = stderr_of(&o);
+        assert!(e.contains(expect) && e.contains("--force"), "{e}");
+        assert!(before == tree_bytes(&d), "{out:?}: files changed");
+    }
+    // A symbolic link citylod did not make is refused too (and never followed).
+    #[cfg(unix)]
+    {
+        std::fs::remove_file(tiles.join("index.html")).unwrap();
+        std::fs::remove_dir_all(tiles.join("assets")).unwrap();
+        std::fs::remove_file(tiles.join("tiles/notes.txt")).unwrap();
+        std::os::unix::fs::symlink(&proj, tiles.join("tiles/linked")).unwrap();
+        let o = citylod(&["build", i, "--out", tiles.to_str().unwrap(), "-q"]);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr_of(&o));
+        assert!(
+            stderr_of(&o).contains("it did not write: tiles/linked;"),
+            "{}",
+            stderr_of(&o)
+        );
+        std::fs::remove_file(tiles.join("tiles/linked")).unwrap();
+    }
+    // Without them it is replaced; with --force the other folders are too.
+    let o = citylod(&["build", i, "--out", tiles.to_str().unwrap(), "-q"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr_of(&o));
+    for out in [&proj, &other] {
+        let o = citylod(&["build", i, "--out", out.to_str().unwrap(), "-q", "--force"]);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr_of(&o));
+        assert_eq!(
+            names_in(out),
+            ["build-report.json", "tiles", "tileset.json"]
+        );
+    }
+}
+
+/// Folders beside the output named like a build's leftovers are a user's unless they are demonstrably citylod's
+/// (its staging folder's name and marker): a `tiles.old-2024` backup is kept; a killed build's unfinished output
+/// is removed, with a note.
+#[test]
+fn only_citylods_own_leftovers_beside_the_output_are_removed() {
+    let d = scratch_dir("leftovers");
+    let tiles = d.join("tiles");
+    let input = repo_root().join("examples/nyc-les/les_buildings.geojson");
+    build(&[&input], &tiles, &[]);
+    let users = [
+        "tiles.old-2024".to_string(),
+        format!("tiles.old-{KILLED_PID}"),
+        format!("tiles.tmp-{KILLED_PID}"),
+        format!("tiles.citylod-tmp-{}", KILLED_PID - 1), // no marker
+    ];
+    for u in &users {
+        std::fs::create_dir_all(d.join(u)).unwrap();
+        std::fs::write(d.join(u).join("tileset.json"), "backup").unwrap();
+    }
+    // Killed (Ctrl-C, SIGKILL) while writing its tiles.
+    let unfinished = d.join(format!("tiles.citylod-tmp-{KILLED_PID}"));
+    killed_staging(&unfinished);
+    std::fs::create_dir_all(unfinished.join("new/tiles")).unwrap();
+    std::fs::write(unfinished.join("new/tiles/0.glb"), "half").unwrap();
+    let o = citylod(&[
+        "build",
+        input.to_str().unwrap(),
+        "--out",
+        tiles.to_str().unwrap(),
+        "-q",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr_of(&o));
+    assert!(
+        stderr_of(&o).contains(&format!(
+            "note: removed {}: the unfinished output of a build (pid {KILLED_PID}) that was stopped",
+            unfinished.display()
+        )),
+        "{}",
+        stderr_of(&o)
+    );
+    let mut expected = users.to_vec();
+    expected.push("tiles".into());
+    expected.sort();
+    assert_eq!(names_in(&d), expected);
+    for u in &users {
+        assert_eq!(
+            std::fs::read_to_string(d.join(u).join("tileset.json")).unwrap(),
+            "backup"
+        );
+    }
+}
+
+/// A build killed between its two renames (the previous tileset moved aside, the new one not yet in place) leaves
+/// no `--out`: the next build puts the previous tileset back and says so, before anything else (here its input is
+/// broken, so the restored tileset is what remains).
+#[test]
+fn a_build_killed_between_the_renames_gets_the_previous_tileset_back() {
+    let d = scratch_dir("killed-swap");
+    let tiles = d.join("tiles");
+    build(
+        &[&repo_root().join("examples/nyc-les/les_buildings.geojson")],
+        &tiles,
+        &[],
+    );
+    let before = tree_bytes(&tiles);
+    let folder = d.join(format!("tiles.citylod-tmp-{KILLED_PID}"));
+    killed_staging(&folder);
+    std::fs::rename(&tiles, folder.join("old")).unwrap();
+    std::fs::create_dir_all(folder.join("new/tiles")).unwrap();
+    std::fs::write(folder.join("new/tileset.json"), "the killed build's").unwrap();
+    let bad = write(&d, "bad.geojson", "{ not json");
+    let o = citylod(&[
+        "build",
+        bad.to_str().unwrap(),
+        "--out",
+        tiles.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr_of(&o));
+    assert!(
+        stderr_of(&o).contains(&format!(
+            "note: restored {} from {}, where a build (pid {KILLED_PID}) that was stopped while replacing it had \
+             moved it",
+            tiles.display(),
+            folder.join("old").display()
+        )),
+        "{}",
+        stderr_of(&o)
+    );
+    assert!(
+        before == tree_bytes(&tiles),
+        "the previous tileset must come back whole"
+    );
+    assert_eq!(names_in(&d), ["bad.geojson", "tiles"]);
+}
+
+/// Where the tileset is swapped entry by entry inside `--out` (a mount point), a build killed mid-swap is undone by
+/// the next one; a previous tileset saved there by a build that may still run is named in the refusal, even with
+/// --force, and never deleted.
+#[test]
+fn a_build_killed_while_swapping_inside_the_output_folder_is_undone() {
+    let d = scratch_dir("killed-swap-inside");
+    let tiles = d.join("tiles");
+    build(
+        &[&repo_root().join("examples/nyc-les/les_buildings.geojson")],
+        &tiles,
+        &[],
+    );
+    let before = tree_bytes(&tiles);
+    let bad = write(&d, "bad.geojson", "{ not json");
+    let (b, t) = (bad.to_str().unwrap(), tiles.to_str().unwrap());
+    // Killed while moving its entries in: the previous ones all in `old`, its tiles/ and report moved in, its
+    // tileset.json (always last) not.
+    let folder = tiles.join(format!(".citylod-tmp-{KILLED_PID}"));
+    killed_staging(&folder);
+    std::fs::create_dir_all(folder.join("old")).unwrap();
+    std::fs::create_dir_all(folder.join("new")).unwrap();
+    for n in ["build-report.json", "tiles", "tileset.json"] {
+        std::fs::rename(tiles.join(n), folder.join("old").join(n)).unwrap();
+    }
+    std::fs::create_dir_all(tiles.join("tiles")).unwrap();
+    std::fs::write(tiles.join("tiles/0.glb"), "the killed build's").unwrap();
+    std::fs::write(tiles.join("build-report.json"), "the killed build's").unwrap();
+    std::fs::write(folder.join("new/tileset.json"), "the killed build's").unwrap();
+    std::fs::write(
+        folder.join("swapping"),
+        "build-report.json\ntiles\ntileset.json\n",
+    )
+    .unwrap();
+    let o = citylod(&["build", b, "--out", t]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr_of(&o));
+    assert!(
+        stderr_of(&o).contains(&format!(
+            "note: restored the previous content of {t} from {}",
+            folder.join("old").display()
+        )),
+        "{}",
+        stderr_of(&o)
+    );
+    assert!(
+        before == tree_bytes(&tiles),
+        "the previous tileset must come back whole"
+    );
+    assert_eq!(
+        names_in(&tiles),
+        ["build-report.json", "tiles", "tileset.json"]
+    );
+    // Its build may still run (it holds the lock: here this test does): left alone, named, refused.
+    let live = tiles.join(".citylod-tmp-4194300");
+    killed_staging(&live);
+    std::fs::create_dir_all(live.join("old")).unwrap();
+    for n in ["tiles", "tileset.json"] {
+        std::fs::rename(tiles.join(n), live.join("old").join(n)).unwrap();
+    }
+    let lock = std::fs::File::open(live.join(".citylod-staging")).unwrap();
+    lock.try_lock().unwrap();
+    let input = repo_root().join("examples/nyc-les/les_buildings.geojson");
+    for force in [false, true] {
+        let mut args = vec!["build", input.to_str().unwrap(), "--out", t];
+        if force {
+            args.push("--force");
+        }
+        let o = citylod(&args);
+        assert_eq!(o.status.code(), Some(2), "{}", stderr_of(&o));
+        let e = stderr_of(&o);
+        assert!(
+            e.contains(&format!(
+                "holds {}: the previous tileset, saved there by a build that was stopped while replacing it",
+                live.join("old").display()
+            )) && e.contains("move the entries of"),
+            "{e}"
+        );
+    }
+    assert!(live.join("old/tileset.json").is_file());
+    // Once it has ended, the next build puts the tileset back (and here, its input broken, stops).
+    drop(lock);
+    let o = citylod(&["build", b, "--out", t]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr_of(&o));
+    assert!(stderr_of(&o).contains("note: restored the previous content of"));
+    assert!(
+        before == tree_bytes(&tiles),
+        "the previous tileset must come back whole"
+    );
+}
+
 /// A ring of a hostile kind around (x, y) metres: ordinary rectangles (some a hair wide), stars, bowties, spikes,
 /// repeated and collinear points, random scribbles; closed or not.
 fn hostile_ring(r: &mut Rng, x: f64, y: f64) -> Vec<[f64; 2]> {

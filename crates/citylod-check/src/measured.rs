@@ -5,8 +5,7 @@
 //! - Buildings of the leaves that a tile above them does not draw at all (no feature of the tile covers any point of
 //!   their roofs, seen from above) vanish where the tile is drawn: allowed only when κ·√area ≤ the tile's
 //!   geometricError (their area then counts in a Δa within the error), κ = δH/√δA — for each group of such buildings
-//!   within e/16 of each other (the tile's rounding grid), so that a block left out whole is not excused building by
-//!   building.
+//!   within 0.5 m of each other ([`LINK_M`]), so that a block left out whole is not excused building by building.
 //! - A block is drawn from its `ground_z_m` up by its `height_m` (within the tile's rounding), its `h_min_m` ≤
 //!   `height_m` ≤ `h_max_m`, and its `dh_m` is at least `h_max_m − h_min_m`.
 //! - A building drawn in a tile above its leaf (a prism, a simplified model, a landmark) lies within the tile's
@@ -385,17 +384,16 @@ pub fn check_measured(ts: &LoadedTileset, tol: Tolerances) -> Vec<Finding> {
                 })
             })
             .collect();
-        let mut groups: Vec<(f64, Vec<u32>)> =
-            neighbours(&uncovered, &leaves, (e * LINK_RATIO).max(MIN_LINK_M))
-                .into_iter()
-                .map(|g| {
-                    (
-                        kappa * g.iter().map(|b| leaves[b].roof_area_m2).sum::<f64>().sqrt(),
-                        g,
-                    )
-                })
-                .filter(|(error, _)| *error > e * (1.0 + F32_SLACK))
-                .collect();
+        let mut groups: Vec<(f64, Vec<u32>)> = neighbours(&uncovered, &leaves, LINK_M)
+            .into_iter()
+            .map(|g| {
+                (
+                    kappa * g.iter().map(|b| leaves[b].roof_area_m2).sum::<f64>().sqrt(),
+                    g,
+                )
+            })
+            .filter(|(error, _)| *error > e * (1.0 + F32_SLACK))
+            .collect();
         if !groups.is_empty() {
             groups.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
             let list: Vec<u32> = groups.iter().flat_map(|g| g.1.iter().copied()).collect();
@@ -425,13 +423,14 @@ pub fn check_measured(ts: &LoadedTileset, tol: Tolerances) -> Vec<Finding> {
     out
 }
 
-/// Buildings left out of a tile of error e count as one group within e/16 of each other: the most the writer's grid
-/// of that tile moves a corner by twice over (closer, the tile cannot tell them apart), and far below the distances
-/// at which neighbouring blocks keep apart (on Boston, links of e/4 still join no buildings of different blocks).
-const LINK_RATIO: f64 = 1.0 / 16.0;
+/// Buildings left out of a tile count as one group when their boxes seen from above lie within 0.5 m of each other:
+/// buildings that share walls or nearly do, which every level merges first, so that one block left out whole is not
+/// excused building by building. (Farther links join buildings of different blocks: at 1 m, a row of a generated
+/// city's buildings 0.76 m apart; at the tile's e/16, the coarse tiles' scattered small buildings, across kilometres.)
+const LINK_M: f64 = 0.5;
 
-/// Least distance (m) within which buildings left out of a tile count as one group.
-const MIN_LINK_M: f64 = 1.0;
+/// Side (m) of the cells that find buildings near each other: about a building's size.
+const CELL_M: f64 = 32.0;
 
 /// `buildings` in groups of neighbours: linked when their roofs' boxes seen from above are within `link_m`, each
 /// group sorted.
@@ -450,10 +449,11 @@ fn neighbours(
         a
     }
     let boxes: Vec<([f64; 2], [f64; 2])> = buildings.iter().map(|b| leaves[b].xy).collect();
-    // Boxes grown by half the link on a grid of cells of the link: linked boxes share a cell.
+    // Boxes grown by half the link on a grid of cells (of the link, at least CELL_M): linked boxes share a cell.
+    let size = link_m.max(CELL_M);
     let mut cells: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
     for (k, (lo, hi)) in boxes.iter().enumerate() {
-        let cell = |v: f64| ((v / link_m).floor()).clamp(-1e12, 1e12) as i64;
+        let cell = |v: f64| ((v / size).floor()).clamp(-1e12, 1e12) as i64;
         let (c0, c1) = (cell(lo[0] - link_m / 2.0), cell(hi[0] + link_m / 2.0));
         let (r0, r1) = (cell(lo[1] - link_m / 2.0), cell(hi[1] + link_m / 2.0));
         // A building spanning more than 64 × 64 cells is registered along its box's edges only (whatever links to it
@@ -818,11 +818,11 @@ mod tests {
             &leaf,
         );
         assert_eq!(kinds(&half), []);
-        // An error of 15 m lets each vanish alone, but not both together when they stand 0.5 m apart (within the
-        // tile's e/16, at least 1 m): one loss of 200 m² (κ·√200 = 20 m).
+        // An error of 15 m lets each vanish alone, but not both together when they stand 0.3 m apart (within
+        // LINK_M): one loss of 200 m² (κ·√200 = 20 m).
         let close = vec![
             (building(0), [0.0, 0.0, 0.0], [10.0, 10.0, 10.0]),
-            (building(1), [10.5, 0.0, 0.0], [20.5, 10.0, 14.0]),
+            (building(1), [10.3, 0.0, 0.0], [20.3, 10.0, 14.0]),
         ];
         let none = tileset(
             15.0,

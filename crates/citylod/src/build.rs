@@ -315,11 +315,12 @@ pub struct BuildArgs {
     pub max_tileset_json_bytes: usize,
 
     /// Output folder; replaced atomically when the build succeeds. It must not exist yet, be empty or hold a
-    /// tileset (a `tileset.json`): any other folder is refused unless --force, since all of it is replaced.
+    /// tileset citylod wrote (its tileset.json, build-report.json and tiles/, nothing else): any other folder is
+    /// refused unless --force, since all of it is replaced.
     #[arg(long, short, value_name = "DIR", help_heading = "Output")]
     pub out: PathBuf,
 
-    /// Replace the output folder even when it holds files but no tileset.
+    /// Replace the output folder even when it holds files that are not a tileset citylod wrote.
     #[arg(long, help_heading = "Output")]
     pub force: bool,
 
@@ -1093,11 +1094,18 @@ fn plural(n: usize, noun: &str) -> String {
 /// Skipped features listed when none could be read (the report is not written then).
 const SKIPS_SHOWN: usize = 10;
 
-/// Refuses an output path whose replacement would destroy something that is not a tileset: a file, a symbolic
-/// link, a folder holding an input (or the level dumps), or a non-empty folder without `tileset.json` (unless
-/// `--force`).
+/// Refuses an output path whose replacement would destroy something that citylod did not write: a file, a symbolic
+/// link, a folder holding an input (or the level dumps), a non-empty folder without a `tileset.json` that citylod
+/// wrote or with entries besides those it writes (these two unless `--force`), or one holding a previous tileset
+/// that a stopped build saved there. First puts back what stopped builds left ([`Staging::recover`]), saying so.
 fn check_output_folder(args: &BuildArgs) -> Result<()> {
     let out = &args.out;
+    // First what builds stopped while writing here left: a previous tileset they had moved aside goes back.
+    let notes = Staging::recover(out)
+        .with_context(|| format!("recovering what a stopped build left of {}", out.display()))?;
+    for note in notes {
+        eprintln!("{note}");
+    }
     // Inside `out` as written, or once symbolic links are resolved (only when `out` exists).
     let out_real = std::fs::canonicalize(out).ok();
     let inside = |p: &Path| {
@@ -1183,23 +1191,153 @@ fn check_output_folder(args: &BuildArgs) -> Result<()> {
             out.display()
         );
     }
-    // (A staging folder of an earlier run, where it stages inside the output folder, does not count.)
-    let non_empty = std::fs::read_dir(out)
+    // What citylod wrote is replaced; anything else in the folder is refused (unless --force), named.
+    // (Its own staging folders `.citylod-…`, where it stages inside the output folder, do not count.)
+    if let Some(old) = Staging::saved_inside(out).first() {
+        let folder = old.parent().unwrap_or(old);
+        bail!(
+            "--out {} holds {}: the previous tileset, saved there by a build that was stopped while replacing it and \
+             that may still be running. If no build is, move the entries of {} back into {} and delete {}; then \
+             build again",
+            out.display(),
+            old.display(),
+            old.display(),
+            out.display(),
+            folder.display()
+        );
+    }
+    let mut entries: Vec<String> = std::fs::read_dir(out)
         .with_context(|| format!("reading {}", out.display()))?
         .flatten()
-        .any(|e| {
-            !e.file_name()
-                .to_string_lossy()
-                .starts_with(citylod_tiles::STAGING_INSIDE_PREFIX)
-        });
-    if non_empty && !out.join("tileset.json").is_file() && !args.force {
+        .filter_map(|e| {
+            let name = e.file_name().to_string_lossy().into_owned();
+            let dir = e.file_type().is_ok_and(|t| t.is_dir());
+            (!name.starts_with(citylod_tiles::STAGING_INSIDE_PREFIX)).then(|| {
+                if dir {
+                    format!("{name}/")
+                } else {
+                    name
+                }
+            })
+        })
+        .collect();
+    entries.sort();
+    if entries.is_empty() || args.force {
+        return Ok(());
+    }
+    let replace =
+        "Give a new or empty folder, or pass --force to replace the folder with everything in it";
+    let tileset = out.join("tileset.json");
+    if !std::fs::symlink_metadata(&tileset).is_ok_and(|m| m.is_file()) {
         bail!(
-            "--out {} holds files but no tileset.json; the build replaces the whole folder. Give a new or empty \
-             folder, or pass --force to replace it anyway",
+            "--out {} holds files but no tileset.json ({}); the build replaces the whole folder. {replace}",
+            out.display(),
+            listed(&entries)
+        );
+    }
+    if let Some(why) = not_written_by_citylod(&tileset) {
+        bail!(
+            "--out {} holds a tileset.json that citylod did not write ({why}); the build replaces the whole \
+             folder. {replace}",
             out.display()
         );
     }
+    let foreign = foreign_entries(out)?;
+    if !foreign.is_empty() {
+        bail!(
+            "--out {} holds a tileset citylod wrote and {} it did not write: {}; the build replaces the whole \
+             folder, these included. Move them elsewhere, give another folder, or pass --force to replace the \
+             folder with everything in it",
+            out.display(),
+            if foreign.len() == 1 { "an entry" } else { "entries" },
+            listed(&foreign)
+        );
+    }
     Ok(())
+}
+
+/// The first names of `names`, "and N more".
+fn listed(names: &[String]) -> String {
+    const SHOWN: usize = 6;
+    let mut s = names
+        .iter()
+        .take(SHOWN)
+        .cloned()
+        .collect::<Vec<_>>()
+        .join(", ");
+    if names.len() > SHOWN {
+        s += &format!(" and {} more", names.len() - SHOWN);
+    }
+    s
+}
+
+/// Why the `tileset.json` at `path` is not one citylod wrote (its `asset.generator` says "citylod <version>"), or
+/// `None` when it is.
+fn not_written_by_citylod(path: &Path) -> Option<String> {
+    #[derive(serde::Deserialize)]
+    struct Head {
+        asset: Option<Asset>,
+    }
+    #[derive(serde::Deserialize)]
+    struct Asset {
+        generator: Option<serde_json::Value>,
+    }
+    let file = match std::fs::File::open(path) {
+        Ok(f) => f,
+        Err(e) => return Some(format!("it cannot be read: {e}")),
+    };
+    match serde_json::from_reader::<_, Head>(std::io::BufReader::new(file)) {
+        Err(e) if e.is_syntax() || e.is_eof() => Some(format!("it is not JSON: {e}")),
+        Err(e) => Some(format!("it is not a tileset: {e}")),
+        Ok(Head {
+            asset:
+                Some(Asset {
+                    generator: Some(serde_json::Value::String(g)),
+                }),
+        }) if g == "citylod" || g.starts_with("citylod ") => None,
+        Ok(Head {
+            asset: Some(Asset { generator: Some(g) }),
+        }) => Some(format!("its asset.generator is {g}")),
+        Ok(_) => Some("it names no asset.generator".into()),
+    }
+}
+
+/// The entries of the folder `out` that a build does not write, as paths relative to it (a folder with a trailing
+/// `/`): a build writes `tileset.json`, `build-report.json` and `tiles/` with folders, `.glb` and `.json` files in
+/// it; symbolic links never. Its staging folders (`.citylod-…`) are left out.
+fn foreign_entries(out: &Path) -> Result<Vec<String>> {
+    fn sorted(dir: &Path) -> Result<Vec<(String, std::fs::Metadata, PathBuf)>> {
+        let mut v = Vec::new();
+        for e in std::fs::read_dir(dir).with_context(|| format!("reading {}", dir.display()))? {
+            let e = e.with_context(|| format!("reading {}", dir.display()))?;
+            let meta = std::fs::symlink_metadata(e.path())
+                .with_context(|| format!("reading {}", e.path().display()))?;
+            v.push((e.file_name().to_string_lossy().into_owned(), meta, e.path()));
+        }
+        v.sort_by(|a, b| a.0.cmp(&b.0));
+        Ok(v)
+    }
+    fn tiles(dir: &Path, rel: &str, found: &mut Vec<String>) -> Result<()> {
+        for (name, meta, path) in sorted(dir)? {
+            if meta.is_dir() {
+                tiles(&path, &format!("{rel}{name}/"), found)?;
+            } else if !(meta.is_file() && (name.ends_with(".glb") || name.ends_with(".json"))) {
+                found.push(format!("{rel}{name}"));
+            }
+        }
+        Ok(())
+    }
+    let mut found = Vec::new();
+    for (name, meta, path) in sorted(out)? {
+        match name.as_str() {
+            _ if name.starts_with(citylod_tiles::STAGING_INSIDE_PREFIX) => {}
+            "tileset.json" | "build-report.json" if meta.is_file() => {}
+            "tiles" if meta.is_dir() => tiles(&path, "tiles/", &mut found)?,
+            _ if meta.is_dir() => found.push(format!("{name}/")),
+            _ => found.push(name),
+        }
+    }
+    Ok(found)
 }
 
 /// `p` made absolute with its `..` steps taken as written (`std::path::absolute` keeps them, so `out/../x` would
