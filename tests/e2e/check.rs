@@ -1191,7 +1191,11 @@ fn coarse_content_drawn_otherwise_than_it_declares_is_found() {
     let specks = rescale("specks", [0.05, 1.0, 0.05]);
     assert!(specks.contains(&root("building_vanishes")), "{specks:?}");
     // Untouched, neither is found (nyc_every_view_passes_and_report_validates holds the whole report to no finding).
-    let (code, report) = check(nyc(), &scratch_dir("check-measured-untouched"), &["--views", "1"]);
+    let (code, report) = check(
+        nyc(),
+        &scratch_dir("check-measured-untouched"),
+        &["--views", "1"],
+    );
     assert_eq!(code, 0, "{:?}", findings(&report));
 }
 
@@ -1205,7 +1209,11 @@ fn building_tiles_claiming_less_error_than_their_models_differ_by_are_found() {
     };
     let tiles = process_dir("check-delft-lod22");
     build(&[&input], &tiles, &["--lod", "2.2"]);
-    let (code, report) = check(&tiles, &scratch_dir("check-delft-lod22-out"), &["--views", "1"]);
+    let (code, report) = check(
+        &tiles,
+        &scratch_dir("check-delft-lod22-out"),
+        &["--views", "1"],
+    );
     assert_eq!(code, 0, "{:?}", findings(&report));
     // The tiles of buildings drawn as themselves above their leaves: those whose glb has a `building` property table
     // and that have children.
@@ -1219,7 +1227,9 @@ fn building_tiles_claiming_less_error_than_their_models_differ_by_are_found() {
     let mut zeroed = 0;
     for (_, ptr) in tile_pointers(&ts) {
         let t = ts.pointer_mut(&ptr).unwrap();
-        let Some(uri) = t["content"]["uri"].as_str() else { continue };
+        let Some(uri) = t["content"]["uri"].as_str() else {
+            continue;
+        };
         if children_len(t) == 0 {
             continue;
         }
@@ -1227,7 +1237,12 @@ fn building_tiles_claiming_less_error_than_their_models_differ_by_are_found() {
         let json_len = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
         let g: Value = serde_json::from_slice(&glb[20..20 + json_len]).unwrap();
         let classes = &g["extensions"]["EXT_structural_metadata"]["propertyTables"];
-        if classes.as_array().unwrap().iter().all(|t| t["class"] == "building") {
+        if classes
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|t| t["class"] == "building")
+        {
             t["geometricError"] = Value::from(0.0);
             zeroed += 1;
         }
