@@ -231,11 +231,15 @@ fn check_out_folder(out: &Path, tileset_json: &Path) -> Result<()> {
         return Ok(()); // a missing tileset is reported when it is read
     };
     if out_real.starts_with(&folder_real) {
+        let place = if out_real == folder_real {
+            "the tileset's folder".to_string()
+        } else {
+            format!("inside the tileset's folder {}", folder.display())
+        };
         bail!(
-            "--out {} is inside the tileset's folder {}; check would write report.json, views.png and view-K/ into \
-             the tileset. Give a folder outside it",
-            out.display(),
-            folder.display()
+            "--out {} is {place}; check would write report.json, views.png and view-K/ into the tileset. Give a \
+             folder outside it",
+            out.display()
         );
     }
     Ok(())
@@ -486,13 +490,22 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
         }));
         if !args.quiet {
             eprintln!(
-                "view {k}: {} tiles, {} of {} triangles ({}), {} finding(s), {:.1} s",
-                sel.selected.len(),
+                "view {k}: {}, {} of {} triangles ({}), {} finding(s), {:.1} s{}",
+                if sel.selected.len() == 1 {
+                    "1 tile".to_string()
+                } else {
+                    format!("{} tiles", sel.selected.len())
+                },
                 v.cut_triangles,
                 v.full_triangles,
                 ratio.map_or("-".into(), |r| format!("{r:.1}×")),
                 v.findings.len(),
-                t.elapsed().as_secs_f64()
+                t.elapsed().as_secs_f64(),
+                if v.full_triangles == 0 {
+                    " — this camera sees none of the tileset: nothing of it is checked from here"
+                } else {
+                    ""
+                }
             );
         }
         sheet_panels.push((format!("view {k} cut"), v.cut));
@@ -643,11 +656,12 @@ mod tests {
             root.path().join("elsewhere/../tiles/./check"),
         ] {
             let e = check_out_folder(&out, &json).unwrap_err().to_string();
-            assert!(
-                e.contains("inside the tileset's folder"),
-                "{}: {e}",
-                out.display()
-            );
+            let said = if out == ts {
+                format!("--out {} is the tileset's folder;", ts.display())
+            } else {
+                format!("is inside the tileset's folder {}", ts.display())
+            };
+            assert!(e.contains(&said), "{}: {e}", out.display());
         }
         std::fs::write(root.path().join("file"), "x").unwrap();
         let e = check_out_folder(&root.path().join("file"), &json)
