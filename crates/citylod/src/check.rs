@@ -346,6 +346,12 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
     ];
     let root_to_ecef = data.root_transform;
     let georeferenced = origin.iter().map(|v| v * v).sum::<f64>().sqrt() > 1e6;
+    if !georeferenced && !args.quiet {
+        eprintln!(
+            "citylod check: the tileset is not georeferenced (its root's transform does not reach the globe's surface): \
+             a globe client (CesiumJS, Cesium for Unreal) draws it near the Earth's centre; checked in its own frame"
+        );
+    }
     let cameras: Vec<(Camera, &str)> = if args.camera.is_empty() {
         let (lo, hi) = ts.root_extent().context("the root tile has no bounds")?;
         // The built-in views are placed for STANDARD_FOVY_DEG; --fovy only widens or narrows them. They look at
