@@ -1197,3 +1197,141 @@ fn a_height_too_small_to_mesh_is_named_and_the_building_kept() {
     assert_eq!(ingest["height_values_rejected"], json!({"height": 1}));
     assert_eq!(ingest["height_sources"]["default"], 1, "{ingest:#}");
 }
+
+#[test]
+fn output_and_dump_paths_that_cannot_be_folders_are_refused_up_front() {
+    let d = scratch_dir("out-parent-file");
+    let good = repo_root().join("examples/nyc-les/les_buildings.geojson");
+    let file = write(&d, "afile.txt", "x");
+    let out = file.join("sub");
+    let o = citylod(&[
+        "build",
+        &good.display().to_string(),
+        "--out",
+        &out.display().to_string(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr_of(&o);
+    assert!(
+        err.contains(&format!(
+            "cannot create the output folder {}: its parent {} is not a folder; choose another --out",
+            out.display(),
+            file.display()
+        )),
+        "{err}"
+    );
+    // --dump-levels naming an existing file: refused before the build, not after it.
+    let out = d.join("tiles");
+    let o = citylod(&[
+        "build",
+        &good.display().to_string(),
+        "--out",
+        &out.display().to_string(),
+        "--dump-levels",
+        &file.display().to_string(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr_of(&o);
+    assert!(
+        err.contains(&format!(
+            "--dump-levels {0}: {0} is a file, not a folder",
+            file.display()
+        )),
+        "{err}"
+    );
+    assert!(!out.exists(), "nothing is built");
+    // An unwritable parent (not testable as root, who may write anywhere).
+    let locked = d.join("locked");
+    std::fs::create_dir(&locked).unwrap();
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o555)).unwrap();
+    if std::fs::create_dir(locked.join("probe")).is_err() {
+        let out = locked.join("tiles");
+        let o = citylod(&[
+            "build",
+            &good.display().to_string(),
+            "--out",
+            &out.display().to_string(),
+        ]);
+        let err = stderr_of(&o);
+        assert!(
+            err.contains(&format!("{} is not writable", locked.display()))
+                && err.contains("choose another --out"),
+            "{err}"
+        );
+    }
+    std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o755)).unwrap();
+}
+
+#[test]
+fn an_ordinary_folder_as_input_names_the_files_to_give() {
+    let d = scratch_dir("folder-input");
+    let folder = d.join("buildings");
+    std::fs::create_dir(&folder).unwrap();
+    std::fs::copy(
+        repo_root().join("examples/nyc-les/les_buildings.geojson"),
+        folder.join("les.geojson"),
+    )
+    .unwrap();
+    let o = citylod(&[
+        "build",
+        &folder.display().to_string(),
+        "--out",
+        &d.join("out").display().to_string(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr_of(&o);
+    assert!(
+        err.contains(&format!(
+            "{} is a folder; citylod reads files (or a File Geodatabase .gdb folder): give the files inside it, e.g. {}",
+            folder.display(),
+            folder.join("*.geojson").display()
+        )),
+        "{err}"
+    );
+}
+
+#[test]
+fn inspect_of_a_folder_without_a_tileset_says_what_to_give() {
+    let d = scratch_dir("inspect-empty");
+    let o = citylod(&["inspect", &d.display().to_string()]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = stderr_of(&o);
+    assert!(
+        err.contains(&format!(
+            "{}: no such tileset; give the folder holding tileset.json, or the file",
+            d.display()
+        )),
+        "{err}"
+    );
+}
+
+#[test]
+fn renamed_inputs_build_by_their_content() {
+    let d = scratch_dir("renamed-inputs");
+    let tests = repo_root().join("crates/citylod-ingest/tests");
+    for (from, name, extra) in [
+        ("osm/les_osmium.osm.gz", "extract.gz", vec![]),
+        (
+            "geopackage/les_gdal.gpkg",
+            "one.sqlite",
+            vec!["--layer", "buildings"],
+        ),
+        ("fgdb/nyc-les-2263.gdb.zip", "gdbzip_noext", vec![]),
+    ] {
+        let p = d.join(name);
+        std::fs::copy(tests.join(from), &p).unwrap();
+        let out = d.join(format!("out-{name}"));
+        let mut args = vec![
+            "build".to_string(),
+            p.display().to_string(),
+            "--out".into(),
+            out.display().to_string(),
+        ];
+        args.extend(extra.iter().map(|s| s.to_string()));
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let o = citylod(&args);
+        assert_eq!(o.status.code(), Some(0), "{name}: {}", stderr_of(&o));
+        assert!(out.join("tileset.json").is_file(), "{name}");
+    }
+}

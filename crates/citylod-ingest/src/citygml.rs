@@ -89,10 +89,13 @@ fn zip_members(archive: &crate::zip::Archive) -> Vec<&crate::zip::Member> {
     out
 }
 
+/// A ZIP archive: named `.zip`, or starting with a ZIP member's signature whatever its name.
 pub(crate) fn is_zip(path: &Path) -> bool {
-    path.extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("zip"))
-        && path.is_file()
+    path.is_file()
+        && (path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("zip"))
+            || crate::has_zip_magic(path))
 }
 
 /// A file whose first element (within its first 64 KiB, inflated when gzip-compressed) is a `CityModel`; or a ZIP

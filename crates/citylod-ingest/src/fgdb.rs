@@ -27,10 +27,35 @@ const CATALOG: &str = "a00000001.gdbtable";
 
 /// Whether `path` is a File Geodatabase: a folder named `*.gdb`, or any folder holding the catalog table, or a ZIP
 /// archive (`Buildings.gdb.zip`, as geodatabases are downloaded; one without a geodatabase inside is refused).
+/// A ZIP archive without the `.zip` extension counts when its content says so: a member in a `*.gdb` folder, or
+/// the catalog table.
 pub(crate) fn is_filegdb(path: &Path) -> bool {
     let extension = |e: &str| path.extension().is_some_and(|x| x.eq_ignore_ascii_case(e));
     (path.is_dir() && (extension("gdb") || path.join(CATALOG).is_file()))
-        || (extension("zip") && path.is_file())
+        || (path.is_file() && (extension("zip") || zip_holds_filegdb(path)))
+}
+
+/// A ZIP archive (by its content, whatever its name) holding a File Geodatabase: a member inside a `*.gdb` folder,
+/// or the catalog table.
+pub(crate) fn zip_holds_filegdb(path: &Path) -> bool {
+    if !crate::has_zip_magic(path) {
+        return false;
+    }
+    let Ok(archive) = crate::zip::Archive::open(path) else {
+        return false;
+    };
+    archive
+        .members
+        .iter()
+        .filter(|m| !m.name.starts_with("__MACOSX/"))
+        .any(|m| {
+            let mut parts: Vec<&str> = m.name.split('/').collect();
+            let file = parts.pop().unwrap_or("");
+            file.eq_ignore_ascii_case(CATALOG)
+                || parts
+                    .iter()
+                    .any(|d| d.to_ascii_lowercase().ends_with(".gdb"))
+        })
 }
 
 /// Where the geodatabase's files are: a folder, or a folder inside a ZIP archive.

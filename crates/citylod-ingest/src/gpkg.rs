@@ -1311,3 +1311,37 @@ pub(crate) fn is_geopackage_name(path: &Path) -> bool {
     path.extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("gpkg"))
 }
+
+/// A GeoPackage by its content, whatever its name (`None` when it is no SQLite database): an SQLite database whose
+/// header's application_id is a GeoPackage's (`GPKG`, or `GP10`/`GP11` of versions 1.0 and 1.1), or, as older
+/// writers leave it 0, one holding the `gpkg_contents` table the reader needs.
+pub(crate) fn is_geopackage_content(path: &Path) -> Option<bool> {
+    let mut head = Vec::with_capacity(72);
+    std::fs::File::open(path)
+        .and_then(|f| std::io::Read::read_to_end(&mut std::io::Read::take(f, 72), &mut head))
+        .ok()?;
+    if !head.starts_with(SQLITE_MAGIC) {
+        return None;
+    }
+    if let Some(id) = head.get(68..72) {
+        if [b"GPKG", b"GP10", b"GP11"].iter().any(|k| &k[..] == id) {
+            return Some(true);
+        }
+    }
+    let Ok(db) = open(path, &mut Vec::new()) else {
+        return Some(false);
+    };
+    let listed: bool = db
+        .query_row(
+            "SELECT count(*) > 0 FROM sqlite_master WHERE type IN ('table', 'view') AND name = 'gpkg_contents'",
+            [],
+            |r| r.get(0),
+        )
+        .unwrap_or(false);
+    Some(listed)
+}
+
+/// A GeoPackage input, by its name or by its content.
+pub(crate) fn is_geopackage(path: &Path) -> bool {
+    is_geopackage_name(path) || path.is_file() && is_geopackage_content(path) == Some(true)
+}

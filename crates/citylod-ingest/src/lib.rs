@@ -190,7 +190,7 @@ pub fn ingest(paths: &[PathBuf], opts: &IngestOptions) -> Result<Ingested, Inges
     if let Some(layer) = &opts.layer {
         if !paths
             .iter()
-            .any(|p| gpkg::is_geopackage_name(p) || fgdb::is_filegdb(p))
+            .any(|p| gpkg::is_geopackage(p) || fgdb::is_filegdb(p))
         {
             return Err(IngestError::InvalidOption {
                 name: "--layer",
@@ -857,6 +857,63 @@ fn named_but_not(path: &Path, head: &[u8]) -> Option<String> {
     ))
 }
 
+/// The error for a folder given as an input that is no File Geodatabase: the files inside it are meant, shown with
+/// the input extension most of them have (`*.geojson` when none has one).
+fn a_folder(path: &Path) -> IngestError {
+    const INPUT_EXTENSIONS: [&str; 13] = [
+        "geojson", "json", "jsonl", "gml", "xml", "citygml", "shp", "gpkg", "parquet", "pbf",
+        "osm", "gz", "zip",
+    ];
+    let mut counts: BTreeMap<String, usize> = BTreeMap::new();
+    for entry in std::fs::read_dir(path).into_iter().flatten().flatten() {
+        let p = entry.path();
+        let e = p
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase())
+            .unwrap_or_default();
+        if INPUT_EXTENSIONS.contains(&e.as_str()) && p.is_file() {
+            *counts.entry(e).or_default() += 1;
+        }
+    }
+    let extension = counts
+        .iter()
+        .max_by_key(|(_, n)| **n)
+        .map(|(e, _)| e.as_str())
+        .unwrap_or("geojson");
+    IngestError::Read {
+        path: path.into(),
+        source: std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            format!(
+                "{} is a folder; citylod reads files (or a File Geodatabase .gdb folder): give the files inside \
+                 it, e.g. {}",
+                path.display(),
+                path.join(format!("*.{extension}")).display()
+            ),
+        ),
+    }
+}
+
+/// What a binary file is whose head tells a container of no format citylod reads: an SQLite database that is not a
+/// GeoPackage, or a ZIP archive holding neither a File Geodatabase nor CityGML (told before, by their content).
+fn not_gdb_zip_or_sqlite(head: &[u8]) -> Option<String> {
+    if head.starts_with(b"SQLite format 3\0") {
+        Some(
+            "an SQLite database, but not a GeoPackage (no GeoPackage application_id, no gpkg_contents table); \
+             export the buildings as a GeoPackage (e.g. ogr2ogr -f GPKG out.gpkg IN)"
+                .into(),
+        )
+    } else if head.starts_with(b"PK\x03\x04") {
+        Some(
+            "a ZIP archive holding neither a File Geodatabase (a .gdb folder) nor CityGML files; unzip it and \
+             give citylod the files in it"
+                .into(),
+        )
+    } else {
+        None
+    }
+}
+
 /// What a file is that no reader took before JSON, when it cannot be JSON: empty, a glTF binary, UTF-16 text, or
 /// binary. `None` for text (UTF-8 or not: [`read_text`] says where it is not).
 fn not_text(head: &[u8]) -> Option<String> {
@@ -883,29 +940,149 @@ fn not_text(head: &[u8]) -> Option<String> {
     None
 }
 
-/// Reads, detects and parses one file, and settles its CRS.
+/// The format a file's head tells on its own, whatever the file is named: an OSM PBF (its first blob `OSMHeader`),
+/// gzip-compressed OpenStreetMap XML (inflating to an `<osm>` root), a GeoPackage (SQLite with a GeoPackage's
+/// application_id or `gpkg_contents`), Parquet (`PAR1`), a ZIP archive holding a File Geodatabase. CityGML (also
+/// zipped or gzip-compressed) is told before, by [`citygml::is_citygml`]; text formats after, by their first bytes.
+fn told_by_content(path: &Path, head: &[u8]) -> Option<InputFormat> {
+    if osm::is_pbf_head(head) {
+        Some(InputFormat::OsmPbf)
+    } else if head.starts_with(&[0x1f, 0x8b])
+        && citygml::root_element(head.to_vec()).as_deref() == Some("osm")
+    {
+        Some(InputFormat::OsmXml)
+    } else if head.starts_with(b"PAR1") {
+        Some(InputFormat::GeoParquet)
+    } else if gpkg::is_geopackage_content(path) == Some(true) {
+        Some(InputFormat::GeoPackage)
+    } else if head.starts_with(b"PK\x03\x04") && fgdb::zip_holds_filegdb(path) {
+        Some(InputFormat::FileGeodatabase)
+    } else {
+        None
+    }
+}
+
+/// A file starting with a ZIP archive's first member (`PK\x03\x04`), whatever its name.
+pub(crate) fn has_zip_magic(path: &Path) -> bool {
+    let mut head = [0u8; 4];
+    std::fs::File::open(path)
+        .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut head))
+        .is_ok()
+        && &head == b"PK\x03\x04"
+}
+
+/// Reads one file as `format`, one of those [`told_by_content`] tells or a name says (the text formats are read by
+/// [`load_one`] itself).
+fn read_as(
+    format: InputFormat,
+    path: &Path,
+    opts: &IngestOptions,
+    model_target: Option<lod::Target>,
+) -> Result<LoadedFile, IngestError> {
+    match format {
+        InputFormat::Shapefile => {
+            let doc = shp::read(path).map_err(|detail| IngestError::InvalidShapefile {
+                path: path.into(),
+                detail,
+            })?;
+            let missing = IngestError::MissingPrj { path: path.into() };
+            vector_file(path, doc, opts, model_target, format, missing)
+        }
+        InputFormat::FileGeodatabase => {
+            let doc = fgdb::read(path, opts.layer.as_deref(), feature::Want::Footprints).map_err(
+                |detail| {
+                    if path.is_file() && detail.starts_with("not a ZIP archive") {
+                        // Nothing says it was meant as a geodatabase rather than zipped CityGML.
+                        IngestError::UnknownFormat {
+                            path: path.into(),
+                            detail: format!(
+                                "{detail}; a .zip input is read as a zipped File Geodatabase or CityGML files"
+                            ),
+                        }
+                    } else {
+                        IngestError::InvalidFileGdb {
+                            path: path.into(),
+                            detail,
+                        }
+                    }
+                },
+            )?;
+            let missing = IngestError::FileGdbWithoutCrs { path: path.into() };
+            vector_file(path, doc, opts, model_target, format, missing)
+        }
+        InputFormat::GeoPackage => {
+            let doc = gpkg::read(path, opts.layer.as_deref(), feature::Want::Footprints).map_err(
+                |detail| IngestError::InvalidGeoPackage {
+                    path: path.into(),
+                    detail,
+                },
+            )?;
+            let missing = IngestError::GeoPackageWithoutCrs { path: path.into() };
+            vector_file(path, doc, opts, model_target, format, missing)
+        }
+        InputFormat::GeoParquet => {
+            let doc = geoparquet::read(path).map_err(|detail| IngestError::InvalidGeoParquet {
+                path: path.into(),
+                detail,
+            })?;
+            let missing = IngestError::GeoParquetWithoutCrs { path: path.into() };
+            vector_file(path, doc, opts, model_target, format, missing)
+        }
+        InputFormat::OsmPbf | InputFormat::OsmXml => {
+            let encoding = if format == InputFormat::OsmPbf {
+                osm::Encoding::Pbf
+            } else {
+                osm::Encoding::Xml
+            };
+            let doc = osm::read(path).map_err(|detail| IngestError::InvalidOsm {
+                path: path.into(),
+                encoding: encoding.label(),
+                detail,
+            })?;
+            let mut notes = doc.notes;
+            if let Some(c) = &opts.crs {
+                notes.push(format!(
+                    "OpenStreetMap data is WGS84 lon/lat: --crs {c} applies to the other inputs, not to this file"
+                ));
+            }
+            Ok(LoadedFile {
+                path: path.into(),
+                format,
+                crs: Crs::wgs84(),
+                version: None,
+                non_building_objects: 0,
+                features: doc.features,
+                notes,
+            })
+        }
+        _ => unreachable!("{format:?} is read by load_one"),
+    }
+}
+
+/// Reads, detects and parses one file, and settles its CRS. The content is looked at first, and a format its head
+/// tells is read whatever the name; the name only decides among what the head leaves open (a shapefile's parts, a
+/// broken file named as one format, which that format's reader then refuses with what is wrong).
 fn load_one(
     path: &Path,
     opts: &IngestOptions,
     model_target: Option<lod::Target>,
 ) -> Result<LoadedFile, IngestError> {
+    let head = {
+        let mut head = Vec::new();
+        std::fs::File::open(path)
+            .and_then(|f| {
+                std::io::Read::read_to_end(&mut std::io::Read::take(f, 64 * 1024), &mut head)
+            })
+            .map(|_| head)
+    };
+    if let Some(format) = head.as_ref().ok().and_then(|h| told_by_content(path, h)) {
+        return read_as(format, path, opts, model_target);
+    }
     let extension = path
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase());
     if extension.as_deref() == Some("shp") {
-        let doc = shp::read(path).map_err(|detail| IngestError::InvalidShapefile {
-            path: path.into(),
-            detail,
-        })?;
-        let missing = IngestError::MissingPrj { path: path.into() };
-        return vector_file(
-            path,
-            doc,
-            opts,
-            model_target,
-            InputFormat::Shapefile,
-            missing,
-        );
+        return read_as(InputFormat::Shapefile, path, opts, model_target);
     }
     if let Some((_, what)) = shp::SIDECARS
         .iter()
@@ -917,33 +1094,7 @@ fn load_one(
         });
     }
     if fgdb::is_filegdb(path) {
-        let doc = fgdb::read(path, opts.layer.as_deref(), feature::Want::Footprints).map_err(
-            |detail| {
-                if path.is_file() && detail.starts_with("not a ZIP archive") {
-                    // Nothing says it was meant as a geodatabase rather than zipped CityGML.
-                    IngestError::UnknownFormat {
-                        path: path.into(),
-                        detail: format!(
-                            "{detail}; a .zip input is read as a zipped File Geodatabase or CityGML files"
-                        ),
-                    }
-                } else {
-                    IngestError::InvalidFileGdb {
-                        path: path.into(),
-                        detail,
-                    }
-                }
-            },
-        )?;
-        let missing = IngestError::FileGdbWithoutCrs { path: path.into() };
-        return vector_file(
-            path,
-            doc,
-            opts,
-            model_target,
-            InputFormat::FileGeodatabase,
-            missing,
-        );
+        return read_as(InputFormat::FileGeodatabase, path, opts, model_target);
     }
     if let Some((_, what)) = fgdb::MEMBERS
         .iter()
@@ -956,22 +1107,11 @@ fn load_one(
             ),
         });
     }
+    if path.is_dir() {
+        return Err(a_folder(path));
+    }
     if gpkg::is_geopackage_name(path) {
-        let doc = gpkg::read(path, opts.layer.as_deref(), feature::Want::Footprints).map_err(
-            |detail| IngestError::InvalidGeoPackage {
-                path: path.into(),
-                detail,
-            },
-        )?;
-        let missing = IngestError::GeoPackageWithoutCrs { path: path.into() };
-        return vector_file(
-            path,
-            doc,
-            opts,
-            model_target,
-            InputFormat::GeoPackage,
-            missing,
-        );
+        return read_as(InputFormat::GeoPackage, path, opts, model_target);
     }
     if let Some((_, what)) = gpkg::SIDECARS
         .iter()
@@ -985,28 +1125,8 @@ fn load_one(
         });
     }
     if geoparquet::is_parquet(path) {
-        let doc = geoparquet::read(path).map_err(|detail| IngestError::InvalidGeoParquet {
-            path: path.into(),
-            detail,
-        })?;
-        let missing = IngestError::GeoParquetWithoutCrs { path: path.into() };
-        return vector_file(
-            path,
-            doc,
-            opts,
-            model_target,
-            InputFormat::GeoParquet,
-            missing,
-        );
+        return read_as(InputFormat::GeoParquet, path, opts, model_target);
     }
-    let head = {
-        let mut head = Vec::new();
-        std::fs::File::open(path)
-            .and_then(|f| {
-                std::io::Read::read_to_end(&mut std::io::Read::take(f, 64 * 1024), &mut head)
-            })
-            .map(|_| head)
-    };
     if let Some(detail) = head.as_ref().ok().and_then(|h| named_but_not(path, h)) {
         return Err(IngestError::UnknownFormat {
             path: path.into(),
@@ -1014,28 +1134,16 @@ fn load_one(
         });
     }
     if let Some(encoding) = osm::Encoding::of(path) {
-        let doc = osm::read(path).map_err(|detail| IngestError::InvalidOsm {
+        let format = match encoding {
+            osm::Encoding::Pbf => InputFormat::OsmPbf,
+            osm::Encoding::Xml => InputFormat::OsmXml,
+        };
+        return read_as(format, path, opts, model_target);
+    }
+    if let Some(detail) = head.as_ref().ok().and_then(|h| not_gdb_zip_or_sqlite(h)) {
+        return Err(IngestError::UnknownFormat {
             path: path.into(),
-            encoding: encoding.label(),
             detail,
-        })?;
-        let mut notes = doc.notes;
-        if let Some(c) = &opts.crs {
-            notes.push(format!(
-                "OpenStreetMap data is WGS84 lon/lat: --crs {c} applies to the other inputs, not to this file"
-            ));
-        }
-        return Ok(LoadedFile {
-            path: path.into(),
-            format: match encoding {
-                osm::Encoding::Pbf => InputFormat::OsmPbf,
-                osm::Encoding::Xml => InputFormat::OsmXml,
-            },
-            crs: Crs::wgs84(),
-            version: None,
-            non_building_objects: 0,
-            features: doc.features,
-            notes,
         });
     }
     if let Some(detail) = head.as_ref().ok().and_then(|h| not_text(h)) {

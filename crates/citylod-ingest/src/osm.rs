@@ -49,27 +49,36 @@ pub(crate) enum Encoding {
 }
 
 impl Encoding {
-    /// The encoding a file's name says (`.pbf`; `.osm`, `.osm.gz`, `.osm.bz2`), else XML when the file starts with
-    /// `<` (an Overpass API answer saved as `interpreter`, a `.xml`): none of the other formats does.
+    /// The encoding a file's head says, whatever its name: PBF by its first blob's type `OSMHeader`, XML by a
+    /// root element `osm` inside gzip, or text starting with `<` (an Overpass API answer saved as `interpreter`, a
+    /// `.xml`: none of the other formats does). Only when the head says neither, the name (`.pbf`; `.osm`,
+    /// `.osm.gz`, `.osm.bz2`), so that a broken file named as OpenStreetMap is refused by its reader.
     pub(crate) fn of(path: &Path) -> Option<Self> {
         let name = path.file_name()?.to_string_lossy().to_ascii_lowercase();
+        let mut raw = Vec::new();
+        let _ = std::fs::File::open(path).and_then(|f| {
+            std::io::Read::read_to_end(&mut std::io::Read::take(f, 64 * 1024), &mut raw)
+        });
+        if is_pbf_head(&raw) {
+            return Some(Encoding::Pbf);
+        }
+        if raw.starts_with(&[0x1f, 0x8b]) {
+            if crate::citygml::root_element(raw).as_deref() == Some("osm") {
+                return Some(Encoding::Xml);
+            }
+        } else {
+            let text = raw.strip_prefix(b"\xef\xbb\xbf").unwrap_or(&raw);
+            if text.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'<') {
+                return Some(Encoding::Xml);
+            }
+        }
         if name.ends_with(".pbf") {
             return Some(Encoding::Pbf);
         }
-        if [".osm", ".osm.gz", ".osm.bz2"]
+        [".osm", ".osm.gz", ".osm.bz2"]
             .iter()
             .any(|e| name.ends_with(e))
-        {
-            return Some(Encoding::Xml);
-        }
-        let mut head = [0u8; 64];
-        let n = std::fs::File::open(path)
-            .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
-            .ok()?;
-        let text = head[..n]
-            .strip_prefix(b"\xef\xbb\xbf")
-            .unwrap_or(&head[..n]);
-        (text.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'<')).then_some(Encoding::Xml)
+            .then_some(Encoding::Xml)
     }
 
     pub(crate) fn label(self) -> &'static str {
@@ -78,6 +87,12 @@ impl Encoding {
             Encoding::Xml => "XML",
         }
     }
+}
+
+/// The head of an OSM PBF file: its first blob's header, a 4-byte length and then field 1 (`type`) holding
+/// `OSMHeader`, as the PBF format requires of every file.
+pub(crate) fn is_pbf_head(head: &[u8]) -> bool {
+    head.len() >= 15 && head[4] == 0x0a && head[5] == 9 && &head[6..15] == b"OSMHeader"
 }
 
 /// What to read from a file.

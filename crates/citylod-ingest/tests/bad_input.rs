@@ -893,3 +893,135 @@ fn buildings_below_the_ground_are_skipped_as_underground() {
         out.frame
     );
 }
+
+/// Test data of the format tests, under `crates/citylod-ingest/tests`.
+fn fixture(rel: &str) -> PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests")
+        .join(rel)
+}
+
+/// The format a file copied under `name` is read as, with `opts`.
+fn read_renamed(
+    from: &std::path::Path,
+    name: &str,
+    opts: &IngestOptions,
+) -> Result<citylod_ingest::InputFormat, IngestError> {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join(name);
+    std::fs::copy(from, &p).unwrap();
+    ingest(std::slice::from_ref(&p), opts).map(|out| out.report.files[0].format)
+}
+
+#[test]
+fn formats_are_told_by_content_without_their_extension() {
+    use citylod_ingest::InputFormat;
+    let none = IngestOptions::default();
+    // A PBF built by the test data generator, renamed as a download is.
+    let pbf = {
+        use citylod_testdata::osm_pbf::{tags, write_pbf, Node, OsmData, PbfOptions, Way};
+        let dir = tempfile::tempdir().unwrap();
+        let named = dir.path().join("named.osm.pbf");
+        let corners = [
+            (4.36, 52.0),
+            (4.3601, 52.0),
+            (4.3601, 52.0001),
+            (4.36, 52.0001),
+        ];
+        let data = OsmData {
+            nodes: (1..)
+                .zip(corners)
+                .map(|(id, (lon, lat))| Node {
+                    id,
+                    lon,
+                    lat,
+                    tags: vec![],
+                })
+                .collect(),
+            ways: vec![Way {
+                id: 10,
+                refs: vec![1, 2, 3, 4, 1],
+                tags: tags(&[("building", "yes")]),
+            }],
+            relations: vec![],
+        };
+        std::fs::write(&named, write_pbf(&data, &PbfOptions::default())).unwrap();
+        read_renamed(&named, "download", &none)
+    };
+    assert_eq!(pbf.unwrap(), InputFormat::OsmPbf);
+    assert_eq!(
+        read_renamed(&fixture("osm/les_osmium.osm.gz"), "extract.gz", &none).unwrap(),
+        InputFormat::OsmXml
+    );
+    let layer = IngestOptions {
+        layer: Some("buildings".into()),
+        ..Default::default()
+    };
+    assert_eq!(
+        read_renamed(&fixture("geopackage/les_gdal.gpkg"), "one.sqlite", &layer).unwrap(),
+        InputFormat::GeoPackage
+    );
+    assert_eq!(
+        read_renamed(&fixture("fgdb/nyc-les-2263.gdb.zip"), "gdbzip_noext", &none).unwrap(),
+        InputFormat::FileGeodatabase
+    );
+    // Named as they are, they read as before.
+    assert_eq!(
+        read_renamed(&fixture("geopackage/les_gdal.gpkg"), "les.gpkg", &layer).unwrap(),
+        InputFormat::GeoPackage
+    );
+    assert_eq!(
+        read_renamed(&fixture("osm/les_osmium.osm.gz"), "les.osm.gz", &none).unwrap(),
+        InputFormat::OsmXml
+    );
+}
+
+#[test]
+fn an_sqlite_database_or_zip_of_no_format_read_is_named_as_such() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("plain.sqlite");
+    let conn = rusqlite::Connection::open(&db).unwrap();
+    conn.execute_batch("CREATE TABLE t (a INTEGER); INSERT INTO t VALUES (1);")
+        .unwrap();
+    drop(conn);
+    match ingest(&[db], &IngestOptions::default()) {
+        Err(IngestError::UnknownFormat { detail, .. }) => {
+            assert!(
+                detail.contains("an SQLite database, but not a GeoPackage"),
+                "{detail}"
+            )
+        }
+        other => panic!("{other:?}"),
+    }
+    let zip = dir.path().join("archive");
+    std::fs::copy(fixture("fgdb/none.zip"), &zip).unwrap();
+    let err = ingest(&[zip], &IngestOptions::default()).unwrap_err();
+    let text = err.to_string();
+    assert!(
+        matches!(err, IngestError::UnknownFormat { .. })
+            && text.contains("a ZIP archive holding neither a File Geodatabase"),
+        "{text}"
+    );
+}
+
+#[test]
+fn an_ordinary_folder_as_input_says_to_give_the_files_inside_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let folder = dir.path().join("tiles");
+    std::fs::create_dir(&folder).unwrap();
+    std::fs::write(folder.join("a.gml"), "<x/>").unwrap();
+    std::fs::write(folder.join("b.gml"), "<x/>").unwrap();
+    std::fs::write(folder.join("c.json"), "{}").unwrap();
+    match ingest(std::slice::from_ref(&folder), &IngestOptions::default()) {
+        Err(IngestError::Read { source, .. }) => {
+            let text = source.to_string();
+            assert!(
+                text.contains(
+                    "is a folder; citylod reads files (or a File Geodatabase .gdb folder)"
+                ) && text.ends_with(&format!("e.g. {}", folder.join("*.gml").display())),
+                "{text}"
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+}

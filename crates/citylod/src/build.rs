@@ -1094,6 +1094,16 @@ fn plural(n: usize, noun: &str) -> String {
 /// Skipped features listed when none could be read (the report is not written then).
 const SKIPS_SHOWN: usize = 10;
 
+/// The first of `path` and its ancestors that exists and is not a folder (a file there makes creating `path` as
+/// a folder fail), if any.
+fn existing_non_folder(path: &Path) -> Option<PathBuf> {
+    path.ancestors()
+        .filter(|a| !a.as_os_str().is_empty())
+        .find(|a| std::fs::symlink_metadata(a).is_ok())
+        .filter(|a| !a.is_dir())
+        .map(Path::to_path_buf)
+}
+
 /// Refuses an output path whose replacement would destroy something that citylod did not write: a file, a symbolic
 /// link, a folder holding an input (or the level dumps), a non-empty folder without a `tileset.json` that citylod
 /// wrote or with entries besides those it writes (these two unless `--force`), or one holding a previous tileset
@@ -1154,6 +1164,59 @@ fn check_output_folder(args: &BuildArgs) -> Result<()> {
                 p.display(),
                 dir.display()
             );
+        }
+    }
+    if let Some(dir) = args.dump_levels.as_deref() {
+        if let Some(file) = existing_non_folder(dir) {
+            bail!(
+                "--dump-levels {}: {} is a file, not a folder; the level dumps are written into a folder (made \
+                 when missing): give another path",
+                dir.display(),
+                file.display()
+            );
+        }
+    }
+    // The build stages beside `out`, in its parent folder (made when missing): one that cannot be is said now,
+    // not after the build.
+    let parent = out
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    if let Some(file) = existing_non_folder(parent) {
+        bail!(
+            "cannot create the output folder {}: {} {} is not a folder; choose another --out",
+            out.display(),
+            if file == parent {
+                "its parent"
+            } else {
+                "on its path,"
+            },
+            file.display()
+        );
+    }
+    if !out.is_dir() {
+        let mut holder = parent;
+        while !holder.exists() {
+            match holder.parent().filter(|p| !p.as_os_str().is_empty()) {
+                Some(p) => holder = p,
+                None => {
+                    holder = Path::new(".");
+                    break;
+                }
+            }
+        }
+        let probe = holder.join(format!(".citylod-probe-{}", std::process::id()));
+        match std::fs::create_dir(&probe) {
+            Ok(()) => {
+                let _ = std::fs::remove_dir(&probe);
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+            Err(e) => bail!(
+                "cannot create the output folder {}: {} is not writable ({}); choose another --out",
+                out.display(),
+                holder.display(),
+                e.kind()
+            ),
         }
     }
     let Ok(meta) = std::fs::symlink_metadata(out) else {

@@ -49,7 +49,7 @@ fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Build(args) => build::run(*args),
-        Command::Inspect(args) => inspect::run(args),
+        Command::Inspect(args) => tileset_given(&args.tileset).and_then(|()| inspect::run(args)),
         Command::Check(args) => check::run(args),
     };
     match result {
@@ -59,6 +59,22 @@ fn main() -> ExitCode {
             ExitCode::from(EXIT_INPUT)
         }
     }
+}
+
+/// Refuses a TILESET argument that is neither a tileset.json nor a folder holding one, as `check` does.
+fn tileset_given(tileset: &std::path::Path) -> anyhow::Result<()> {
+    let json = if tileset.is_dir() {
+        tileset.join("tileset.json")
+    } else {
+        tileset.to_path_buf()
+    };
+    if !json.is_file() {
+        anyhow::bail!(
+            "{}: no such tileset; give the folder holding tileset.json, or the file",
+            tileset.display()
+        );
+    }
+    Ok(())
 }
 
 /// A number as a user reads it: plain, or in exponent form when huge or tiny (1e308, not 309 digits).
