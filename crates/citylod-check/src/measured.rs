@@ -19,6 +19,8 @@
 
 use std::collections::{BTreeMap, HashMap};
 
+use rayon::prelude::*;
+
 use crate::finding::{Finding, FindingKind};
 use crate::tileset::{LoadedTileset, NodeRef, TileInfo};
 use crate::vec3::{self, Vec3};
@@ -352,12 +354,34 @@ pub fn check_measured(ts: &LoadedTileset, tol: Tolerances) -> Vec<Finding> {
     }
     let kappa = tol.dh_px / tol.da_px.sqrt();
     let leaves = leaf_buildings(ts);
-    let mut out = Vec::new();
-    for (i, t) in ts.tiles.iter().enumerate() {
+    // Tile by tile, in parallel; the findings in tile order.
+    (0..ts.tiles.len())
+        .into_par_iter()
+        .map(|i| {
+            let mut out = Vec::new();
+            tile_measured(ts, i, kappa, &leaves, &mut out);
+            out
+        })
+        .collect::<Vec<Vec<Finding>>>()
+        .into_iter()
+        .flatten()
+        .collect()
+}
+
+/// [`check_measured`] of tile `i`.
+fn tile_measured(
+    ts: &LoadedTileset,
+    i: usize,
+    kappa: f64,
+    leaves: &HashMap<u32, LeafBuilding>,
+    out: &mut Vec<Finding>,
+) {
+    let t = &ts.tiles[i];
+    {
         let node = &ts.tree.tiles[i];
-        let Some(mesh) = &t.mesh else { continue };
+        let Some(mesh) = &t.mesh else { return };
         if node.children.is_empty() || mesh.triangles.is_empty() {
-            continue;
+            return;
         }
         let e = node.geometric_error_m;
         let top = TopView::new(t);
@@ -384,7 +408,7 @@ pub fn check_measured(ts: &LoadedTileset, tol: Tolerances) -> Vec<Finding> {
                 })
             })
             .collect();
-        let mut groups: Vec<(f64, Vec<u32>)> = neighbours(&uncovered, &leaves, LINK_M)
+        let mut groups: Vec<(f64, Vec<u32>)> = neighbours(&uncovered, leaves, LINK_M)
             .into_iter()
             .map(|g| {
                 (
@@ -417,10 +441,9 @@ pub fn check_measured(ts: &LoadedTileset, tol: Tolerances) -> Vec<Finding> {
                 .buildings(&list),
             );
         }
-        check_blocks(ts, i, &mut out);
-        check_buildings_drawn_coarse(ts, i, &leaves, &own, &mut out);
+        check_blocks(ts, i, out);
+        check_buildings_drawn_coarse(ts, i, leaves, &own, out);
     }
-    out
 }
 
 /// Buildings left out of a tile count as one group when their boxes seen from above lie within 0.5 m of each other:
