@@ -377,52 +377,51 @@ fn tile_measured(
     out: &mut Vec<Finding>,
 ) {
     let t = &ts.tiles[i];
-    {
-        let node = &ts.tree.tiles[i];
-        let Some(mesh) = &t.mesh else { return };
-        if node.children.is_empty() || mesh.triangles.is_empty() {
-            return;
+    let node = &ts.tree.tiles[i];
+    let Some(mesh) = &t.mesh else { return };
+    if node.children.is_empty() || mesh.triangles.is_empty() {
+        return;
+    }
+    let e = node.geometric_error_m;
+    let top = TopView::new(t);
+    // Buildings the tile draws as themselves.
+    let mut own: HashMap<u32, usize> = HashMap::new();
+    for (k, f) in t.features.iter().enumerate() {
+        if let NodeRef::Building { building_index } = f.node {
+            own.entry(building_index).or_insert(k);
         }
-        let e = node.geometric_error_m;
-        let top = TopView::new(t);
-        // Buildings the tile draws as themselves.
-        let mut own: HashMap<u32, usize> = HashMap::new();
-        for (k, f) in t.features.iter().enumerate() {
-            if let NodeRef::Building { building_index } = f.node {
-                own.entry(building_index).or_insert(k);
-            }
-        }
-        // The buildings below that no feature of the tile draws, seen from above, in groups of neighbours.
-        let mut under = t.under.clone();
-        under.dedup();
-        let uncovered: Vec<u32> = under
-            .iter()
-            .copied()
-            .filter(|b| !own.contains_key(b))
-            .filter(|b| {
-                leaves.get(b).is_some_and(|leaf| {
-                    ts.tiles[leaf.tile]
-                        .mesh
-                        .as_ref()
-                        .is_some_and(|m| !leaf.roof_points(m).any(|p| top.feature_at(p).is_some()))
-                })
+    }
+    // The buildings below that no feature of the tile draws, seen from above, in groups of neighbours.
+    let mut under = t.under.clone();
+    under.dedup();
+    let uncovered: Vec<u32> = under
+        .iter()
+        .copied()
+        .filter(|b| !own.contains_key(b))
+        .filter(|b| {
+            leaves.get(b).is_some_and(|leaf| {
+                ts.tiles[leaf.tile]
+                    .mesh
+                    .as_ref()
+                    .is_some_and(|m| !leaf.roof_points(m).any(|p| top.feature_at(p).is_some()))
             })
-            .collect();
-        let mut groups: Vec<(f64, Vec<u32>)> = neighbours(&uncovered, leaves, LINK_M)
-            .into_iter()
-            .map(|g| {
-                (
-                    kappa * g.iter().map(|b| leaves[b].roof_area_m2).sum::<f64>().sqrt(),
-                    g,
-                )
-            })
-            .filter(|(error, _)| *error > e * (1.0 + F32_SLACK))
-            .collect();
-        if !groups.is_empty() {
-            groups.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-            let list: Vec<u32> = groups.iter().flat_map(|g| g.1.iter().copied()).collect();
-            let (error, first) = (groups[0].0, &groups[0].1);
-            out.push(
+        })
+        .collect();
+    let mut groups: Vec<(f64, Vec<u32>)> = neighbours(&uncovered, leaves, LINK_M)
+        .into_iter()
+        .map(|g| {
+            (
+                kappa * g.iter().map(|b| leaves[b].roof_area_m2).sum::<f64>().sqrt(),
+                g,
+            )
+        })
+        .filter(|(error, _)| *error > e * (1.0 + F32_SLACK))
+        .collect();
+    if !groups.is_empty() {
+        groups.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        let list: Vec<u32> = groups.iter().flat_map(|g| g.1.iter().copied()).collect();
+        let (error, first) = (groups[0].0, &groups[0].1);
+        out.push(
                 Finding::at(
                     FindingKind::BuildingVanishes,
                     ts,
@@ -440,10 +439,9 @@ fn tile_measured(
                 .values(error, e)
                 .buildings(&list),
             );
-        }
-        check_blocks(ts, i, out);
-        check_buildings_drawn_coarse(ts, i, leaves, &own, out);
     }
+    check_blocks(ts, i, out);
+    check_buildings_drawn_coarse(ts, i, leaves, &own, out);
 }
 
 /// Buildings left out of a tile count as one group when their boxes seen from above lie within 0.5 m of each other:
