@@ -53,6 +53,8 @@ struct LeafBuilding {
     /// Its leaf tile and its triangles there.
     tile: usize,
     triangles: Vec<u32>,
+    /// Its roof faces down by its winding (a writer that turned every triangle: clients draw both sides).
+    flip: bool,
 }
 
 impl LeafBuilding {
@@ -63,7 +65,9 @@ impl LeafBuilding {
         mesh: &'a citylod_model::Mesh3d,
     ) -> impl Iterator<Item = [f64; 2]> + 'a {
         self.triangles.iter().flat_map(move |&k| {
-            let up = normal_of(mesh, mesh.triangles[k as usize]).filter(|(_, n)| faces_up(*n));
+            let up = normal_of(mesh, mesh.triangles[k as usize])
+                .map(|(p, n)| (p, if self.flip { vec3::scale(n, -1.0) } else { n }))
+                .filter(|(_, n)| faces_up(*n));
             let (p, m) = match up {
                 Some((p, n)) => {
                     let share = n[2] / 2.0 / self.roof_area_m2.max(1e-12);
@@ -134,7 +138,7 @@ fn leaf_buildings(ts: &LoadedTileset) -> HashMap<u32, LeafBuilding> {
             if out.contains_key(&building_index) {
                 continue;
             }
-            let mut roof_area_m2 = 0.0;
+            let (mut roof_area_m2, mut floor_area_m2) = (0.0, 0.0);
             let mut top_z = f64::NEG_INFINITY;
             let mut xy = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
             for &k in &tris {
@@ -150,7 +154,14 @@ fn leaf_buildings(ts: &LoadedTileset) -> HashMap<u32, LeafBuilding> {
                 }
                 if faces_up(n) {
                     roof_area_m2 += n[2] / 2.0;
+                } else if faces_up(vec3::scale(n, -1.0)) {
+                    floor_area_m2 -= n[2] / 2.0;
                 }
+            }
+            // Without a triangle facing up, its roof is what faces down (turned the other way round).
+            let flip = roof_area_m2 <= 0.0;
+            if flip {
+                roof_area_m2 = floor_area_m2;
             }
             if roof_area_m2 <= 0.0 {
                 continue;
@@ -163,6 +174,7 @@ fn leaf_buildings(ts: &LoadedTileset) -> HashMap<u32, LeafBuilding> {
                     xy,
                     tile: i,
                     triangles: tris,
+                    flip,
                 },
             );
         }
@@ -185,8 +197,9 @@ impl TopView {
         let mut triangles = Vec::new();
         if let Some(mesh) = &t.mesh {
             for (&tri, &f) in mesh.triangles.iter().zip(&t.triangle_features) {
+                // Facing up or down: clients draw both sides (a cap turned by its winding still covers).
                 if let Some((p, n)) = normal_of(mesh, tri) {
-                    if faces_up(n) {
+                    if faces_up(n) || faces_up(vec3::scale(n, -1.0)) {
                         triangles.push((p.map(|q| [q[0], q[1]]), f));
                     }
                 }
@@ -526,13 +539,34 @@ fn check_blocks(ts: &LoadedTileset, i: usize, out: &mut Vec<Finding>) {
     let e = ts.tree.tiles[i].geometric_error_m;
     let mut misdrawn: Vec<(usize, String)> = Vec::new();
     let mut understated: Vec<(usize, f64, f64, String)> = Vec::new();
+    // Features drawn as prisms: every vertex at their lowest or highest z (within the rounding). A block of one
+    // building may be drawn as its 3D model instead, whose heights are not the block's.
+    let mut prism = vec![true; t.features.len()];
+    if let Some(mesh) = &t.mesh {
+        for (tri, &f) in mesh.triangles.iter().zip(&t.triangle_features) {
+            let Some(feature) = t.features.get(f as usize) else {
+                continue;
+            };
+            let Some((lo, hi)) = feature.bounds_m else {
+                continue;
+            };
+            let r = rounding_m(e, hi[2]);
+            let off = tri
+                .iter()
+                .filter_map(|&v| mesh.positions.get(v as usize))
+                .any(|p| (p[2] - lo[2]).abs() > r && (p[2] - hi[2]).abs() > r);
+            if off {
+                prism[f as usize] = false;
+            }
+        }
+    }
     for (k, f) in t.features.iter().enumerate() {
         if !matches!(f.node, NodeRef::Cluster { .. }) || f.fallback {
             continue;
         }
         let Some(h) = f.heights else { continue };
         let top = h.ground_z_m + h.height_m;
-        if let Some((lo, hi)) = f.bounds_m {
+        if let Some((lo, hi)) = f.bounds_m.filter(|_| prism[k]) {
             let r = rounding_m(e, top);
             if (lo[2] - h.ground_z_m).abs() > r || (hi[2] - top).abs() > r {
                 misdrawn.push((
@@ -617,12 +651,18 @@ fn check_buildings_drawn_coarse(
         per_feature.entry(f).or_default().push(k as u32);
     }
     let mut far: Vec<(u32, f64)> = Vec::new();
+    let mut unheld: Vec<u32> = Vec::new();
     let mut own: Vec<(&u32, &usize)> = own.iter().collect();
     own.sort_unstable();
     for (&b, &k) in own {
-        let (Some(leaf), Some(coarse)) = (leaves.get(&b), per_feature.get(&(k as u32))) else {
+        let Some(coarse) = per_feature.get(&(k as u32)) else {
             continue;
         };
+        if !ts.buildings.contains(&b) {
+            unheld.push(b);
+            continue;
+        }
+        let Some(leaf) = leaves.get(&b) else { continue };
         let Some(leaf_mesh) = &ts.tiles[leaf.tile].mesh else {
             continue;
         };
@@ -636,6 +676,23 @@ fn check_buildings_drawn_coarse(
         if d > reach {
             far.push((b, d));
         }
+    }
+    if !unheld.is_empty() {
+        out.push(
+            Finding::at(
+                FindingKind::ErrorUnderstated,
+                ts,
+                i,
+                format!(
+                    "{} building(s) the tile draws as themselves are held by no leaf (building_index {}…): how far \
+                     they lie from full detail cannot be measured, and what they stand for is not drawn below",
+                    unheld.len(),
+                    unheld[0]
+                ),
+            )
+            .node(NodeRef::Building { building_index: unheld[0] })
+            .buildings(&unheld),
+        );
     }
     if far.is_empty() {
         return;
@@ -899,6 +956,90 @@ mod tests {
         assert_eq!(found.len(), 1);
         assert_eq!(found[0].kind, FindingKind::ErrorUnderstated);
         assert_eq!((found[0].measured, found[0].limit), (Some(4.0), Some(1.0)));
+    }
+
+    #[test]
+    fn roofs_turned_the_other_way_round_still_count_and_a_block_drawn_as_a_model_is_not_held_to_a_prism(
+    ) {
+        // Leaves whose every triangle is turned (clients draw both sides): their roofs face down by their winding,
+        // and a block shrunk to a speck still lets them vanish.
+        let mut speck = tileset(
+            4.0,
+            &[(
+                block(2, 12.0, (10.0, 14.0), 4.0),
+                [0.0, 0.0, 0.0],
+                [1.0, 1.0, 12.0],
+            )],
+            &two_buildings(),
+        );
+        // (Without their floors, as citylod writes buildings: box_mesh's first two triangles of each twelve.)
+        let leaf = &mut speck.tiles[1];
+        let keep = |k: &usize| k % 12 >= 2;
+        let mesh = leaf.mesh.as_mut().unwrap();
+        mesh.triangles = mesh
+            .triangles
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| keep(k))
+            .map(|(_, t)| [t[0], t[2], t[1]])
+            .collect();
+        leaf.triangle_features = leaf
+            .triangle_features
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| keep(k))
+            .map(|(_, f)| *f)
+            .collect();
+        assert_eq!(kinds(&speck), [FindingKind::BuildingVanishes]);
+        // A block of one building drawn as its model (a gable: vertices between its lowest and highest z), its
+        // metadata the building's attribute height: not a block drawn otherwise than it says.
+        let mut model = tileset(
+            4.0,
+            &[(
+                block(1, 8.0, (8.0, 8.0), 0.0),
+                [0.0, 0.0, 0.0],
+                [10.0, 10.0, 8.0],
+            )],
+            &[(building(0), [0.0, 0.0, 0.0], [10.0, 10.0, 8.0])],
+        );
+        let coarse = model.tiles[0].mesh.as_mut().unwrap();
+        for p in coarse
+            .positions
+            .iter_mut()
+            .filter(|p| p[2] == 8.0 && p[0] == 10.0)
+        {
+            p[2] = 20.0; // the roof rises to 20 m along one side ...
+        }
+        coarse.positions.push([5.0, 5.0, 14.0]); // ... through a point at 14 m
+        let n = coarse.positions.len() as u32 - 1;
+        coarse.triangles.push([0, 1, n]);
+        model.tiles[0].triangle_features.push(0);
+        model.tiles[0].features[0].bounds_m = Some(([0.0; 3], [10.0, 10.0, 20.0]));
+        assert_eq!(kinds(&model), []);
+        // The same drawn as a prism 20 m high: found.
+        let prism = tileset(
+            4.0,
+            &[(
+                block(1, 8.0, (8.0, 8.0), 0.0),
+                [0.0, 0.0, 0.0],
+                [10.0, 10.0, 20.0],
+            )],
+            &[(building(0), [0.0, 0.0, 0.0], [10.0, 10.0, 8.0])],
+        );
+        assert_eq!(kinds(&prism), [FindingKind::BlockMisdrawn]);
+    }
+
+    #[test]
+    fn a_building_drawn_above_the_leaves_that_no_leaf_holds_is_found() {
+        let leaf = vec![(building(0), [0.0, 0.0, 0.0], [10.0, 10.0, 20.0])];
+        let coarse = vec![
+            (building(0), [0.0, 0.0, 0.0], [10.0, 10.0, 20.0]),
+            (building(7), [20.0, 0.0, 0.0], [30.0, 10.0, 20.0]),
+        ];
+        let found = check_measured(&tileset(5.0, &coarse, &leaf), Tolerances::default());
+        assert_eq!(found.len(), 1, "{found:?}");
+        assert_eq!(found[0].kind, FindingKind::ErrorUnderstated);
+        assert_eq!(found[0].buildings, [7]);
     }
 
     #[test]
