@@ -1335,3 +1335,115 @@ fn renamed_inputs_build_by_their_content() {
         assert!(out.join("tileset.json").is_file(), "{name}");
     }
 }
+
+#[test]
+fn a_single_dash_out_is_refused_with_the_flag_to_write() {
+    let d = scratch_dir("single-dash-out");
+    let (lon, lat) = (-73.99, 40.72);
+    let fc = json!({"type": "FeatureCollection", "features": [
+        feature("a", json!({"height": 10}), json!({"type": "Polygon", "coordinates": square(lon, lat, 0.0002)})),
+    ]});
+    let input = write(&d, "one.geojson", &fc.to_string());
+    let tiles = d.join("tiles");
+    for args in [
+        vec![
+            "build".to_string(),
+            input.display().to_string(),
+            "-out".into(),
+            tiles.display().to_string(),
+        ],
+        vec![
+            "build".to_string(),
+            input.display().to_string(),
+            format!("-out={}", tiles.display()),
+        ],
+    ] {
+        let a: Vec<&str> = args.iter().map(String::as_str).collect();
+        let o = citylod(&a);
+        assert_no_panic(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        let err = stderr_of(&o);
+        assert!(
+            err.contains("error: -out is read as -o ut; write --out DIR (or -o DIR)"),
+            "{args:?}: {err}"
+        );
+        assert!(!tiles.exists() && !Path::new("ut").exists(), "{args:?}");
+    }
+}
+
+#[test]
+fn count_flags_that_are_not_whole_numbers_say_the_form_expected() {
+    let d = scratch_dir("count-flags");
+    let input = write(
+        &d,
+        "one.geojson",
+        r#"{"type":"FeatureCollection","features":[]}"#,
+    );
+    for (flag, value, says) in [
+        (
+            "--max-tileset-json-bytes",
+            "4MB",
+            "a whole number of bytes, e.g. 4000000",
+        ),
+        (
+            "--tile-max-features",
+            "-1",
+            "a whole number of features, e.g. 2000",
+        ),
+        (
+            "--tile-max-triangles",
+            "1.5",
+            "a whole number of triangles, e.g. 200000",
+        ),
+    ] {
+        let out = d.join("out");
+        let o = citylod(&[
+            "build",
+            input.to_str().unwrap(),
+            flag,
+            value,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{flag} {value}");
+        let err = stderr_of(&o);
+        assert!(
+            err.contains(&format!("invalid value '{value}' for '{flag}")) && err.contains(says),
+            "{flag} {value}: {err}"
+        );
+        assert!(!err.contains("invalid digit"), "{err}");
+    }
+}
+
+#[test]
+fn the_summary_breaks_repairs_down_by_reason_and_gives_small_sizes_in_kb() {
+    let d = scratch_dir("summary-repairs");
+    let (lon, lat) = (-73.99, 40.72);
+    let fc = json!({"type": "FeatureCollection", "features": [
+        feature("good", json!({"height": 10}), json!({"type": "Polygon", "coordinates": square(lon, lat, 0.0002)})),
+        feature("unclosed", json!({"height": 9}), json!({"type": "Polygon", "coordinates": [[
+            [lon + 0.003, lat], [lon + 0.0032, lat], [lon + 0.0032, lat + 0.0002], [lon + 0.003, lat + 0.0002]]]})),
+        feature("a-point", json!({}), json!({"type": "Point", "coordinates": [lon, lat]})),
+    ]});
+    let input = write(&d, "repairs.geojson", &fc.to_string());
+    let out = d.join("out");
+    let o = citylod(&[
+        "build",
+        input.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = stderr_of(&o);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(err.contains("(1 repaired, 1 skipped)"), "{err}");
+    assert!(
+        err.contains("\n  skipped      1 × unsupported_geometry\n"),
+        "{err}"
+    );
+    assert!(err.contains("\n  repaired     1 × ring_closed\n"), "{err}");
+    let summary = err.lines().find(|l| l.starts_with("citylod: ")).unwrap();
+    assert!(
+        summary.contains(" kB, in ") && !summary.contains(" MB"),
+        "{summary}"
+    );
+}

@@ -56,8 +56,9 @@ pub enum IngestError {
     #[error("{path}: no .prj beside it names its CRS; pass one with --crs, e.g. --crs EPSG:26986")]
     MissingPrj { path: PathBuf },
     /// A GeoPackage that cannot be read as one (not SQLite, no GeoPackage tables, several feature tables and no
-    /// `--layer`, a layer that is not there).
-    #[error("{path}: invalid GeoPackage: {detail}")]
+    /// `--layer`, a layer that is not there). `detail` begins "invalid GeoPackage:" when the file is damaged or no
+    /// GeoPackage, not when it only needs `--layer` or names no such layer.
+    #[error("{path}: {detail}")]
     InvalidGeoPackage { path: PathBuf, detail: String },
     /// A file named `.pbf`, `.osm` or `.osm.gz` that cannot be read as OpenStreetMap PBF or XML (not one, cut short,
     /// a compression this reader lacks, a history file, XML that is not well-formed).

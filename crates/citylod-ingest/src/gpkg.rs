@@ -49,16 +49,38 @@ struct Layer {
 
 /// Reads the feature table `layer` of `path` (when `layer` is `None`, the only one; for `Want::Lines`, the only one
 /// of lines). Errors name what is wrong with the file as a whole; one unusable row is a skipped feature.
+/// A damaged file's (or one that is no GeoPackage) error begins "invalid GeoPackage:"; a sound file that only needs
+/// `--layer` (or names no such layer) is not called invalid.
 pub(crate) fn read(path: &Path, layer: Option<&str>, want: Want) -> Result<VectorDoc, String> {
+    read_layer(path, layer, want).map_err(|r| match r {
+        Refusal::Invalid(detail) => format!("invalid GeoPackage: {detail}"),
+        Refusal::Layer(detail) => detail,
+    })
+}
+
+/// Why a GeoPackage is not read: the file is damaged or no GeoPackage, or it is sound and the layer to read is to be
+/// named (or the one named is not there).
+enum Refusal {
+    Invalid(String),
+    Layer(String),
+}
+
+impl From<String> for Refusal {
+    fn from(detail: String) -> Self {
+        Refusal::Invalid(detail)
+    }
+}
+
+fn read_layer(path: &Path, layer: Option<&str>, want: Want) -> Result<VectorDoc, Refusal> {
     let mut head = Vec::with_capacity(16);
     std::fs::File::open(path)
         .and_then(|f| std::io::Read::read_to_end(&mut std::io::Read::take(f, 16), &mut head))
         .map_err(|e| format!("cannot read it: {e}"))?;
     if head.as_slice() != SQLITE_MAGIC {
-        return Err(
+        return Err(Refusal::Invalid(
             "not an SQLite database (a GeoPackage is one; its first bytes say \"SQLite format 3\")"
                 .into(),
-        );
+        ));
     }
     let mut notes = Vec::new();
     let db = open(path, &mut notes)?;
@@ -76,9 +98,9 @@ pub(crate) fn read(path: &Path, layer: Option<&str>, want: Want) -> Result<Vecto
             )
             .map_err(sql)?;
         if !present {
-            return Err(format!(
+            return Err(Refusal::Invalid(format!(
                 "an SQLite database but not a GeoPackage: it has no {table} table"
-            ));
+            )));
         }
     }
     let (tables, orphans) = layers(&db).map_err(sql)?;
@@ -239,7 +261,7 @@ fn choose<'a>(
     orphans: &[String],
     asked: Option<&str>,
     want: Want,
-) -> Result<&'a Layer, String> {
+) -> Result<&'a Layer, Refusal> {
     let describe = |t: &Table| match t.columns.as_slice() {
         [] => format!("{} (no row in gpkg_geometry_columns)", t.name),
         [one] => format!("{} ({})", t.name, one.geometry_type),
@@ -286,10 +308,10 @@ fn choose<'a>(
         }
     };
     if tables.is_empty() {
-        return Err(format!(
+        return Err(Refusal::Invalid(format!(
             "a GeoPackage without feature tables (gpkg_contents lists none with data_type 'features'){}",
             orphaned().unwrap_or_default()
-        ));
+        )));
     }
     let candidates: Vec<&Table> = tables.iter().filter(|t| !t.columns.is_empty()).collect();
     match (asked, candidates.as_slice()) {
@@ -304,36 +326,39 @@ fn choose<'a>(
             .ok_or_else(|| {
                 let orphan = orphans.iter().any(|o| o.eq_ignore_ascii_case(name));
                 if orphan {
-                    format!(
+                    Refusal::Invalid(format!(
                         "no feature table {name:?} in gpkg_contents (gpkg_geometry_columns names it, but \
                          gpkg_contents does not list it with data_type 'features'; its feature tables: {}); {fix}",
                         list(&all)
-                    )
+                    ))
                 } else {
-                    format!("no feature table {name:?} (its feature tables: {})", list(&all))
+                    Refusal::Layer(format!(
+                        "no feature table {name:?} (its feature tables: {})",
+                        list(&all)
+                    ))
                 }
             })
-            .and_then(one),
+            .and_then(|t| one(t).map_err(Refusal::Invalid)),
         // None to choose from: why the tables listed cannot be read.
         (None, []) => match tables {
-            [t] => one(t),
-            _ => Err(format!(
+            [t] => Ok(one(t)?),
+            _ => Err(Refusal::Invalid(format!(
                 "none of its {} feature tables has a row in gpkg_geometry_columns, which names a feature table's \
                  geometry column, so none can be read (feature tables: {}){}; {fix}",
                 tables.len(),
                 list(&all),
                 orphaned().unwrap_or_default()
-            )),
+            ))),
         },
         // Buildings: the only feature table. One that cannot be read still counts, so that another is not read in
         // its place (a table of roads as footprints) but named with --layer.
         (None, _) if want == Want::Footprints => match tables {
-            [t] => one(t),
-            _ => Err(format!(
+            [t] => Ok(one(t)?),
+            _ => Err(Refusal::Layer(format!(
                 "it holds {} feature tables; name the one to read with --layer (feature tables: {})",
                 tables.len(),
                 list(&all)
-            )),
+            ))),
         },
         (None, _) => {
             // Streets: the only table of lines; else the only table of any geometry type (which may hold lines).
@@ -344,17 +369,17 @@ fn choose<'a>(
             };
             let lines: Vec<&Table> = candidates.iter().copied().filter(|t| is(t, &LINE_TYPES)).collect();
             match (lines.as_slice(), candidates.as_slice()) {
-                ([t], _) => one(t),
-                ([], [t]) if is(t, &["GEOMETRY", "GEOMETRYCOLLECTION"]) => one(t),
-                ([], _) => Err(format!(
+                ([t], _) => Ok(one(t)?),
+                ([], [t]) if is(t, &["GEOMETRY", "GEOMETRYCOLLECTION"]) => Ok(one(t)?),
+                ([], _) => Err(Refusal::Layer(format!(
                     "it holds no table of lines, which street lines are (feature tables: {})",
                     list(&candidates)
-                )),
-                (many, _) => Err(format!(
+                ))),
+                (many, _) => Err(Refusal::Layer(format!(
                     "it holds {} tables of lines; name the one to read with --streets-layer (feature tables: {})",
                     many.len(),
                     list(&candidates)
-                )),
+                ))),
             }
         }
     }

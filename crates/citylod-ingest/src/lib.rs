@@ -999,6 +999,19 @@ fn read_as(
                                 "{detail}; a .zip input is read as a zipped File Geodatabase or CityGML files"
                             ),
                         }
+                    } else if path.is_file()
+                        && detail.starts_with("a ZIP archive cut short")
+                        && !path
+                            .to_string_lossy()
+                            .to_ascii_lowercase()
+                            .ends_with(".gdb.zip")
+                    {
+                        // Which kind of ZIP input it was meant to be cannot be told either (unless named .gdb.zip):
+                        // the listing of its members is what was lost.
+                        IngestError::Read {
+                            path: path.into(),
+                            source: std::io::Error::new(std::io::ErrorKind::InvalidData, detail),
+                        }
                     } else {
                         IngestError::InvalidFileGdb {
                             path: path.into(),

@@ -149,7 +149,8 @@ pub fn read_streets(
         return Err(IngestError::InvalidOption {
             name: "--streets-layer",
             detail: format!(
-                "{l} given for {}, which has no layers (only a GeoPackage's are chosen)",
+                "{l} given for {}, which has no layers (a GeoPackage's feature tables and a File Geodatabase's \
+                 feature classes are chosen with it)",
                 path.display()
             ),
         });

@@ -66,10 +66,26 @@ impl Archive {
         file.seek(SeekFrom::Start(len - tail_len))
             .and_then(|_| file.read_exact(&mut tail))
             .map_err(|e| format!("cannot read it: {e}"))?;
-        let eocd = (0..tail.len().saturating_sub(21))
+        let Some(eocd) = (0..tail.len().saturating_sub(21))
             .rev()
             .find(|&i| le32(&tail, i) == 0x0605_4b50)
-            .ok_or("not a ZIP archive (no end of central directory record)")?;
+        else {
+            // A file that begins with a member's local header is a ZIP archive whose end is gone (a download or copy
+            // cut short), not some other file.
+            let mut magic = [0u8; 4];
+            let begins_as_zip = file
+                .seek(SeekFrom::Start(0))
+                .and_then(|_| file.read_exact(&mut magic))
+                .is_ok()
+                && magic == *b"PK\x03\x04";
+            return Err(if begins_as_zip {
+                "a ZIP archive cut short or damaged: it begins as one, but the central directory at its end is \
+                 missing (was a download or copy interrupted?)"
+                    .into()
+            } else {
+                "not a ZIP archive (no end of central directory record)".into()
+            });
+        };
         let mut entries = u64::from(le16(&tail, eocd + 10));
         let mut cd_size = u64::from(le32(&tail, eocd + 12));
         let mut cd_offset = u64::from(le32(&tail, eocd + 16));

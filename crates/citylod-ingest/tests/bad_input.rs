@@ -1025,3 +1025,81 @@ fn an_ordinary_folder_as_input_says_to_give_the_files_inside_it() {
         other => panic!("{other:?}"),
     }
 }
+
+#[test]
+fn a_sound_geopackage_that_needs_a_layer_is_not_called_invalid() {
+    let gpkg = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/geopackage/les_gdal.gpkg");
+    // Two feature tables and no --layer: what to do, not "invalid GeoPackage".
+    let e = ingest(std::slice::from_ref(&gpkg), &IngestOptions::default()).unwrap_err();
+    let text = full_text(&e);
+    assert!(
+        text.contains(
+            "les_gdal.gpkg: it holds 2 feature tables; name the one to read with --layer (feature tables: \
+             buildings (MULTIPOLYGON), roads (LINESTRING))"
+        ),
+        "{text}"
+    );
+    assert!(!text.contains("invalid GeoPackage"), "{text}");
+    // A layer that is not there.
+    let opts = IngestOptions {
+        layer: Some("nope".into()),
+        ..IngestOptions::default()
+    };
+    let text = full_text(&ingest(std::slice::from_ref(&gpkg), &opts).unwrap_err());
+    assert!(
+        text.contains("les_gdal.gpkg: no feature table \"nope\" (its feature tables: buildings"),
+        "{text}"
+    );
+    assert!(!text.contains("invalid GeoPackage"), "{text}");
+    // A damaged file still is.
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("damaged.gpkg");
+    std::fs::write(&p, b"SQLite format 3\0\x10\x00").unwrap();
+    let text = full_text(&ingest(std::slice::from_ref(&p), &IngestOptions::default()).unwrap_err());
+    assert!(
+        text.contains("damaged.gpkg: invalid GeoPackage: "),
+        "{text}"
+    );
+}
+
+#[test]
+fn a_streets_layer_for_a_file_without_layers_names_both_formats_that_have_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let roads = write(
+        &dir,
+        "roads.geojson",
+        r#"{"type":"FeatureCollection","features":[{"type":"Feature","properties":{},"geometry":{"type":"LineString","coordinates":[[4.36,52.0],[4.361,52.0]]}}]}"#,
+    );
+    let frame = citylod_model::LocalFrame::new(4.36, 52.0, 0.0);
+    let e = citylod_ingest::read_streets(&roads, None, Some("foo"), None, &frame).unwrap_err();
+    let text = e.to_string();
+    assert!(
+        text.contains(
+            "which has no layers (a GeoPackage's feature tables and a File Geodatabase's feature classes are \
+             chosen with it)"
+        ),
+        "{text}"
+    );
+}
+
+#[test]
+fn a_zip_archive_cut_short_is_called_so_not_no_zip() {
+    let dir = tempfile::tempdir().unwrap();
+    // A stored member, then nothing: the local header is there, the central directory is not.
+    let mut cut = b"PK\x03\x04\x14\x00\x00\x00\x00\x00".to_vec();
+    cut.extend(std::iter::repeat_n(0u8, 200));
+    for name in ["cut.zip", "cut.gdb.zip"] {
+        let p = dir.path().join(name);
+        std::fs::write(&p, &cut).unwrap();
+        let text =
+            full_text(&ingest(std::slice::from_ref(&p), &IngestOptions::default()).unwrap_err());
+        assert!(
+            text.contains(
+                "a ZIP archive cut short or damaged: it begins as one, but the central directory at its end is \
+                 missing"
+            ),
+            "{name}: {text}"
+        );
+        assert!(!text.contains("not a ZIP archive"), "{name}: {text}");
+    }
+}

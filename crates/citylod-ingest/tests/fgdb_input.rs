@@ -623,7 +623,7 @@ fn damaged_zip_archives_say_so() {
     let p = dir.join("cut.gdb.zip");
     std::fs::write(&p, &bytes[..bytes.len() / 2]).unwrap();
     let err = read(&p, None).unwrap_err().to_string();
-    assert!(err.contains("not a ZIP archive"), "{err}");
+    assert!(err.contains("a ZIP archive cut short"), "{err}");
     // Cut anywhere, or a byte changed anywhere: an error or a result, never a panic.
     for k in (0..bytes.len()).step_by(997) {
         std::fs::write(&p, &bytes[..k]).unwrap();

@@ -273,7 +273,13 @@ pub struct BuildArgs {
     pub da_px: f64,
 
     /// Most features (buildings or blocks) in one tile.
-    #[arg(long, value_name = "N", default_value_t = 2000, help_heading = "Tiles")]
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 2000,
+        value_parser = |s: &str| whole_number(s, "features", 2000),
+        help_heading = "Tiles"
+    )]
     pub tile_max_features: usize,
 
     /// Most triangles in one tile (a single larger feature gets a tile of its own).
@@ -281,6 +287,7 @@ pub struct BuildArgs {
         long,
         value_name = "N",
         default_value_t = 200_000,
+        value_parser = |s: &str| whole_number(s, "triangles", 200_000),
         help_heading = "Tiles"
     )]
     pub tile_max_triangles: usize,
@@ -310,6 +317,7 @@ pub struct BuildArgs {
         long,
         value_name = "BYTES",
         default_value_t = 4_000_000,
+        value_parser = |s: &str| whole_number(s, "bytes", 4_000_000),
         help_heading = "Tiles"
     )]
     pub max_tileset_json_bytes: usize,
@@ -332,6 +340,24 @@ pub struct BuildArgs {
     /// No progress output.
     #[arg(long, short, help_heading = "Output")]
     pub quiet: bool,
+}
+
+/// Parses a count flag (`--tile-max-features`, `--max-tileset-json-bytes`, …), saying the form expected when the
+/// value is not one: clap then prints "invalid value '4MB' for '--max-tileset-json-bytes <BYTES>': a whole number
+/// of bytes, e.g. 4000000" rather than Rust's "invalid digit found in string".
+fn whole_number(s: &str, of: &str, example: usize) -> Result<usize, String> {
+    s.trim()
+        .parse::<usize>()
+        .map_err(|_| format!("a whole number of {of}, e.g. {example}"))
+}
+
+/// A size as a user reads it: kB below 1 MB (a small tileset is not "0.0 MB"), MB above.
+fn size_shown(bytes: u64) -> String {
+    if bytes < 1_000_000 {
+        format!("{:.1} kB", bytes as f64 / 1e3)
+    } else {
+        format!("{:.1} MB", bytes as f64 / 1e6)
+    }
 }
 
 #[derive(Copy, Clone, Debug, PartialEq, Eq, ValueEnum)]
@@ -954,18 +980,22 @@ pub fn run(args: BuildArgs) -> Result<ExitCode> {
 
     if !args.quiet {
         eprintln!(
-            "citylod: {} of {} features written as buildings ({} repaired, {} skipped) into {} {}, {:.1} MB, in {:.2} s",
+            "citylod: {} of {} features written as buildings ({} repaired, {} skipped) into {} {}, {}, in {:.2} s",
             written,
             r.features_read,
             r.features_repaired,
             report.counts.skipped,
             stats.tiles,
             if stats.tiles == 1 { "tile" } else { "tiles" },
-            stats.glb_bytes as f64 / 1e6,
+            size_shown(stats.glb_bytes as u64),
             t_all.elapsed().as_secs_f64()
         );
         for (reason, n) in &r.skipped_by_reason {
             eprintln!("  skipped {n:>6} × {reason}");
+        }
+        // Repairs by reason, as skips (a feature may have more than one repair, so these may sum above the total).
+        for (reason, n) in &r.repaired_by_reason {
+            eprintln!("  repaired {n:>5} × {reason}");
         }
         // Heights the data gave and citylod did not use change what is drawn: say so here, not only in the report.
         let rejected = citylod_ingest::IssueReason::HeightValueRejected.as_str();

@@ -36,6 +36,10 @@ enum Command {
 pub const EXIT_INPUT: u8 = 2;
 
 fn main() -> ExitCode {
+    if let Some(e) = single_dash_out(std::env::args_os().skip(1)) {
+        eprintln!("error: {e}");
+        return ExitCode::from(EXIT_INPUT);
+    }
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {
@@ -59,6 +63,15 @@ fn main() -> ExitCode {
             ExitCode::from(EXIT_INPUT)
         }
     }
+}
+
+/// `-out DIR` (one dash) is `-o ut` to clap, with DIR taken as one more input: the user would be told that DIR
+/// cannot be read. Refused before parsing (arguments after `--` are paths, left alone).
+fn single_dash_out(args: impl Iterator<Item = std::ffi::OsString>) -> Option<String> {
+    args.take_while(|a| a != "--")
+        .filter_map(|a| a.into_string().ok())
+        .find(|a| a == "-out" || a.starts_with("-out="))
+        .map(|_| "-out is read as -o ut; write --out DIR (or -o DIR)".to_string())
 }
 
 /// Refuses a TILESET argument that is neither a tileset.json nor a folder holding one, as `check` does.
