@@ -419,17 +419,7 @@ mod tests {
     use citylod_model::Mesh3d;
 
     fn building(b: u32) -> FeatureInfo {
-        FeatureInfo {
-            node: NodeRef::Building { building_index: b },
-            member_count: Some(1),
-            members: Some(vec![b]),
-            dh_m: 0.0,
-            da_m2: 0.0,
-            area_m2: None,
-            fallback: false,
-            bounds_m: None,
-            heights: None,
-        }
+        FeatureInfo::building(b)
     }
 
     fn block(members: u32) -> FeatureInfo {

@@ -749,17 +749,7 @@ mod tests {
     }
 
     fn building(b: u32) -> FeatureInfo {
-        FeatureInfo {
-            node: NodeRef::Building { building_index: b },
-            member_count: Some(1),
-            members: Some(vec![b]),
-            dh_m: 0.0,
-            da_m2: 0.0,
-            area_m2: None,
-            fallback: false,
-            bounds_m: None,
-            heights: None,
-        }
+        FeatureInfo::building(b)
     }
 
     /// A block standing from 0 to `height` with heights `h_min..h_max` and Δh `dh`.

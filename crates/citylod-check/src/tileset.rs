@@ -50,6 +50,23 @@ pub struct FeatureInfo {
     pub heights: Option<BlockHeights>,
 }
 
+impl FeatureInfo {
+    /// Building `building_index` as citylod writes it: one member, no Δh or Δa, no geometry yet.
+    pub fn building(building_index: u32) -> FeatureInfo {
+        FeatureInfo {
+            node: NodeRef::Building { building_index },
+            member_count: Some(1),
+            members: Some(vec![building_index]),
+            dh_m: 0.0,
+            da_m2: 0.0,
+            area_m2: None,
+            fallback: false,
+            bounds_m: None,
+            heights: None,
+        }
+    }
+}
+
 /// What a block says of its heights (m): where it stands, how high it is drawn, its buildings' lowest and highest.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BlockHeights {

@@ -199,17 +199,7 @@ mod tests {
                 positions,
                 triangles,
             }),
-            features: vec![FeatureInfo {
-                node: NodeRef::Building { building_index: 7 },
-                member_count: Some(1),
-                members: Some(vec![7]),
-                dh_m: 0.0,
-                da_m2: 0.0,
-                area_m2: None,
-                fallback: false,
-                bounds_m: None,
-                heights: None,
-            }],
+            features: vec![FeatureInfo::building(7)],
             under: vec![],
         }
     }
