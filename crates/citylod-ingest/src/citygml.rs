@@ -95,7 +95,7 @@ pub(crate) fn is_zip(path: &Path) -> bool {
         && (path
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("zip"))
-            || crate::has_zip_magic(path))
+            || crate::zip::begins_as_zip(path))
 }
 
 /// A file whose first element (within its first 64 KiB, inflated when gzip-compressed) is a `CityModel`; or a ZIP

@@ -38,7 +38,7 @@ pub(crate) fn is_filegdb(path: &Path) -> bool {
 /// A ZIP archive (by its content, whatever its name) holding a File Geodatabase: a member inside a `*.gdb` folder,
 /// or the catalog table.
 pub(crate) fn zip_holds_filegdb(path: &Path) -> bool {
-    if !crate::has_zip_magic(path) {
+    if !crate::zip::begins_as_zip(path) {
         return false;
     }
     let Ok(archive) = crate::zip::Archive::open(path) else {

@@ -26,7 +26,7 @@ pub(crate) const SIDECARS: [(&str, &str); 3] = [
 ];
 
 /// The first 16 bytes of every SQLite 3 database.
-const SQLITE_MAGIC: &[u8; 16] = b"SQLite format 3\0";
+pub(crate) const SQLITE_MAGIC: &[u8; 16] = b"SQLite format 3\0";
 
 /// Deepest nesting of GeometryCollections read; deeper is a malformed geometry (a hostile file, not a building).
 const MAX_NESTING: usize = 16;

@@ -897,13 +897,13 @@ fn a_folder(path: &Path) -> IngestError {
 /// What a binary file is whose head tells a container of no format citylod reads: an SQLite database that is not a
 /// GeoPackage, or a ZIP archive holding neither a File Geodatabase nor CityGML (told before, by their content).
 fn not_gdb_zip_or_sqlite(head: &[u8]) -> Option<String> {
-    if head.starts_with(b"SQLite format 3\0") {
+    if head.starts_with(gpkg::SQLITE_MAGIC) {
         Some(
             "an SQLite database, but not a GeoPackage (no GeoPackage application_id, no gpkg_contents table); \
              export the buildings as a GeoPackage (e.g. ogr2ogr -f GPKG out.gpkg IN)"
                 .into(),
         )
-    } else if head.starts_with(b"PK\x03\x04") {
+    } else if head.starts_with(zip::MEMBER_MAGIC) {
         Some(
             "a ZIP archive holding neither a File Geodatabase (a .gdb folder) nor CityGML files; unzip it and \
              give citylod the files in it"
@@ -955,20 +955,11 @@ fn told_by_content(path: &Path, head: &[u8]) -> Option<InputFormat> {
         Some(InputFormat::GeoParquet)
     } else if gpkg::is_geopackage_content(path) == Some(true) {
         Some(InputFormat::GeoPackage)
-    } else if head.starts_with(b"PK\x03\x04") && fgdb::zip_holds_filegdb(path) {
+    } else if head.starts_with(zip::MEMBER_MAGIC) && fgdb::zip_holds_filegdb(path) {
         Some(InputFormat::FileGeodatabase)
     } else {
         None
     }
-}
-
-/// A file starting with a ZIP archive's first member (`PK\x03\x04`), whatever its name.
-pub(crate) fn has_zip_magic(path: &Path) -> bool {
-    let mut head = [0u8; 4];
-    std::fs::File::open(path)
-        .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut head))
-        .is_ok()
-        && &head == b"PK\x03\x04"
 }
 
 /// Reads one file as `format`, one of those [`told_by_content`] tells or a name says (the text formats are read by

@@ -72,9 +72,9 @@ fn format(path: &Path) -> Format {
     let n = std::fs::File::open(path)
         .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
         .unwrap_or(0);
-    if head[..n].starts_with(b"SQLite format 3\0") {
+    if head[..n].starts_with(crate::gpkg::SQLITE_MAGIC) {
         Format::GeoPackage
-    } else if head[..n].starts_with(b"PK\x03\x04") {
+    } else if head[..n].starts_with(crate::zip::MEMBER_MAGIC) {
         Format::Other("a ZIP archive")
     } else {
         Format::GeoJson

@@ -7,6 +7,18 @@ use std::fs::File;
 use std::io::{Read, Seek, SeekFrom};
 use std::path::Path;
 
+/// The signature a ZIP archive's first member starts with (its local file header): what the archive begins with.
+pub(crate) const MEMBER_MAGIC: &[u8; 4] = b"PK\x03\x04";
+
+/// A file starting with a ZIP member's signature, whatever its name.
+pub(crate) fn begins_as_zip(path: &Path) -> bool {
+    let mut head = [0u8; 4];
+    File::open(path)
+        .and_then(|mut f| f.read_exact(&mut head))
+        .is_ok()
+        && &head == MEMBER_MAGIC
+}
+
 /// `bytes` inflated when they are gzip-compressed (by their magic number, whatever the name says), up to `max` + 1
 /// bytes (the caller judges a text over `max`); `None` when they are not.
 pub(crate) fn gunzipped(bytes: &[u8], max: u64) -> Result<Option<Vec<u8>>, String> {
@@ -77,7 +89,7 @@ impl Archive {
                 .seek(SeekFrom::Start(0))
                 .and_then(|_| file.read_exact(&mut magic))
                 .is_ok()
-                && magic == *b"PK\x03\x04";
+                && &magic == MEMBER_MAGIC;
             return Err(if begins_as_zip {
                 "a ZIP archive cut short or damaged: it begins as one, but the central directory at its end is \
                  missing (was a download or copy interrupted?)"
