@@ -25,6 +25,8 @@ use crate::finding::{Finding, FindingKind};
 use crate::tileset::{LoadedTileset, NodeRef, TileInfo};
 use crate::vec3::{self, Vec3};
 use crate::Tolerances;
+use citylod_mesh::hausdorff::{subdivision_centroids, MeshBvh};
+use citylod_model::Mesh3d;
 
 /// Least |n_z| / |n| of a triangle that counts as facing up (roofs to ~75° steep).
 const UP_COSINE: f64 = 0.25;
@@ -60,10 +62,7 @@ struct LeafBuilding {
 impl LeafBuilding {
     /// Points spread over its roof seen from above: each upward triangle cut into m × m similar ones (m by its share
     /// of the roof, about [`SAMPLES_PER_BUILDING`] points in all), their centroids.
-    fn roof_points<'a>(
-        &'a self,
-        mesh: &'a citylod_model::Mesh3d,
-    ) -> impl Iterator<Item = [f64; 2]> + 'a {
+    fn roof_points<'a>(&'a self, mesh: &'a Mesh3d) -> impl Iterator<Item = [f64; 2]> + 'a {
         self.triangles.iter().flat_map(move |&k| {
             let up = normal_of(mesh, mesh.triangles[k as usize])
                 .map(|(p, n)| (p, if self.flip { vec3::scale(n, -1.0) } else { n }))
@@ -79,32 +78,13 @@ impl LeafBuilding {
                 }
                 None => ([[0.0; 3]; 3], 0),
             };
-            let (a, u, v) = (p[0], vec3::sub(p[1], p[0]), vec3::sub(p[2], p[0]));
-            // Sub-triangle centroids at barycentric ((i + 1/3) / m, (j + 1/3) / m) and ((i + 2/3) / m, (j + 2/3) / m).
-            (0..m).flat_map(move |i| {
-                (0..m - i).flat_map(move |j| {
-                    let lower = Some((
-                        (i as f64 + 1.0 / 3.0) / m as f64,
-                        (j as f64 + 1.0 / 3.0) / m as f64,
-                    ));
-                    let upper = (i + j + 1 < m).then(|| {
-                        (
-                            (i as f64 + 2.0 / 3.0) / m as f64,
-                            (j as f64 + 2.0 / 3.0) / m as f64,
-                        )
-                    });
-                    lower
-                        .into_iter()
-                        .chain(upper)
-                        .map(move |(s, t)| [a[0] + s * u[0] + t * v[0], a[1] + s * u[1] + t * v[1]])
-                })
-            })
+            subdivision_centroids(p, m).map(|q| [q[0], q[1]])
         })
     }
 }
 
 /// The cross product of a triangle's edges (twice its area along its normal); `None` for a bad index.
-fn normal_of(mesh: &citylod_model::Mesh3d, tri: [u32; 3]) -> Option<([Vec3; 3], Vec3)> {
+fn normal_of(mesh: &Mesh3d, tri: [u32; 3]) -> Option<([Vec3; 3], Vec3)> {
     let p = tri.map(|v| mesh.positions.get(v as usize).copied());
     let [Some(a), Some(b), Some(c)] = p else {
         return None;
@@ -294,70 +274,37 @@ fn inside(p: [f64; 2], t: &[[f64; 2]; 3]) -> bool {
     s.iter().all(|&v| v >= -scale) || s.iter().all(|&v| v <= scale)
 }
 
-/// Distance from `p` to the triangle `t`.
-fn point_triangle_m(p: Vec3, t: [Vec3; 3]) -> f64 {
-    let [a, b, c] = t;
-    let (ab, ac, ap) = (vec3::sub(b, a), vec3::sub(c, a), vec3::sub(p, a));
-    let n = vec3::cross(ab, ac);
-    let nn = vec3::dot(n, n);
-    if nn > 1e-24 {
-        // Inside the prism over the triangle: the distance to its plane.
-        let u = vec3::dot(vec3::cross(ap, ac), n) / nn;
-        let v = vec3::dot(vec3::cross(ab, ap), n) / nn;
-        if u >= 0.0 && v >= 0.0 && u + v <= 1.0 {
-            return vec3::dot(ap, n).abs() / nn.sqrt();
-        }
-    }
-    let segment = |a: Vec3, b: Vec3| {
-        let ab = vec3::sub(b, a);
-        let l = vec3::dot(ab, ab);
-        let s = if l > 0.0 {
-            (vec3::dot(vec3::sub(p, a), ab) / l).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        vec3::norm(vec3::sub(p, vec3::add(a, vec3::scale(ab, s))))
+/// The triangles `tris` of `mesh` as a mesh of their own, with only the positions they use (a triangle with an
+/// index out of range left out).
+fn sub_mesh(mesh: &Mesh3d, tris: &[u32]) -> Mesh3d {
+    let mut index: HashMap<u32, u32> = HashMap::new();
+    let mut out = Mesh3d {
+        positions: Vec::new(),
+        triangles: Vec::new(),
     };
-    segment(a, b).min(segment(b, c)).min(segment(c, a))
+    for t in tris.iter().filter_map(|&k| mesh.triangles.get(k as usize)) {
+        if t.iter().any(|&v| v as usize >= mesh.positions.len()) {
+            continue;
+        }
+        let tri = t.map(|v| {
+            *index.entry(v).or_insert_with(|| {
+                out.positions.push(mesh.positions[v as usize]);
+                out.positions.len() as u32 - 1
+            })
+        });
+        out.triangles.push(tri);
+    }
+    out
 }
 
-/// Most vertex-to-triangle pairs measured for one building in one tile: beyond, every n-th vertex is measured (the
-/// distance stays a lower bound).
-const MAX_PAIRS: usize = 4_000_000;
-
-/// Largest distance from a vertex of `from` (triangles of `a`) to the surface of `to` (triangles of `b`).
-fn farthest_vertex_m(
-    a: &citylod_model::Mesh3d,
-    from: &[u32],
-    b: &citylod_model::Mesh3d,
-    to: &[u32],
-) -> f64 {
-    let targets: Vec<[Vec3; 3]> = to
+/// Largest distance from a vertex of `from` to the surface of `to` (0 when `to` has no triangle): a lower bound of
+/// the one-sided Hausdorff distance.
+fn farthest_vertex_m(from: &Mesh3d, to: &Mesh3d) -> f64 {
+    let bvh = MeshBvh::new(to);
+    from.positions
         .iter()
-        .filter_map(|&k| normal_of(b, b.triangles[k as usize]).map(|(p, _)| p))
-        .collect();
-    if targets.is_empty() {
-        return 0.0;
-    }
-    let mut vertices: Vec<u32> = from.iter().flat_map(|&k| a.triangles[k as usize]).collect();
-    vertices.sort_unstable();
-    vertices.dedup();
-    let step = (vertices.len() * targets.len()).div_ceil(MAX_PAIRS).max(1);
-    let mut worst = 0.0f64;
-    for &v in vertices.iter().step_by(step) {
-        let Some(&p) = a.positions.get(v as usize) else {
-            continue;
-        };
-        let mut best = f64::INFINITY;
-        for t in &targets {
-            best = best.min(point_triangle_m(p, *t));
-            if best <= worst {
-                break;
-            }
-        }
-        worst = worst.max(best);
-    }
-    worst
+        .filter_map(|&p| bvh.closest(p).map(|(d, _)| d))
+        .fold(0.0, f64::max)
 }
 
 /// The view-independent measurements of the module's doc, one finding per tile and kind.
@@ -667,11 +614,12 @@ fn check_buildings_drawn_coarse(
             continue;
         };
         let reach = e + rounding_m(e, leaf.top_z) + 0.011;
-        let d = farthest_vertex_m(mesh, coarse, leaf_mesh, &leaf.triangles);
+        let (coarse, full) = (sub_mesh(mesh, coarse), sub_mesh(leaf_mesh, &leaf.triangles));
+        let d = farthest_vertex_m(&coarse, &full);
         let d = if d > reach {
             d
         } else {
-            d.max(farthest_vertex_m(leaf_mesh, &leaf.triangles, mesh, coarse))
+            d.max(farthest_vertex_m(&full, &coarse))
         };
         if d > reach {
             far.push((b, d));
@@ -723,7 +671,6 @@ mod tests {
     use crate::scene::box_mesh;
     use crate::select::{OrientedBox, TileNode, TileTree};
     use crate::tileset::{BlockHeights, FeatureInfo};
-    use citylod_model::Mesh3d;
 
     /// Boxes as one tile's content: each (feature, min, max).
     fn content(boxes: &[(FeatureInfo, Vec3, Vec3)]) -> (Mesh3d, Vec<FeatureInfo>, Vec<u32>) {
@@ -1060,6 +1007,14 @@ mod tests {
 
     #[test]
     fn distances_to_a_triangle_from_above_beside_and_beyond_a_corner() {
+        // The distance of one point from one triangle, as farthest_vertex_m measures it.
+        let point_triangle_m = |p: Vec3, t: [Vec3; 3]| {
+            let one = |positions: Vec<Vec3>, triangles| Mesh3d {
+                positions,
+                triangles,
+            };
+            farthest_vertex_m(&one(vec![p], vec![]), &one(t.to_vec(), vec![[0, 1, 2]]))
+        };
         let t = [[0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [0.0, 4.0, 0.0]];
         assert!((point_triangle_m([1.0, 1.0, 3.0], t) - 3.0).abs() < 1e-12);
         assert!((point_triangle_m([2.0, -2.0, 0.0], t) - 2.0).abs() < 1e-12);

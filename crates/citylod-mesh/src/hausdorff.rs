@@ -69,18 +69,24 @@ fn sample_density(samples_per_m2: f64) -> f64 {
 fn triangle_samples([a, b, c]: [V3; 3], density: f64, out: &mut Vec<V3>) {
     let want = (tri_area(a, b, c) * density).ceil().max(1.0);
     let k = (want.sqrt().ceil() as usize).clamp(1, MAX_SUBDIVISIONS);
+    out.extend(subdivision_centroids([a, b, c], k));
+}
+
+/// The centroids of the `k²` triangles of a `k × k` subdivision of `[a, b, c]` (similar to it, `k` along each side),
+/// in a fixed order: points spread evenly over the triangle, none on its edges. None for `k` = 0.
+pub fn subdivision_centroids([a, b, c]: [V3; 3], k: usize) -> impl Iterator<Item = V3> {
     let kf = k as f64;
-    let at =
-        |u: f64, v: f64| -> V3 { [0, 1, 2].map(|d| a[d] + (b[d] - a[d]) * u + (c[d] - a[d]) * v) };
-    for i in 0..k {
-        for j in 0..(k - i) {
+    let at = move |u: f64, v: f64| -> V3 {
+        [0, 1, 2].map(|d| a[d] + (b[d] - a[d]) * u + (c[d] - a[d]) * v)
+    };
+    (0..k).flat_map(move |i| {
+        (0..k - i).flat_map(move |j| {
             let (fi, fj) = (i as f64, j as f64);
-            out.push(at((fi + 1.0 / 3.0) / kf, (fj + 1.0 / 3.0) / kf));
-            if i + j + 1 < k {
-                out.push(at((fi + 2.0 / 3.0) / kf, (fj + 2.0 / 3.0) / kf));
-            }
-        }
-    }
+            let lower = at((fi + 1.0 / 3.0) / kf, (fj + 1.0 / 3.0) / kf);
+            let upper = (i + j + 1 < k).then(|| at((fi + 2.0 / 3.0) / kf, (fj + 2.0 / 3.0) / kf));
+            std::iter::once(lower).chain(upper)
+        })
+    })
 }
 
 /// Largest distance (m) from a sample of `from` to the surface of `to`; `f64::INFINITY` when `to` has no
