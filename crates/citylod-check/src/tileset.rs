@@ -251,7 +251,7 @@ impl LoadedTileset {
                 || data
                     .generator
                     .as_deref()
-                    .is_some_and(|g| g.starts_with("citylod")),
+                    .is_some_and(citylod_tiles::written_by_citylod),
         }
     }
 

@@ -54,4 +54,7 @@ pub use spec::{
 };
 pub use staging::{LeftBehind, Staging, INSIDE_PREFIX as STAGING_INSIDE_PREFIX};
 pub use tiling::{tile_spatially, tile_spatially_by};
-pub use write::{write_tileset, write_tileset_with, Compression, WriteOptions, WriteStats};
+pub use write::{
+    generator, write_tileset, write_tileset_with, written_by_citylod, Compression, WriteOptions,
+    WriteStats,
+};

@@ -13,6 +13,16 @@ use citylod_model::LocalFrame;
 use rayon::prelude::*;
 use std::borrow::Cow;
 
+/// What citylod writes as the `asset.generator` of its tileset.json and glb files: "citylod <version>".
+pub fn generator() -> String {
+    format!("citylod {}", env!("CARGO_PKG_VERSION"))
+}
+
+/// Whether an `asset.generator` is one [`generator`] wrote (of any version).
+pub fn written_by_citylod(generator: &str) -> bool {
+    generator == "citylod" || generator.starts_with("citylod ")
+}
+
 /// How vertex and index data are stored in the glb.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Compression {
@@ -149,7 +159,7 @@ pub fn write_tileset_with<C: Sync>(
             });
         }
     }
-    let generator = format!("citylod {}", env!("CARGO_PKG_VERSION"));
+    let generator = generator();
     let content_opts = ContentOptions {
         compression: opts.compression,
         normals: !opts.omit_normals,

@@ -1387,7 +1387,7 @@ fn not_written_by_citylod(path: &Path) -> Option<String> {
                 Some(Asset {
                     generator: Some(serde_json::Value::String(g)),
                 }),
-        }) if g == "citylod" || g.starts_with("citylod ") => None,
+        }) if citylod_tiles::written_by_citylod(&g) => None,
         Ok(Head {
             asset: Some(Asset { generator: Some(g) }),
         }) => Some(format!("its asset.generator is {g}")),
