@@ -1117,7 +1117,7 @@ fn file_of_building(files: &[citylod_ingest::FileReport], b: usize) -> String {
 }
 
 /// "1 building", "2 buildings".
-fn plural(n: usize, noun: &str) -> String {
+pub(crate) fn plural(n: usize, noun: &str) -> String {
     format!("{n} {noun}{}", if n == 1 { "" } else { "s" })
 }
 

@@ -497,11 +497,7 @@ pub fn run(args: CheckArgs) -> Result<ExitCode> {
         if !args.quiet {
             eprintln!(
                 "view {k}: {}, {} of {} triangles ({}), {} finding(s), {:.1} s{}",
-                if sel.selected.len() == 1 {
-                    "1 tile".to_string()
-                } else {
-                    format!("{} tiles", sel.selected.len())
-                },
+                crate::build::plural(sel.selected.len(), "tile"),
                 v.cut_triangles,
                 v.full_triangles,
                 ratio.map_or("-".into(), |r| format!("{r:.1}×")),
